@@ -1,0 +1,1 @@
+//! Benchmarks of ferrobot (see benches/benches).

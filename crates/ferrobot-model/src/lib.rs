@@ -1,0 +1,34 @@
+//! Robot models for ferrobot.
+//!
+//! Loads URDF (with urdf-rs) and SRDF into a [`RobotModel`]: a kinematic
+//! tree of [`Link`]s and [`Joint`]s (revolute, continuous, prismatic, fixed,
+//! mimic), limits, collision and visual [`Geometry`] with meshes loaded, and
+//! the semantic information of an SRDF. Forward kinematics and geometric
+//! Jacobians run on compiled [`KinematicChain`]s; batched FK runs on rayon.
+//!
+//! Conventions: SI units; poses as `[x, y, z, qw, qx, qy, qz]` or 4x4
+//! matrices; everything expressed in the base link's frame.
+
+pub mod chain;
+pub mod error;
+pub mod geometry;
+mod groups;
+pub mod joint;
+pub mod kinematics;
+pub mod link;
+pub mod mesh;
+pub mod model;
+pub mod resolve;
+pub mod robots;
+pub mod srdf;
+pub mod urdf;
+
+pub use chain::KinematicChain;
+pub use error::{ModelError, Result, SourceLocation};
+pub use geometry::{Geometry, Inertial, Shape};
+pub use joint::{Joint, JointCoupling, JointKind, JointLimits, Mimic};
+pub use kinematics::{pose_to_array, pose_to_matrix};
+pub use link::Link;
+pub use mesh::TriMesh;
+pub use model::{LoadOptions, RobotModel, SrdfSource};
+pub use srdf::Srdf;

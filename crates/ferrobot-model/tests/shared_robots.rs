@@ -1,0 +1,75 @@
+//! Loads the robots in `../shared/robots` (beside the checkout).
+
+use std::path::PathBuf;
+
+use ferrobot_model::{LoadOptions, RobotModel, SrdfSource};
+
+fn shared(rel: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/robots")
+        .join(rel)
+}
+
+#[test]
+fn loads_motionbenchmaker_panda_with_srdf() {
+    let model = RobotModel::from_urdf_file(
+        shared("panda/panda.urdf"),
+        &LoadOptions {
+            srdf: Some(SrdfSource::File(shared("panda/panda.srdf"))),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let names: Vec<&str> = model.dof_names().iter().map(String::as_str).collect();
+    assert_eq!(
+        names,
+        [
+            "panda_joint1",
+            "panda_joint2",
+            "panda_joint3",
+            "panda_joint4",
+            "panda_joint5",
+            "panda_joint6",
+            "panda_joint7"
+        ]
+    );
+    assert_eq!(model.links()[model.ee_link()].name, "panda_hand");
+    assert!(
+        model
+            .links()
+            .iter()
+            .all(|l| l.collisions.iter().all(|g| g.shape.kind() == "mesh"))
+    );
+    let ready = model.named_state("ready", None).unwrap();
+    assert_eq!(ready[3], -2.356);
+    assert!(!model.disabled_collision_pairs().is_empty());
+    assert_eq!(
+        model.group_dof_indices("panda_arm").unwrap(),
+        (0..7).collect::<Vec<_>>()
+    );
+}
+
+#[test]
+fn loads_ur5_with_robotiq_meshes() {
+    let model = RobotModel::from_urdf_file(
+        shared("ur5/ur5.urdf"),
+        &LoadOptions {
+            srdf: Some(SrdfSource::File(shared("ur5/ur5.srdf"))),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert!(model.num_dof() >= 6, "{:?}", model.dof_names());
+    let meshes = model
+        .links()
+        .iter()
+        .flat_map(|l| l.collisions.iter())
+        .filter(|g| g.shape.kind() == "mesh")
+        .count();
+    assert!(meshes > 5);
+    println!(
+        "ur5 dofs {:?} ee {}",
+        model.dof_names(),
+        model.links()[model.ee_link()].name
+    );
+}

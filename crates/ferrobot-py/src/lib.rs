@@ -1,0 +1,34 @@
+//! `ferrobot._core`: the Python bindings of ferrobot's Rust crates.
+//!
+//! Every entry point converts Rust errors to `ferrobot.errors` exceptions and
+//! catches panics ([`errors::guard`]); heavy work releases the GIL.
+
+mod arrays;
+mod errors;
+mod model;
+
+use pyo3::prelude::*;
+
+/// Bundled robot descriptions by name: (URDF text, SRDF text, ee link).
+#[pyfunction]
+fn bundled_robot(name: &str) -> PyResult<(&'static str, &'static str, &'static str)> {
+    match name {
+        "panda" => Ok((
+            ferrobot_model::robots::PANDA_URDF,
+            ferrobot_model::robots::PANDA_SRDF,
+            "panda_hand",
+        )),
+        other => Err(errors::UnknownNameError::new_err(format!(
+            "unknown bundled robot '{other}'; known: panda"
+        ))),
+    }
+}
+
+/// The extension module.
+#[pymodule]
+fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<model::PyRobotModel>()?;
+    m.add_function(wrap_pyfunction!(bundled_robot, m)?)?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}

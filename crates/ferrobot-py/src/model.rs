@@ -1,0 +1,490 @@
+//! `ferrobot.RobotModel`: the robot model and its kinematics.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use ferrobot_model::{
+    Geometry, JointCoupling, LoadOptions, RobotModel, Shape, SrdfSource, pose_to_matrix,
+};
+use nalgebra::Isometry3;
+use numpy::ndarray::{Array1, Array2, Array3};
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3};
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyList};
+
+use crate::arrays::read_array;
+use crate::errors::{guard, model_err};
+
+/// A robot model loaded from URDF (and optionally SRDF): kinematic tree,
+/// limits, geometry, planning group, forward kinematics and Jacobians.
+#[pyclass(name = "RobotModel", module = "ferrobot", frozen)]
+pub struct PyRobotModel {
+    /// The shared model (later crates hold it too).
+    pub inner: Arc<RobotModel>,
+}
+
+fn options(
+    srdf: Option<&Bound<'_, PyAny>>,
+    package_dirs: Option<Vec<PathBuf>>,
+    base_link: Option<String>,
+    ee_link: Option<String>,
+    group: Option<String>,
+) -> PyResult<LoadOptions> {
+    let srdf = match srdf {
+        None => None,
+        Some(obj) => {
+            let path: PathBuf = obj.extract().map_err(|_| {
+                crate::errors::InvalidArgumentError::new_err("srdf: expected a path or SRDF text")
+            })?;
+            let text = path.to_string_lossy();
+            Some(if text.trim_start().starts_with('<') {
+                SrdfSource::Text(text.into_owned())
+            } else {
+                SrdfSource::File(path)
+            })
+        }
+    };
+    Ok(LoadOptions {
+        srdf,
+        package_dirs: package_dirs.unwrap_or_default(),
+        base_link,
+        ee_link,
+        group,
+    })
+}
+
+fn matrix<'py>(py: Python<'py>, pose: &Isometry3<f64>) -> Bound<'py, PyArray2<f64>> {
+    Array2::from_shape_vec((4, 4), pose_to_matrix(pose).to_vec())
+        .expect("4x4")
+        .into_pyarray(py)
+}
+
+fn geometry_dicts<'py>(py: Python<'py>, geoms: &[Geometry]) -> PyResult<Bound<'py, PyList>> {
+    let list = PyList::empty(py);
+    for g in geoms {
+        let d = PyDict::new(py);
+        d.set_item("type", g.shape.kind())?;
+        d.set_item("name", g.name.clone())?;
+        d.set_item("origin", matrix(py, &g.origin))?;
+        d.set_item("rgba", g.rgba.map(|c| c.to_vec()))?;
+        match &g.shape {
+            Shape::Box { half_extents } => {
+                d.set_item("size", (half_extents * 2.0).as_slice().to_vec())?
+            }
+            Shape::Sphere { radius } => d.set_item("radius", radius)?,
+            Shape::Cylinder { radius, length } | Shape::Capsule { radius, length } => {
+                d.set_item("radius", radius)?;
+                d.set_item("length", length)?;
+            }
+            Shape::Mesh {
+                filename,
+                path,
+                scale,
+                mesh,
+            } => {
+                d.set_item("filename", filename)?;
+                d.set_item("path", path.display().to_string())?;
+                d.set_item("scale", scale.as_slice().to_vec())?;
+                let v: Vec<f64> = mesh.vertices.iter().flat_map(|p| [p.x, p.y, p.z]).collect();
+                d.set_item(
+                    "vertices",
+                    Array2::from_shape_vec((mesh.vertices.len(), 3), v)
+                        .expect("n x 3")
+                        .into_pyarray(py),
+                )?;
+                let f: Vec<i64> = mesh
+                    .triangles
+                    .iter()
+                    .flat_map(|t| t.map(i64::from))
+                    .collect();
+                d.set_item(
+                    "faces",
+                    Array2::from_shape_vec((mesh.triangles.len(), 3), f)
+                        .expect("m x 3")
+                        .into_pyarray(py),
+                )?;
+            }
+        }
+        list.append(d)?;
+    }
+    Ok(list)
+}
+
+impl PyRobotModel {
+    fn link_arg(&self, link: Option<&str>) -> PyResult<Option<usize>> {
+        link.map(|l| self.inner.link(l).map_err(model_err))
+            .transpose()
+    }
+
+    fn q_arg(&self, q: &Bound<'_, PyAny>) -> PyResult<Vec<f64>> {
+        Ok(read_array(q, "q", 1, &[Some(self.inner.num_dof())])?
+            .data()
+            .to_vec())
+    }
+
+    fn vec1<'py>(py: Python<'py>, v: Vec<f64>) -> Bound<'py, PyArray1<f64>> {
+        Array1::from_vec(v).into_pyarray(py)
+    }
+}
+
+#[pymethods]
+impl PyRobotModel {
+    /// Loads a URDF file. See the class documentation for the options.
+    #[staticmethod]
+    #[pyo3(signature = (path, *, srdf=None, package_dirs=None, base_link=None, ee_link=None, group=None))]
+    fn from_urdf(
+        py: Python<'_>,
+        path: PathBuf,
+        srdf: Option<&Bound<'_, PyAny>>,
+        package_dirs: Option<Vec<PathBuf>>,
+        base_link: Option<String>,
+        ee_link: Option<String>,
+        group: Option<String>,
+    ) -> PyResult<Self> {
+        guard(|| {
+            let opts = options(srdf, package_dirs, base_link, ee_link, group)?;
+            let model = py
+                .detach(|| RobotModel::from_urdf_file(&path, &opts))
+                .map_err(model_err)?;
+            Ok(Self {
+                inner: Arc::new(model),
+            })
+        })
+    }
+
+    /// Loads URDF text; relative and package:// meshes resolve against
+    /// `package_dirs`, then ROS_PACKAGE_PATH, then the working directory.
+    #[staticmethod]
+    #[pyo3(signature = (text, *, srdf=None, package_dirs=None, base_link=None, ee_link=None, group=None))]
+    fn from_urdf_string(
+        py: Python<'_>,
+        text: String,
+        srdf: Option<&Bound<'_, PyAny>>,
+        package_dirs: Option<Vec<PathBuf>>,
+        base_link: Option<String>,
+        ee_link: Option<String>,
+        group: Option<String>,
+    ) -> PyResult<Self> {
+        guard(|| {
+            let opts = options(srdf, package_dirs, base_link, ee_link, group)?;
+            let model = py
+                .detach(|| RobotModel::from_urdf_str(&text, &opts))
+                .map_err(model_err)?;
+            Ok(Self {
+                inner: Arc::new(model),
+            })
+        })
+    }
+
+    /// The robot's name.
+    #[getter]
+    fn name(&self) -> String {
+        self.inner.name().to_string()
+    }
+
+    /// Names of the independent joints, in DOF-vector order (the URDF tree,
+    /// depth first; mimic and fixed joints excluded).
+    #[getter]
+    fn dof_names(&self) -> Vec<String> {
+        self.inner.dof_names().to_vec()
+    }
+
+    /// Number of independent joints.
+    #[getter]
+    fn num_dof(&self) -> usize {
+        self.inner.num_dof()
+    }
+
+    /// All link names, depth first from the root.
+    #[getter]
+    fn link_names(&self) -> Vec<String> {
+        self.inner.links().iter().map(|l| l.name.clone()).collect()
+    }
+
+    /// All joint names (fixed and mimic included); joint k is the parent
+    /// joint of link k + 1.
+    #[getter]
+    fn joint_names(&self) -> Vec<String> {
+        self.inner.joints().iter().map(|j| j.name.clone()).collect()
+    }
+
+    /// Lower position limits per DOF (-inf for continuous joints).
+    #[getter]
+    fn lower_limits<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        Self::vec1(py, self.inner.lower_limits())
+    }
+
+    /// Upper position limits per DOF (+inf for continuous joints).
+    #[getter]
+    fn upper_limits<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        Self::vec1(py, self.inner.upper_limits())
+    }
+
+    /// Velocity limits per DOF (inf where the URDF states none).
+    #[getter]
+    fn velocity_limits<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        Self::vec1(py, self.inner.velocity_limits())
+    }
+
+    /// Effort limits per DOF (inf where the URDF states none).
+    #[getter]
+    fn effort_limits<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        Self::vec1(py, self.inner.effort_limits())
+    }
+
+    /// The link all poses are expressed in.
+    #[getter]
+    fn base_link(&self) -> String {
+        self.inner.links()[self.inner.base_link()].name.clone()
+    }
+
+    /// The default link of `fk`, `fk_batch` and `jacobian`.
+    #[getter]
+    fn ee_link(&self) -> String {
+        self.inner.links()[self.inner.ee_link()].name.clone()
+    }
+
+    /// The SRDF group planned for, or None (joints from base to ee).
+    #[getter]
+    fn group_name(&self) -> Option<String> {
+        self.inner.group_name().map(str::to_string)
+    }
+
+    /// DOF indices of the planning group.
+    #[getter]
+    fn group_dof_indices(&self) -> Vec<usize> {
+        self.inner.group_dofs().to_vec()
+    }
+
+    /// DOF names of the planning group.
+    #[getter]
+    fn group_dof_names(&self) -> Vec<String> {
+        self.inner
+            .group_dofs()
+            .iter()
+            .map(|&d| self.inner.dof_names()[d].clone())
+            .collect()
+    }
+
+    /// Mimic joints: name -> (driving DOF name, multiplier, offset).
+    #[getter]
+    fn mimic_joints(&self) -> Vec<(String, (String, f64, f64))> {
+        self.inner
+            .joints()
+            .iter()
+            .filter_map(|j| match j.coupling {
+                JointCoupling::Mimic {
+                    dof,
+                    multiplier,
+                    offset,
+                } => Some((
+                    j.name.clone(),
+                    (self.inner.dof_names()[dof].clone(), multiplier, offset),
+                )),
+                _ => None,
+            })
+            .collect()
+    }
+
+    /// SRDF group names.
+    #[getter]
+    fn group_names(&self) -> Vec<String> {
+        self.inner.group_names()
+    }
+
+    /// SRDF named states as (group, name) pairs.
+    #[getter]
+    fn named_states(&self) -> Vec<(String, String)> {
+        self.inner
+            .srdf()
+            .map(|s| {
+                s.group_states
+                    .iter()
+                    .map(|g| (g.group.clone(), g.name.clone()))
+                    .collect()
+            })
+            .unwrap_or_default()
+    }
+
+    /// SRDF `disable_collisions` pairs as (link1, link2, reason).
+    #[getter]
+    fn disabled_collision_pairs(&self) -> Vec<(String, String, String)> {
+        let links = self.inner.links();
+        self.inner
+            .disabled_collision_pairs()
+            .into_iter()
+            .map(|(a, b, r)| (links[a].name.clone(), links[b].name.clone(), r))
+            .collect()
+    }
+
+    /// Joint names of an SRDF group (all kinds), in model order.
+    fn group_joint_names(&self, group: &str) -> PyResult<Vec<String>> {
+        let joints = self.inner.group_joints(group).map_err(model_err)?;
+        Ok(joints
+            .into_iter()
+            .map(|j| self.inner.joints()[j].name.clone())
+            .collect())
+    }
+
+    /// The DOF vector of SRDF named state `name` (others at neutral).
+    #[pyo3(signature = (name, group=None))]
+    fn named_state<'py>(
+        &self,
+        py: Python<'py>,
+        name: &str,
+        group: Option<&str>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let q = self.inner.named_state(name, group).map_err(model_err)?;
+        Ok(Self::vec1(py, q))
+    }
+
+    /// 0 for every DOF, or the nearest limit where 0 is outside the limits.
+    fn neutral_configuration<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        Self::vec1(py, self.inner.neutral_configuration())
+    }
+
+    /// A joint's description: type, parent and child links, origin (4x4),
+    /// axis, limits, mimic and dynamics.
+    fn joint_info<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyDict>> {
+        let j = &self.inner.joints()[self.inner.joint(name).map_err(model_err)?];
+        let links = self.inner.links();
+        let d = PyDict::new(py);
+        d.set_item("name", &j.name)?;
+        d.set_item("type", j.kind.as_str())?;
+        d.set_item("parent", &links[j.parent].name)?;
+        d.set_item("child", &links[j.child].name)?;
+        d.set_item("origin", matrix(py, &j.origin))?;
+        d.set_item("axis", j.axis.as_slice().to_vec())?;
+        d.set_item("lower", j.limits.lower)?;
+        d.set_item("upper", j.limits.upper)?;
+        d.set_item("velocity", j.limits.velocity)?;
+        d.set_item("effort", j.limits.effort)?;
+        d.set_item("damping", j.damping)?;
+        d.set_item("friction", j.friction)?;
+        d.set_item(
+            "mimic",
+            j.mimic
+                .as_ref()
+                .map(|m| (m.joint.clone(), m.multiplier, m.offset)),
+        )?;
+        Ok(d)
+    }
+
+    /// Collision geometry of `link`: a list of dicts with `type` (box,
+    /// sphere, cylinder, capsule, mesh), `origin` (4x4 in the link frame) and
+    /// the shape's parameters (`size`; `radius`, `length`; `path`, `scale`,
+    /// `vertices`, `faces` for meshes).
+    fn collision_geometry<'py>(&self, py: Python<'py>, link: &str) -> PyResult<Bound<'py, PyList>> {
+        let l = self.inner.link(link).map_err(model_err)?;
+        geometry_dicts(py, &self.inner.links()[l].collisions)
+    }
+
+    /// Visual geometry of `link`, as `collision_geometry`, plus `rgba`.
+    fn visual_geometry<'py>(&self, py: Python<'py>, link: &str) -> PyResult<Bound<'py, PyList>> {
+        let l = self.inner.link(link).map_err(model_err)?;
+        geometry_dicts(py, &self.inner.links()[l].visuals)
+    }
+
+    /// Mass, centre-of-mass origin (4x4) and inertia (3x3) of `link`.
+    fn inertial<'py>(&self, py: Python<'py>, link: &str) -> PyResult<Bound<'py, PyDict>> {
+        let l = self.inner.link(link).map_err(model_err)?;
+        let i = &self.inner.links()[l].inertial;
+        let d = PyDict::new(py);
+        d.set_item("mass", i.mass)?;
+        d.set_item("origin", matrix(py, &i.origin))?;
+        let flat: Vec<f64> = i.inertia.iter().flatten().copied().collect();
+        d.set_item(
+            "inertia",
+            Array2::from_shape_vec((3, 3), flat)
+                .expect("3x3")
+                .into_pyarray(py),
+        )?;
+        Ok(d)
+    }
+
+    /// Pose (4x4) of `link` (default: the end effector) in the base frame
+    /// for DOF vector `q` (shape (num_dof,), dof_names order).
+    #[pyo3(signature = (q, link=None))]
+    fn fk<'py>(
+        &self,
+        py: Python<'py>,
+        q: &Bound<'py, PyAny>,
+        link: Option<&str>,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        guard(|| {
+            let link = self.link_arg(link)?;
+            let q = self.q_arg(q)?;
+            let pose = self.inner.fk(&q, link).map_err(model_err)?;
+            Ok(matrix(py, &pose))
+        })
+    }
+
+    /// Poses of every link, shape (num_links, 4, 4), in `link_names` order.
+    fn fk_all<'py>(
+        &self,
+        py: Python<'py>,
+        q: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyArray3<f64>>> {
+        guard(|| {
+            let q = self.q_arg(q)?;
+            let poses = self.inner.fk_all(&q).map_err(model_err)?;
+            let flat: Vec<f64> = poses.iter().flat_map(pose_to_matrix).collect();
+            Ok(Array3::from_shape_vec((poses.len(), 4, 4), flat)
+                .expect("L x 4 x 4")
+                .into_pyarray(py))
+        })
+    }
+
+    /// Poses of `link` for a batch `Q` of shape (N, num_dof), as (N, 7)
+    /// `[x, y, z, qw, qx, qy, qz]` with qw >= 0. Parallel; releases the GIL.
+    #[pyo3(signature = (q, link=None))]
+    fn fk_batch<'py>(
+        &self,
+        py: Python<'py>,
+        q: &Bound<'py, PyAny>,
+        link: Option<&str>,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        guard(|| {
+            let link = self.link_arg(link)?;
+            let arr = read_array(q, "q", 2, &[Some(self.inner.num_dof())])?;
+            let n = arr.shape[0];
+            let model = &self.inner;
+            let data = arr.data();
+            let mut out = vec![0.0; n * 7];
+            py.detach(|| model.fk_batch_into(data, link, &mut out));
+            Ok(Array2::from_shape_vec((n, 7), out)
+                .expect("N x 7")
+                .into_pyarray(py))
+        })
+    }
+
+    /// Geometric Jacobian, shape (6, num_dof): rows are the linear velocity
+    /// of the origin of `link` (default: the end effector), then the angular
+    /// velocity, both in the base frame.
+    #[pyo3(signature = (q, link=None))]
+    fn jacobian<'py>(
+        &self,
+        py: Python<'py>,
+        q: &Bound<'py, PyAny>,
+        link: Option<&str>,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        guard(|| {
+            let link = self.link_arg(link)?;
+            let q = self.q_arg(q)?;
+            let j = self.inner.jacobian(&q, link).map_err(model_err)?;
+            Ok(Array2::from_shape_vec((6, self.inner.num_dof()), j)
+                .expect("6 x dof")
+                .into_pyarray(py))
+        })
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "RobotModel(name='{}', num_dof={}, base_link='{}', ee_link='{}')",
+            self.inner.name(),
+            self.inner.num_dof(),
+            self.base_link(),
+            self.ee_link()
+        )
+    }
+}

@@ -1,0 +1,17 @@
+"""ferrobot: robot manipulation on an ordinary CPU.
+
+Conventions (everywhere in the public API):
+
+* SI units (metres, radians, seconds, kilograms).
+* Quaternions are ``(w, x, y, z)``; poses are 4x4 homogeneous matrices or
+  7-vectors ``[x, y, z, qw, qx, qy, qz]``.
+* Arrays are float64 numpy arrays, batch dimension first; joint vectors are in
+  ``RobotModel.dof_names`` order.
+"""
+
+from __future__ import annotations
+
+from . import errors, robots
+from ._core import RobotModel, __version__
+
+__all__ = ["RobotModel", "errors", "robots", "__version__"]

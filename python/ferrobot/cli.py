@@ -1,0 +1,104 @@
+"""The ``ferrobot`` console command."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+
+import numpy as np
+
+from . import robots
+from ._core import RobotModel
+from .errors import FerrobotError
+
+
+def _load(spec: str, srdf: str | None, ee_link: str | None) -> RobotModel:
+    if spec == "panda":
+        return robots.panda(ee_link=ee_link)
+    return RobotModel.from_urdf(spec, srdf=srdf, ee_link=ee_link)
+
+
+def _fmt_pose(pose: np.ndarray) -> str:
+    from .transforms import matrix_to_pose
+
+    p = matrix_to_pose(pose)
+    return (
+        f"xyz = [{p[0]:+.4f}, {p[1]:+.4f}, {p[2]:+.4f}] m, wxyz = [{p[3]:+.4f}, {p[4]:+.4f}, {p[5]:+.4f}, {p[6]:+.4f}]"
+    )
+
+
+def cmd_robot(args: argparse.Namespace) -> int:
+    model = _load(args.robot, args.srdf, args.ee_link)
+    print(f"robot {model.name}: {model.num_dof} DOF, {len(model.link_names)} links")
+    print(f"base link {model.base_link}, end effector {model.ee_link}")
+    print()
+    print(f"{'joint':<24}{'lower':>10}{'upper':>10}{'velocity':>10}{'effort':>9}")
+    lo, hi = model.lower_limits, model.upper_limits
+    vel, eff = model.velocity_limits, model.effort_limits
+    for i, name in enumerate(model.dof_names):
+        print(f"{name:<24}{lo[i]:>10.4f}{hi[i]:>10.4f}{vel[i]:>10.4f}{eff[i]:>9.1f}")
+    for name, (driver, mult, off) in model.mimic_joints:
+        print(f"{name:<24}mimics {driver} (x{mult:g} {off:+g})")
+    print()
+    states = [n for g, n in model.named_states]
+    if args.state in states:
+        q = model.named_state(args.state)
+        label = f"named state '{args.state}'"
+    else:
+        q = model.neutral_configuration()
+        label = "neutral configuration"
+    print(f"FK of {model.ee_link} at {label}:")
+    print(f"  q = {np.array2string(q, precision=4)}")
+    print(f"  {_fmt_pose(model.fk(q))}")
+    print()
+    rng = np.random.default_rng(0)
+    lo_f = np.where(np.isfinite(lo), lo, -np.pi)
+    hi_f = np.where(np.isfinite(hi), hi, np.pi)
+    single = 20000
+    t0 = time.perf_counter()
+    for _ in range(single):
+        model.fk(q)
+    t_single = (time.perf_counter() - t0) / single
+    qs = rng.uniform(lo_f, hi_f, size=(args.batch, model.num_dof))
+    model.fk_batch(qs[:1000])
+    t0 = time.perf_counter()
+    model.fk_batch(qs)
+    t_batch = time.perf_counter() - t0
+    print(
+        f"FK timing: single fk() call {t_single * 1e6:.2f} us; "
+        f"fk_batch of {args.batch:,} configurations {t_batch * 1e3:.1f} ms "
+        f"({args.batch / t_batch / 1e6:.2f} M/s)"
+    )
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="ferrobot", description=__doc__)
+    parser.add_argument("--version", action="store_true", help="print the version and exit")
+    sub = parser.add_subparsers(dest="command")
+    p_robot = sub.add_parser("robot", help="load a robot and print its joints, limits and FK")
+    p_robot.add_argument("robot", help="'panda' (bundled) or a path to a URDF file")
+    p_robot.add_argument("--srdf", default=None, help="SRDF file for a URDF path")
+    p_robot.add_argument("--ee-link", default=None, help="end-effector link")
+    p_robot.add_argument("--state", default="ready", help="named state for the FK example")
+    p_robot.add_argument("--batch", type=int, default=1_000_000, help="batch size for FK timing")
+    p_robot.set_defaults(func=cmd_robot)
+    args = parser.parse_args(argv)
+    if args.version:
+        from . import __version__
+
+        print(f"ferrobot {__version__}")
+        return 0
+    if not getattr(args, "func", None):
+        parser.print_help()
+        return 2
+    try:
+        return args.func(args)
+    except FerrobotError as e:
+        print(f"ferrobot: error: {e}", file=sys.stderr)
+        return 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

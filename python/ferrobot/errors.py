@@ -1,0 +1,64 @@
+"""Exceptions raised by ferrobot.
+
+Every error ferrobot raises derives from :class:`FerrobotError`. Errors about
+bad arguments also derive from the matching built-in (``ValueError``,
+``LookupError``), so existing ``except ValueError`` code keeps working.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "FerrobotError",
+    "ModelError",
+    "UrdfError",
+    "MeshError",
+    "SrdfError",
+    "UnknownNameError",
+    "ShapeError",
+    "NonFiniteError",
+    "InvalidArgumentError",
+    "InternalError",
+]
+
+
+class FerrobotError(Exception):
+    """Base class of every ferrobot exception."""
+
+
+class ModelError(FerrobotError):
+    """A robot description could not be loaded."""
+
+
+class UrdfError(ModelError):
+    """Malformed URDF, unsupported or unknown joint type, kinematic loop, several roots, ...
+
+    The message starts with ``FILE:LINE:`` where the line is known.
+    """
+
+
+class MeshError(UrdfError):
+    """A mesh named by the URDF is missing or unreadable (the message lists the paths tried)."""
+
+
+class SrdfError(ModelError):
+    """Malformed SRDF, or an SRDF naming links, joints or groups the URDF lacks."""
+
+
+class UnknownNameError(FerrobotError, LookupError):
+    """A link, joint, group or named state that the model does not have."""
+
+
+class ShapeError(FerrobotError, ValueError):
+    """An array argument has the wrong number of dimensions or the wrong length."""
+
+
+class NonFiniteError(FerrobotError, ValueError):
+    """A NaN or infinite value where a finite number is required."""
+
+
+class InvalidArgumentError(FerrobotError, ValueError, TypeError):
+    """Any other invalid argument (wrong type, out-of-range option, ...)."""
+
+
+class InternalError(FerrobotError, RuntimeError):
+    """A bug inside ferrobot (a Rust panic caught at the boundary); please report it."""

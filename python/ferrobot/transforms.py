@@ -1,0 +1,102 @@
+"""Pose and quaternion conversions (quaternions are ``(w, x, y, z)``).
+
+The documented boundary to scipy's ``Rotation`` (``x, y, z, w``) is
+:func:`quat_wxyz_to_xyzw` / :func:`quat_xyzw_to_wxyz`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .errors import NonFiniteError, ShapeError
+
+__all__ = [
+    "matrix_to_pose",
+    "pose_to_matrix",
+    "quat_to_matrix",
+    "matrix_to_quat",
+    "quat_wxyz_to_xyzw",
+    "quat_xyzw_to_wxyz",
+]
+
+
+def _array(x, name: str, shape_tail: tuple[int, ...]) -> np.ndarray:
+    a = np.asarray(x, dtype=np.float64)
+    if a.shape[a.ndim - len(shape_tail) :] != shape_tail or a.ndim not in (
+        len(shape_tail),
+        len(shape_tail) + 1,
+    ):
+        want = ", ".join(str(d) for d in shape_tail)
+        raise ShapeError(f"{name}: expected shape ({want}) or (N, {want}), got {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise NonFiniteError(f"{name}: contains NaN or infinite values")
+    return a
+
+
+def quat_to_matrix(q) -> np.ndarray:
+    """Rotation matrices (..., 3, 3) from quaternions (..., 4) ``(w, x, y, z)`` (normalised first)."""
+    q = _array(q, "quaternion", (4,))
+    n = np.linalg.norm(q, axis=-1, keepdims=True)
+    if np.any(n < 1e-12):
+        raise NonFiniteError("quaternion: zero-length quaternion")
+    w, x, y, z = np.moveaxis(q / n, -1, 0)
+    return np.stack(
+        [
+            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
+            np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
+            np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1),
+        ],
+        -2,
+    )
+
+
+def matrix_to_quat(r) -> np.ndarray:
+    """Quaternions (..., 4) ``(w, x, y, z)`` with ``w >= 0`` from rotation matrices (..., 3, 3)."""
+    r = _array(r, "rotation", (3, 3))
+    flat = r.reshape(-1, 3, 3)
+    out = np.empty((flat.shape[0], 4))
+    for i, m in enumerate(flat):
+        tr = m[0, 0] + m[1, 1] + m[2, 2]
+        if tr > 0:
+            s = 2.0 * np.sqrt(tr + 1.0)
+            q = [0.25 * s, (m[2, 1] - m[1, 2]) / s, (m[0, 2] - m[2, 0]) / s, (m[1, 0] - m[0, 1]) / s]
+        elif m[0, 0] > m[1, 1] and m[0, 0] > m[2, 2]:
+            s = 2.0 * np.sqrt(1.0 + m[0, 0] - m[1, 1] - m[2, 2])
+            q = [(m[2, 1] - m[1, 2]) / s, 0.25 * s, (m[0, 1] + m[1, 0]) / s, (m[0, 2] + m[2, 0]) / s]
+        elif m[1, 1] > m[2, 2]:
+            s = 2.0 * np.sqrt(1.0 + m[1, 1] - m[0, 0] - m[2, 2])
+            q = [(m[0, 2] - m[2, 0]) / s, (m[0, 1] + m[1, 0]) / s, 0.25 * s, (m[1, 2] + m[2, 1]) / s]
+        else:
+            s = 2.0 * np.sqrt(1.0 + m[2, 2] - m[0, 0] - m[1, 1])
+            q = [(m[1, 0] - m[0, 1]) / s, (m[0, 2] + m[2, 0]) / s, (m[1, 2] + m[2, 1]) / s, 0.25 * s]
+        q = np.asarray(q)
+        out[i] = q / np.linalg.norm(q) * (1.0 if q[0] >= 0 else -1.0)
+    return out.reshape(r.shape[:-2] + (4,))
+
+
+def pose_to_matrix(pose) -> np.ndarray:
+    """4x4 matrices (..., 4, 4) from 7-vectors (..., 7) ``[x, y, z, qw, qx, qy, qz]``."""
+    p = _array(pose, "pose", (7,))
+    out = np.zeros(p.shape[:-1] + (4, 4))
+    out[..., :3, :3] = quat_to_matrix(p[..., 3:])
+    out[..., :3, 3] = p[..., :3]
+    out[..., 3, 3] = 1.0
+    return out
+
+
+def matrix_to_pose(m) -> np.ndarray:
+    """7-vectors (..., 7) ``[x, y, z, qw, qx, qy, qz]`` from 4x4 matrices (..., 4, 4)."""
+    m = _array(m, "pose matrix", (4, 4))
+    return np.concatenate([m[..., :3, 3], matrix_to_quat(m[..., :3, :3])], axis=-1)
+
+
+def quat_wxyz_to_xyzw(q) -> np.ndarray:
+    """``(w, x, y, z)`` to scipy's ``(x, y, z, w)``."""
+    q = _array(q, "quaternion", (4,))
+    return np.concatenate([q[..., 1:], q[..., :1]], axis=-1)
+
+
+def quat_xyzw_to_wxyz(q) -> np.ndarray:
+    """scipy's ``(x, y, z, w)`` to ``(w, x, y, z)``."""
+    q = _array(q, "quaternion", (4,))
+    return np.concatenate([q[..., 3:], q[..., :3]], axis=-1)
