@@ -20,7 +20,7 @@ impl TriMesh {
     /// no triangles.
     pub fn load(path: &Path) -> Result<Self, String> {
         let scene = mesh_loader::Loader::default()
-            .merge_meshes(true)
+            .merge_meshes(false)
             .load(path)
             .map_err(|e| format!("cannot load {}: {e}", path.display()))?;
         let mut out = TriMesh::default();

@@ -40,6 +40,23 @@ fn loads_motionbenchmaker_panda_with_srdf() {
             .iter()
             .all(|l| l.collisions.iter().all(|g| g.shape.kind() == "mesh"))
     );
+    // link6.obj has 17 sub-meshes (materials): every face must land on its own vertices.
+    let link6 = &model.links()[model.link("panda_link6").unwrap()];
+    let ferrobot_model::Shape::Mesh { mesh, .. } = &link6.collisions[0].shape else {
+        panic!("link6 collision is a mesh")
+    };
+    let text = std::fs::read_to_string(shared("panda/meshes/collision/link6.obj")).unwrap();
+    let faces = text.lines().filter(|l| l.starts_with("f ")).count();
+    assert_eq!(mesh.triangles.len(), faces);
+    let area: f64 = mesh
+        .triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| mesh.vertices[i as usize]);
+            (b - a).cross(&(c - a)).norm() / 2.0
+        })
+        .sum();
+    assert!((area - 0.0987).abs() < 0.001, "link6 surface area {area}");
     let ready = model.named_state("ready", None).unwrap();
     assert_eq!(ready[3], -2.356);
     assert!(!model.disabled_collision_pairs().is_empty());

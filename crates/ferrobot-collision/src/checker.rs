@@ -1,0 +1,412 @@
+//! The collision checker: a robot's sphere model, its allowed-collision
+//! matrix, attached objects and a world, answering single, batched and
+//! motion queries through the lane kernel, and distances through exact
+//! `f64` geometry.
+
+use std::cell::RefCell;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use ferrobot_model::{Geometry, RobotModel, Shape};
+use nalgebra::Isometry3;
+use rayon::prelude::*;
+use wide::f32x8;
+
+use crate::acm::AllowedCollisions;
+use crate::compiled::{CompiledRobot, CompiledWorld};
+use crate::error::{CollisionError, Result};
+use crate::kernel::{Scratch, check};
+use crate::lanes::Lanes;
+use crate::robot_spheres::RobotSpheres;
+use crate::shapes::ObstacleShape;
+use crate::sphere::Sphere;
+use crate::spherize::{SpherizeOptions, spherize_link};
+use crate::world::{CollisionWorld, WorldObject, check_shape};
+
+/// An object attached to a robot link (a grasped part, a tool).
+#[derive(Debug, Clone)]
+pub struct Attached {
+    /// Name (the world object's name when it came from the world).
+    pub name: String,
+    /// Link it moves with.
+    pub link: usize,
+    /// Pose of the object frame in the link frame.
+    pub pose_in_link: Isometry3<f64>,
+    /// Its shapes in the object frame.
+    pub parts: Vec<(ObstacleShape, Isometry3<f64>)>,
+    /// Links it may touch (besides `link`).
+    pub touch_links: Vec<usize>,
+    /// Its spheres in the link frame.
+    pub spheres: Vec<Sphere>,
+}
+
+/// One collision, for explanations and error messages.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Contact {
+    /// Robot body: link name, or `attached:NAME`.
+    pub body: String,
+    /// The other side: world object name, or a robot body for self-collision.
+    pub other: String,
+    /// True for robot-robot contacts.
+    pub self_collision: bool,
+    /// Penetration depth (m) of the deepest sphere, margin included.
+    pub depth: f64,
+}
+
+static NEXT_ID: AtomicU64 = AtomicU64::new(1);
+
+thread_local! {
+    static SCALAR_SCRATCH: RefCell<Option<(u64, Scratch<f32>)>> = const { RefCell::new(None) };
+}
+
+/// Collision queries for one robot in one world.
+#[derive(Debug, Clone)]
+pub struct CollisionChecker {
+    pub(crate) model: Arc<RobotModel>,
+    pub(crate) spheres: RobotSpheres,
+    pub(crate) acm: AllowedCollisions,
+    pub(crate) attached: Vec<Attached>,
+    pub(crate) world: CollisionWorld,
+    pub(crate) margin: f64,
+    pub(crate) robot: CompiledRobot,
+    pub(crate) compiled_world: CompiledWorld,
+    id: u64,
+}
+
+impl CollisionChecker {
+    /// A checker for `model` with sphere model `spheres`, excluded pairs
+    /// `acm` and obstacles `world`.
+    pub fn new(model: Arc<RobotModel>, spheres: RobotSpheres, acm: AllowedCollisions, world: CollisionWorld) -> Result<Self> {
+        if spheres.links.len() != model.links().len() {
+            return Err(CollisionError::InvalidArgument(format!(
+                "the sphere model has {} links, the robot {}",
+                spheres.links.len(),
+                model.links().len()
+            )));
+        }
+        let compiled_world = CompiledWorld::new(&world);
+        let mut checker = Self {
+            robot: CompiledRobot::new(&model, &[], &[], |_, _| false),
+            model,
+            spheres,
+            acm,
+            attached: Vec::new(),
+            world,
+            margin: 0.0,
+            compiled_world,
+            id: 0,
+        };
+        checker.recompile_robot();
+        Ok(checker)
+    }
+
+    fn recompile_robot(&mut self) {
+        let attached: Vec<(usize, String, Vec<Sphere>)> =
+            self.attached.iter().map(|a| (a.link, a.name.clone(), a.spheres.clone())).collect();
+        let acm = &self.acm;
+        let atts = &self.attached;
+        self.robot = CompiledRobot::new(&self.model, &self.spheres.links, &attached, |a, b| {
+            match (&a.attached, &b.attached) {
+                (None, None) => !acm.is_allowed(a.link, b.link),
+                (Some(_), Some(_)) => true,
+                (Some(name), None) | (None, Some(name)) => {
+                    let att = atts.iter().find(|x| &x.name == name).expect("attached body");
+                    let other = if a.attached.is_some() { b.link } else { a.link };
+                    other != att.link && !att.touch_links.contains(&other)
+                }
+            }
+        });
+        self.id = NEXT_ID.fetch_add(1, Ordering::Relaxed);
+    }
+
+    fn recompile_world(&mut self) {
+        self.compiled_world = CompiledWorld::new(&self.world);
+    }
+
+    /// The robot model.
+    pub fn model(&self) -> &Arc<RobotModel> {
+        &self.model
+    }
+
+    /// The sphere model.
+    pub fn spheres(&self) -> &RobotSpheres {
+        &self.spheres
+    }
+
+    /// The allowed-collision matrix.
+    pub fn allowed_collisions(&self) -> &AllowedCollisions {
+        &self.acm
+    }
+
+    /// Replaces the allowed-collision matrix.
+    pub fn set_allowed_collisions(&mut self, acm: AllowedCollisions) {
+        self.acm = acm;
+        self.recompile_robot();
+    }
+
+    /// The world.
+    pub fn world(&self) -> &CollisionWorld {
+        &self.world
+    }
+
+    /// Replaces the world.
+    pub fn set_world(&mut self, world: CollisionWorld) {
+        self.world = world;
+        self.recompile_world();
+    }
+
+    /// Changes the world through `f` and recompiles it.
+    pub fn update_world<T>(&mut self, f: impl FnOnce(&mut CollisionWorld) -> Result<T>) -> Result<T> {
+        let out = f(&mut self.world);
+        self.recompile_world();
+        out
+    }
+
+    /// Attached objects.
+    pub fn attached(&self) -> &[Attached] {
+        &self.attached
+    }
+
+    /// Clearance (m) added to every sphere: a configuration collides when
+    /// any distance is below the margin. Default 0.
+    pub fn margin(&self) -> f64 {
+        self.margin
+    }
+
+    /// Sets the margin (finite, may be negative to allow slight contact).
+    pub fn set_margin(&mut self, margin: f64) -> Result<()> {
+        if !margin.is_finite() {
+            return Err(CollisionError::InvalidArgument(format!("margin must be finite, got {margin}")));
+        }
+        self.margin = margin;
+        Ok(())
+    }
+
+    /// Compiled data (for benchmarks and diagnostics).
+    pub fn compiled(&self) -> (&CompiledRobot, &CompiledWorld) {
+        (&self.robot, &self.compiled_world)
+    }
+
+    fn check_q(&self, what: &str, q: &[f64]) -> Result<()> {
+        self.model.check_configuration(what, q).map_err(Into::into)
+    }
+
+    /// Whether configuration `q` (num_dof values) collides with the world or
+    /// itself. Uses the scalar lane.
+    pub fn in_collision(&self, q: &[f64]) -> Result<bool> {
+        self.check_q("q", q)?;
+        Ok(self.in_collision_unchecked(q))
+    }
+
+    /// [`CollisionChecker::in_collision`] without argument checks (the
+    /// caller has checked length and finiteness).
+    pub fn in_collision_unchecked(&self, q: &[f64]) -> bool {
+        let q32: Vec<f32> = q.iter().map(|&v| v as f32).collect();
+        SCALAR_SCRATCH.with(|cell| {
+            let mut slot = cell.borrow_mut();
+            if slot.as_ref().is_none_or(|(id, _)| *id != self.id) {
+                *slot = Some((self.id, Scratch::new(&self.robot)));
+            }
+            let scratch = &mut slot.as_mut().expect("set above").1;
+            check::<f32>(&self.robot, &self.compiled_world, &q32, self.margin as f32, 1, scratch) != 0
+        })
+    }
+
+    /// Collision flags for `n` configurations stored row-major in `qs`,
+    /// eight per SIMD pack, packs spread over the rayon pool.
+    pub fn in_collision_batch(&self, qs: &[f64]) -> Result<Vec<bool>> {
+        let dof = self.model.num_dof();
+        if dof == 0 || !qs.len().is_multiple_of(dof) {
+            return Err(CollisionError::Model(ferrobot_model::ModelError::Shape {
+                what: "q".into(),
+                expected: format!("(N, {dof})"),
+                got: format!("{} values", qs.len()),
+            }));
+        }
+        ferrobot_model::error::check_finite("q", qs)?;
+        let mut out = vec![false; qs.len() / dof];
+        self.in_collision_batch_into(qs, &mut out);
+        Ok(out)
+    }
+
+    /// [`CollisionChecker::in_collision_batch`] into `out` for checked input.
+    pub fn in_collision_batch_into(&self, qs: &[f64], out: &mut [bool]) {
+        let dof = self.model.num_dof();
+        const CHUNK: usize = 8 * 64;
+        out.par_chunks_mut(CHUNK).zip(qs.par_chunks(CHUNK * dof)).for_each(|(o, q)| {
+            let mut scratch = Scratch::<f32x8>::new(&self.robot);
+            for (po, pq) in o.chunks_mut(8).zip(q.chunks(8 * dof)) {
+                let n = po.len();
+                let lanes = pack(pq, dof, n);
+                let active = (1u32 << n) - 1;
+                let hit = check(&self.robot, &self.compiled_world, &lanes, self.margin as f32, active, &mut scratch);
+                for (i, v) in po.iter_mut().enumerate() {
+                    *v = hit & (1 << i) != 0;
+                }
+            }
+        });
+    }
+
+    /// Whether the straight joint-space motion from `q0` to `q1` is free:
+    /// configurations are checked so that no DOF moves more than
+    /// `resolution` between neighbours (endpoints included), eight at a time
+    /// spread along the motion, stopping at the first collision.
+    pub fn motion_valid(&self, q0: &[f64], q1: &[f64], resolution: f64) -> Result<bool> {
+        self.check_q("q0", q0)?;
+        self.check_q("q1", q1)?;
+        if !(resolution.is_finite() && resolution > 0.0) {
+            return Err(CollisionError::InvalidArgument(format!("resolution must be positive, got {resolution}")));
+        }
+        Ok(self.motion_valid_unchecked(q0, q1, resolution))
+    }
+
+    /// [`CollisionChecker::motion_valid`] for checked input.
+    pub fn motion_valid_unchecked(&self, q0: &[f64], q1: &[f64], resolution: f64) -> bool {
+        let dof = q0.len();
+        let span = q0.iter().zip(q1).map(|(a, b)| (b - a).abs()).fold(0.0, f64::max);
+        let steps = ((span / resolution).ceil() as usize).max(1);
+        let points = steps + 1;
+        let packs = points.div_ceil(8);
+        let mut scratch = Scratch::<f32x8>::new(&self.robot);
+        let mut lanes = vec![f32x8::splat(0.0); dof];
+        for p in 0..packs {
+            let index = |i: usize| (i * packs + p).min(points - 1);
+            for (d, lane) in lanes.iter_mut().enumerate() {
+                *lane = f32x8::from_fn(|i| {
+                    let t = index(i) as f64 / steps as f64;
+                    (q0[d] + (q1[d] - q0[d]) * t) as f32
+                });
+            }
+            if check(&self.robot, &self.compiled_world, &lanes, self.margin as f32, 0xff, &mut scratch) != 0 {
+                return false;
+            }
+        }
+        true
+    }
+
+    /// Attaches an object made of `parts` (object frame) at `pose_in_link`
+    /// to `link`; it may touch `touch_links`. Its spheres come from the
+    /// automatic spherizer (1 mm tolerance).
+    pub fn attach(
+        &mut self,
+        name: &str,
+        link: &str,
+        pose_in_link: Isometry3<f64>,
+        parts: Vec<(ObstacleShape, Isometry3<f64>)>,
+        touch_links: &[&str],
+    ) -> Result<()> {
+        if self.attached.iter().any(|a| a.name == name) {
+            return Err(CollisionError::Name(format!("an object named '{name}' is attached already")));
+        }
+        let l = self.model.link(link)?;
+        let touch = touch_links.iter().map(|t| self.model.link(t)).collect::<std::result::Result<Vec<_>, _>>()?;
+        if parts.is_empty() {
+            return Err(CollisionError::InvalidShape(format!("attached object '{name}': no shapes")));
+        }
+        for (k, (shape, _)) in parts.iter().enumerate() {
+            check_shape(&format!("attached object '{name}' shape {k}"), shape)?;
+        }
+        let geoms: Vec<Geometry> = parts
+            .iter()
+            .map(|(shape, local)| geometry_of(shape, pose_in_link * local))
+            .collect::<Result<_>>()?;
+        let (spheres, _) = spherize_link(name, &geoms, None, &SpherizeOptions::default())?;
+        self.attached.push(Attached {
+            name: name.to_string(),
+            link: l,
+            pose_in_link,
+            parts,
+            touch_links: touch,
+            spheres,
+        });
+        self.recompile_robot();
+        Ok(())
+    }
+
+    /// Moves world object `name` onto `link` at configuration `q` (it keeps
+    /// its current world pose relative to the link).
+    pub fn attach_world_object(&mut self, name: &str, link: &str, q: &[f64], touch_links: &[&str]) -> Result<()> {
+        self.check_q("q", q)?;
+        let l = self.model.link(link)?;
+        let obj: WorldObject = self.world.get(name)?.clone();
+        let link_pose = self.model.fk(q, Some(l))?;
+        let pose_in_link = link_pose.inverse() * obj.pose;
+        self.attach(name, link, pose_in_link, obj.parts.clone(), touch_links)?;
+        self.world.remove(name)?;
+        self.recompile_world();
+        Ok(())
+    }
+
+    /// Detaches `name`; with `q` it goes back into the world at its pose at
+    /// `q`, without it it is dropped. Returns the object.
+    pub fn detach(&mut self, name: &str, q: Option<&[f64]>) -> Result<Attached> {
+        let i = self
+            .attached
+            .iter()
+            .position(|a| a.name == name)
+            .ok_or_else(|| CollisionError::Name(format!("no attached object named '{name}'")))?;
+        if let Some(q) = q {
+            self.check_q("q", q)?;
+            let a = &self.attached[i];
+            let pose = self.model.fk(q, Some(a.link))? * a.pose_in_link;
+            self.world.add(name, pose, a.parts.clone())?;
+            self.recompile_world();
+        }
+        let a = self.attached.remove(i);
+        self.recompile_robot();
+        Ok(a)
+    }
+}
+
+/// Packs `n` configurations (row-major, `dof` each) into DOF-major lanes;
+/// lanes past `n` repeat the last configuration.
+fn pack(q: &[f64], dof: usize, n: usize) -> Vec<f32x8> {
+    (0..dof)
+        .map(|d| f32x8::from_fn(|i| q[i.min(n - 1) * dof + d] as f32))
+        .collect()
+}
+
+/// A model geometry for an obstacle shape (for the spherizer).
+pub(crate) fn geometry_of(shape: &ObstacleShape, origin: Isometry3<f64>) -> Result<Geometry> {
+    let s = match shape {
+        ObstacleShape::Box { half_extents } => Shape::Box {
+            half_extents: *half_extents,
+        },
+        ObstacleShape::Sphere { radius } => Shape::Sphere { radius: *radius },
+        ObstacleShape::Cylinder {
+            radius,
+            half_length,
+        } => Shape::Cylinder {
+            radius: *radius,
+            length: 2.0 * half_length,
+        },
+        ObstacleShape::Capsule {
+            radius,
+            half_length,
+        } => Shape::Capsule {
+            radius: *radius,
+            length: 2.0 * half_length,
+        },
+        ObstacleShape::Mesh(m) => {
+            let t = m.trimesh();
+            Shape::Mesh {
+                filename: "<attached mesh>".into(),
+                path: Default::default(),
+                scale: nalgebra::Vector3::repeat(1.0),
+                mesh: Arc::new(ferrobot_model::TriMesh {
+                    vertices: t.vertices().iter().map(|v| nalgebra::Point3::new(v.x as f64, v.y as f64, v.z as f64)).collect(),
+                    triangles: t.indices().to_vec(),
+                }),
+            }
+        }
+        ObstacleShape::PointCloud(_) => {
+            return Err(CollisionError::InvalidShape("a point cloud cannot be attached to the robot".into()));
+        }
+    };
+    Ok(Geometry {
+        name: None,
+        origin,
+        shape: s,
+        rgba: None,
+    })
+}

@@ -1,0 +1,350 @@
+//! The robot's sphere model and the world compiled to flat `f32` data for
+//! the lane kernel.
+//!
+//! Every movable joint is rotated so that it turns about (or slides along)
+//! its local z axis: a joint with axis `a` becomes `A Rz(q) A^T` with
+//! `A z = a`, and the trailing `A^T` is folded into what hangs below. Fixed
+//! joints are folded away entirely. The lane forward kinematics then costs
+//! one constant transform and a z rotation per movable joint.
+
+use std::sync::Arc;
+
+use ferrobot_model::{JointCoupling, JointKind, RobotModel};
+use nalgebra::{Isometry3, Point3, Rotation3, UnitQuaternion, Vector3};
+
+use crate::shapes::ObstacleShape;
+use crate::sphere::Sphere;
+use crate::world::CollisionWorld;
+
+/// A rigid transform as a row-major rotation and a translation, `f32`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Frame32 {
+    /// Rotation, row-major.
+    pub r: [f32; 9],
+    /// Translation.
+    pub t: [f32; 3],
+}
+
+impl Frame32 {
+    /// From an `f64` isometry.
+    pub fn from_iso(iso: &Isometry3<f64>) -> Self {
+        let m = iso.rotation.to_rotation_matrix();
+        let mut r = [0.0f32; 9];
+        for i in 0..3 {
+            for j in 0..3 {
+                r[i * 3 + j] = m[(i, j)] as f32;
+            }
+        }
+        let v = iso.translation.vector;
+        Self {
+            r,
+            t: [v.x as f32, v.y as f32, v.z as f32],
+        }
+    }
+}
+
+/// One movable joint of the lane forward kinematics.
+#[derive(Debug, Clone)]
+pub struct Step {
+    /// Frame the joint hangs from (0 is the base frame).
+    pub parent: usize,
+    /// Constant transform from the parent frame to the joint frame.
+    pub k: Frame32,
+    /// Slides along z (true) or turns about z (false).
+    pub prismatic: bool,
+    /// Driving DOF; the joint coordinate is `gain * q[dof] + offset`.
+    pub dof: usize,
+    /// Mimic gain (1 for an independent joint).
+    pub gain: f32,
+    /// Mimic offset (0 for an independent joint).
+    pub offset: f32,
+}
+
+/// A body of the sphere model: a link (or an attached object) whose spheres
+/// move with one lane frame.
+#[derive(Debug, Clone)]
+pub struct Body {
+    /// Model link the body moves with.
+    pub link: usize,
+    /// Attached object name, or None for a robot link.
+    pub attached: Option<String>,
+    /// Frame index the spheres are expressed in.
+    pub frame: usize,
+    /// First sphere in the flat sphere arrays.
+    pub first: usize,
+    /// Number of spheres.
+    pub count: usize,
+    /// Bounding sphere centre (frame coordinates) and radius.
+    pub bound: ([f32; 3], f32),
+}
+
+/// The robot's spheres, compiled.
+#[derive(Debug, Clone)]
+pub struct CompiledRobot {
+    /// Number of DOFs of the model.
+    pub num_dof: usize,
+    /// Movable joints in tree order; step `i` makes frame `i + 1`.
+    pub steps: Vec<Step>,
+    /// Bodies with spheres.
+    pub bodies: Vec<Body>,
+    /// Sphere centres in their body's frame.
+    pub centers: Vec<[f32; 3]>,
+    /// Sphere radii.
+    pub radii: Vec<f32>,
+    /// Body pairs checked for self-collision (body indices).
+    pub pairs: Vec<(usize, usize)>,
+    /// For each model link: its lane frame and the constant transform from
+    /// that frame to the link frame (`link = frame * correction`).
+    pub link_frames: Vec<(usize, Isometry3<f64>)>,
+}
+
+/// A rotation taking z to `axis`.
+fn z_to(axis: &Vector3<f64>) -> UnitQuaternion<f64> {
+    UnitQuaternion::rotation_between(&Vector3::z(), axis)
+        .unwrap_or_else(|| UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI))
+}
+
+impl CompiledRobot {
+    /// Compiles the kinematics of `model` and attaches `spheres` (per link,
+    /// link frame) plus extra bodies `(link, name, spheres in link frame)`.
+    /// `pairs` lists the body pairs to check for self-collision, as a
+    /// predicate over (link or attached name) identities.
+    pub fn new(
+        model: &RobotModel,
+        link_spheres: &[Vec<Sphere>],
+        attached: &[(usize, String, Vec<Sphere>)],
+        check_pair: impl Fn(&Body, &Body) -> bool,
+    ) -> Self {
+        let n = model.links().len();
+        let mut link_frames: Vec<(usize, Isometry3<f64>)> = vec![(0, Isometry3::identity()); n];
+        // Base frame 0 is the identity; the root link sits at root_in_base.
+        let root_in_base = {
+            let base_path = model.path_to(model.base_link());
+            base_path
+                .iter()
+                .fold(Isometry3::identity(), |acc, &j| acc * model.joints()[j].origin)
+                .inverse()
+        };
+        link_frames[0] = (0, root_in_base);
+        let mut steps = Vec::new();
+        for joint in model.joints() {
+            let (pframe, pcorr) = link_frames[joint.parent];
+            let through = pcorr * joint.origin;
+            match (joint.kind, joint.coupling) {
+                (JointKind::Fixed, _) | (_, JointCoupling::Fixed) => link_frames[joint.child] = (pframe, through),
+                (kind, coupling) => {
+                    let a = z_to(&joint.axis);
+                    let k = through * a;
+                    let (dof, gain, offset) = match coupling {
+                        JointCoupling::Dof(d) => (d, 1.0, 0.0),
+                        JointCoupling::Mimic {
+                            dof,
+                            multiplier,
+                            offset,
+                        } => (dof, multiplier, offset),
+                        JointCoupling::Fixed => unreachable!(),
+                    };
+                    steps.push(Step {
+                        parent: pframe,
+                        k: Frame32::from_iso(&k),
+                        prismatic: kind == JointKind::Prismatic,
+                        dof,
+                        gain: gain as f32,
+                        offset: offset as f32,
+                    });
+                    link_frames[joint.child] = (steps.len(), Isometry3::from_parts(Default::default(), a.inverse()));
+                }
+            }
+        }
+        let mut robot = Self {
+            num_dof: model.num_dof(),
+            steps,
+            bodies: Vec::new(),
+            centers: Vec::new(),
+            radii: Vec::new(),
+            pairs: Vec::new(),
+            link_frames,
+        };
+        for (l, spheres) in link_spheres.iter().enumerate() {
+            robot.push_body(l, None, spheres);
+        }
+        for (l, name, spheres) in attached {
+            robot.push_body(*l, Some(name.clone()), spheres);
+        }
+        for a in 0..robot.bodies.len() {
+            for b in a + 1..robot.bodies.len() {
+                if check_pair(&robot.bodies[a], &robot.bodies[b]) {
+                    robot.pairs.push((a, b));
+                }
+            }
+        }
+        robot
+    }
+
+    fn push_body(&mut self, link: usize, attached: Option<String>, spheres: &[Sphere]) {
+        if spheres.is_empty() {
+            return;
+        }
+        let (frame, corr) = self.link_frames[link];
+        let in_frame: Vec<Sphere> = spheres.iter().map(|s| Sphere::new(corr * s.center, s.radius)).collect();
+        let b = Sphere::bounding(&in_frame).expect("non-empty");
+        let first = self.centers.len();
+        for s in &in_frame {
+            self.centers.push([s.center.x as f32, s.center.y as f32, s.center.z as f32]);
+            self.radii.push(s.radius as f32);
+        }
+        self.bodies.push(Body {
+            link,
+            attached,
+            frame,
+            first,
+            count: in_frame.len(),
+            bound: ([b.center.x as f32, b.center.y as f32, b.center.z as f32], b.radius as f32),
+        });
+    }
+
+    /// Number of lane frames (base frame included).
+    pub fn num_frames(&self) -> usize {
+        self.steps.len() + 1
+    }
+}
+
+/// A primitive obstacle in the world frame, in `f32`.
+#[derive(Debug, Clone, Copy)]
+pub enum Prim {
+    /// Sphere: centre, radius.
+    Sphere {
+        /// Centre.
+        c: [f32; 3],
+        /// Radius.
+        r: f32,
+    },
+    /// Box: centre, rotation rows of the world-to-box rotation, half extents.
+    Box {
+        /// Centre.
+        c: [f32; 3],
+        /// World-to-box rotation, row-major.
+        rt: [f32; 9],
+        /// Half extents.
+        h: [f32; 3],
+    },
+    /// Cylinder: centre, unit axis, radius, half length.
+    Cylinder {
+        /// Centre.
+        c: [f32; 3],
+        /// Unit axis.
+        a: [f32; 3],
+        /// Radius.
+        r: f32,
+        /// Half length.
+        h: f32,
+    },
+    /// Capsule: centre, unit axis, radius, half segment length.
+    Capsule {
+        /// Centre.
+        c: [f32; 3],
+        /// Unit axis.
+        a: [f32; 3],
+        /// Radius.
+        r: f32,
+        /// Half segment length.
+        h: f32,
+    },
+    /// Mesh or point cloud: exact `f64` query per configuration.
+    Complex,
+}
+
+/// One obstacle of the compiled world.
+#[derive(Debug, Clone)]
+pub struct Obstacle {
+    /// The primitive.
+    pub prim: Prim,
+    /// Bounding sphere centre (world).
+    pub bound_c: [f32; 3],
+    /// Bounding sphere radius.
+    pub bound_r: f32,
+    /// World object index.
+    pub object: usize,
+    /// For complex shapes: the shape and its world pose.
+    pub complex: Option<(ObstacleShape, Isometry3<f64>)>,
+}
+
+/// The world compiled for the kernel.
+#[derive(Debug, Clone, Default)]
+pub struct CompiledWorld {
+    /// Obstacles (one per object part).
+    pub obstacles: Vec<Obstacle>,
+    /// World revision it was compiled from.
+    pub revision: u64,
+    /// Object names by index.
+    pub names: Arc<Vec<String>>,
+}
+
+fn p32(p: &Point3<f64>) -> [f32; 3] {
+    [p.x as f32, p.y as f32, p.z as f32]
+}
+
+impl CompiledWorld {
+    /// Compiles every part of every object of `world`.
+    pub fn new(world: &CollisionWorld) -> Self {
+        let mut obstacles = Vec::new();
+        for (i, obj) in world.objects().iter().enumerate() {
+            for (shape, local) in &obj.parts {
+                let pose = obj.pose * local;
+                let c = p32(&Point3::from(pose.translation.vector));
+                let axis = pose.rotation * Vector3::z();
+                let a = [axis.x as f32, axis.y as f32, axis.z as f32];
+                let prim = match shape {
+                    ObstacleShape::Sphere { radius } => Prim::Sphere { c, r: *radius as f32 },
+                    ObstacleShape::Box { half_extents } => {
+                        let m: Rotation3<f64> = pose.rotation.inverse().to_rotation_matrix();
+                        let mut rt = [0.0f32; 9];
+                        for r in 0..3 {
+                            for col in 0..3 {
+                                rt[r * 3 + col] = m[(r, col)] as f32;
+                            }
+                        }
+                        Prim::Box {
+                            c,
+                            rt,
+                            h: [half_extents.x as f32, half_extents.y as f32, half_extents.z as f32],
+                        }
+                    }
+                    ObstacleShape::Cylinder {
+                        radius,
+                        half_length,
+                    } => Prim::Cylinder {
+                        c,
+                        a,
+                        r: *radius as f32,
+                        h: *half_length as f32,
+                    },
+                    ObstacleShape::Capsule {
+                        radius,
+                        half_length,
+                    } => Prim::Capsule {
+                        c,
+                        a,
+                        r: *radius as f32,
+                        h: *half_length as f32,
+                    },
+                    ObstacleShape::Mesh(_) | ObstacleShape::PointCloud(_) => Prim::Complex,
+                };
+                let complex = matches!(prim, Prim::Complex).then(|| (shape.clone(), pose));
+                obstacles.push(Obstacle {
+                    prim,
+                    bound_c: c,
+                    // Rounded up so the f32 bound never excludes a true hit.
+                    bound_r: (shape.bounding_radius() * (1.0 + 1e-6) + 1e-6) as f32,
+                    object: i,
+                    complex,
+                });
+            }
+        }
+        Self {
+            obstacles,
+            revision: world.revision(),
+            names: Arc::new(world.objects().iter().map(|o| o.name.clone()).collect()),
+        }
+    }
+}

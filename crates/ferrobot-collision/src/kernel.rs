@@ -1,0 +1,232 @@
+//! The collision kernel, generic over [`Lanes`]: forward kinematics of the
+//! lane frames, then spheres against the world and against each other, with
+//! bounding spheres first and an early exit once every lane has collided.
+
+use nalgebra::Point3;
+
+use crate::compiled::{CompiledRobot, CompiledWorld, Frame32, Prim};
+use crate::lanes::{Lanes, sin_cos};
+
+/// A lane frame: row-major rotation (9) then translation (3).
+pub type LaneFrame<L> = [L; 12];
+
+/// Reusable buffers of the kernel (one per thread).
+#[derive(Debug, Clone)]
+pub struct Scratch<L: Lanes> {
+    frames: Vec<LaneFrame<L>>,
+    centers: Vec<[L; 3]>,
+    done: Vec<bool>,
+}
+
+impl<L: Lanes> Scratch<L> {
+    /// Buffers sized for `robot`.
+    pub fn new(robot: &CompiledRobot) -> Self {
+        let zero = L::splat(0.0);
+        Self {
+            frames: vec![[zero; 12]; robot.num_frames()],
+            centers: vec![[zero; 3]; robot.centers.len()],
+            done: vec![false; robot.bodies.len()],
+        }
+    }
+
+    /// The lane frames computed by the last [`forward`].
+    pub fn frames(&self) -> &[LaneFrame<L>] {
+        &self.frames
+    }
+}
+
+#[inline(always)]
+fn compose<L: Lanes>(p: &LaneFrame<L>, k: &Frame32) -> LaneFrame<L> {
+    let s = L::splat;
+    let mut o = [s(0.0); 12];
+    for i in 0..3 {
+        let (a, b, c) = (p[i * 3], p[i * 3 + 1], p[i * 3 + 2]);
+        for j in 0..3 {
+            o[i * 3 + j] = a * s(k.r[j]) + b * s(k.r[3 + j]) + c * s(k.r[6 + j]);
+        }
+        o[9 + i] = a * s(k.t[0]) + b * s(k.t[1]) + c * s(k.t[2]) + p[9 + i];
+    }
+    o
+}
+
+/// Forward kinematics of every lane frame for the DOF lanes `q`.
+#[inline]
+pub fn forward<L: Lanes>(robot: &CompiledRobot, q: &[L], scratch: &mut Scratch<L>) {
+    let (one, zero) = (L::splat(1.0), L::splat(0.0));
+    scratch.frames[0] = [one, zero, zero, zero, one, zero, zero, zero, one, zero, zero, zero];
+    for (i, step) in robot.steps.iter().enumerate() {
+        let mut m = compose(&scratch.frames[step.parent], &step.k);
+        let qj = q[step.dof] * L::splat(step.gain) + L::splat(step.offset);
+        if step.prismatic {
+            for r in 0..3 {
+                m[9 + r] = m[9 + r] + m[r * 3 + 2] * qj;
+            }
+        } else {
+            let (s, c) = sin_cos(qj);
+            for r in 0..3 {
+                let (x, y) = (m[r * 3], m[r * 3 + 1]);
+                m[r * 3] = x * c + y * s;
+                m[r * 3 + 1] = y * c - x * s;
+            }
+        }
+        scratch.frames[i + 1] = m;
+    }
+}
+
+#[inline(always)]
+fn apply<L: Lanes>(f: &LaneFrame<L>, p: &[f32; 3]) -> [L; 3] {
+    let s = L::splat;
+    [
+        f[0] * s(p[0]) + f[1] * s(p[1]) + f[2] * s(p[2]) + f[9],
+        f[3] * s(p[0]) + f[4] * s(p[1]) + f[5] * s(p[2]) + f[10],
+        f[6] * s(p[0]) + f[7] * s(p[1]) + f[8] * s(p[2]) + f[11],
+    ]
+}
+
+#[inline(always)]
+fn dist2<L: Lanes>(a: &[L; 3], b: &[f32; 3]) -> L {
+    let (x, y, z) = (a[0] - L::splat(b[0]), a[1] - L::splat(b[1]), a[2] - L::splat(b[2]));
+    x * x + y * y + z * z
+}
+
+/// Lanes where a sphere at `c` of radius `r` (margin included) touches `prim`.
+#[inline(always)]
+fn sphere_hits_prim<L: Lanes>(prim: &Prim, c: &[L; 3], r: L) -> u32 {
+    let s = L::splat;
+    let zero = s(0.0);
+    match *prim {
+        Prim::Sphere { c: o, r: ro } => {
+            let rr = r + s(ro);
+            dist2(c, &o).lt_mask(rr * rr)
+        }
+        Prim::Box { c: o, rt, h } => {
+            let d = [c[0] - s(o[0]), c[1] - s(o[1]), c[2] - s(o[2])];
+            let mut out2 = zero;
+            for i in 0..3 {
+                let p = d[0] * s(rt[i * 3]) + d[1] * s(rt[i * 3 + 1]) + d[2] * s(rt[i * 3 + 2]);
+                let q = (p.abs() - s(h[i])).max(zero);
+                out2 = out2 + q * q;
+            }
+            out2.lt_mask(r * r)
+        }
+        Prim::Cylinder { c: o, a, r: ro, h } => {
+            let d = [c[0] - s(o[0]), c[1] - s(o[1]), c[2] - s(o[2])];
+            let z = d[0] * s(a[0]) + d[1] * s(a[1]) + d[2] * s(a[2]);
+            let rho2 = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2] - z * z).max(zero);
+            let dr = (rho2.sqrt() - s(ro)).max(zero);
+            let dz = (z.abs() - s(h)).max(zero);
+            (dr * dr + dz * dz).lt_mask(r * r)
+        }
+        Prim::Capsule { c: o, a, r: ro, h } => {
+            let d = [c[0] - s(o[0]), c[1] - s(o[1]), c[2] - s(o[2])];
+            let z = (d[0] * s(a[0]) + d[1] * s(a[1]) + d[2] * s(a[2])).max(-s(h)).min(s(h));
+            let e = [d[0] - z * s(a[0]), d[1] - z * s(a[1]), d[2] - z * s(a[2])];
+            let rr = r + s(ro);
+            (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).lt_mask(rr * rr)
+        }
+        Prim::Complex => 0,
+    }
+}
+
+/// Checks the lanes of `q` (DOF-major: `q[dof]` holds that DOF for every
+/// lane) against the world and for self-collision. Lanes outside `active`
+/// are ignored. Returns the bitmask of colliding lanes.
+pub fn check<L: Lanes>(
+    robot: &CompiledRobot,
+    world: &CompiledWorld,
+    q: &[L],
+    margin: f32,
+    active: u32,
+    scratch: &mut Scratch<L>,
+) -> u32 {
+    forward(robot, q, scratch);
+    scratch.done.iter_mut().for_each(|d| *d = false);
+    let m = L::splat(margin);
+    let mut hit = 0u32;
+    // Distal bodies first: they collide most often.
+    for bi in (0..robot.bodies.len()).rev() {
+        let body = &robot.bodies[bi];
+        let frame = scratch.frames[body.frame];
+        let bc = apply(&frame, &body.bound.0);
+        for obs in &world.obstacles {
+            let reach = L::splat(body.bound.1 + obs.bound_r) + m;
+            let near = dist2(&bc, &obs.bound_c).lt_mask(reach * reach) & active & !hit;
+            if near == 0 {
+                continue;
+            }
+            ensure_centers(robot, bi, &frame, scratch);
+            for k in body.first..body.first + body.count {
+                let c = scratch.centers[k];
+                let r = L::splat(robot.radii[k]) + m;
+                let h = if let Some((shape, pose)) = &obs.complex {
+                    complex_hits(shape, pose, &c, r, near & !hit)
+                } else {
+                    sphere_hits_prim(&obs.prim, &c, r) & near
+                };
+                hit |= h;
+                if hit & active == active {
+                    return hit & active;
+                }
+            }
+        }
+    }
+    for &(a, b) in &robot.pairs {
+        let (ba, bb) = (&robot.bodies[a], &robot.bodies[b]);
+        let (fa, fb) = (scratch.frames[ba.frame], scratch.frames[bb.frame]);
+        let ca = apply(&fa, &ba.bound.0);
+        let cb = apply(&fb, &bb.bound.0);
+        let reach = L::splat(ba.bound.1 + bb.bound.1) + m;
+        let d = [ca[0] - cb[0], ca[1] - cb[1], ca[2] - cb[2]];
+        let near = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).lt_mask(reach * reach) & active & !hit;
+        if near == 0 {
+            continue;
+        }
+        ensure_centers(robot, a, &fa, scratch);
+        ensure_centers(robot, b, &fb, scratch);
+        for i in ba.first..ba.first + ba.count {
+            for j in bb.first..bb.first + bb.count {
+                let (p, q) = (scratch.centers[i], scratch.centers[j]);
+                let d = [p[0] - q[0], p[1] - q[1], p[2] - q[2]];
+                let rr = L::splat(robot.radii[i] + robot.radii[j]) + m;
+                hit |= (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).lt_mask(rr * rr) & near;
+                if hit & active == active {
+                    return hit & active;
+                }
+            }
+        }
+    }
+    hit & active
+}
+
+#[inline(always)]
+fn ensure_centers<L: Lanes>(robot: &CompiledRobot, body: usize, frame: &LaneFrame<L>, scratch: &mut Scratch<L>) {
+    if scratch.done[body] {
+        return;
+    }
+    let b = &robot.bodies[body];
+    for k in b.first..b.first + b.count {
+        scratch.centers[k] = apply(frame, &robot.centers[k]);
+    }
+    scratch.done[body] = true;
+}
+
+fn complex_hits<L: Lanes>(
+    shape: &crate::shapes::ObstacleShape,
+    pose: &nalgebra::Isometry3<f64>,
+    c: &[L; 3],
+    r: L,
+    lanes: u32,
+) -> u32 {
+    let mut out = 0;
+    for i in 0..L::WIDTH {
+        if lanes & (1 << i) == 0 {
+            continue;
+        }
+        let p = Point3::new(c[0].lane(i) as f64, c[1].lane(i) as f64, c[2].lane(i) as f64);
+        let (d, _) = shape.signed_distance(&pose.inverse_transform_point(&p));
+        if d < r.lane(i) as f64 {
+            out |= 1 << i;
+        }
+    }
+    out
+}

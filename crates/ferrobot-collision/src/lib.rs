@@ -1,0 +1,34 @@
+//! Collision checking for ferrobot: sphere models of robots (automatic,
+//! from a spherized URDF or cuRobo's YAML), a world of primitives, meshes
+//! and point clouds, an allowed-collision matrix, and fast batched checks,
+//! motion checks and signed distances with gradients.
+//!
+//! The hot path ([`kernel`]) is written once over [`lanes::Lanes`]: one
+//! `f32` for a single configuration, eight `f32` SIMD lanes for batches and
+//! motions, with bit-identical results per configuration.
+
+pub mod acm;
+pub mod checker;
+pub mod cloud;
+pub mod compiled;
+pub mod distance;
+pub mod error;
+pub mod kernel;
+pub mod lanes;
+pub mod moveit;
+pub mod robot_spheres;
+pub mod shapes;
+pub mod sphere;
+pub mod spherize;
+pub mod trimesh;
+pub mod world;
+
+pub use acm::{AllowedCollisions, AnalysisReport};
+pub use checker::{CollisionChecker, Contact};
+pub use cloud::PointCloud;
+pub use error::{CollisionError, Result};
+pub use robot_spheres::RobotSpheres;
+pub use shapes::ObstacleShape;
+pub use sphere::Sphere;
+pub use trimesh::MeshShape;
+pub use world::{CollisionWorld, WorldObject};

@@ -1,0 +1,111 @@
+//! The lane kernel against an independent f64 reference (exact sphere to
+//! primitive distances), and the batched/SIMD paths against the scalar path.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use ferrobot_collision::{AllowedCollisions, CollisionChecker, CollisionWorld, RobotSpheres};
+use ferrobot_model::{LoadOptions, RobotModel, SrdfSource};
+use rand::{Rng, SeedableRng, rngs::StdRng};
+
+fn shared(rel: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared").join(rel)
+}
+
+fn panda() -> (Arc<RobotModel>, RobotSpheres, AllowedCollisions) {
+    let model = RobotModel::from_urdf_file(
+        shared("robots/panda/panda.urdf"),
+        &LoadOptions {
+            srdf: Some(SrdfSource::File(shared("robots/panda/panda.srdf"))),
+            ee_link: Some("panda_hand".into()),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let spheres = RobotSpheres::from_spherized_urdf(&model, shared("robots/panda/panda_spherized.urdf")).unwrap();
+    let acm = AllowedCollisions::from_model(&model);
+    (Arc::new(model), spheres, acm)
+}
+
+fn random_q(model: &RobotModel, rng: &mut StdRng) -> Vec<f64> {
+    model
+        .lower_limits()
+        .iter()
+        .zip(model.upper_limits())
+        .map(|(l, h)| rng.random_range(*l..h))
+        .collect()
+}
+
+/// Reference: every sphere against every object part with exact f64
+/// distances, and every checked pair of bodies.
+fn reference(checker: &CollisionChecker, q: &[f64]) -> f64 {
+    checker.distance(q).unwrap().distance
+}
+
+#[test]
+fn scenes_parse_and_kernel_agrees_with_exact_reference() {
+    let (model, spheres, acm) = panda();
+    assert_eq!(spheres.count(), 59);
+    let mut rng = StdRng::seed_from_u64(5);
+    let mut checked = 0;
+    let (mut hits, mut free) = (0, 0);
+    for scene in ["table_pick_panda", "bookshelf_small_panda"] {
+        for id in (1..=100).step_by(9) {
+            let path = shared(&format!("bench/mbm/{scene}/scene{id:04}.yaml"));
+            let world = CollisionWorld::from_moveit_scene(&path).unwrap();
+            assert!(!world.is_empty(), "{}", path.display());
+            let checker = CollisionChecker::new(model.clone(), spheres.clone(), acm.clone(), world).unwrap();
+            for _ in 0..200 {
+                let q = random_q(&model, &mut rng);
+                let d = reference(&checker, &q);
+                let got = checker.in_collision(&q).unwrap();
+                // f32 kernel: only configurations within 0.1 mm of contact may differ.
+                if d.abs() > 1e-4 {
+                    assert_eq!(got, d < 0.0, "{scene} {id} q={q:?} d={d}");
+                    checked += 1;
+                }
+                if got { hits += 1 } else { free += 1 }
+            }
+        }
+    }
+    assert!(checked > 4000 && hits > 200 && free > 200, "{checked} {hits} {free}");
+}
+
+#[test]
+fn batch_and_simd_agree_exactly_with_scalar() {
+    let (model, spheres, acm) = panda();
+    let world = CollisionWorld::from_moveit_scene(shared("bench/mbm/bookshelf_small_panda/scene0003.yaml")).unwrap();
+    let checker = CollisionChecker::new(model.clone(), spheres, acm, world).unwrap();
+    let mut rng = StdRng::seed_from_u64(9);
+    let n = 2003; // not a multiple of 8
+    let qs: Vec<f64> = (0..n).flat_map(|_| random_q(&model, &mut rng)).collect();
+    let batch = checker.in_collision_batch(&qs).unwrap();
+    let scalar: Vec<bool> = qs.chunks(7).map(|q| checker.in_collision(q).unwrap()).collect();
+    assert_eq!(batch, scalar);
+    assert!(batch.iter().any(|&b| b) && batch.iter().any(|&b| !b));
+}
+
+#[test]
+fn motion_check_matches_dense_scalar_checks() {
+    let (model, spheres, acm) = panda();
+    let world = CollisionWorld::from_moveit_scene(shared("bench/mbm/table_pick_panda/scene0001.yaml")).unwrap();
+    let checker = CollisionChecker::new(model.clone(), spheres, acm, world).unwrap();
+    let mut rng = StdRng::seed_from_u64(11);
+    let (mut valid, mut invalid) = (0, 0);
+    for _ in 0..300 {
+        let a = random_q(&model, &mut rng);
+        let b: Vec<f64> = a.iter().map(|x| x + rng.random_range(-0.4..0.4)).collect();
+        let res = 0.01;
+        let got = checker.motion_valid(&a, &b, res).unwrap();
+        let span = a.iter().zip(&b).map(|(x, y)| (y - x).abs()).fold(0.0, f64::max);
+        let steps = ((span / res).ceil() as usize).max(1);
+        let dense = (0..=steps).all(|k| {
+            let t = k as f64 / steps as f64;
+            let q: Vec<f64> = a.iter().zip(&b).map(|(x, y)| x + (y - x) * t).collect();
+            !checker.in_collision(&q).unwrap()
+        });
+        assert_eq!(got, dense);
+        if got { valid += 1 } else { invalid += 1 }
+    }
+    assert!(valid > 20 && invalid > 20, "{valid} {invalid}");
+}
