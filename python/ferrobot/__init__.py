@@ -12,6 +12,14 @@ Conventions (everywhere in the public API):
 from __future__ import annotations
 
 from . import errors, robots
-from ._core import RobotModel, __version__
+from ._core import CollisionChecker, CollisionWorld, RobotModel, SphereModel, __version__
 
-__all__ = ["RobotModel", "errors", "robots", "__version__"]
+__all__ = [
+    "CollisionChecker",
+    "CollisionWorld",
+    "RobotModel",
+    "SphereModel",
+    "errors",
+    "robots",
+    "__version__",
+]

@@ -18,6 +18,8 @@ __all__ = [
     "NonFiniteError",
     "InvalidArgumentError",
     "InternalError",
+    "FileFormatError",
+    "DuplicateNameError",
 ]
 
 
@@ -58,6 +60,14 @@ class NonFiniteError(FerrobotError, ValueError):
 
 class InvalidArgumentError(FerrobotError, ValueError, TypeError):
     """Any other invalid argument (wrong type, out-of-range option, ...)."""
+
+
+class FileFormatError(FerrobotError, ValueError):
+    """A scene YAML, sphere YAML or spherized URDF that cannot be read (the message names file and element)."""
+
+
+class DuplicateNameError(FerrobotError, ValueError):
+    """A world or attached object name that is taken already."""
 
 
 class InternalError(FerrobotError, RuntimeError):

@@ -72,7 +72,9 @@ impl AllowedCollisions {
     /// Excludes the pair `(a, b)`.
     pub fn allow(&mut self, a: usize, b: usize, reason: &str) {
         if a != b {
-            self.pairs.entry(key(a, b)).or_insert_with(|| reason.to_string());
+            self.pairs
+                .entry(key(a, b))
+                .or_insert_with(|| reason.to_string());
         }
     }
 
@@ -97,11 +99,21 @@ impl AllowedCollisions {
     /// looked at. Like MoveIt's setup assistant this is statistical: a pair
     /// that touches only in rare configurations can be missed; use more
     /// samples for more confidence.
-    pub fn analyze(&mut self, model: &RobotModel, spheres: &RobotSpheres, samples: usize, seed: u64) -> Result<AnalysisReport> {
+    pub fn analyze(
+        &mut self,
+        model: &RobotModel,
+        spheres: &RobotSpheres,
+        samples: usize,
+        seed: u64,
+    ) -> Result<AnalysisReport> {
         if samples == 0 {
-            return Err(CollisionError::InvalidArgument("analysis needs at least one sample".into()));
+            return Err(CollisionError::InvalidArgument(
+                "analysis needs at least one sample".into(),
+            ));
         }
-        let links: Vec<usize> = (0..model.links().len()).filter(|&l| !spheres.links[l].is_empty()).collect();
+        let links: Vec<usize> = (0..model.links().len())
+            .filter(|&l| !spheres.links[l].is_empty())
+            .collect();
         let mut candidates = Vec::new();
         for (i, &a) in links.iter().enumerate() {
             for &b in &links[i + 1..] {
@@ -115,12 +127,24 @@ impl AllowedCollisions {
         let counts = (0..samples)
             .into_par_iter()
             .map(|s| {
-                let mut rng = StdRng::seed_from_u64(seed.wrapping_mul(1_000_003).wrapping_add(s as u64));
+                let mut rng =
+                    StdRng::seed_from_u64(seed.wrapping_mul(1_000_003).wrapping_add(s as u64));
                 let q: Vec<f64> = lo
                     .iter()
                     .zip(&hi)
                     .map(|(&l, &h)| {
-                        let (l, h) = (if l.is_finite() { l } else { -std::f64::consts::PI }, if h.is_finite() { h } else { std::f64::consts::PI });
+                        let (l, h) = (
+                            if l.is_finite() {
+                                l
+                            } else {
+                                -std::f64::consts::PI
+                            },
+                            if h.is_finite() {
+                                h
+                            } else {
+                                std::f64::consts::PI
+                            },
+                        );
                         if h > l { rng.random_range(l..h) } else { l }
                     })
                     .collect();
@@ -134,10 +158,11 @@ impl AllowedCollisions {
                 candidates
                     .iter()
                     .map(|&(a, b)| {
-                        world[a]
-                            .iter()
-                            .any(|(ca, ra)| world[b].iter().any(|(cb, rb)| (ca - cb).norm_squared() < (ra + rb) * (ra + rb)))
-                            as usize
+                        world[a].iter().any(|(ca, ra)| {
+                            world[b]
+                                .iter()
+                                .any(|(cb, rb)| (ca - cb).norm_squared() < (ra + rb) * (ra + rb))
+                        }) as usize
                     })
                     .collect::<Vec<usize>>()
             })
@@ -169,7 +194,10 @@ impl AllowedCollisions {
     /// The pairs as SRDF `<disable_collisions>` elements (to save next to
     /// the robot; load them with the SRDF).
     pub fn to_srdf(&self, model: &RobotModel) -> String {
-        let mut out = format!("<?xml version=\"1.0\"?>\n<robot name=\"{}\">\n", model.name());
+        let mut out = format!(
+            "<?xml version=\"1.0\"?>\n<robot name=\"{}\">\n",
+            model.name()
+        );
         for (a, b, reason) in self.pairs() {
             out.push_str(&format!(
                 "  <disable_collisions link1=\"{}\" link2=\"{}\" reason=\"{}\"/>\n",

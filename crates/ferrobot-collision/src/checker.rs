@@ -70,13 +70,20 @@ pub struct CollisionChecker {
     pub(crate) margin: f64,
     pub(crate) robot: CompiledRobot,
     pub(crate) compiled_world: CompiledWorld,
+    /// Whether bodies fixed to the base touch the world (true for every q).
+    static_hit: bool,
     id: u64,
 }
 
 impl CollisionChecker {
     /// A checker for `model` with sphere model `spheres`, excluded pairs
     /// `acm` and obstacles `world`.
-    pub fn new(model: Arc<RobotModel>, spheres: RobotSpheres, acm: AllowedCollisions, world: CollisionWorld) -> Result<Self> {
+    pub fn new(
+        model: Arc<RobotModel>,
+        spheres: RobotSpheres,
+        acm: AllowedCollisions,
+        world: CollisionWorld,
+    ) -> Result<Self> {
         if spheres.links.len() != model.links().len() {
             return Err(CollisionError::InvalidArgument(format!(
                 "the sphere model has {} links, the robot {}",
@@ -94,6 +101,7 @@ impl CollisionChecker {
             world,
             margin: 0.0,
             compiled_world,
+            static_hit: false,
             id: 0,
         };
         checker.recompile_robot();
@@ -101,26 +109,53 @@ impl CollisionChecker {
     }
 
     fn recompile_robot(&mut self) {
-        let attached: Vec<(usize, String, Vec<Sphere>)> =
-            self.attached.iter().map(|a| (a.link, a.name.clone(), a.spheres.clone())).collect();
+        let attached: Vec<(usize, String, Vec<Sphere>)> = self
+            .attached
+            .iter()
+            .map(|a| (a.link, a.name.clone(), a.spheres.clone()))
+            .collect();
         let acm = &self.acm;
         let atts = &self.attached;
-        self.robot = CompiledRobot::new(&self.model, &self.spheres.links, &attached, |a, b| {
-            match (&a.attached, &b.attached) {
-                (None, None) => !acm.is_allowed(a.link, b.link),
-                (Some(_), Some(_)) => true,
-                (Some(name), None) | (None, Some(name)) => {
-                    let att = atts.iter().find(|x| &x.name == name).expect("attached body");
-                    let other = if a.attached.is_some() { b.link } else { a.link };
-                    other != att.link && !att.touch_links.contains(&other)
+        self.robot =
+            CompiledRobot::new(&self.model, &self.spheres.links, &attached, |a, b| {
+                match (&a.attached, &b.attached) {
+                    (None, None) => !acm.is_allowed(a.link, b.link),
+                    (Some(_), Some(_)) => true,
+                    (Some(name), None) | (None, Some(name)) => {
+                        let att = atts
+                            .iter()
+                            .find(|x| &x.name == name)
+                            .expect("attached body");
+                        let other = if a.attached.is_some() { b.link } else { a.link };
+                        other != att.link && !att.touch_links.contains(&other)
+                    }
                 }
-            }
-        });
+            });
         self.id = NEXT_ID.fetch_add(1, Ordering::Relaxed);
+        self.update_static();
     }
 
     fn recompile_world(&mut self) {
         self.compiled_world = CompiledWorld::new(&self.world);
+        self.update_static();
+    }
+
+    /// Tests the bodies fixed to the base against the world once.
+    fn update_static(&mut self) {
+        let mut only_static = self.robot.clone();
+        only_static.bodies.retain(|b| b.frame == 0);
+        only_static.pairs.clear();
+        let q = vec![0.0f32; self.model.num_dof()];
+        let mut scratch = Scratch::<f32>::new(&only_static);
+        self.static_hit = check(
+            &only_static,
+            &self.compiled_world,
+            &q,
+            self.margin as f32,
+            1,
+            false,
+            &mut scratch,
+        ) != 0;
     }
 
     /// The robot model.
@@ -156,7 +191,10 @@ impl CollisionChecker {
     }
 
     /// Changes the world through `f` and recompiles it.
-    pub fn update_world<T>(&mut self, f: impl FnOnce(&mut CollisionWorld) -> Result<T>) -> Result<T> {
+    pub fn update_world<T>(
+        &mut self,
+        f: impl FnOnce(&mut CollisionWorld) -> Result<T>,
+    ) -> Result<T> {
         let out = f(&mut self.world);
         self.recompile_world();
         out
@@ -176,9 +214,12 @@ impl CollisionChecker {
     /// Sets the margin (finite, may be negative to allow slight contact).
     pub fn set_margin(&mut self, margin: f64) -> Result<()> {
         if !margin.is_finite() {
-            return Err(CollisionError::InvalidArgument(format!("margin must be finite, got {margin}")));
+            return Err(CollisionError::InvalidArgument(format!(
+                "margin must be finite, got {margin}"
+            )));
         }
         self.margin = margin;
+        self.update_static();
         Ok(())
     }
 
@@ -208,7 +249,16 @@ impl CollisionChecker {
                 *slot = Some((self.id, Scratch::new(&self.robot)));
             }
             let scratch = &mut slot.as_mut().expect("set above").1;
-            check::<f32>(&self.robot, &self.compiled_world, &q32, self.margin as f32, 1, scratch) != 0
+            self.static_hit
+                || check::<f32>(
+                    &self.robot,
+                    &self.compiled_world,
+                    &q32,
+                    self.margin as f32,
+                    1,
+                    true,
+                    scratch,
+                ) != 0
         })
     }
 
@@ -233,18 +283,32 @@ impl CollisionChecker {
     pub fn in_collision_batch_into(&self, qs: &[f64], out: &mut [bool]) {
         let dof = self.model.num_dof();
         const CHUNK: usize = 8 * 64;
-        out.par_chunks_mut(CHUNK).zip(qs.par_chunks(CHUNK * dof)).for_each(|(o, q)| {
-            let mut scratch = Scratch::<f32x8>::new(&self.robot);
-            for (po, pq) in o.chunks_mut(8).zip(q.chunks(8 * dof)) {
-                let n = po.len();
-                let lanes = pack(pq, dof, n);
-                let active = (1u32 << n) - 1;
-                let hit = check(&self.robot, &self.compiled_world, &lanes, self.margin as f32, active, &mut scratch);
-                for (i, v) in po.iter_mut().enumerate() {
-                    *v = hit & (1 << i) != 0;
+        if self.static_hit {
+            out.iter_mut().for_each(|o| *o = true);
+            return;
+        }
+        out.par_chunks_mut(CHUNK)
+            .zip(qs.par_chunks(CHUNK * dof))
+            .for_each(|(o, q)| {
+                let mut scratch = Scratch::<f32x8>::new(&self.robot);
+                for (po, pq) in o.chunks_mut(8).zip(q.chunks(8 * dof)) {
+                    let n = po.len();
+                    let lanes = pack(pq, dof, n);
+                    let active = (1u32 << n) - 1;
+                    let hit = check(
+                        &self.robot,
+                        &self.compiled_world,
+                        &lanes,
+                        self.margin as f32,
+                        active,
+                        true,
+                        &mut scratch,
+                    );
+                    for (i, v) in po.iter_mut().enumerate() {
+                        *v = hit & (1 << i) != 0;
+                    }
                 }
-            }
-        });
+            });
     }
 
     /// Whether the straight joint-space motion from `q0` to `q1` is free:
@@ -255,15 +319,24 @@ impl CollisionChecker {
         self.check_q("q0", q0)?;
         self.check_q("q1", q1)?;
         if !(resolution.is_finite() && resolution > 0.0) {
-            return Err(CollisionError::InvalidArgument(format!("resolution must be positive, got {resolution}")));
+            return Err(CollisionError::InvalidArgument(format!(
+                "resolution must be positive, got {resolution}"
+            )));
         }
         Ok(self.motion_valid_unchecked(q0, q1, resolution))
     }
 
     /// [`CollisionChecker::motion_valid`] for checked input.
     pub fn motion_valid_unchecked(&self, q0: &[f64], q1: &[f64], resolution: f64) -> bool {
+        if self.static_hit {
+            return false;
+        }
         let dof = q0.len();
-        let span = q0.iter().zip(q1).map(|(a, b)| (b - a).abs()).fold(0.0, f64::max);
+        let span = q0
+            .iter()
+            .zip(q1)
+            .map(|(a, b)| (b - a).abs())
+            .fold(0.0, f64::max);
         let steps = ((span / resolution).ceil() as usize).max(1);
         let points = steps + 1;
         let packs = points.div_ceil(8);
@@ -277,7 +350,16 @@ impl CollisionChecker {
                     (q0[d] + (q1[d] - q0[d]) * t) as f32
                 });
             }
-            if check(&self.robot, &self.compiled_world, &lanes, self.margin as f32, 0xff, &mut scratch) != 0 {
+            if check(
+                &self.robot,
+                &self.compiled_world,
+                &lanes,
+                self.margin as f32,
+                0xff,
+                true,
+                &mut scratch,
+            ) != 0
+            {
                 return false;
             }
         }
@@ -296,12 +378,19 @@ impl CollisionChecker {
         touch_links: &[&str],
     ) -> Result<()> {
         if self.attached.iter().any(|a| a.name == name) {
-            return Err(CollisionError::Name(format!("an object named '{name}' is attached already")));
+            return Err(CollisionError::Duplicate(format!(
+                "an object named '{name}' is attached already"
+            )));
         }
         let l = self.model.link(link)?;
-        let touch = touch_links.iter().map(|t| self.model.link(t)).collect::<std::result::Result<Vec<_>, _>>()?;
+        let touch = touch_links
+            .iter()
+            .map(|t| self.model.link(t))
+            .collect::<std::result::Result<Vec<_>, _>>()?;
         if parts.is_empty() {
-            return Err(CollisionError::InvalidShape(format!("attached object '{name}': no shapes")));
+            return Err(CollisionError::InvalidShape(format!(
+                "attached object '{name}': no shapes"
+            )));
         }
         for (k, (shape, _)) in parts.iter().enumerate() {
             check_shape(&format!("attached object '{name}' shape {k}"), shape)?;
@@ -325,7 +414,13 @@ impl CollisionChecker {
 
     /// Moves world object `name` onto `link` at configuration `q` (it keeps
     /// its current world pose relative to the link).
-    pub fn attach_world_object(&mut self, name: &str, link: &str, q: &[f64], touch_links: &[&str]) -> Result<()> {
+    pub fn attach_world_object(
+        &mut self,
+        name: &str,
+        link: &str,
+        q: &[f64],
+        touch_links: &[&str],
+    ) -> Result<()> {
         self.check_q("q", q)?;
         let l = self.model.link(link)?;
         let obj: WorldObject = self.world.get(name)?.clone();
@@ -394,13 +489,19 @@ pub(crate) fn geometry_of(shape: &ObstacleShape, origin: Isometry3<f64>) -> Resu
                 path: Default::default(),
                 scale: nalgebra::Vector3::repeat(1.0),
                 mesh: Arc::new(ferrobot_model::TriMesh {
-                    vertices: t.vertices().iter().map(|v| nalgebra::Point3::new(v.x as f64, v.y as f64, v.z as f64)).collect(),
+                    vertices: t
+                        .vertices()
+                        .iter()
+                        .map(|v| nalgebra::Point3::new(v.x as f64, v.y as f64, v.z as f64))
+                        .collect(),
                     triangles: t.indices().to_vec(),
                 }),
             }
         }
         ObstacleShape::PointCloud(_) => {
-            return Err(CollisionError::InvalidShape("a point cloud cannot be attached to the robot".into()));
+            return Err(CollisionError::InvalidShape(
+                "a point cloud cannot be attached to the robot".into(),
+            ));
         }
     };
     Ok(Geometry {

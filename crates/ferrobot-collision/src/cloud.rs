@@ -18,15 +18,22 @@ impl PointCloud {
     /// A cloud of `points` (object frame), each a ball of `radius` (>= 0).
     pub fn new(points: Vec<Point3<f64>>, radius: f64) -> Result<Self> {
         if points.is_empty() {
-            return Err(CollisionError::InvalidShape("point cloud: no points".into()));
+            return Err(CollisionError::InvalidShape(
+                "point cloud: no points".into(),
+            ));
         }
         if !(radius.is_finite() && radius >= 0.0) {
             return Err(CollisionError::InvalidShape(format!(
                 "point cloud: radius must be finite and >= 0, got {radius}"
             )));
         }
-        if let Some(i) = points.iter().position(|p| !p.coords.iter().all(|c| c.is_finite())) {
-            return Err(CollisionError::InvalidShape(format!("point cloud: point {i} is not finite")));
+        if let Some(i) = points
+            .iter()
+            .position(|p| !p.coords.iter().all(|c| c.is_finite()))
+        {
+            return Err(CollisionError::InvalidShape(format!(
+                "point cloud: point {i} is not finite"
+            )));
         }
         let mut tree: KdTree<f64, 3> = KdTree::with_capacity(points.len());
         for (i, p) in points.iter().enumerate() {

@@ -100,8 +100,9 @@ pub struct CompiledRobot {
 
 /// A rotation taking z to `axis`.
 fn z_to(axis: &Vector3<f64>) -> UnitQuaternion<f64> {
-    UnitQuaternion::rotation_between(&Vector3::z(), axis)
-        .unwrap_or_else(|| UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI))
+    UnitQuaternion::rotation_between(&Vector3::z(), axis).unwrap_or_else(|| {
+        UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI)
+    })
 }
 
 impl CompiledRobot {
@@ -122,7 +123,9 @@ impl CompiledRobot {
             let base_path = model.path_to(model.base_link());
             base_path
                 .iter()
-                .fold(Isometry3::identity(), |acc, &j| acc * model.joints()[j].origin)
+                .fold(Isometry3::identity(), |acc, &j| {
+                    acc * model.joints()[j].origin
+                })
                 .inverse()
         };
         link_frames[0] = (0, root_in_base);
@@ -131,7 +134,9 @@ impl CompiledRobot {
             let (pframe, pcorr) = link_frames[joint.parent];
             let through = pcorr * joint.origin;
             match (joint.kind, joint.coupling) {
-                (JointKind::Fixed, _) | (_, JointCoupling::Fixed) => link_frames[joint.child] = (pframe, through),
+                (JointKind::Fixed, _) | (_, JointCoupling::Fixed) => {
+                    link_frames[joint.child] = (pframe, through)
+                }
                 (kind, coupling) => {
                     let a = z_to(&joint.axis);
                     let k = through * a;
@@ -152,7 +157,10 @@ impl CompiledRobot {
                         gain: gain as f32,
                         offset: offset as f32,
                     });
-                    link_frames[joint.child] = (steps.len(), Isometry3::from_parts(Default::default(), a.inverse()));
+                    link_frames[joint.child] = (
+                        steps.len(),
+                        Isometry3::from_parts(Default::default(), a.inverse()),
+                    );
                 }
             }
         }
@@ -186,11 +194,15 @@ impl CompiledRobot {
             return;
         }
         let (frame, corr) = self.link_frames[link];
-        let in_frame: Vec<Sphere> = spheres.iter().map(|s| Sphere::new(corr * s.center, s.radius)).collect();
+        let in_frame: Vec<Sphere> = spheres
+            .iter()
+            .map(|s| Sphere::new(corr * s.center, s.radius))
+            .collect();
         let b = Sphere::bounding(&in_frame).expect("non-empty");
         let first = self.centers.len();
         for s in &in_frame {
-            self.centers.push([s.center.x as f32, s.center.y as f32, s.center.z as f32]);
+            self.centers
+                .push([s.center.x as f32, s.center.y as f32, s.center.z as f32]);
             self.radii.push(s.radius as f32);
         }
         self.bodies.push(Body {
@@ -199,7 +211,10 @@ impl CompiledRobot {
             frame,
             first,
             count: in_frame.len(),
-            bound: ([b.center.x as f32, b.center.y as f32, b.center.z as f32], b.radius as f32),
+            bound: (
+                [b.center.x as f32, b.center.y as f32, b.center.z as f32],
+                b.radius as f32,
+            ),
         });
     }
 
@@ -278,6 +293,9 @@ pub struct CompiledWorld {
     pub revision: u64,
     /// Object names by index.
     pub names: Arc<Vec<String>>,
+    /// Obstacle bounding spheres eight at a time: x, y, z, radius (padding
+    /// entries lie far away with radius 0).
+    pub bound_soa: Vec<[wide::f32x8; 4]>,
 }
 
 fn p32(p: &Point3<f64>) -> [f32; 3] {
@@ -295,7 +313,10 @@ impl CompiledWorld {
                 let axis = pose.rotation * Vector3::z();
                 let a = [axis.x as f32, axis.y as f32, axis.z as f32];
                 let prim = match shape {
-                    ObstacleShape::Sphere { radius } => Prim::Sphere { c, r: *radius as f32 },
+                    ObstacleShape::Sphere { radius } => Prim::Sphere {
+                        c,
+                        r: *radius as f32,
+                    },
                     ObstacleShape::Box { half_extents } => {
                         let m: Rotation3<f64> = pose.rotation.inverse().to_rotation_matrix();
                         let mut rt = [0.0f32; 9];
@@ -307,7 +328,11 @@ impl CompiledWorld {
                         Prim::Box {
                             c,
                             rt,
-                            h: [half_extents.x as f32, half_extents.y as f32, half_extents.z as f32],
+                            h: [
+                                half_extents.x as f32,
+                                half_extents.y as f32,
+                                half_extents.z as f32,
+                            ],
                         }
                     }
                     ObstacleShape::Cylinder {
@@ -341,8 +366,23 @@ impl CompiledWorld {
                 });
             }
         }
+        let bound_soa = obstacles
+            .chunks(8)
+            .map(|c| {
+                let get = |f: &dyn Fn(&Obstacle) -> f32, pad: f32| {
+                    wide::f32x8::new(std::array::from_fn(|i| c.get(i).map_or(pad, f)))
+                };
+                [
+                    get(&|o| o.bound_c[0], 1e18),
+                    get(&|o| o.bound_c[1], 1e18),
+                    get(&|o| o.bound_c[2], 1e18),
+                    get(&|o| o.bound_r, 0.0),
+                ]
+            })
+            .collect();
         Self {
             obstacles,
+            bound_soa,
             revision: world.revision(),
             names: Arc::new(world.objects().iter().map(|o| o.name.clone()).collect()),
         }

@@ -45,7 +45,14 @@ impl CollisionChecker {
     fn body_spheres(&self, b: usize) -> &[Sphere] {
         let body = &self.robot.bodies[b];
         match &body.attached {
-            Some(n) => &self.attached.iter().find(|a| &a.name == n).expect("attached body").spheres,
+            Some(n) => {
+                &self
+                    .attached
+                    .iter()
+                    .find(|a| &a.name == n)
+                    .expect("attached body")
+                    .spheres
+            }
             None => &self.spheres.links[body.link],
         }
     }
@@ -114,28 +121,37 @@ impl CollisionChecker {
             }
         }
         let mut gradient = vec![0.0; n];
-        let closest;
-        if world.0 <= own.0 {
-            closest = world.1.map(|(i, dir, obj)| {
-                let s = &placed[i];
-                if let Ok(jp) = self.point_jacobian(q, s.link, &s.center) {
-                    for c in 0..n {
-                        gradient[c] = dir.x * jp[c] + dir.y * jp[n + c] + dir.z * jp[2 * n + c];
+        let closest = if world.0 <= own.0 {
+            match world.1 {
+                None => None,
+                Some((i, dir, obj)) => {
+                    let s = &placed[i];
+                    let jp = self.point_jacobian(q, s.link, &s.center)?;
+                    for (c, g) in gradient.iter_mut().enumerate() {
+                        *g = dir.x * jp[c] + dir.y * jp[n + c] + dir.z * jp[2 * n + c];
                     }
+                    Some((
+                        self.body_name(s.body),
+                        self.world.objects()[obj].name.clone(),
+                    ))
                 }
-                (self.body_name(s.body), self.world.objects()[obj].name.clone())
-            });
+            }
         } else {
-            closest = own.1.map(|(i, j, dir)| {
-                let (a, b) = (&placed[i], &placed[j]);
-                if let (Ok(ja), Ok(jb)) = (self.point_jacobian(q, a.link, &a.center), self.point_jacobian(q, b.link, &b.center)) {
-                    for c in 0..n {
-                        gradient[c] = (0..3).map(|k| dir[k] * (ja[k * n + c] - jb[k * n + c])).sum();
+            match own.1 {
+                None => None,
+                Some((i, j, dir)) => {
+                    let (a, b) = (&placed[i], &placed[j]);
+                    let ja = self.point_jacobian(q, a.link, &a.center)?;
+                    let jb = self.point_jacobian(q, b.link, &b.center)?;
+                    for (c, g) in gradient.iter_mut().enumerate() {
+                        *g = (0..3)
+                            .map(|k| dir[k] * (ja[k * n + c] - jb[k * n + c]))
+                            .sum();
                     }
+                    Some((self.body_name(a.body), self.body_name(b.body)))
                 }
-                (self.body_name(a.body), self.body_name(b.body))
-            });
-        }
+            }
+        };
         Ok(Distance {
             distance: world.0.min(own.0),
             world_distance: world.0,
@@ -152,7 +168,10 @@ impl CollisionChecker {
         let placed = self.placed(q)?;
         let mut found: Vec<Contact> = Vec::new();
         let mut record = |body: String, other: String, self_collision: bool, depth: f64| {
-            if let Some(c) = found.iter_mut().find(|c| c.body == body && c.other == other) {
+            if let Some(c) = found
+                .iter_mut()
+                .find(|c| c.body == body && c.other == other)
+            {
                 c.depth = c.depth.max(depth);
             } else {
                 found.push(Contact {
@@ -178,7 +197,8 @@ impl CollisionChecker {
         for &(a, b) in &self.robot.pairs {
             for sa in placed.iter().filter(|s| s.body == a) {
                 for sb in placed.iter().filter(|s| s.body == b) {
-                    let depth = sa.radius + sb.radius + self.margin - (sa.center - sb.center).norm();
+                    let depth =
+                        sa.radius + sb.radius + self.margin - (sa.center - sb.center).norm();
                     if depth > 0.0 {
                         record(self.body_name(a), self.body_name(b), true, depth);
                     }

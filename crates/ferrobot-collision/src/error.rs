@@ -11,9 +11,12 @@ pub enum CollisionError {
     /// A shape with invalid parameters (negative size, non-finite pose, ...).
     #[error("{0}")]
     InvalidShape(String),
-    /// A world object name that does not exist, or exists already.
+    /// A world or attached object name that does not exist.
     #[error("{0}")]
     Name(String),
+    /// A world or attached object name that exists already.
+    #[error("{0}")]
+    Duplicate(String),
     /// A file (scene YAML, sphere YAML, spherized URDF) that cannot be read.
     #[error("{location}: {message}")]
     File {

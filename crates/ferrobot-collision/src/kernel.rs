@@ -5,6 +5,8 @@
 use nalgebra::Point3;
 
 use crate::compiled::{CompiledRobot, CompiledWorld, Frame32, Prim};
+use wide::f32x8;
+
 use crate::lanes::{Lanes, sin_cos};
 
 /// A lane frame: row-major rotation (9) then translation (3).
@@ -16,6 +18,7 @@ pub struct Scratch<L: Lanes> {
     frames: Vec<LaneFrame<L>>,
     centers: Vec<[L; 3]>,
     done: Vec<bool>,
+    bounds: Vec<[L; 3]>,
 }
 
 impl<L: Lanes> Scratch<L> {
@@ -26,6 +29,7 @@ impl<L: Lanes> Scratch<L> {
             frames: vec![[zero; 12]; robot.num_frames()],
             centers: vec![[zero; 3]; robot.centers.len()],
             done: vec![false; robot.bodies.len()],
+            bounds: vec![[zero; 3]; robot.bodies.len()],
         }
     }
 
@@ -53,7 +57,9 @@ fn compose<L: Lanes>(p: &LaneFrame<L>, k: &Frame32) -> LaneFrame<L> {
 #[inline]
 pub fn forward<L: Lanes>(robot: &CompiledRobot, q: &[L], scratch: &mut Scratch<L>) {
     let (one, zero) = (L::splat(1.0), L::splat(0.0));
-    scratch.frames[0] = [one, zero, zero, zero, one, zero, zero, zero, one, zero, zero, zero];
+    scratch.frames[0] = [
+        one, zero, zero, zero, one, zero, zero, zero, one, zero, zero, zero,
+    ];
     for (i, step) in robot.steps.iter().enumerate() {
         let mut m = compose(&scratch.frames[step.parent], &step.k);
         let qj = q[step.dof] * L::splat(step.gain) + L::splat(step.offset);
@@ -85,7 +91,11 @@ fn apply<L: Lanes>(f: &LaneFrame<L>, p: &[f32; 3]) -> [L; 3] {
 
 #[inline(always)]
 fn dist2<L: Lanes>(a: &[L; 3], b: &[f32; 3]) -> L {
-    let (x, y, z) = (a[0] - L::splat(b[0]), a[1] - L::splat(b[1]), a[2] - L::splat(b[2]));
+    let (x, y, z) = (
+        a[0] - L::splat(b[0]),
+        a[1] - L::splat(b[1]),
+        a[2] - L::splat(b[2]),
+    );
     x * x + y * y + z * z
 }
 
@@ -119,7 +129,9 @@ fn sphere_hits_prim<L: Lanes>(prim: &Prim, c: &[L; 3], r: L) -> u32 {
         }
         Prim::Capsule { c: o, a, r: ro, h } => {
             let d = [c[0] - s(o[0]), c[1] - s(o[1]), c[2] - s(o[2])];
-            let z = (d[0] * s(a[0]) + d[1] * s(a[1]) + d[2] * s(a[2])).max(-s(h)).min(s(h));
+            let z = (d[0] * s(a[0]) + d[1] * s(a[1]) + d[2] * s(a[2]))
+                .max(-s(h))
+                .min(s(h));
             let e = [d[0] - z * s(a[0]), d[1] - z * s(a[1]), d[2] - z * s(a[2])];
             let rr = r + s(ro);
             (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).lt_mask(rr * rr)
@@ -130,13 +142,16 @@ fn sphere_hits_prim<L: Lanes>(prim: &Prim, c: &[L; 3], r: L) -> u32 {
 
 /// Checks the lanes of `q` (DOF-major: `q[dof]` holds that DOF for every
 /// lane) against the world and for self-collision. Lanes outside `active`
-/// are ignored. Returns the bitmask of colliding lanes.
+/// are ignored. With `skip_static`, bodies fixed to the base (frame 0) are
+/// not tested against the world: their answer does not depend on `q` and
+/// the caller has it already. Returns the bitmask of colliding lanes.
 pub fn check<L: Lanes>(
     robot: &CompiledRobot,
     world: &CompiledWorld,
     q: &[L],
     margin: f32,
     active: u32,
+    skip_static: bool,
     scratch: &mut Scratch<L>,
 ) -> u32 {
     forward(robot, q, scratch);
@@ -144,26 +159,40 @@ pub fn check<L: Lanes>(
     let m = L::splat(margin);
     let mut hit = 0u32;
     // Distal bodies first: they collide most often.
+    for (bi, body) in robot.bodies.iter().enumerate() {
+        scratch.bounds[bi] = apply(&scratch.frames[body.frame], &body.bound.0);
+    }
     for bi in (0..robot.bodies.len()).rev() {
         let body = &robot.bodies[bi];
         let frame = scratch.frames[body.frame];
-        let bc = apply(&frame, &body.bound.0);
-        for obs in &world.obstacles {
-            let reach = L::splat(body.bound.1 + obs.bound_r) + m;
-            let near = dist2(&bc, &obs.bound_c).lt_mask(reach * reach) & active & !hit;
-            if near == 0 {
-                continue;
-            }
-            ensure_centers(robot, bi, &frame, scratch);
-            for k in body.first..body.first + body.count {
-                let c = scratch.centers[k];
-                let r = L::splat(robot.radii[k]) + m;
-                let h = if let Some((shape, pose)) = &obs.complex {
-                    complex_hits(shape, pose, &c, r, near & !hit)
-                } else {
-                    sphere_hits_prim(&obs.prim, &c, r) & near
-                };
-                hit |= h;
+        let bc = scratch.bounds[bi];
+        if body.frame == 0 && skip_static {
+            continue;
+        }
+        for (ci, chunk) in world.bound_soa.iter().enumerate() {
+            // One configuration: its bounding sphere against eight obstacle
+            // bounds at once (the same arithmetic as the lane test below).
+            let candidates = if L::WIDTH == 1 {
+                let (x, y, z) = (bc[0].lane(0), bc[1].lane(0), bc[2].lane(0));
+                let (dx, dy, dz) = (
+                    f32x8::splat(x) - chunk[0],
+                    f32x8::splat(y) - chunk[1],
+                    f32x8::splat(z) - chunk[2],
+                );
+                let reach = (f32x8::splat(body.bound.1) + chunk[3]) + f32x8::splat(margin);
+                (dx * dx + dy * dy + dz * dz).lt_mask(reach * reach)
+            } else {
+                0xff
+            };
+            let valid = (world.obstacles.len() - ci * 8).min(8);
+            let mut bits = candidates & ((1u32 << valid) - 1);
+            while bits != 0 {
+                let oi = ci * 8 + bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                let obs = &world.obstacles[oi];
+                self::world_pair(
+                    robot, body, bi, &frame, &bc, obs, m, active, &mut hit, scratch,
+                );
                 if hit & active == active {
                     return hit & active;
                 }
@@ -172,34 +201,94 @@ pub fn check<L: Lanes>(
     }
     for &(a, b) in &robot.pairs {
         let (ba, bb) = (&robot.bodies[a], &robot.bodies[b]);
-        let (fa, fb) = (scratch.frames[ba.frame], scratch.frames[bb.frame]);
-        let ca = apply(&fa, &ba.bound.0);
-        let cb = apply(&fb, &bb.bound.0);
+        let (ca, cb) = (scratch.bounds[a], scratch.bounds[b]);
         let reach = L::splat(ba.bound.1 + bb.bound.1) + m;
         let d = [ca[0] - cb[0], ca[1] - cb[1], ca[2] - cb[2]];
         let near = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).lt_mask(reach * reach) & active & !hit;
         if near == 0 {
             continue;
         }
+        let (fa, fb) = (scratch.frames[ba.frame], scratch.frames[bb.frame]);
         ensure_centers(robot, a, &fa, scratch);
         ensure_centers(robot, b, &fb, scratch);
         for i in ba.first..ba.first + ba.count {
+            // Each sphere of `a` against the bounding sphere of `b` first.
+            let p = scratch.centers[i];
+            let ri = L::splat(robot.radii[i]) + m;
+            let d = [p[0] - cb[0], p[1] - cb[1], p[2] - cb[2]];
+            let rb = ri + L::splat(bb.bound.1);
+            let near_i = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).lt_mask(rb * rb) & near & !hit;
+            if near_i == 0 {
+                continue;
+            }
             for j in bb.first..bb.first + bb.count {
-                let (p, q) = (scratch.centers[i], scratch.centers[j]);
+                let q = scratch.centers[j];
                 let d = [p[0] - q[0], p[1] - q[1], p[2] - q[2]];
-                let rr = L::splat(robot.radii[i] + robot.radii[j]) + m;
-                hit |= (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).lt_mask(rr * rr) & near;
-                if hit & active == active {
-                    return hit & active;
-                }
+                let rr = ri + L::splat(robot.radii[j]);
+                hit |= (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).lt_mask(rr * rr) & near_i;
+            }
+            if hit & active == active {
+                return hit & active;
             }
         }
     }
     hit & active
 }
 
+/// One body against one obstacle: bounding sphere against the exact
+/// primitive (its own bounding sphere for meshes and clouds; large flat
+/// obstacles such as tables have bounding spheres that cover the workspace),
+/// then the body's spheres. Sets the colliding lanes in `hit`.
 #[inline(always)]
-fn ensure_centers<L: Lanes>(robot: &CompiledRobot, body: usize, frame: &LaneFrame<L>, scratch: &mut Scratch<L>) {
+#[allow(clippy::too_many_arguments)]
+fn world_pair<L: Lanes>(
+    robot: &CompiledRobot,
+    body: &crate::compiled::Body,
+    bi: usize,
+    frame: &LaneFrame<L>,
+    bc: &[L; 3],
+    obs: &crate::compiled::Obstacle,
+    m: L,
+    active: u32,
+    hit: &mut u32,
+    scratch: &mut Scratch<L>,
+) {
+    let mut near = if L::WIDTH == 1 {
+        // Already established by the eight-wide bound test.
+        active & !*hit
+    } else {
+        let reach = L::splat(body.bound.1 + obs.bound_r) + m;
+        dist2(bc, &obs.bound_c).lt_mask(reach * reach) & active & !*hit
+    };
+    if near != 0 && obs.complex.is_none() {
+        near &= sphere_hits_prim(&obs.prim, bc, L::splat(body.bound.1) + m);
+    }
+    if near == 0 {
+        return;
+    }
+    ensure_centers(robot, bi, frame, scratch);
+    for k in body.first..body.first + body.count {
+        let c = scratch.centers[k];
+        let r = L::splat(robot.radii[k]) + m;
+        let h = if let Some((shape, pose)) = &obs.complex {
+            complex_hits(shape, pose, &c, r, near & !*hit)
+        } else {
+            sphere_hits_prim(&obs.prim, &c, r) & near
+        };
+        *hit |= h;
+        if *hit & active == active {
+            return;
+        }
+    }
+}
+
+#[inline(always)]
+fn ensure_centers<L: Lanes>(
+    robot: &CompiledRobot,
+    body: usize,
+    frame: &LaneFrame<L>,
+    scratch: &mut Scratch<L>,
+) {
     if scratch.done[body] {
         return;
     }
@@ -222,7 +311,11 @@ fn complex_hits<L: Lanes>(
         if lanes & (1 << i) == 0 {
             continue;
         }
-        let p = Point3::new(c[0].lane(i) as f64, c[1].lane(i) as f64, c[2].lane(i) as f64);
+        let p = Point3::new(
+            c[0].lane(i) as f64,
+            c[1].lane(i) as f64,
+            c[2].lane(i) as f64,
+        );
         let (d, _) = shape.signed_distance(&pose.inverse_transform_point(&p));
         if d < r.lane(i) as f64 {
             out |= 1 << i;

@@ -10,7 +10,13 @@ use wide::f32x8;
 
 /// A vector of `WIDTH` independent `f32` lanes.
 pub trait Lanes:
-    Copy + Send + Sync + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Neg<Output = Self>
+    Copy
+    + Send
+    + Sync
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Neg<Output = Self>
 {
     /// Number of lanes.
     const WIDTH: usize;
@@ -142,14 +148,22 @@ pub fn sin_cos<L: Lanes>(x: L) -> (L, L) {
             - h2 * L::splat(1.0 / 6.0)
                 * (one
                     - h2 * L::splat(1.0 / 20.0)
-                        * (one - h2 * L::splat(1.0 / 42.0) * (one - h2 * L::splat(1.0 / 72.0) * (one - h2 * L::splat(1.0 / 110.0))))));
+                        * (one
+                            - h2 * L::splat(1.0 / 42.0)
+                                * (one
+                                    - h2 * L::splat(1.0 / 72.0)
+                                        * (one - h2 * L::splat(1.0 / 110.0))))));
     let c = one
         - h2 * L::splat(0.5)
             * (one
                 - h2 * L::splat(1.0 / 12.0)
                     * (one
                         - h2 * L::splat(1.0 / 30.0)
-                            * (one - h2 * L::splat(1.0 / 56.0) * (one - h2 * L::splat(1.0 / 90.0) * (one - h2 * L::splat(1.0 / 132.0))))));
+                            * (one
+                                - h2 * L::splat(1.0 / 56.0)
+                                    * (one
+                                        - h2 * L::splat(1.0 / 90.0)
+                                            * (one - h2 * L::splat(1.0 / 132.0))))));
     let two = L::splat(2.0);
     (two * s * c, one - two * s * s)
 }

@@ -20,13 +20,21 @@ fn err(location: &str, message: impl Into<String>) -> CollisionError {
 }
 
 fn floats(v: &Value, n: usize, loc: &str, what: &str) -> Result<Vec<f64>> {
-    let seq = v.as_sequence().ok_or_else(|| err(loc, format!("{what}: expected a list of {n} numbers")))?;
+    let seq = v
+        .as_sequence()
+        .ok_or_else(|| err(loc, format!("{what}: expected a list of {n} numbers")))?;
     let out: Vec<f64> = seq
         .iter()
-        .map(|x| x.as_f64().ok_or_else(|| err(loc, format!("{what}: '{x:?}' is not a number"))))
+        .map(|x| {
+            x.as_f64()
+                .ok_or_else(|| err(loc, format!("{what}: '{x:?}' is not a number")))
+        })
         .collect::<Result<_>>()?;
     if out.len() != n {
-        return Err(err(loc, format!("{what}: expected {n} numbers, got {}", out.len())));
+        return Err(err(
+            loc,
+            format!("{what}: expected {n} numbers, got {}", out.len()),
+        ));
     }
     if out.iter().any(|x| !x.is_finite()) {
         return Err(err(loc, format!("{what}: non-finite value")));
@@ -65,13 +73,17 @@ fn primitive(v: &Value, loc: &str) -> Result<ObstacleShape> {
         .ok_or_else(|| err(loc, "primitive without a 'type'"))?;
     let dims = |n: usize| -> Result<Vec<f64>> {
         let d = floats(
-            v.get("dimensions").ok_or_else(|| err(loc, format!("{kind} without 'dimensions'")))?,
+            v.get("dimensions")
+                .ok_or_else(|| err(loc, format!("{kind} without 'dimensions'")))?,
             n,
             loc,
             &format!("{kind} dimensions"),
         )?;
         if let Some(bad) = d.iter().find(|x| **x <= 0.0) {
-            return Err(err(loc, format!("{kind} dimensions must be positive, got {bad}")));
+            return Err(err(
+                loc,
+                format!("{kind} dimensions must be positive, got {bad}"),
+            ));
         }
         Ok(d)
     };
@@ -82,7 +94,9 @@ fn primitive(v: &Value, loc: &str) -> Result<ObstacleShape> {
                 half_extents: Vector3::new(d[0], d[1], d[2]) / 2.0,
             }
         }
-        "sphere" => ObstacleShape::Sphere { radius: dims(1)?[0] },
+        "sphere" => ObstacleShape::Sphere {
+            radius: dims(1)?[0],
+        },
         // shape_msgs/SolidPrimitive: CYLINDER_HEIGHT = 0, CYLINDER_RADIUS = 1.
         "cylinder" => {
             let d = dims(2)?;
@@ -94,7 +108,9 @@ fn primitive(v: &Value, loc: &str) -> Result<ObstacleShape> {
         other => {
             return Err(err(
                 loc,
-                format!("unknown or unsupported primitive type '{other}' (supported: box, sphere, cylinder)"),
+                format!(
+                    "unknown or unsupported primitive type '{other}' (supported: box, sphere, cylinder)"
+                ),
             ));
         }
     })
@@ -116,7 +132,11 @@ fn mesh(v: &Value, loc: &str) -> Result<ObstacleShape> {
                 Value::Sequence(_) => floats(p, 3, loc, "mesh vertex")?,
                 _ => ["x", "y", "z"]
                     .iter()
-                    .map(|k| p.get(k).and_then(Value::as_f64).ok_or_else(|| err(loc, "mesh vertex needs x, y, z")))
+                    .map(|k| {
+                        p.get(k)
+                            .and_then(Value::as_f64)
+                            .ok_or_else(|| err(loc, "mesh vertex needs x, y, z"))
+                    })
                     .collect::<Result<_>>()?,
             };
             Ok(Point3::new(xyz[0], xyz[1], xyz[2]))
@@ -138,13 +158,15 @@ impl CollisionWorld {
     /// Reads a MoveIt planning-scene YAML file.
     pub fn from_moveit_scene(path: impl AsRef<Path>) -> Result<Self> {
         let path = path.as_ref();
-        let text = std::fs::read_to_string(path).map_err(|e| err(&path.display().to_string(), e.to_string()))?;
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| err(&path.display().to_string(), e.to_string()))?;
         Self::from_moveit_scene_str(&text, &path.display().to_string())
     }
 
     /// Reads MoveIt planning-scene YAML text; `source` names it in errors.
     pub fn from_moveit_scene_str(text: &str, source: &str) -> Result<Self> {
-        let doc: Value = serde_yaml::from_str(text).map_err(|e| err(source, format!("invalid YAML: {e}")))?;
+        let doc: Value =
+            serde_yaml::from_str(text).map_err(|e| err(source, format!("invalid YAML: {e}")))?;
         let mut world = CollisionWorld::new();
         let Some(objects) = doc.get("world").and_then(|w| w.get("collision_objects")) else {
             return Ok(world);
@@ -160,32 +182,49 @@ impl CollisionWorld {
                 .unwrap_or_else(|| format!("object{i}"));
             let loc = format!("{source}: collision object '{id}'");
             if let Some(op) = obj.get("operation") {
-                let ok = matches!(op.as_str(), Some("add") | Some("append")) || op.as_i64() == Some(0);
+                let ok =
+                    matches!(op.as_str(), Some("add") | Some("append")) || op.as_i64() == Some(0);
                 if !ok {
-                    return Err(err(&loc, format!("operation {op:?} is not supported in a scene file")));
+                    return Err(err(
+                        &loc,
+                        format!("operation {op:?} is not supported in a scene file"),
+                    ));
                 }
             }
             let object_pose = pose(obj.get("pose"), &loc)?;
             let mut parts = Vec::new();
-            for (shapes_key, poses_key, is_mesh) in
-                [("primitives", "primitive_poses", false), ("meshes", "mesh_poses", true)]
-            {
+            for (shapes_key, poses_key, is_mesh) in [
+                ("primitives", "primitive_poses", false),
+                ("meshes", "mesh_poses", true),
+            ] {
                 let Some(shapes) = obj.get(shapes_key).and_then(Value::as_sequence) else {
                     continue;
                 };
                 let poses = obj.get(poses_key).and_then(Value::as_sequence);
                 if poses.is_some_and(|p| p.len() != shapes.len()) {
-                    return Err(err(&loc, format!("{} {shapes_key} but a different number of {poses_key}", shapes.len())));
+                    return Err(err(
+                        &loc,
+                        format!(
+                            "{} {shapes_key} but a different number of {poses_key}",
+                            shapes.len()
+                        ),
+                    ));
                 }
                 for (k, s) in shapes.iter().enumerate() {
-                    let shape = if is_mesh { mesh(s, &loc)? } else { primitive(s, &loc)? };
+                    let shape = if is_mesh {
+                        mesh(s, &loc)?
+                    } else {
+                        primitive(s, &loc)?
+                    };
                     parts.push((shape, pose(poses.and_then(|p| p.get(k)), &loc)?));
                 }
             }
             if parts.is_empty() {
                 continue;
             }
-            world.add(&id, object_pose, parts).map_err(|e| err(&loc, e.to_string()))?;
+            world
+                .add(&id, object_pose, parts)
+                .map_err(|e| err(&loc, e.to_string()))?;
         }
         Ok(world)
     }

@@ -70,17 +70,27 @@ impl RobotSpheres {
                 }
                 return Err(file_err(
                     path.display().to_string(),
-                    format!("link '{}' has spheres but the robot has no such link", link.name),
+                    format!(
+                        "link '{}' has spheres but the robot has no such link",
+                        link.name
+                    ),
                 ));
             };
             for g in &link.collisions {
                 let Shape::Sphere { radius } = g.shape else {
                     return Err(file_err(
                         path.display().to_string(),
-                        format!("link '{}' has a {} collision element; only spheres are allowed", link.name, g.shape.kind()),
+                        format!(
+                            "link '{}' has a {} collision element; only spheres are allowed",
+                            link.name,
+                            g.shape.kind()
+                        ),
                     ));
                 };
-                links[l].push(Sphere::new(Point3::from(g.origin.translation.vector), radius));
+                links[l].push(Sphere::new(
+                    Point3::from(g.origin.translation.vector),
+                    radius,
+                ));
             }
         }
         Self::new(model, links)
@@ -89,18 +99,23 @@ impl RobotSpheres {
     /// Reads cuRobo's map `{link: [{center: [x, y, z], radius: r}, ...]}`,
     /// at the top level or under a `collision_spheres` key.
     pub fn from_curobo_yaml(model: &RobotModel, text: &str, source: &str) -> Result<Self> {
-        let doc: Value = serde_yaml::from_str(text).map_err(|e| file_err(source, format!("invalid YAML: {e}")))?;
+        let doc: Value = serde_yaml::from_str(text)
+            .map_err(|e| file_err(source, format!("invalid YAML: {e}")))?;
         let map = doc.get("collision_spheres").unwrap_or(&doc);
         let map = map
             .as_mapping()
             .ok_or_else(|| file_err(source, "expected a map of link name to a list of spheres"))?;
         let mut links = vec![Vec::new(); model.links().len()];
         for (name, list) in map {
-            let name = name.as_str().ok_or_else(|| file_err(source, "link names must be strings"))?;
-            let l = model.link(name).map_err(|e| file_err(source, e.to_string()))?;
-            let list = list
-                .as_sequence()
-                .ok_or_else(|| file_err(source, format!("link '{name}': expected a list of spheres")))?;
+            let name = name
+                .as_str()
+                .ok_or_else(|| file_err(source, "link names must be strings"))?;
+            let l = model
+                .link(name)
+                .map_err(|e| file_err(source, e.to_string()))?;
+            let list = list.as_sequence().ok_or_else(|| {
+                file_err(source, format!("link '{name}': expected a list of spheres"))
+            })?;
             for (k, s) in list.iter().enumerate() {
                 let loc = format!("{source}: link '{name}' sphere {k}");
                 let center: Vec<f64> = s
@@ -126,14 +141,20 @@ impl RobotSpheres {
     /// Reads a file written by [`RobotSpheres::to_curobo_yaml`] (or cuRobo's).
     pub fn load(model: &RobotModel, path: impl AsRef<Path>) -> Result<Self> {
         let path = path.as_ref();
-        let text = std::fs::read_to_string(path).map_err(|e| file_err(path.display().to_string(), e.to_string()))?;
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| file_err(path.display().to_string(), e.to_string()))?;
         Self::from_curobo_yaml(model, &text, &path.display().to_string())
     }
 
     /// cuRobo's YAML form, under a `collision_spheres` key.
     pub fn to_curobo_yaml(&self, model: &RobotModel) -> String {
         let mut out = String::from("collision_spheres:\n");
-        let named: BTreeMap<usize, &Vec<Sphere>> = self.links.iter().enumerate().filter(|(_, s)| !s.is_empty()).collect();
+        let named: BTreeMap<usize, &Vec<Sphere>> = self
+            .links
+            .iter()
+            .enumerate()
+            .filter(|(_, s)| !s.is_empty())
+            .collect();
         for (l, spheres) in named {
             out.push_str(&format!("  {}:\n", model.links()[l].name));
             for s in spheres {
@@ -149,7 +170,8 @@ impl RobotSpheres {
     /// Writes [`RobotSpheres::to_curobo_yaml`] to `path`.
     pub fn save(&self, model: &RobotModel, path: impl AsRef<Path>) -> Result<()> {
         let path = path.as_ref();
-        std::fs::write(path, self.to_curobo_yaml(model)).map_err(|e| file_err(path.display().to_string(), e.to_string()))
+        std::fs::write(path, self.to_curobo_yaml(model))
+            .map_err(|e| file_err(path.display().to_string(), e.to_string()))
     }
 
     /// Total number of spheres.

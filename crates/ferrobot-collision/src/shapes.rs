@@ -78,7 +78,11 @@ impl ObstacleShape {
             Self::Box { half_extents } => box_sdf(p, half_extents),
             Self::Sphere { radius } => {
                 let n = p.coords.norm();
-                let dir = if n > 1e-12 { p.coords / n } else { Vector3::z() };
+                let dir = if n > 1e-12 {
+                    p.coords / n
+                } else {
+                    Vector3::z()
+                };
                 (n - radius, dir)
             }
             Self::Cylinder {

@@ -22,16 +22,27 @@ impl MeshShape {
         if triangles.is_empty() {
             return Err(CollisionError::InvalidShape("mesh: no triangles".into()));
         }
-        if let Some(t) = triangles.iter().find(|t| t.iter().any(|&i| i as usize >= vertices.len())) {
+        if let Some(t) = triangles
+            .iter()
+            .find(|t| t.iter().any(|&i| i as usize >= vertices.len()))
+        {
             return Err(CollisionError::InvalidShape(format!(
                 "mesh: triangle {t:?} refers to a vertex beyond the {} given",
                 vertices.len()
             )));
         }
-        if vertices.iter().any(|v| !v.coords.iter().all(|c| c.is_finite())) {
-            return Err(CollisionError::InvalidShape("mesh: non-finite vertex".into()));
+        if vertices
+            .iter()
+            .any(|v| !v.coords.iter().all(|c| c.is_finite()))
+        {
+            return Err(CollisionError::InvalidShape(
+                "mesh: non-finite vertex".into(),
+            ));
         }
-        let verts: Vec<PVec> = vertices.iter().map(|v| PVec::new(v.x as f32, v.y as f32, v.z as f32)).collect();
+        let verts: Vec<PVec> = vertices
+            .iter()
+            .map(|v| PVec::new(v.x as f32, v.y as f32, v.z as f32))
+            .collect();
         let flags = TriMeshFlags::ORIENTED | TriMeshFlags::MERGE_DUPLICATE_VERTICES;
         let mesh = TriMesh::with_flags(verts, triangles.to_vec(), flags)
             .map_err(|e| CollisionError::InvalidShape(format!("mesh: {e:?}")))?;
@@ -65,7 +76,11 @@ impl MeshShape {
     pub fn signed_distance(&self, p: &Point3<f64>) -> (f64, Vector3<f64>) {
         let q = PVec::new(p.x as f32, p.y as f32, p.z as f32);
         let proj = self.mesh.project_local_point(q, false);
-        let c = Point3::new(proj.point.x as f64, proj.point.y as f64, proj.point.z as f64);
+        let c = Point3::new(
+            proj.point.x as f64,
+            proj.point.y as f64,
+            proj.point.z as f64,
+        );
         let d = p - c;
         let n = d.norm();
         let inside = self.closed && proj.is_inside;

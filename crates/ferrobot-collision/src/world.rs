@@ -33,7 +33,9 @@ fn check_pose(what: &str, pose: &Isometry3<f64>) -> Result<()> {
     if finite {
         Ok(())
     } else {
-        Err(CollisionError::InvalidShape(format!("{what}: pose is not finite")))
+        Err(CollisionError::InvalidShape(format!(
+            "{what}: pose is not finite"
+        )))
     }
 }
 
@@ -43,16 +45,22 @@ pub fn check_shape(what: &str, shape: &ObstacleShape) -> Result<()> {
         if v.is_finite() && v > 0.0 {
             Ok(())
         } else {
-            Err(CollisionError::InvalidShape(format!("{what}: {name} must be positive and finite, got {v}")))
+            Err(CollisionError::InvalidShape(format!(
+                "{what}: {name} must be positive and finite, got {v}"
+            )))
         }
     };
     match shape {
-        ObstacleShape::Box { half_extents } => half_extents.iter().try_for_each(|&h| positive("box size", 2.0 * h)),
+        ObstacleShape::Box { half_extents } => half_extents
+            .iter()
+            .try_for_each(|&h| positive("box size", 2.0 * h)),
         ObstacleShape::Sphere { radius } => positive("sphere radius", *radius),
         ObstacleShape::Cylinder {
             radius,
             half_length,
-        } => positive("cylinder radius", *radius).and(positive("cylinder length", 2.0 * half_length)),
+        } => {
+            positive("cylinder radius", *radius).and(positive("cylinder length", 2.0 * half_length))
+        }
         ObstacleShape::Capsule {
             radius,
             half_length,
@@ -61,7 +69,9 @@ pub fn check_shape(what: &str, shape: &ObstacleShape) -> Result<()> {
             if half_length.is_finite() && *half_length >= 0.0 {
                 Ok(())
             } else {
-                Err(CollisionError::InvalidShape(format!("{what}: capsule length must be >= 0")))
+                Err(CollisionError::InvalidShape(format!(
+                    "{what}: capsule length must be >= 0"
+                )))
             }
         }
         ObstacleShape::Mesh(_) | ObstacleShape::PointCloud(_) => Ok(()),
@@ -82,12 +92,14 @@ impl CollisionWorld {
         parts: Vec<(ObstacleShape, Isometry3<f64>)>,
     ) -> Result<()> {
         if self.index.contains_key(name) {
-            return Err(CollisionError::Name(format!(
+            return Err(CollisionError::Duplicate(format!(
                 "world object '{name}' exists already; remove it first or use set_pose"
             )));
         }
         if parts.is_empty() {
-            return Err(CollisionError::InvalidShape(format!("world object '{name}': no shapes")));
+            return Err(CollisionError::InvalidShape(format!(
+                "world object '{name}': no shapes"
+            )));
         }
         check_pose(&format!("world object '{name}'"), &pose)?;
         for (k, (shape, local)) in parts.iter().enumerate() {
@@ -106,7 +118,12 @@ impl CollisionWorld {
     }
 
     /// Adds a single shape at `pose`.
-    pub fn add_shape(&mut self, name: &str, shape: ObstacleShape, pose: Isometry3<f64>) -> Result<()> {
+    pub fn add_shape(
+        &mut self,
+        name: &str,
+        shape: ObstacleShape,
+        pose: Isometry3<f64>,
+    ) -> Result<()> {
         self.add(name, pose, vec![(shape, Isometry3::identity())])
     }
 
@@ -184,12 +201,25 @@ impl CollisionWorld {
 
     fn position(&self, name: &str) -> Result<usize> {
         self.index.get(name).copied().ok_or_else(|| {
-            let known: Vec<&str> = self.objects.iter().take(12).map(|o| o.name.as_str()).collect();
-            CollisionError::Name(format!("unknown world object '{name}'; known: {}", known.join(", ")))
+            let known: Vec<&str> = self
+                .objects
+                .iter()
+                .take(12)
+                .map(|o| o.name.as_str())
+                .collect();
+            CollisionError::Name(format!(
+                "unknown world object '{name}'; known: {}",
+                known.join(", ")
+            ))
         })
     }
 
     fn reindex(&mut self) {
-        self.index = self.objects.iter().enumerate().map(|(i, o)| (o.name.clone(), i)).collect();
+        self.index = self
+            .objects
+            .iter()
+            .enumerate()
+            .map(|(i, o)| (o.name.clone(), i))
+            .collect();
     }
 }

@@ -9,7 +9,9 @@ use ferrobot_model::{LoadOptions, RobotModel, SrdfSource};
 use rand::{Rng, SeedableRng, rngs::StdRng};
 
 fn shared(rel: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared").join(rel)
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared")
+        .join(rel)
 }
 
 fn panda() -> (Arc<RobotModel>, RobotSpheres, AllowedCollisions) {
@@ -22,7 +24,9 @@ fn panda() -> (Arc<RobotModel>, RobotSpheres, AllowedCollisions) {
         },
     )
     .unwrap();
-    let spheres = RobotSpheres::from_spherized_urdf(&model, shared("robots/panda/panda_spherized.urdf")).unwrap();
+    let spheres =
+        RobotSpheres::from_spherized_urdf(&model, shared("robots/panda/panda_spherized.urdf"))
+            .unwrap();
     let acm = AllowedCollisions::from_model(&model);
     (Arc::new(model), spheres, acm)
 }
@@ -54,7 +58,8 @@ fn scenes_parse_and_kernel_agrees_with_exact_reference() {
             let path = shared(&format!("bench/mbm/{scene}/scene{id:04}.yaml"));
             let world = CollisionWorld::from_moveit_scene(&path).unwrap();
             assert!(!world.is_empty(), "{}", path.display());
-            let checker = CollisionChecker::new(model.clone(), spheres.clone(), acm.clone(), world).unwrap();
+            let checker =
+                CollisionChecker::new(model.clone(), spheres.clone(), acm.clone(), world).unwrap();
             for _ in 0..200 {
                 let q = random_q(&model, &mut rng);
                 let d = reference(&checker, &q);
@@ -68,19 +73,27 @@ fn scenes_parse_and_kernel_agrees_with_exact_reference() {
             }
         }
     }
-    assert!(checked > 4000 && hits > 200 && free > 200, "{checked} {hits} {free}");
+    assert!(
+        checked > 4000 && hits > 200 && free > 200,
+        "{checked} {hits} {free}"
+    );
 }
 
 #[test]
 fn batch_and_simd_agree_exactly_with_scalar() {
     let (model, spheres, acm) = panda();
-    let world = CollisionWorld::from_moveit_scene(shared("bench/mbm/bookshelf_small_panda/scene0003.yaml")).unwrap();
+    let world =
+        CollisionWorld::from_moveit_scene(shared("bench/mbm/bookshelf_small_panda/scene0003.yaml"))
+            .unwrap();
     let checker = CollisionChecker::new(model.clone(), spheres, acm, world).unwrap();
     let mut rng = StdRng::seed_from_u64(9);
     let n = 2003; // not a multiple of 8
     let qs: Vec<f64> = (0..n).flat_map(|_| random_q(&model, &mut rng)).collect();
     let batch = checker.in_collision_batch(&qs).unwrap();
-    let scalar: Vec<bool> = qs.chunks(7).map(|q| checker.in_collision(q).unwrap()).collect();
+    let scalar: Vec<bool> = qs
+        .chunks(7)
+        .map(|q| checker.in_collision(q).unwrap())
+        .collect();
     assert_eq!(batch, scalar);
     assert!(batch.iter().any(|&b| b) && batch.iter().any(|&b| !b));
 }
@@ -88,7 +101,9 @@ fn batch_and_simd_agree_exactly_with_scalar() {
 #[test]
 fn motion_check_matches_dense_scalar_checks() {
     let (model, spheres, acm) = panda();
-    let world = CollisionWorld::from_moveit_scene(shared("bench/mbm/table_pick_panda/scene0001.yaml")).unwrap();
+    let world =
+        CollisionWorld::from_moveit_scene(shared("bench/mbm/table_pick_panda/scene0001.yaml"))
+            .unwrap();
     let checker = CollisionChecker::new(model.clone(), spheres, acm, world).unwrap();
     let mut rng = StdRng::seed_from_u64(11);
     let (mut valid, mut invalid) = (0, 0);
@@ -97,7 +112,11 @@ fn motion_check_matches_dense_scalar_checks() {
         let b: Vec<f64> = a.iter().map(|x| x + rng.random_range(-0.4..0.4)).collect();
         let res = 0.01;
         let got = checker.motion_valid(&a, &b, res).unwrap();
-        let span = a.iter().zip(&b).map(|(x, y)| (y - x).abs()).fold(0.0, f64::max);
+        let span = a
+            .iter()
+            .zip(&b)
+            .map(|(x, y)| (y - x).abs())
+            .fold(0.0, f64::max);
         let steps = ((span / res).ceil() as usize).max(1);
         let dense = (0..=steps).all(|k| {
             let t = k as f64 / steps as f64;

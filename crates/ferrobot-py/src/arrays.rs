@@ -103,3 +103,63 @@ pub fn read_array<'py>(
     }
     Ok(out)
 }
+
+/// Reads a pose: a 4x4 homogeneous matrix or a 7-vector
+/// `[x, y, z, qw, qx, qy, qz]`. The rotation must be a rotation (matrix
+/// orthonormal to 1e-6; quaternion norm within 1e-3 of 1, then normalised).
+pub fn read_pose(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<nalgebra::Isometry3<f64>> {
+    use nalgebra::{Isometry3, Matrix3, Quaternion, Rotation3, Translation3, UnitQuaternion};
+    let arr = read_array_any(obj, what)?;
+    match arr.shape.as_slice() {
+        [7] => {
+            let v = arr.data();
+            let q = Quaternion::new(v[3], v[4], v[5], v[6]);
+            if (q.norm() - 1.0).abs() > 1e-3 {
+                return Err(InvalidArgumentError::new_err(format!(
+                    "{what}: quaternion (w, x, y, z) has norm {:.6}, expected 1",
+                    q.norm()
+                )));
+            }
+            Ok(Isometry3::from_parts(
+                Translation3::new(v[0], v[1], v[2]),
+                UnitQuaternion::from_quaternion(q),
+            ))
+        }
+        [4, 4] => {
+            let v = arr.data();
+            let m = Matrix3::from_fn(|r, c| v[r * 4 + c]);
+            let bottom = [v[12], v[13], v[14], v[15]];
+            if bottom != [0.0, 0.0, 0.0, 1.0] {
+                return Err(InvalidArgumentError::new_err(format!(
+                    "{what}: the last row of a 4x4 pose must be [0, 0, 0, 1]"
+                )));
+            }
+            let err = (m.transpose() * m - Matrix3::identity()).abs().max();
+            if err > 1e-6 || m.determinant() < 0.0 {
+                return Err(InvalidArgumentError::new_err(format!(
+                    "{what}: the 3x3 block is not a rotation (error {err:.2e})"
+                )));
+            }
+            let rot = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(m));
+            Ok(Isometry3::from_parts(
+                Translation3::new(v[3], v[7], v[11]),
+                rot,
+            ))
+        }
+        other => Err(ShapeError::new_err(format!(
+            "{what}: expected a 4x4 matrix or a 7-vector [x, y, z, qw, qx, qy, qz], got shape {}",
+            shape_str(other)
+        ))),
+    }
+}
+
+/// Reads a finite float64 array of any shape.
+pub fn read_array_any<'py>(obj: &Bound<'py, PyAny>, what: &str) -> PyResult<Array<'py>> {
+    let array: PyArrayLikeDyn<'py, f64, AllowTypeChange> = obj.extract().map_err(|_| {
+        InvalidArgumentError::new_err(format!("{what}: expected an array of numbers"))
+    })?;
+    let ndim = array.ndim();
+    let trailing: Vec<Option<usize>> = vec![None; ndim];
+    drop(array);
+    read_array(obj, what, ndim, &trailing)
+}

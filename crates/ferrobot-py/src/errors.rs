@@ -13,6 +13,20 @@ pyo3::import_exception!(ferrobot.errors, ShapeError);
 pyo3::import_exception!(ferrobot.errors, NonFiniteError);
 pyo3::import_exception!(ferrobot.errors, InvalidArgumentError);
 pyo3::import_exception!(ferrobot.errors, InternalError);
+pyo3::import_exception!(ferrobot.errors, FileFormatError);
+pyo3::import_exception!(ferrobot.errors, DuplicateNameError);
+
+/// Converts a collision error to the matching Python exception.
+pub fn collision_err(e: ferrobot_collision::CollisionError) -> PyErr {
+    use ferrobot_collision::CollisionError as C;
+    match e {
+        C::Model(m) => model_err(m),
+        C::InvalidShape(m) | C::InvalidArgument(m) => InvalidArgumentError::new_err(m),
+        C::Name(m) => UnknownNameError::new_err(m),
+        C::Duplicate(m) => DuplicateNameError::new_err(m),
+        e @ C::File { .. } => FileFormatError::new_err(e.to_string()),
+    }
+}
 
 /// Converts a model error to the matching Python exception.
 pub fn model_err(e: ModelError) -> PyErr {

@@ -4,6 +4,7 @@
 //! catches panics ([`errors::guard`]); heavy work releases the GIL.
 
 mod arrays;
+mod collision;
 mod errors;
 mod model;
 
@@ -28,6 +29,9 @@ fn bundled_robot(name: &str) -> PyResult<(&'static str, &'static str, &'static s
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<model::PyRobotModel>()?;
+    m.add_class::<collision::PyCollisionWorld>()?;
+    m.add_class::<collision::PySphereModel>()?;
+    m.add_class::<collision::PyCollisionChecker>()?;
     m.add_function(wrap_pyfunction!(bundled_robot, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())

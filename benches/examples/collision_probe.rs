@@ -1,0 +1,90 @@
+//! A fixed workload for instruction counting (`valgrind --tool=callgrind`):
+//! `cargo build --release -p ferrobot-benches --example collision_probe`
+//! then `valgrind --tool=callgrind target/release/examples/collision_probe [single|batch|motion]`.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use ferrobot_collision::{AllowedCollisions, CollisionChecker, CollisionWorld, RobotSpheres};
+use ferrobot_model::{LoadOptions, RobotModel, SrdfSource};
+use rand::{Rng, SeedableRng, rngs::StdRng};
+
+fn shared(rel: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../shared")
+        .join(rel)
+}
+
+fn main() {
+    let mode = std::env::args().nth(1).unwrap_or_else(|| "single".into());
+    let model = RobotModel::from_urdf_file(
+        shared("robots/panda/panda.urdf"),
+        &LoadOptions {
+            srdf: Some(SrdfSource::File(shared("robots/panda/panda.srdf"))),
+            ..Default::default()
+        },
+    )
+    .expect("panda");
+    let spheres =
+        RobotSpheres::from_spherized_urdf(&model, shared("robots/panda/panda_spherized.urdf"))
+            .expect("spheres");
+    let acm = AllowedCollisions::from_model(&model);
+    let world =
+        CollisionWorld::from_moveit_scene(shared("bench/mbm/table_pick_panda/scene0001.yaml"))
+            .expect("scene");
+    let checker = CollisionChecker::new(Arc::new(model), spheres, acm, world).expect("checker");
+    let mut rng = StdRng::seed_from_u64(0);
+    let (lo, hi) = (
+        checker.model().lower_limits(),
+        checker.model().upper_limits(),
+    );
+    let n = 20_000;
+    let qs: Vec<f64> = (0..n)
+        .flat_map(|_| {
+            (0..7)
+                .map(|i| rng.random_range(lo[i]..hi[i]))
+                .collect::<Vec<_>>()
+        })
+        .collect();
+    let hits = match mode.as_str() {
+        "batch" => checker
+            .in_collision_batch(&qs)
+            .unwrap()
+            .iter()
+            .filter(|&&b| b)
+            .count(),
+        "motion" => (0..2000)
+            .filter(|&i| {
+                !checker.motion_valid_unchecked(
+                    &qs[i * 7..i * 7 + 7],
+                    &qs[(i + 1) * 7..(i + 1) * 7 + 7],
+                    0.005,
+                )
+            })
+            .count(),
+        "single" => qs
+            .chunks(7)
+            .filter(|q| checker.in_collision_unchecked(q))
+            .count(),
+        "fk" => {
+            let (r, _) = checker.compiled();
+            let mut sc = ferrobot_collision::kernel::Scratch::<f32>::new(r);
+            let mut acc = 0.0f32;
+            for q in qs.chunks(7) {
+                let q32: Vec<f32> = q.iter().map(|&v| v as f32).collect();
+                ferrobot_collision::kernel::forward(r, &q32, &mut sc);
+                acc += sc.frames()[7][11];
+            }
+            acc as usize
+        }
+        _ => 0,
+    };
+    let (r, w) = checker.compiled();
+    println!(
+        "{mode}: {hits} of {n} collide; {} bodies, {} spheres, {} self pairs, {} obstacles",
+        r.bodies.len(),
+        r.centers.len(),
+        r.pairs.len(),
+        w.obstacles.len()
+    );
+}

@@ -1,0 +1,765 @@
+//! `ferrobot.CollisionWorld`, `ferrobot.SphereModel` and
+//! `ferrobot.CollisionChecker`.
+
+use std::sync::Arc;
+
+use ferrobot_collision::spherize::{SpherizeOptions, spherize_robot};
+use ferrobot_collision::{
+    AllowedCollisions, CollisionChecker, CollisionWorld, MeshShape, ObstacleShape, PointCloud,
+    RobotSpheres,
+};
+use nalgebra::{Isometry3, Point3, Vector3};
+use numpy::ndarray::{Array1, Array2};
+use numpy::{IntoPyArray, PyArray1, PyArray2};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use crate::arrays::{read_array, read_pose};
+use crate::errors::{InvalidArgumentError, collision_err, guard};
+use crate::model::PyRobotModel;
+
+fn pose_or_identity(pose: Option<&Bound<'_, PyAny>>, what: &str) -> PyResult<Isometry3<f64>> {
+    pose.map(|p| read_pose(p, what))
+        .transpose()
+        .map(|p| p.unwrap_or_else(Isometry3::identity))
+}
+
+fn positive(what: &str, v: f64) -> PyResult<f64> {
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err(InvalidArgumentError::new_err(format!(
+            "{what} must be positive and finite, got {v}"
+        )))
+    }
+}
+
+/// Builds a shape from `(kind, dims...)` as used by `attach`: ("box", [sx, sy, sz]),
+/// ("sphere", r), ("cylinder", r, length), ("capsule", r, length).
+fn shape_from_tuple(shape: &Bound<'_, PyAny>) -> PyResult<ObstacleShape> {
+    let kind: String = shape.get_item(0)?.extract()?;
+    Ok(match kind.as_str() {
+        "box" => {
+            let size = read_array(&shape.get_item(1)?, "box size", 1, &[Some(3)])?;
+            let s = size.data();
+            ObstacleShape::Box {
+                half_extents: Vector3::new(
+                    positive("box size", s[0])?,
+                    positive("box size", s[1])?,
+                    positive("box size", s[2])?,
+                ) / 2.0,
+            }
+        }
+        "sphere" => ObstacleShape::Sphere {
+            radius: positive("sphere radius", shape.get_item(1)?.extract()?)?,
+        },
+        "cylinder" | "capsule" => {
+            let r = positive("radius", shape.get_item(1)?.extract()?)?;
+            let l = positive("length", shape.get_item(2)?.extract()?)?;
+            if kind == "cylinder" {
+                ObstacleShape::Cylinder {
+                    radius: r,
+                    half_length: l / 2.0,
+                }
+            } else {
+                ObstacleShape::Capsule {
+                    radius: r,
+                    half_length: l / 2.0,
+                }
+            }
+        }
+        other => {
+            return Err(InvalidArgumentError::new_err(format!(
+                "unknown shape type '{other}' (known: box, sphere, cylinder, capsule)"
+            )));
+        }
+    })
+}
+
+/// Named obstacles: boxes, spheres, cylinders, capsules, meshes and point
+/// clouds, each posed in the world (robot base) frame.
+#[pyclass(name = "CollisionWorld", module = "ferrobot")]
+#[derive(Clone, Default)]
+pub struct PyCollisionWorld {
+    /// The world.
+    pub inner: CollisionWorld,
+}
+
+impl PyCollisionWorld {
+    fn add(
+        &mut self,
+        name: &str,
+        shape: ObstacleShape,
+        pose: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<()> {
+        let pose = pose_or_identity(pose, "pose")?;
+        self.inner
+            .add_shape(name, shape, pose)
+            .map_err(collision_err)
+    }
+}
+
+#[pymethods]
+impl PyCollisionWorld {
+    /// An empty world.
+    #[new]
+    fn new() -> Self {
+        Self::default()
+    }
+
+    /// Reads a MoveIt planning-scene YAML file (quaternions x, y, z, w in that format).
+    #[staticmethod]
+    fn from_moveit_scene(path: std::path::PathBuf) -> PyResult<Self> {
+        guard(|| {
+            Ok(Self {
+                inner: CollisionWorld::from_moveit_scene(&path).map_err(collision_err)?,
+            })
+        })
+    }
+
+    /// Adds a box of full edge lengths `size` (3,) at `pose` (4x4 or 7-vector).
+    #[pyo3(signature = (name, size, pose=None))]
+    fn add_box(
+        &mut self,
+        name: &str,
+        size: &Bound<'_, PyAny>,
+        pose: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<()> {
+        let s = read_array(size, "size", 1, &[Some(3)])?;
+        let s = s.data();
+        self.add(
+            name,
+            ObstacleShape::Box {
+                half_extents: Vector3::new(s[0], s[1], s[2]) / 2.0,
+            },
+            pose,
+        )
+    }
+
+    /// Adds a sphere.
+    #[pyo3(signature = (name, radius, pose=None))]
+    fn add_sphere(
+        &mut self,
+        name: &str,
+        radius: f64,
+        pose: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<()> {
+        self.add(name, ObstacleShape::Sphere { radius }, pose)
+    }
+
+    /// Adds a cylinder along the pose's z axis.
+    #[pyo3(signature = (name, radius, length, pose=None))]
+    fn add_cylinder(
+        &mut self,
+        name: &str,
+        radius: f64,
+        length: f64,
+        pose: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<()> {
+        self.add(
+            name,
+            ObstacleShape::Cylinder {
+                radius,
+                half_length: length / 2.0,
+            },
+            pose,
+        )
+    }
+
+    /// Adds a capsule along the pose's z axis (`length` of the cylindrical part).
+    #[pyo3(signature = (name, radius, length, pose=None))]
+    fn add_capsule(
+        &mut self,
+        name: &str,
+        radius: f64,
+        length: f64,
+        pose: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<()> {
+        self.add(
+            name,
+            ObstacleShape::Capsule {
+                radius,
+                half_length: length / 2.0,
+            },
+            pose,
+        )
+    }
+
+    /// Adds a triangle mesh: `vertices` (N, 3) and `faces` (M, 3) vertex indices.
+    #[pyo3(signature = (name, vertices, faces, pose=None))]
+    fn add_mesh(
+        &mut self,
+        name: &str,
+        vertices: &Bound<'_, PyAny>,
+        faces: &Bound<'_, PyAny>,
+        pose: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<()> {
+        let v = read_array(vertices, "vertices", 2, &[Some(3)])?;
+        let f = read_array(faces, "faces", 2, &[Some(3)])?;
+        let verts: Vec<Point3<f64>> = v
+            .data()
+            .chunks(3)
+            .map(|c| Point3::new(c[0], c[1], c[2]))
+            .collect();
+        let mut tris = Vec::with_capacity(f.shape[0]);
+        for t in f.data().chunks(3) {
+            if t.iter()
+                .any(|&i| i < 0.0 || i.fract() != 0.0 || i >= verts.len() as f64)
+            {
+                return Err(InvalidArgumentError::new_err(format!(
+                    "faces: {t:?} are not vertex indices below {}",
+                    verts.len()
+                )));
+            }
+            tris.push([t[0] as u32, t[1] as u32, t[2] as u32]);
+        }
+        let mesh = MeshShape::new(&verts, &tris).map_err(collision_err)?;
+        self.add(name, ObstacleShape::Mesh(Arc::new(mesh)), pose)
+    }
+
+    /// Adds a point cloud (N, 3) whose points are balls of `radius`.
+    #[pyo3(signature = (name, points, radius=0.005, pose=None))]
+    fn add_pointcloud(
+        &mut self,
+        name: &str,
+        points: &Bound<'_, PyAny>,
+        radius: f64,
+        pose: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<()> {
+        let p = read_array(points, "points", 2, &[Some(3)])?;
+        let pts = p
+            .data()
+            .chunks(3)
+            .map(|c| Point3::new(c[0], c[1], c[2]))
+            .collect();
+        let cloud = PointCloud::new(pts, radius).map_err(collision_err)?;
+        self.add(name, ObstacleShape::PointCloud(Arc::new(cloud)), pose)
+    }
+
+    /// Removes object `name`.
+    fn remove(&mut self, name: &str) -> PyResult<()> {
+        self.inner.remove(name).map(|_| ()).map_err(collision_err)
+    }
+
+    /// Moves object `name` to `pose`.
+    fn set_pose(&mut self, name: &str, pose: &Bound<'_, PyAny>) -> PyResult<()> {
+        let pose = read_pose(pose, "pose")?;
+        self.inner.set_pose(name, pose).map_err(collision_err)
+    }
+
+    /// Pose (4x4) of object `name`.
+    fn get_pose<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let obj = self.inner.get(name).map_err(collision_err)?;
+        let m = ferrobot_model::pose_to_matrix(&obj.pose);
+        Ok(Array2::from_shape_vec((4, 4), m.to_vec())
+            .expect("4x4")
+            .into_pyarray(py))
+    }
+
+    /// Object names in insertion order.
+    #[getter]
+    fn names(&self) -> Vec<String> {
+        self.inner
+            .objects()
+            .iter()
+            .map(|o| o.name.clone())
+            .collect()
+    }
+
+    /// Shape kinds of object `name` (one per part).
+    fn kinds(&self, name: &str) -> PyResult<Vec<String>> {
+        let obj = self.inner.get(name).map_err(collision_err)?;
+        Ok(obj
+            .parts
+            .iter()
+            .map(|(s, _)| s.kind().to_string())
+            .collect())
+    }
+
+    /// Signed distance (m) from each point (N, 3) to the nearest object (inf if empty).
+    fn signed_distance<'py>(
+        &self,
+        py: Python<'py>,
+        points: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let p = read_array(points, "points", 2, &[Some(3)])?;
+        let d: Vec<f64> = p
+            .data()
+            .chunks(3)
+            .map(|c| {
+                self.inner
+                    .signed_distance(&Point3::new(c[0], c[1], c[2]))
+                    .map_or(f64::INFINITY, |r| r.0)
+            })
+            .collect();
+        Ok(Array1::from_vec(d).into_pyarray(py))
+    }
+
+    fn __len__(&self) -> usize {
+        self.inner.len()
+    }
+
+    fn __contains__(&self, name: &str) -> bool {
+        self.inner.contains(name)
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "CollisionWorld({} objects: {})",
+            self.inner.len(),
+            self.names().join(", ")
+        )
+    }
+}
+
+/// A robot's sphere model: spheres per link in the link frame.
+#[pyclass(name = "SphereModel", module = "ferrobot", frozen)]
+pub struct PySphereModel {
+    /// The model the spheres belong to.
+    pub model: Arc<ferrobot_model::RobotModel>,
+    /// The spheres.
+    pub inner: RobotSpheres,
+    /// Per-link reports of the automatic spherizer (empty for loaded models).
+    pub report: Vec<(String, usize, f64, f64, f64)>,
+}
+
+#[pymethods]
+impl PySphereModel {
+    /// Spheres made automatically from each link's collision geometry:
+    /// every surface point within `tolerance` of a sphere; `total_budget`
+    /// caps the count (split among links), `max_per_link` caps each link.
+    #[staticmethod]
+    #[pyo3(signature = (model, *, tolerance=0.001, total_budget=None, max_per_link=None, seed=0))]
+    fn automatic(
+        py: Python<'_>,
+        model: &PyRobotModel,
+        tolerance: f64,
+        total_budget: Option<usize>,
+        max_per_link: Option<usize>,
+        seed: u64,
+    ) -> PyResult<Self> {
+        guard(|| {
+            let opts = SpherizeOptions {
+                tolerance,
+                total_budget,
+                max_per_link,
+                seed,
+                ..SpherizeOptions::default()
+            };
+            let m = model.inner.clone();
+            let (links, reports) = py
+                .detach(|| spherize_robot(&m, &opts))
+                .map_err(collision_err)?;
+            let inner = RobotSpheres::new(&m, links).map_err(collision_err)?;
+            let report = reports
+                .into_iter()
+                .map(|r| {
+                    (
+                        r.link,
+                        r.spheres,
+                        r.coverage,
+                        r.mean_protrusion,
+                        r.max_protrusion,
+                    )
+                })
+                .collect();
+            Ok(Self {
+                model: m,
+                inner,
+                report,
+            })
+        })
+    }
+
+    /// The sphere collision elements of a spherized URDF, mapped onto `model` by link name.
+    #[staticmethod]
+    fn from_spherized_urdf(model: &PyRobotModel, path: std::path::PathBuf) -> PyResult<Self> {
+        guard(|| {
+            let inner =
+                RobotSpheres::from_spherized_urdf(&model.inner, &path).map_err(collision_err)?;
+            Ok(Self {
+                model: model.inner.clone(),
+                inner,
+                report: Vec::new(),
+            })
+        })
+    }
+
+    /// cuRobo's YAML map `{link: [{center: [x, y, z], radius: r}]}` (file), also as written by `save`.
+    #[staticmethod]
+    fn load(model: &PyRobotModel, path: std::path::PathBuf) -> PyResult<Self> {
+        guard(|| {
+            let inner = RobotSpheres::load(&model.inner, &path).map_err(collision_err)?;
+            Ok(Self {
+                model: model.inner.clone(),
+                inner,
+                report: Vec::new(),
+            })
+        })
+    }
+
+    /// Writes cuRobo's YAML format.
+    fn save(&self, path: std::path::PathBuf) -> PyResult<()> {
+        self.inner.save(&self.model, &path).map_err(collision_err)
+    }
+
+    /// cuRobo's YAML format as text.
+    fn to_yaml(&self) -> String {
+        self.inner.to_curobo_yaml(&self.model)
+    }
+
+    /// Total number of spheres.
+    #[getter]
+    fn count(&self) -> usize {
+        self.inner.count()
+    }
+
+    /// Spheres of `link` as (N, 4): x, y, z (link frame), radius.
+    fn spheres<'py>(&self, py: Python<'py>, link: &str) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let l = self.model.link(link).map_err(crate::errors::model_err)?;
+        let s = &self.inner.links[l];
+        let flat: Vec<f64> = s
+            .iter()
+            .flat_map(|s| [s.center.x, s.center.y, s.center.z, s.radius])
+            .collect();
+        Ok(Array2::from_shape_vec((s.len(), 4), flat)
+            .expect("N x 4")
+            .into_pyarray(py))
+    }
+
+    /// Per-link report of the automatic spherizer: dicts with `link`,
+    /// `spheres`, `coverage`, `mean_protrusion`, `max_protrusion` (m).
+    #[getter]
+    fn report<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
+        self.report
+            .iter()
+            .map(|(l, n, c, mean, max)| {
+                let d = PyDict::new(py);
+                d.set_item("link", l)?;
+                d.set_item("spheres", n)?;
+                d.set_item("coverage", c)?;
+                d.set_item("mean_protrusion", mean)?;
+                d.set_item("max_protrusion", max)?;
+                Ok(d)
+            })
+            .collect()
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "SphereModel({} spheres on {})",
+            self.inner.count(),
+            self.model.name()
+        )
+    }
+}
+
+/// Collision queries for a robot in a world.
+#[pyclass(name = "CollisionChecker", module = "ferrobot")]
+pub struct PyCollisionChecker {
+    inner: CollisionChecker,
+}
+
+impl PyCollisionChecker {
+    fn q(&self, q: &Bound<'_, PyAny>, what: &str) -> PyResult<Vec<f64>> {
+        Ok(
+            read_array(q, what, 1, &[Some(self.inner.model().num_dof())])?
+                .data()
+                .to_vec(),
+        )
+    }
+}
+
+#[pymethods]
+impl PyCollisionChecker {
+    /// A checker for `model` in `world` (default: empty) with `spheres`
+    /// (default: the automatic sphere model). Self-collision excludes
+    /// adjacent and rigidly attached links and the SRDF's pairs.
+    #[new]
+    #[pyo3(signature = (model, world=None, spheres=None, *, margin=0.0))]
+    fn new(
+        py: Python<'_>,
+        model: &PyRobotModel,
+        world: Option<&PyCollisionWorld>,
+        spheres: Option<&PySphereModel>,
+        margin: f64,
+    ) -> PyResult<Self> {
+        guard(|| {
+            let m = model.inner.clone();
+            let spheres = match spheres {
+                Some(s) => {
+                    if !Arc::ptr_eq(&s.model, &m) && s.model.name() != m.name() {
+                        return Err(InvalidArgumentError::new_err(
+                            "spheres: made for another robot model",
+                        ));
+                    }
+                    s.inner.clone()
+                }
+                None => {
+                    let (links, _) = py
+                        .detach(|| spherize_robot(&m, &SpherizeOptions::default()))
+                        .map_err(collision_err)?;
+                    RobotSpheres::new(&m, links).map_err(collision_err)?
+                }
+            };
+            let acm = AllowedCollisions::from_model(&m);
+            let w = world.map(|w| w.inner.clone()).unwrap_or_default();
+            let mut inner = CollisionChecker::new(m, spheres, acm, w).map_err(collision_err)?;
+            inner.set_margin(margin).map_err(collision_err)?;
+            Ok(Self { inner })
+        })
+    }
+
+    /// Replaces the world (a copy is taken).
+    fn update_world(&mut self, world: &PyCollisionWorld) {
+        self.inner.set_world(world.inner.clone());
+    }
+
+    /// A copy of the current world.
+    #[getter]
+    fn world(&self) -> PyCollisionWorld {
+        PyCollisionWorld {
+            inner: self.inner.world().clone(),
+        }
+    }
+
+    /// Clearance (m) added to every sphere.
+    #[getter]
+    fn margin(&self) -> f64 {
+        self.inner.margin()
+    }
+
+    #[setter]
+    fn set_margin(&mut self, margin: f64) -> PyResult<()> {
+        self.inner.set_margin(margin).map_err(collision_err)
+    }
+
+    /// Whether `q` collides with the world or itself.
+    fn in_collision(&self, q: &Bound<'_, PyAny>) -> PyResult<bool> {
+        guard(|| {
+            let q = self.q(q, "q")?;
+            Ok(self.inner.in_collision_unchecked(&q))
+        })
+    }
+
+    /// Collision flags for (N, num_dof) configurations (SIMD, parallel, GIL released).
+    fn in_collision_batch<'py>(
+        &self,
+        py: Python<'py>,
+        q: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyArray1<bool>>> {
+        guard(|| {
+            let arr = read_array(q, "q", 2, &[Some(self.inner.model().num_dof())])?;
+            let mut out = vec![false; arr.shape[0]];
+            let data = arr.data();
+            let inner = &self.inner;
+            py.detach(|| inner.in_collision_batch_into(data, &mut out));
+            Ok(Array1::from_vec(out).into_pyarray(py))
+        })
+    }
+
+    /// Whether the straight joint-space motion q0 -> q1 is free, checked so
+    /// that no joint moves more than `resolution` (rad or m) between checks.
+    #[pyo3(signature = (q0, q1, resolution=0.005))]
+    fn motion_valid(
+        &self,
+        q0: &Bound<'_, PyAny>,
+        q1: &Bound<'_, PyAny>,
+        resolution: f64,
+    ) -> PyResult<bool> {
+        guard(|| {
+            let (a, b) = (self.q(q0, "q0")?, self.q(q1, "q1")?);
+            self.inner
+                .motion_valid(&a, &b, resolution)
+                .map_err(collision_err)
+        })
+    }
+
+    /// Signed distance to the world and to itself with its gradient: a dict
+    /// with `distance`, `world_distance`, `self_distance`, `gradient`
+    /// (num_dof,) and `closest` (robot body, other) or None.
+    fn distance<'py>(
+        &self,
+        py: Python<'py>,
+        q: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        guard(|| {
+            let q = self.q(q, "q")?;
+            let d = self.inner.distance(&q).map_err(collision_err)?;
+            let out = PyDict::new(py);
+            out.set_item("distance", d.distance)?;
+            out.set_item("world_distance", d.world_distance)?;
+            out.set_item("self_distance", d.self_distance)?;
+            out.set_item("gradient", Array1::from_vec(d.gradient).into_pyarray(py))?;
+            out.set_item("closest", d.closest)?;
+            Ok(out)
+        })
+    }
+
+    /// What collides at `q`: dicts with `body`, `other`, `self_collision`, `depth` (m), deepest first.
+    fn contacts<'py>(
+        &self,
+        py: Python<'py>,
+        q: &Bound<'py, PyAny>,
+    ) -> PyResult<Vec<Bound<'py, PyDict>>> {
+        guard(|| {
+            let q = self.q(q, "q")?;
+            let contacts = self.inner.contacts(&q).map_err(collision_err)?;
+            contacts
+                .into_iter()
+                .map(|c| {
+                    let d = PyDict::new(py);
+                    d.set_item("body", c.body)?;
+                    d.set_item("other", c.other)?;
+                    d.set_item("self_collision", c.self_collision)?;
+                    d.set_item("depth", c.depth)?;
+                    Ok(d)
+                })
+                .collect()
+        })
+    }
+
+    /// A one-line explanation of the collision at `q`, or "collision-free".
+    fn explain(&self, q: &Bound<'_, PyAny>) -> PyResult<String> {
+        guard(|| {
+            let q = self.q(q, "q")?;
+            let contacts = self.inner.contacts(&q).map_err(collision_err)?;
+            if contacts.is_empty() {
+                return Ok("collision-free".into());
+            }
+            let parts: Vec<String> = contacts
+                .iter()
+                .take(5)
+                .map(|c| {
+                    format!(
+                        "{} {} {} ({:.1} mm deep)",
+                        c.body,
+                        if c.self_collision {
+                            "hits robot link"
+                        } else {
+                            "hits"
+                        },
+                        c.other,
+                        c.depth * 1e3
+                    )
+                })
+                .collect();
+            Ok(parts.join("; "))
+        })
+    }
+
+    /// Samples configurations and excludes link pairs never or always in
+    /// contact (MoveIt setup-assistant style). Returns counts per reason.
+    #[pyo3(signature = (samples=10000, seed=0))]
+    fn analyze_self_collisions<'py>(
+        &mut self,
+        py: Python<'py>,
+        samples: usize,
+        seed: u64,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        guard(|| {
+            let mut acm = self.inner.allowed_collisions().clone();
+            let model = self.inner.model().clone();
+            let spheres = self.inner.spheres().clone();
+            let report = py
+                .detach(|| acm.analyze(&model, &spheres, samples, seed))
+                .map_err(collision_err)?;
+            self.inner.set_allowed_collisions(acm);
+            let d = PyDict::new(py);
+            d.set_item("samples", report.samples)?;
+            d.set_item("never", report.never.len())?;
+            d.set_item("always", report.always.len())?;
+            d.set_item("sometimes", report.sometimes.len())?;
+            Ok(d)
+        })
+    }
+
+    /// Excluded self-collision pairs as (link1, link2, reason).
+    #[getter]
+    fn allowed_collision_pairs(&self) -> Vec<(String, String, String)> {
+        let links = self.inner.model().links();
+        self.inner
+            .allowed_collisions()
+            .pairs()
+            .map(|(a, b, r)| (links[a].name.clone(), links[b].name.clone(), r.to_string()))
+            .collect()
+    }
+
+    /// The excluded pairs as SRDF `disable_collisions` text, to save beside the robot.
+    fn allowed_collisions_srdf(&self) -> String {
+        self.inner.allowed_collisions().to_srdf(self.inner.model())
+    }
+
+    /// Attaches a shape ("box", [sx, sy, sz]) / ("sphere", r) / ("cylinder", r, length) /
+    /// ("capsule", r, length) to `link` at `pose` (link frame); it may touch `touch_links`.
+    #[pyo3(signature = (name, link, shape, pose=None, touch_links=Vec::new()))]
+    fn attach(
+        &mut self,
+        name: &str,
+        link: &str,
+        shape: &Bound<'_, PyAny>,
+        pose: Option<&Bound<'_, PyAny>>,
+        touch_links: Vec<String>,
+    ) -> PyResult<()> {
+        guard(|| {
+            let shape = shape_from_tuple(shape)?;
+            let pose = pose_or_identity(pose, "pose")?;
+            let touch: Vec<&str> = touch_links.iter().map(String::as_str).collect();
+            self.inner
+                .attach(
+                    name,
+                    link,
+                    pose,
+                    vec![(shape, Isometry3::identity())],
+                    &touch,
+                )
+                .map_err(collision_err)
+        })
+    }
+
+    /// Moves world object `name` onto `link`, keeping its pose relative to the link at `q`.
+    #[pyo3(signature = (name, link, q, touch_links=Vec::new()))]
+    fn attach_world_object(
+        &mut self,
+        name: &str,
+        link: &str,
+        q: &Bound<'_, PyAny>,
+        touch_links: Vec<String>,
+    ) -> PyResult<()> {
+        guard(|| {
+            let q = self.q(q, "q")?;
+            let touch: Vec<&str> = touch_links.iter().map(String::as_str).collect();
+            self.inner
+                .attach_world_object(name, link, &q, &touch)
+                .map_err(collision_err)
+        })
+    }
+
+    /// Detaches `name`; with `q` it returns to the world at its pose at `q`.
+    #[pyo3(signature = (name, q=None))]
+    fn detach(&mut self, name: &str, q: Option<&Bound<'_, PyAny>>) -> PyResult<()> {
+        guard(|| {
+            let q = q.map(|q| self.q(q, "q")).transpose()?;
+            self.inner
+                .detach(name, q.as_deref())
+                .map(|_| ())
+                .map_err(collision_err)
+        })
+    }
+
+    /// Names of attached objects.
+    #[getter]
+    fn attached(&self) -> Vec<String> {
+        self.inner
+            .attached()
+            .iter()
+            .map(|a| a.name.clone())
+            .collect()
+    }
+
+    /// Number of spheres (robot and attached objects).
+    #[getter]
+    fn num_spheres(&self) -> usize {
+        self.inner.compiled().0.centers.len()
+    }
+}
