@@ -4,58 +4,19 @@
 //! `cargo bench -p ferrobot-benches --bench collision`
 
 use std::hint::black_box;
-use std::path::PathBuf;
-use std::sync::Arc;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use ferrobot_collision::{AllowedCollisions, CollisionChecker, CollisionWorld, RobotSpheres};
-use ferrobot_model::{LoadOptions, RobotModel, SrdfSource};
+use ferrobot_benches::{mbm_checker, random_configurations};
 use rand::{Rng, SeedableRng, rngs::StdRng};
-
-fn shared(rel: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../shared")
-        .join(rel)
-}
-
-fn checker(scene: &str) -> CollisionChecker {
-    let model = RobotModel::from_urdf_file(
-        shared("robots/panda/panda.urdf"),
-        &LoadOptions {
-            srdf: Some(SrdfSource::File(shared("robots/panda/panda.srdf"))),
-            ..Default::default()
-        },
-    )
-    .expect("panda");
-    let spheres =
-        RobotSpheres::from_spherized_urdf(&model, shared("robots/panda/panda_spherized.urdf"))
-            .expect("spheres");
-    let acm = AllowedCollisions::from_model(&model);
-    let world =
-        CollisionWorld::from_moveit_scene(shared(&format!("bench/mbm/{scene}"))).expect("scene");
-    CollisionChecker::new(Arc::new(model), spheres, acm, world).expect("checker")
-}
-
-fn configurations(model: &RobotModel, n: usize) -> Vec<f64> {
-    let mut rng = StdRng::seed_from_u64(0);
-    let (lo, hi) = (model.lower_limits(), model.upper_limits());
-    (0..n)
-        .flat_map(|_| {
-            (0..lo.len())
-                .map(|i| rng.random_range(lo[i]..hi[i]))
-                .collect::<Vec<_>>()
-        })
-        .collect()
-}
 
 fn collision(c: &mut Criterion) {
     let n = 100_000;
-    let qs = configurations(checker("table_pick_panda/scene0001.yaml").model(), n);
+    let qs = random_configurations(mbm_checker("table_pick_panda/scene0001.yaml").model(), n, 0);
     for scene in [
         "table_pick_panda/scene0001.yaml",
         "bookshelf_small_panda/scene0001.yaml",
     ] {
-        let checker = checker(scene);
+        let checker = mbm_checker(scene);
         let frac = checker
             .in_collision_batch(&qs)
             .unwrap()

@@ -3,42 +3,14 @@
 //! `cargo bench -p ferrobot-benches --bench kinematics`
 
 use std::hint::black_box;
-use std::path::PathBuf;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use ferrobot_model::{LoadOptions, RobotModel};
-use rand::{Rng, SeedableRng, rngs::StdRng};
-
-/// The MotionBenchMaker Panda from `../shared` (same arm as the bundled one).
-fn panda() -> RobotModel {
-    let path =
-        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/robots/panda/panda.urdf");
-    RobotModel::from_urdf_file(
-        path,
-        &LoadOptions {
-            ee_link: Some("panda_hand".into()),
-            ..Default::default()
-        },
-    )
-    .expect("load the shared Panda")
-}
-
-fn random_configurations(model: &RobotModel, n: usize) -> Vec<f64> {
-    let mut rng = StdRng::seed_from_u64(0);
-    let (lo, hi) = (model.lower_limits(), model.upper_limits());
-    (0..n)
-        .flat_map(|_| {
-            (0..lo.len())
-                .map(|i| rng.random_range(lo[i]..hi[i]))
-                .collect::<Vec<_>>()
-        })
-        .collect()
-}
+use ferrobot_benches::{mbm_panda, random_configurations};
 
 fn kinematics(c: &mut Criterion) {
-    let model = panda();
+    let model = mbm_panda();
     let dof = model.num_dof();
-    let qs = random_configurations(&model, 100_000);
+    let qs = random_configurations(&model, 100_000, 0);
     let ee = model.ee_link();
 
     let mut g = c.benchmark_group("panda_fk");

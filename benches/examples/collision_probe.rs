@@ -2,50 +2,13 @@
 //! `cargo build --release -p ferrobot-benches --example collision_probe`
 //! then `valgrind --tool=callgrind target/release/examples/collision_probe [single|batch|motion]`.
 
-use std::path::PathBuf;
-use std::sync::Arc;
-
-use ferrobot_collision::{AllowedCollisions, CollisionChecker, CollisionWorld, RobotSpheres};
-use ferrobot_model::{LoadOptions, RobotModel, SrdfSource};
-use rand::{Rng, SeedableRng, rngs::StdRng};
-
-fn shared(rel: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../shared")
-        .join(rel)
-}
+use ferrobot_benches::{mbm_checker, random_configurations};
 
 fn main() {
     let mode = std::env::args().nth(1).unwrap_or_else(|| "single".into());
-    let model = RobotModel::from_urdf_file(
-        shared("robots/panda/panda.urdf"),
-        &LoadOptions {
-            srdf: Some(SrdfSource::File(shared("robots/panda/panda.srdf"))),
-            ..Default::default()
-        },
-    )
-    .expect("panda");
-    let spheres =
-        RobotSpheres::from_spherized_urdf(&model, shared("robots/panda/panda_spherized.urdf"))
-            .expect("spheres");
-    let acm = AllowedCollisions::from_model(&model);
-    let world =
-        CollisionWorld::from_moveit_scene(shared("bench/mbm/table_pick_panda/scene0001.yaml"))
-            .expect("scene");
-    let checker = CollisionChecker::new(Arc::new(model), spheres, acm, world).expect("checker");
-    let mut rng = StdRng::seed_from_u64(0);
-    let (lo, hi) = (
-        checker.model().lower_limits(),
-        checker.model().upper_limits(),
-    );
+    let checker = mbm_checker("table_pick_panda/scene0001.yaml");
     let n = 20_000;
-    let qs: Vec<f64> = (0..n)
-        .flat_map(|_| {
-            (0..7)
-                .map(|i| rng.random_range(lo[i]..hi[i]))
-                .collect::<Vec<_>>()
-        })
-        .collect();
+    let qs = random_configurations(checker.model(), n, 0);
     let hits = match mode.as_str() {
         "batch" => checker
             .in_collision_batch(&qs)

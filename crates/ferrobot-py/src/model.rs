@@ -122,6 +122,20 @@ impl PyRobotModel {
             .to_vec())
     }
 
+    /// Runs a loader with the GIL released and panics caught.
+    fn load(
+        py: Python<'_>,
+        loader: impl FnOnce(&LoadOptions) -> ferrobot_model::Result<RobotModel> + Send,
+        opts: &LoadOptions,
+    ) -> PyResult<Self> {
+        guard(|| {
+            let model = py.detach(|| loader(opts)).map_err(model_err)?;
+            Ok(Self {
+                inner: Arc::new(model),
+            })
+        })
+    }
+
     fn vec1<'py>(py: Python<'py>, v: Vec<f64>) -> Bound<'py, PyArray1<f64>> {
         Array1::from_vec(v).into_pyarray(py)
     }
@@ -141,15 +155,8 @@ impl PyRobotModel {
         ee_link: Option<String>,
         group: Option<String>,
     ) -> PyResult<Self> {
-        guard(|| {
-            let opts = options(srdf, package_dirs, base_link, ee_link, group)?;
-            let model = py
-                .detach(|| RobotModel::from_urdf_file(&path, &opts))
-                .map_err(model_err)?;
-            Ok(Self {
-                inner: Arc::new(model),
-            })
-        })
+        let opts = options(srdf, package_dirs, base_link, ee_link, group)?;
+        Self::load(py, |o| RobotModel::from_urdf_file(&path, o), &opts)
     }
 
     /// Loads URDF text; relative and package:// meshes resolve against
@@ -165,15 +172,8 @@ impl PyRobotModel {
         ee_link: Option<String>,
         group: Option<String>,
     ) -> PyResult<Self> {
-        guard(|| {
-            let opts = options(srdf, package_dirs, base_link, ee_link, group)?;
-            let model = py
-                .detach(|| RobotModel::from_urdf_str(&text, &opts))
-                .map_err(model_err)?;
-            Ok(Self {
-                inner: Arc::new(model),
-            })
-        })
+        let opts = options(srdf, package_dirs, base_link, ee_link, group)?;
+        Self::load(py, |o| RobotModel::from_urdf_str(&text, o), &opts)
     }
 
     /// The robot's name.
