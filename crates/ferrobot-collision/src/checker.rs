@@ -242,7 +242,18 @@ impl CollisionChecker {
     /// [`CollisionChecker::in_collision`] without argument checks (the
     /// caller has checked length and finiteness).
     pub fn in_collision_unchecked(&self, q: &[f64]) -> bool {
-        let q32: Vec<f32> = q.iter().map(|&v| v as f32).collect();
+        // Up to 64 DOFs on the stack (no allocation on the hot path).
+        let mut stack = [0.0f32; 64];
+        let heap: Vec<f32>;
+        let q32: &[f32] = if q.len() <= stack.len() {
+            for (d, &v) in stack.iter_mut().zip(q) {
+                *d = v as f32;
+            }
+            &stack[..q.len()]
+        } else {
+            heap = q.iter().map(|&v| v as f32).collect();
+            &heap
+        };
         SCALAR_SCRATCH.with(|cell| {
             let mut slot = cell.borrow_mut();
             if slot.as_ref().is_none_or(|(id, _)| *id != self.id) {
