@@ -6,8 +6,6 @@ import re
 import subprocess
 import sys
 
-import numpy as np
-
 import ferrobot
 from ferrobot.cli import main
 
@@ -44,6 +42,7 @@ def test_robot_command_on_a_urdf_path_and_bad_path():
     assert "Traceback" not in run.stderr
 
 
-def test_version():
-    assert isinstance(ferrobot.__version__, str)
-    assert np.__version__
+def test_version(capsys):
+    assert main(["--version"]) == 0
+    assert capsys.readouterr().out.strip() == f"ferrobot {ferrobot.__version__}"
+    assert ferrobot.__version__.count(".") == 2

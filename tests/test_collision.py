@@ -136,11 +136,22 @@ def test_batch_equals_scalar_and_motion_matches_dense_checks(panda, panda_sphere
 
 def test_contacts_explain_self_collision(panda, panda_spheres):
     checker = CollisionChecker(panda, spheres=panda_spheres)
-    folded = np.array([0, 1.7, 0, -0.2, 0, 3.7, 0])  # hand folded onto the upper arm
+    folded = np.array([0, 0, 0, -3.0, 0, 0.5, 0])  # elbow fully bent: the hand comes back onto link1
+    assert checker.in_collision(folded)
     contacts = checker.contacts(folded)
-    if checker.in_collision(folded):
-        assert contacts and all(c["depth"] > 0 for c in contacts)
-        assert any(c["self_collision"] for c in contacts)
+    hand = [c for c in contacts if {c["body"], c["other"]} == {"panda_link1", "panda_hand"}]
+    assert len(hand) == 1 and hand[0]["self_collision"]
+    # Independent reference: the deepest overlap of the two links' spheres placed with fk_all.
+    poses = dict(zip(panda.link_names, panda.fk_all(folded), strict=True))
+
+    def placed(link):
+        s = panda_spheres.spheres(link)
+        return (poses[link][:3, :3] @ s[:, :3].T).T + poses[link][:3, 3], s[:, 3]
+
+    (ca, ra), (cb, rb) = placed("panda_link1"), placed("panda_hand")
+    gaps = np.linalg.norm(ca[:, None] - cb[None], axis=2) - ra[:, None] - rb[None]
+    assert hand[0]["depth"] == pytest.approx(-gaps.min(), abs=1e-9)
+    assert "panda_link1 hits robot link panda_hand" in checker.explain(folded)
     assert checker.explain(panda.named_state("ready")) == "collision-free"
 
 
@@ -193,6 +204,12 @@ def test_bad_input(panda, panda_spheres):
     checker = CollisionChecker(panda, world, panda_spheres)
     with pytest.raises(E.UnknownNameError, match="unknown link 'nope'"):
         checker.attach("x", "nope", ("sphere", 0.1))
+    with pytest.raises(E.InvalidArgumentError, match="shape: expected"):
+        checker.attach("x", "panda_hand", ("cylinder", 0.1))
+    with pytest.raises(E.InvalidArgumentError, match="unknown shape type 'cone'"):
+        checker.attach("x", "panda_hand", ("cone", 0.1, 0.2))
+    with pytest.raises(E.InvalidArgumentError, match="whose links differ"):
+        CollisionChecker(ferrobot.robots.panda(), spheres=panda_spheres)
     with pytest.raises(E.NonFiniteError):
         checker.in_collision([0, 0, 0, np.nan, 0, 0, 0])
     with pytest.raises(E.ShapeError):

@@ -126,7 +126,7 @@ def test_group_selects_chain_tip_and_dofs(ur5):
     m = RobotModel.from_urdf(SHARED / "robots/ur5/ur5.urdf", srdf=SHARED / "robots/ur5/ur5.srdf", group="manipulator")
     assert m.group_name == "manipulator"
     assert m.group_dof_names == ur5.dof_names[:6]
-    assert m.ee_link != ur5.ee_link or m.ee_link  # chain tip from the SRDF
+    assert m.ee_link == "ee_link"  # the tip of the group's SRDF chain (base_link -> ee_link)
     assert np.allclose(m.named_state("home"), ur5.named_state("home"))
 
 

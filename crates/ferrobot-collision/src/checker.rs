@@ -264,7 +264,7 @@ impl CollisionChecker {
                 || check::<f32>(
                     &self.robot,
                     &self.compiled_world,
-                    &q32,
+                    q32,
                     self.margin as f32,
                     1,
                     true,

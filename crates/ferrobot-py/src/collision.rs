@@ -37,6 +37,18 @@ fn positive(what: &str, v: f64) -> PyResult<f64> {
 /// Builds a shape from `(kind, dims...)` as used by `attach`: ("box", [sx, sy, sz]),
 /// ("sphere", r), ("cylinder", r, length), ("capsule", r, length).
 fn shape_from_tuple(shape: &Bound<'_, PyAny>) -> PyResult<ObstacleShape> {
+    shape_parts(shape).map_err(|e| {
+        if e.is_instance_of::<InvalidArgumentError>(shape.py()) {
+            e
+        } else {
+            InvalidArgumentError::new_err(format!(
+                "shape: expected (\"box\", [sx, sy, sz]), (\"sphere\", r), (\"cylinder\", r, length) or (\"capsule\", r, length): {e}"
+            ))
+        }
+    })
+}
+
+fn shape_parts(shape: &Bound<'_, PyAny>) -> PyResult<ObstacleShape> {
     let kind: String = shape.get_item(0)?.extract()?;
     Ok(match kind.as_str() {
         "box" => {
@@ -488,10 +500,18 @@ impl PyCollisionChecker {
             let m = model.inner.clone();
             let spheres = match spheres {
                 Some(s) => {
-                    if !Arc::ptr_eq(&s.model, &m) && s.model.name() != m.name() {
-                        return Err(InvalidArgumentError::new_err(
-                            "spheres: made for another robot model",
-                        ));
+                    let same_links = s.model.links().len() == m.links().len()
+                        && s.model
+                            .links()
+                            .iter()
+                            .zip(m.links())
+                            .all(|(a, b)| a.name == b.name);
+                    if !Arc::ptr_eq(&s.model, &m) && !same_links {
+                        return Err(InvalidArgumentError::new_err(format!(
+                            "spheres: made for robot '{}', whose links differ from those of '{}'",
+                            s.model.name(),
+                            m.name()
+                        )));
                     }
                     s.inner.clone()
                 }
