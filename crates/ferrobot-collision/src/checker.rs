@@ -16,6 +16,7 @@ use crate::acm::AllowedCollisions;
 use crate::compiled::{CompiledRobot, CompiledWorld};
 use crate::error::{CollisionError, Result};
 use crate::kernel::{Scratch, check};
+use crate::single::{OneScratch, check_one};
 use crate::lanes::Lanes;
 use crate::robot_spheres::RobotSpheres;
 use crate::shapes::ObstacleShape;
@@ -56,7 +57,7 @@ pub struct Contact {
 static NEXT_ID: AtomicU64 = AtomicU64::new(1);
 
 thread_local! {
-    static SCALAR_SCRATCH: RefCell<Option<(u64, Scratch<f32>)>> = const { RefCell::new(None) };
+    static SCALAR_SCRATCH: RefCell<Option<(u64, OneScratch)>> = const { RefCell::new(None) };
 }
 
 /// Collision queries for one robot in one world.
@@ -257,19 +258,18 @@ impl CollisionChecker {
         SCALAR_SCRATCH.with(|cell| {
             let mut slot = cell.borrow_mut();
             if slot.as_ref().is_none_or(|(id, _)| *id != self.id) {
-                *slot = Some((self.id, Scratch::new(&self.robot)));
+                *slot = Some((self.id, OneScratch::new(&self.robot)));
             }
             let scratch = &mut slot.as_mut().expect("set above").1;
             self.static_hit
-                || check::<f32>(
+                || check_one(
                     &self.robot,
                     &self.compiled_world,
                     q32,
                     self.margin as f32,
-                    1,
                     true,
                     scratch,
-                ) != 0
+                )
         })
     }
 

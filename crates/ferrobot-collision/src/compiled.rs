@@ -11,6 +11,9 @@ use std::sync::Arc;
 
 use ferrobot_model::{JointCoupling, JointKind, RobotModel};
 use nalgebra::{Isometry3, Point3, Rotation3, UnitQuaternion, Vector3};
+use wide::f32x8;
+
+use crate::lanes::Lanes;
 
 use crate::shapes::ObstacleShape;
 use crate::sphere::Sphere;
@@ -76,6 +79,22 @@ pub struct Body {
     pub count: usize,
     /// Bounding sphere centre (frame coordinates) and radius.
     pub bound: ([f32; 3], f32),
+    /// First pack of eight spheres in [`CompiledRobot::packs`].
+    pub first_pack: usize,
+    /// Number of packs.
+    pub pack_count: usize,
+}
+
+/// Eight spheres of one body side by side (structure of arrays), for the
+/// single-configuration kernel whose SIMD lanes hold spheres. A body whose
+/// sphere count is not a multiple of eight repeats its last sphere, so every
+/// lane is a real sphere and no mask is needed.
+#[derive(Debug, Clone, Copy)]
+pub struct SpherePack {
+    /// Centres x, y, z in the body's frame.
+    pub c: [f32x8; 3],
+    /// Radii.
+    pub r: f32x8,
 }
 
 /// The robot's spheres, compiled.
@@ -91,6 +110,8 @@ pub struct CompiledRobot {
     pub centers: Vec<[f32; 3]>,
     /// Sphere radii.
     pub radii: Vec<f32>,
+    /// The same spheres in packs of eight per body.
+    pub packs: Vec<SpherePack>,
     /// Body pairs checked for self-collision (body indices).
     pub pairs: Vec<(usize, usize)>,
     /// For each model link: its lane frame and the constant transform from
@@ -170,6 +191,7 @@ impl CompiledRobot {
             bodies: Vec::new(),
             centers: Vec::new(),
             radii: Vec::new(),
+            packs: Vec::new(),
             pairs: Vec::new(),
             link_frames,
         };
@@ -205,16 +227,30 @@ impl CompiledRobot {
                 .push([s.center.x as f32, s.center.y as f32, s.center.z as f32]);
             self.radii.push(s.radius as f32);
         }
+        let first_pack = self.packs.len();
+        let count = in_frame.len();
+        for chunk in 0..count.div_ceil(8) {
+            // Lanes past the last sphere repeat it.
+            let k = |lane: usize| first + (chunk * 8 + lane).min(count - 1);
+            let coord = |axis: usize| f32x8::from_fn(|lane| self.centers[k(lane)][axis]);
+            let pack = SpherePack {
+                c: [coord(0), coord(1), coord(2)],
+                r: f32x8::from_fn(|lane| self.radii[k(lane)]),
+            };
+            self.packs.push(pack);
+        }
         self.bodies.push(Body {
             link,
             attached,
             frame,
             first,
-            count: in_frame.len(),
+            count,
             bound: (
                 [b.center.x as f32, b.center.y as f32, b.center.z as f32],
                 b.radius as f32,
             ),
+            first_pack,
+            pack_count: count.div_ceil(8),
         });
     }
 

@@ -80,7 +80,7 @@ pub fn forward<L: Lanes>(robot: &CompiledRobot, q: &[L], scratch: &mut Scratch<L
 }
 
 #[inline(always)]
-fn apply<L: Lanes>(f: &LaneFrame<L>, p: &[f32; 3]) -> [L; 3] {
+pub(crate) fn apply<L: Lanes>(f: &LaneFrame<L>, p: &[f32; 3]) -> [L; 3] {
     let s = L::splat;
     [
         f[0] * s(p[0]) + f[1] * s(p[1]) + f[2] * s(p[2]) + f[9],
@@ -101,7 +101,7 @@ fn dist2<L: Lanes>(a: &[L; 3], b: &[f32; 3]) -> L {
 
 /// Lanes where a sphere at `c` of radius `r` (margin included) touches `prim`.
 #[inline(always)]
-fn sphere_hits_prim<L: Lanes>(prim: &Prim, c: &[L; 3], r: L) -> u32 {
+pub(crate) fn sphere_hits_prim<L: Lanes>(prim: &Prim, c: &[L; 3], r: L) -> u32 {
     let s = L::splat;
     let zero = s(0.0);
     match *prim {
@@ -299,7 +299,7 @@ fn ensure_centers<L: Lanes>(
     scratch.done[body] = true;
 }
 
-fn complex_hits<L: Lanes>(
+pub(crate) fn complex_hits<L: Lanes>(
     shape: &crate::shapes::ObstacleShape,
     pose: &nalgebra::Isometry3<f64>,
     c: &[L; 3],

@@ -18,6 +18,7 @@ pub mod lanes;
 pub mod moveit;
 pub mod robot_spheres;
 pub mod shapes;
+pub mod single;
 pub mod sphere;
 pub mod spherize;
 pub mod trimesh;

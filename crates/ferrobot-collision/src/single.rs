@@ -1,0 +1,159 @@
+//! The single-configuration kernel: one configuration, SIMD lanes over
+//! spheres.
+//!
+//! The batch kernel ([`crate::kernel::check`]) puts eight configurations in
+//! the lanes, which leaves seven lanes idle when a planner asks about one
+//! configuration. Here the forward kinematics runs in scalar `f32` (the same
+//! code as the batch kernel's) and each body's spheres are tested eight at a
+//! time ([`crate::compiled::SpherePack`]). Every per-sphere test is the same
+//! sequence of `f32` operations as in the batch kernel, so the two answer
+//! identically.
+
+use wide::f32x8;
+
+use crate::compiled::{CompiledRobot, CompiledWorld, SpherePack};
+use crate::lanes::Lanes;
+use crate::kernel::{LaneFrame, Scratch, apply, complex_hits, forward, sphere_hits_prim};
+
+/// Buffers of [`check_one`] (one per thread).
+#[derive(Debug, Clone)]
+pub struct OneScratch {
+    lanes: Scratch<f32>,
+    bounds: Vec<[f32; 3]>,
+    packs: Vec<[f32x8; 3]>,
+    done: Vec<bool>,
+}
+
+impl OneScratch {
+    /// Buffers sized for `robot`.
+    pub fn new(robot: &CompiledRobot) -> Self {
+        Self {
+            lanes: Scratch::new(robot),
+            bounds: vec![[0.0; 3]; robot.bodies.len()],
+            packs: vec![[f32x8::splat(0.0); 3]; robot.packs.len()],
+            done: vec![false; robot.bodies.len()],
+        }
+    }
+}
+
+/// Pack centres of body `bi` in the base frame (computed once per check).
+#[inline(always)]
+fn body_packs<'a>(
+    robot: &CompiledRobot,
+    bi: usize,
+    frame: &LaneFrame<f32>,
+    s: &'a mut OneScratch,
+) -> &'a [[f32x8; 3]] {
+    let b = &robot.bodies[bi];
+    let range = b.first_pack..b.first_pack + b.pack_count;
+    if !s.done[bi] {
+        let f = frame.map(f32x8::splat);
+        for k in range.clone() {
+            let SpherePack { c, .. } = robot.packs[k];
+            s.packs[k] = [
+                f[0] * c[0] + f[1] * c[1] + f[2] * c[2] + f[9],
+                f[3] * c[0] + f[4] * c[1] + f[5] * c[2] + f[10],
+                f[6] * c[0] + f[7] * c[1] + f[8] * c[2] + f[11],
+            ];
+        }
+        s.done[bi] = true;
+    }
+    &s.packs[range]
+}
+
+/// Whether configuration `q` (`f32`, model DOF order) touches the world or
+/// itself. With `skip_static`, bodies fixed to the base are not tested
+/// against the world (the caller knows their answer).
+pub fn check_one(
+    robot: &CompiledRobot,
+    world: &CompiledWorld,
+    q: &[f32],
+    margin: f32,
+    skip_static: bool,
+    s: &mut OneScratch,
+) -> bool {
+    forward(robot, q, &mut s.lanes);
+    s.done.iter_mut().for_each(|d| *d = false);
+    let frames = s.lanes.frames();
+    for (bi, body) in robot.bodies.iter().enumerate() {
+        s.bounds[bi] = apply(&frames[body.frame], &body.bound.0);
+    }
+    let m8 = f32x8::splat(margin);
+    // Distal bodies first: they collide most often.
+    for bi in (0..robot.bodies.len()).rev() {
+        let body = &robot.bodies[bi];
+        if body.frame == 0 && skip_static {
+            continue;
+        }
+        let frame = s.lanes.frames()[body.frame];
+        let bc = s.bounds[bi];
+        let reach_body = body.bound.1 + margin;
+        for (ci, chunk) in world.bound_soa.iter().enumerate() {
+            // The body's bounding sphere against eight obstacle bounds.
+            let (dx, dy, dz) = (
+                f32x8::splat(bc[0]) - chunk[0],
+                f32x8::splat(bc[1]) - chunk[1],
+                f32x8::splat(bc[2]) - chunk[2],
+            );
+            let reach = (f32x8::splat(body.bound.1) + chunk[3]) + m8;
+            let valid = (world.obstacles.len() - ci * 8).min(8);
+            let mut bits = (dx * dx + dy * dy + dz * dz).lt_mask(reach * reach) & ((1u32 << valid) - 1);
+            while bits != 0 {
+                let obs = &world.obstacles[ci * 8 + bits.trailing_zeros() as usize];
+                bits &= bits - 1;
+                if obs.complex.is_none() && sphere_hits_prim(&obs.prim, &bc, reach_body) == 0 {
+                    continue;
+                }
+                let first = body.first_pack;
+                for (k, c) in body_packs(robot, bi, &frame, s).iter().enumerate() {
+                    let r = robot.packs[first + k].r + m8;
+                    let hit = match &obs.complex {
+                        Some((shape, pose)) => complex_hits(shape, pose, c, r, 0xff),
+                        None => sphere_hits_prim(&obs.prim, c, r),
+                    };
+                    if hit != 0 {
+                        return true;
+                    }
+                }
+            }
+        }
+    }
+    for &(a, b) in &robot.pairs {
+        let (ba, bb) = (&robot.bodies[a], &robot.bodies[b]);
+        let (ca, cb) = (s.bounds[a], s.bounds[b]);
+        let reach = (ba.bound.1 + bb.bound.1) + margin;
+        let d = [ca[0] - cb[0], ca[1] - cb[1], ca[2] - cb[2]];
+        if (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) >= reach * reach {
+            continue;
+        }
+        let (fa, fb) = (s.lanes.frames()[ba.frame], s.lanes.frames()[bb.frame]);
+        body_packs(robot, a, &fa, s);
+        body_packs(robot, b, &fb, s);
+        let cb8 = cb.map(f32x8::splat);
+        let rb = f32x8::splat(bb.bound.1);
+        for ka in ba.first_pack..ba.first_pack + ba.pack_count {
+            // Eight spheres of `a` against the bounding sphere of `b`.
+            let p = s.packs[ka];
+            let ri = robot.packs[ka].r + m8;
+            let d = [p[0] - cb8[0], p[1] - cb8[1], p[2] - cb8[2]];
+            let reach = ri + rb;
+            let mut near = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).lt_mask(reach * reach);
+            while near != 0 {
+                let lane = near.trailing_zeros() as usize;
+                near &= near - 1;
+                let pi = [p[0].to_array()[lane], p[1].to_array()[lane], p[2].to_array()[lane]]
+                    .map(f32x8::splat);
+                let ri = f32x8::splat(ri.to_array()[lane]);
+                for kb in bb.first_pack..bb.first_pack + bb.pack_count {
+                    let q = s.packs[kb];
+                    let d = [pi[0] - q[0], pi[1] - q[1], pi[2] - q[2]];
+                    let rr = ri + robot.packs[kb].r;
+                    if (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).lt_mask(rr * rr) != 0 {
+                        return true;
+                    }
+                }
+            }
+        }
+    }
+    false
+}
