@@ -54,3 +54,63 @@ pub fn random_configurations(model: &RobotModel, n: usize, seed: u64) -> Vec<f64
         })
         .collect()
 }
+
+/// A MotionBenchMaker problem: scene file (below `bench/mbm`) and the start
+/// and goal configurations in `panda_joint1..7` order.
+#[derive(Debug, Clone)]
+pub struct MbmProblem {
+    /// Scene path below `bench/mbm`.
+    pub scene: String,
+    /// Start configuration (7 arm joints).
+    pub start: Vec<f64>,
+    /// Goal configuration (7 arm joints).
+    pub goal: Vec<f64>,
+}
+
+/// The problems of one MotionBenchMaker folder (e.g. `table_pick_panda`).
+pub fn mbm_problems(folder: &str) -> Vec<MbmProblem> {
+    let dir = shared(&format!("bench/mbm/{folder}"));
+    let mut names: Vec<String> = std::fs::read_dir(&dir)
+        .expect("problem folder")
+        .filter_map(|e| e.ok()?.file_name().into_string().ok())
+        .filter(|n| n.starts_with("request") && n.ends_with(".yaml"))
+        .collect();
+    names.sort();
+    let arm = |name: &str| {
+        name.strip_prefix("panda_joint")
+            .and_then(|n| n.parse::<usize>().ok())
+    };
+    names
+        .into_iter()
+        .map(|n| {
+            let text = std::fs::read_to_string(dir.join(&n)).expect("request");
+            let v: serde_yaml::Value = serde_yaml::from_str(&text).expect("request yaml");
+            let js = &v["start_state"]["joint_state"];
+            let mut start = vec![0.0; 7];
+            for (name, pos) in js["name"]
+                .as_sequence()
+                .unwrap()
+                .iter()
+                .zip(js["position"].as_sequence().unwrap())
+            {
+                if let Some(k) = arm(name.as_str().unwrap()) {
+                    start[k - 1] = pos.as_f64().unwrap();
+                }
+            }
+            let mut goal = vec![0.0; 7];
+            for c in v["goal_constraints"][0]["joint_constraints"]
+                .as_sequence()
+                .unwrap()
+            {
+                if let Some(k) = arm(c["joint_name"].as_str().unwrap()) {
+                    goal[k - 1] = c["position"].as_f64().unwrap();
+                }
+            }
+            MbmProblem {
+                scene: format!("{folder}/{}", n.replace("request", "scene")),
+                start,
+                goal,
+            }
+        })
+        .collect()
+}

@@ -16,10 +16,10 @@ use crate::acm::AllowedCollisions;
 use crate::compiled::{CompiledRobot, CompiledWorld};
 use crate::error::{CollisionError, Result};
 use crate::kernel::{Scratch, check};
-use crate::single::{OneScratch, check_one};
 use crate::lanes::Lanes;
 use crate::robot_spheres::RobotSpheres;
 use crate::shapes::ObstacleShape;
+use crate::single::{OneScratch, check_one};
 use crate::sphere::Sphere;
 use crate::spherize::{SpherizeOptions, spherize_link};
 use crate::world::{CollisionWorld, WorldObject, check_shape};
@@ -52,6 +52,24 @@ pub struct Contact {
     pub self_collision: bool,
     /// Penetration depth (m) of the deepest sphere, margin included.
     pub depth: f64,
+}
+
+impl std::fmt::Display for Contact {
+    /// "panda_hand hits table (3.2 mm deep)".
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let verb = if self.self_collision {
+            "hits robot link"
+        } else {
+            "hits"
+        };
+        write!(
+            f,
+            "{} {verb} {} ({:.1} mm deep)",
+            self.body,
+            self.other,
+            self.depth * 1e3
+        )
+    }
 }
 
 static NEXT_ID: AtomicU64 = AtomicU64::new(1);

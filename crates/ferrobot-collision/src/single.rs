@@ -12,8 +12,8 @@
 use wide::f32x8;
 
 use crate::compiled::{CompiledRobot, CompiledWorld, SpherePack};
-use crate::lanes::Lanes;
 use crate::kernel::{LaneFrame, Scratch, apply, complex_hits, forward, sphere_hits_prim};
+use crate::lanes::Lanes;
 
 /// Buffers of [`check_one`] (one per thread).
 #[derive(Debug, Clone)]
@@ -97,7 +97,8 @@ pub fn check_one(
             );
             let reach = (f32x8::splat(body.bound.1) + chunk[3]) + m8;
             let valid = (world.obstacles.len() - ci * 8).min(8);
-            let mut bits = (dx * dx + dy * dy + dz * dz).lt_mask(reach * reach) & ((1u32 << valid) - 1);
+            let mut bits =
+                (dx * dx + dy * dy + dz * dz).lt_mask(reach * reach) & ((1u32 << valid) - 1);
             while bits != 0 {
                 let obs = &world.obstacles[ci * 8 + bits.trailing_zeros() as usize];
                 bits &= bits - 1;
@@ -141,8 +142,12 @@ pub fn check_one(
             while near != 0 {
                 let lane = near.trailing_zeros() as usize;
                 near &= near - 1;
-                let pi = [p[0].to_array()[lane], p[1].to_array()[lane], p[2].to_array()[lane]]
-                    .map(f32x8::splat);
+                let pi = [
+                    p[0].to_array()[lane],
+                    p[1].to_array()[lane],
+                    p[2].to_array()[lane],
+                ]
+                .map(f32x8::splat);
                 let ri = f32x8::splat(ri.to_array()[lane]);
                 for kb in bb.first_pack..bb.first_pack + bb.pack_count {
                     let q = s.packs[kb];

@@ -106,11 +106,21 @@ impl KinematicChain {
         // Joint frames first (position and world axis), then the tip.
         let mut rot = UnitQuaternion::identity();
         let mut pos = Vector3::zeros();
-        let mut frames: Vec<(Vector3<f64>, Vector3<f64>)> = Vec::with_capacity(self.segments.len());
-        for s in &self.segments {
+        // Joint frames on the stack for chains of up to 32 joints (no
+        // allocation in IK loops), on the heap beyond.
+        let n = self.segments.len();
+        let mut stack = [(Vector3::zeros(), Vector3::zeros()); 32];
+        let mut heap = Vec::new();
+        let frames: &mut [(Vector3<f64>, Vector3<f64>)] = if n <= stack.len() {
+            &mut stack[..n]
+        } else {
+            heap.resize(n, (Vector3::zeros(), Vector3::zeros()));
+            &mut heap
+        };
+        for (s, frame) in self.segments.iter().zip(frames.iter_mut()) {
             pos += rot * s.pre.translation.vector;
             rot *= s.pre.rotation;
-            frames.push((pos, rot * s.axis));
+            *frame = (pos, rot * s.axis);
             let qj = s.gain * q[s.dof] + s.offset;
             if s.prismatic {
                 pos += rot * (s.axis * qj);
@@ -120,7 +130,7 @@ impl KinematicChain {
         }
         pos += rot * self.tip.translation.vector;
         rot *= self.tip.rotation;
-        for (s, (origin, z)) in self.segments.iter().zip(&frames) {
+        for (s, (origin, z)) in self.segments.iter().zip(frames.iter()) {
             let (lin, ang) = if s.prismatic {
                 (*z, Vector3::zeros())
             } else {

@@ -647,23 +647,7 @@ impl PyCollisionChecker {
             if contacts.is_empty() {
                 return Ok("collision-free".into());
             }
-            let parts: Vec<String> = contacts
-                .iter()
-                .take(5)
-                .map(|c| {
-                    format!(
-                        "{} {} {} ({:.1} mm deep)",
-                        c.body,
-                        if c.self_collision {
-                            "hits robot link"
-                        } else {
-                            "hits"
-                        },
-                        c.other,
-                        c.depth * 1e3
-                    )
-                })
-                .collect();
+            let parts: Vec<String> = contacts.iter().take(5).map(|c| c.to_string()).collect();
             Ok(parts.join("; "))
         })
     }

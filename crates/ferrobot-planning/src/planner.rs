@@ -1,0 +1,526 @@
+//! The motion generator: start and goal checks, IK goal sets for pose
+//! goals, RRT-Connect, simplification, the smooth time-parametrised
+//! trajectory and its dense collision re-check. A plan that fails returns a
+//! [`PlanResult`] with its [`PlanStatus`]; only invalid calls are errors.
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use ferrobot_collision::{CollisionChecker, CollisionWorld};
+use ferrobot_model::RobotModel;
+use nalgebra::Isometry3;
+use rand::SeedableRng;
+use rand::rngs::SmallRng;
+
+use crate::error::{PlanningError, Result, check_finite, check_positive};
+use crate::ik::{IkOptions, IkSolution, IkSolver};
+use crate::limits::KinematicLimits;
+use crate::rrt::{Edges, RrtFailure, RrtOptions, rrt_connect};
+use crate::simplify::{SimplifyOptions, path_length, simplify};
+
+impl PlanResult {
+    /// Euclidean length of the path in the active space.
+    pub fn path_length(&self) -> f64 {
+        path_length(&self.path)
+    }
+}
+use crate::space::ActiveSpace;
+use crate::spline::Trajectory;
+use crate::timing::{parametrize, parametrize_polyline};
+
+/// Options of [`Planner::plan`].
+#[derive(Debug, Clone)]
+pub struct PlanOptions {
+    /// RRT-Connect options (range, motion-check resolution, limits, seed).
+    pub rrt: RrtOptions,
+    /// Shortcutting options.
+    pub simplify: SimplifyOptions,
+    /// Simplify the path (true) or return RRT-Connect's path.
+    pub simplify_path: bool,
+    /// Build the time-parametrised trajectory (true) or stop at the path.
+    pub trajectory: bool,
+    /// IK options for pose goals (collision-free IK is always used).
+    pub ik: IkOptions,
+    /// IK solutions used as goal configurations for pose goals.
+    pub goal_solutions: usize,
+    /// Velocity limit factor in (0, 1].
+    pub velocity_scale: f64,
+    /// Acceleration and jerk limit factor in (0, 1].
+    pub acceleration_scale: f64,
+    /// Times the smooth trajectory is refined (a waypoint added where it
+    /// collided) before falling back to stopping at every waypoint.
+    pub refinements: usize,
+}
+
+impl Default for PlanOptions {
+    fn default() -> Self {
+        Self {
+            rrt: RrtOptions::default(),
+            simplify: SimplifyOptions::default(),
+            simplify_path: true,
+            trajectory: true,
+            ik: IkOptions {
+                num_seeds: 48,
+                ..IkOptions::default()
+            },
+            goal_solutions: 4,
+            velocity_scale: 1.0,
+            acceleration_scale: 1.0,
+            refinements: 4,
+        }
+    }
+}
+
+impl PlanOptions {
+    /// Checks every option.
+    pub fn validate(&self) -> Result<()> {
+        check_positive("range", self.rrt.range)?;
+        check_positive("resolution", self.rrt.resolution)?;
+        check_positive("time_limit", self.rrt.time_limit.as_secs_f64())?;
+        if self.rrt.max_samples == 0 || self.goal_solutions == 0 {
+            return Err(PlanningError::InvalidArgument(
+                "max_samples and goal_solutions must be at least 1".into(),
+            ));
+        }
+        self.ik.validate()
+    }
+}
+
+/// Outcome of a plan.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PlanStatus {
+    /// A collision-free path (and trajectory, if asked) was found.
+    Solved,
+    /// The start lies outside the joint limits.
+    StartOutOfLimits,
+    /// The goal configuration lies outside the joint limits.
+    GoalOutOfLimits,
+    /// The start configuration is in collision.
+    StartInCollision,
+    /// The goal configuration is in collision.
+    GoalInCollision,
+    /// No collision-free IK solution for any goal pose.
+    IkFailed,
+    /// RRT-Connect ran out of time.
+    Timeout,
+    /// RRT-Connect ran out of samples.
+    SampleLimit,
+}
+
+impl PlanStatus {
+    /// A short snake_case name (used by the Python API and reports).
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Solved => "solved",
+            Self::StartOutOfLimits => "start_out_of_limits",
+            Self::GoalOutOfLimits => "goal_out_of_limits",
+            Self::StartInCollision => "start_in_collision",
+            Self::GoalInCollision => "goal_in_collision",
+            Self::IkFailed => "ik_failed",
+            Self::Timeout => "timeout",
+            Self::SampleLimit => "sample_limit",
+        }
+    }
+}
+
+/// Wall-clock time of each stage (s).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct StageTimes {
+    /// IK for pose goals.
+    pub ik: f64,
+    /// Checks of start and goal, and RRT-Connect.
+    pub planning: f64,
+    /// Shortcutting.
+    pub simplify: f64,
+    /// Trajectory fitting, time parametrisation and dense re-check.
+    pub trajectory: f64,
+    /// Everything.
+    pub total: f64,
+}
+
+/// The result of a plan (active DOFs throughout).
+#[derive(Debug, Clone)]
+pub struct PlanResult {
+    /// Outcome.
+    pub status: PlanStatus,
+    /// A human-readable reason (empty when solved).
+    pub message: String,
+    /// The geometric path (start first); empty unless solved.
+    pub path: Vec<Vec<f64>>,
+    /// The time-parametrised trajectory, if solved and asked for.
+    pub trajectory: Option<Trajectory>,
+    /// The goal configuration reached (for pose goals: the IK solution).
+    pub goal: Option<Vec<f64>>,
+    /// Stage times.
+    pub times: StageTimes,
+    /// RRT-Connect samples drawn.
+    pub samples: usize,
+    /// Whether the trajectory had to stop at every waypoint (the smooth
+    /// spline collided even after refinement).
+    pub stops_at_waypoints: bool,
+}
+
+impl PlanResult {
+    /// Whether the plan succeeded.
+    pub fn success(&self) -> bool {
+        self.status == PlanStatus::Solved
+    }
+
+    fn failed(status: PlanStatus, message: String, times: StageTimes) -> Self {
+        Self {
+            status,
+            message,
+            path: Vec::new(),
+            trajectory: None,
+            goal: None,
+            times,
+            samples: 0,
+            stops_at_waypoints: false,
+        }
+    }
+}
+
+/// A motion planner for one robot, one sphere model and one world.
+#[derive(Debug, Clone)]
+pub struct Planner {
+    checker: CollisionChecker,
+    space: ActiveSpace,
+    limits: KinematicLimits,
+    link: usize,
+}
+
+impl Planner {
+    /// A planner moving the model's planning-group DOFs (from the SRDF
+    /// group chosen at load time, or the chain from the base to the end
+    /// effector), with IK for `link` (default: the end effector).
+    pub fn new(checker: CollisionChecker, link: Option<usize>) -> Result<Self> {
+        let model = checker.model().clone();
+        let space = ActiveSpace::new(&model, model.group_dofs())?;
+        let limits = KinematicLimits::from_model(&model, &space.dofs);
+        let link = link.unwrap_or(model.ee_link());
+        IkSolver::new(&model, &space, link, None)?;
+        Ok(Self {
+            checker,
+            space,
+            limits,
+            link,
+        })
+    }
+
+    /// The robot model.
+    pub fn model(&self) -> &Arc<RobotModel> {
+        self.checker.model()
+    }
+
+    /// The collision checker.
+    pub fn checker(&self) -> &CollisionChecker {
+        &self.checker
+    }
+
+    /// The collision checker, to attach objects or change the margin.
+    pub fn checker_mut(&mut self) -> &mut CollisionChecker {
+        &mut self.checker
+    }
+
+    /// Replaces the world.
+    pub fn update_world(&mut self, world: CollisionWorld) {
+        self.checker.set_world(world);
+    }
+
+    /// The active space (planned joints, locked values).
+    pub fn space(&self) -> &ActiveSpace {
+        &self.space
+    }
+
+    /// Locks the non-planned DOFs at the values of a full configuration.
+    pub fn set_locked(&mut self, full: &[f64]) -> Result<()> {
+        self.model()
+            .check_configuration("locked configuration", full)?;
+        self.space.lock_from(full);
+        Ok(())
+    }
+
+    /// The kinematic limits of the planned joints.
+    pub fn limits(&self) -> &KinematicLimits {
+        &self.limits
+    }
+
+    /// Replaces the kinematic limits (same length, positive).
+    pub fn limits_mut(&mut self) -> &mut KinematicLimits {
+        &mut self.limits
+    }
+
+    /// The IK link.
+    pub fn ik_link(&self) -> usize {
+        self.link
+    }
+
+    /// An IK solver for `link` (default: the planner's IK link), checking
+    /// collisions with this planner's checker when asked.
+    pub fn ik_solver(&self, link: Option<usize>) -> Result<IkSolver<'_>> {
+        IkSolver::new(
+            self.checker.model(),
+            &self.space,
+            link.unwrap_or(self.link),
+            Some(&self.checker),
+        )
+    }
+
+    fn check_active(&self, what: &str, q: &[f64]) -> Result<()> {
+        if q.len() != self.space.len() {
+            return Err(ferrobot_model::ModelError::Shape {
+                what: what.into(),
+                expected: format!(
+                    "({},) planned joints {:?}",
+                    self.space.len(),
+                    self.space.names
+                ),
+                got: format!("({},)", q.len()),
+            }
+            .into());
+        }
+        check_finite(what, q)
+    }
+
+    fn in_collision(&self, q: &[f64]) -> bool {
+        self.checker.in_collision_unchecked(&self.space.expand(q))
+    }
+
+    fn explain(&self, q: &[f64]) -> String {
+        match self.checker.contacts(&self.space.expand(q)) {
+            Ok(c) if !c.is_empty() => c
+                .iter()
+                .take(3)
+                .map(|c| c.to_string())
+                .collect::<Vec<_>>()
+                .join("; "),
+            _ => "in collision".into(),
+        }
+    }
+
+    /// Plans from the active configuration `start` to the active
+    /// configuration `goal`.
+    pub fn plan(&self, start: &[f64], goal: &[f64], opts: &PlanOptions) -> Result<PlanResult> {
+        self.check_active("start", start)?;
+        self.check_active("goal", goal)?;
+        opts.validate()?;
+        let began = Instant::now();
+        if !self.limits.contains(goal, 1e-9) {
+            return Ok(PlanResult::failed(
+                PlanStatus::GoalOutOfLimits,
+                format!("goal {goal:?} lies outside the joint limits"),
+                StageTimes::default(),
+            ));
+        }
+        if let Some(r) = self.check_start(start, began) {
+            return Ok(r);
+        }
+        if self.in_collision(goal) {
+            return Ok(PlanResult::failed(
+                PlanStatus::GoalInCollision,
+                format!("goal in collision: {}", self.explain(goal)),
+                StageTimes::default(),
+            ));
+        }
+        Ok(self.search(start, &[goal.to_vec()], opts, began, 0.0))
+    }
+
+    /// Plans from `start` to any pose of the goal set `goals` (base frame)
+    /// of the IK link, through collision-free IK solutions.
+    pub fn plan_to_poses(
+        &self,
+        start: &[f64],
+        goals: &[Isometry3<f64>],
+        opts: &PlanOptions,
+    ) -> Result<PlanResult> {
+        self.check_active("start", start)?;
+        opts.validate()?;
+        let began = Instant::now();
+        if let Some(r) = self.check_start(start, began) {
+            return Ok(r);
+        }
+        let solver = self.ik_solver(None)?;
+        let ik_opts = IkOptions {
+            collision_free: true,
+            ..opts.ik.clone()
+        };
+        let solutions: Vec<IkSolution> =
+            solver.solve_many(goals, &[start.to_vec()], &ik_opts, opts.goal_solutions)?;
+        let ik_time = began.elapsed().as_secs_f64();
+        let mut goal_qs: Vec<Vec<f64>> = solutions
+            .into_iter()
+            .filter(|s| s.success)
+            .map(|s| s.q)
+            .collect();
+        if goal_qs.is_empty() {
+            return Ok(PlanResult::failed(
+                PlanStatus::IkFailed,
+                format!(
+                    "no collision-free IK solution for {} goal pose(s) after {} seeds",
+                    goals.len(),
+                    ik_opts.num_seeds
+                ),
+                StageTimes {
+                    ik: ik_time,
+                    total: ik_time,
+                    ..StageTimes::default()
+                },
+            ));
+        }
+        // Nearest goal first: the direct connection is tried in this order.
+        let dist =
+            |q: &Vec<f64>| -> f64 { q.iter().zip(start).map(|(a, b)| (a - b) * (a - b)).sum() };
+        goal_qs.sort_by(|a, b| dist(a).total_cmp(&dist(b)));
+        Ok(self.search(start, &goal_qs, opts, began, ik_time))
+    }
+
+    fn check_start(&self, start: &[f64], began: Instant) -> Option<PlanResult> {
+        let times = StageTimes {
+            total: began.elapsed().as_secs_f64(),
+            ..StageTimes::default()
+        };
+        if !self.limits.contains(start, 1e-9) {
+            return Some(PlanResult::failed(
+                PlanStatus::StartOutOfLimits,
+                format!("start {start:?} lies outside the joint limits"),
+                times,
+            ));
+        }
+        if self.in_collision(start) {
+            return Some(PlanResult::failed(
+                PlanStatus::StartInCollision,
+                format!("start in collision: {}", self.explain(start)),
+                times,
+            ));
+        }
+        None
+    }
+
+    fn search(
+        &self,
+        start: &[f64],
+        goals: &[Vec<f64>],
+        opts: &PlanOptions,
+        began: Instant,
+        ik_time: f64,
+    ) -> PlanResult {
+        let t0 = Instant::now();
+        let (found, stats) = rrt_connect(&self.checker, &self.space, start, goals, &opts.rrt);
+        let planning = t0.elapsed().as_secs_f64();
+        let mut times = StageTimes {
+            ik: ik_time,
+            planning,
+            ..StageTimes::default()
+        };
+        let path = match found {
+            Ok(p) => p,
+            Err(f) => {
+                times.total = began.elapsed().as_secs_f64();
+                let (status, what) = match f {
+                    RrtFailure::Timeout => (PlanStatus::Timeout, "time limit"),
+                    RrtFailure::SampleLimit => (PlanStatus::SampleLimit, "sample limit"),
+                };
+                let mut r = PlanResult::failed(
+                    status,
+                    format!("no path within the {what} ({} samples)", stats.samples),
+                    times,
+                );
+                r.samples = stats.samples;
+                return r;
+            }
+        };
+        let t1 = Instant::now();
+        let mut edges = Edges::new(&self.checker, &self.space, opts.rrt.resolution);
+        let path = if opts.simplify_path {
+            let mut rng = SmallRng::seed_from_u64(opts.rrt.seed ^ 0x5EED);
+            simplify(&mut edges, path, &opts.simplify, &mut rng)
+        } else {
+            path
+        };
+        times.simplify = t1.elapsed().as_secs_f64();
+        let t2 = Instant::now();
+        let mut stops = false;
+        let trajectory = if opts.trajectory {
+            let limits = self
+                .limits
+                .scaled(opts.velocity_scale, opts.acceleration_scale)
+                .expect("scales validated by the caller");
+            let (traj, fell_back) = self.smooth(&path, &limits, opts);
+            stops = fell_back;
+            Some(traj)
+        } else {
+            None
+        };
+        times.trajectory = t2.elapsed().as_secs_f64();
+        times.total = began.elapsed().as_secs_f64();
+        PlanResult {
+            status: PlanStatus::Solved,
+            message: String::new(),
+            goal: path.last().cloned(),
+            path,
+            trajectory,
+            times,
+            samples: stats.samples,
+            stops_at_waypoints: stops,
+        }
+    }
+
+    /// The smooth trajectory through `path`, refined where it collides;
+    /// falls back to stopping at every waypoint (which follows the checked
+    /// path exactly). Returns the trajectory and whether it fell back.
+    fn smooth(
+        &self,
+        path: &[Vec<f64>],
+        limits: &KinematicLimits,
+        opts: &PlanOptions,
+    ) -> (Trajectory, bool) {
+        let mut waypoints = path.to_vec();
+        for _ in 0..=opts.refinements {
+            let traj = parametrize(&waypoints, limits);
+            match self.first_collision(&traj, opts.rrt.resolution) {
+                None => return (traj, false),
+                Some(seg) => {
+                    let mid: Vec<f64> = waypoints[seg]
+                        .iter()
+                        .zip(&waypoints[seg + 1])
+                        .map(|(a, b)| 0.5 * (a + b))
+                        .collect();
+                    waypoints.insert(seg + 1, mid);
+                }
+            }
+        }
+        (parametrize_polyline(path, limits), true)
+    }
+
+    /// Samples `traj` so that no joint moves more than `resolution` between
+    /// samples and returns the waypoint segment of the first colliding one.
+    pub fn first_collision(&self, traj: &Trajectory, resolution: f64) -> Option<usize> {
+        let dim = traj.dim();
+        let n = self.model().num_dof();
+        let mut configs = Vec::new();
+        let mut seg_of = Vec::new();
+        let (mut q, mut v, mut a) = (vec![0.0; dim], vec![0.0; dim], vec![0.0; dim]);
+        let mut full = self.space.locked.clone();
+        for i in 0..traj.times.len() - 1 {
+            let h = traj.times[i + 1] - traj.times[i];
+            let speed = (0..dim).map(|d| traj.max_speed(i, d)).fold(0.0, f64::max);
+            let steps = ((h * speed / resolution).ceil() as usize).max(1);
+            let first = usize::from(i > 0);
+            for k in first..=steps {
+                traj.sample_into(
+                    traj.times[i] + h * k as f64 / steps as f64,
+                    &mut q,
+                    &mut v,
+                    &mut a,
+                );
+                self.space.expand_into(&q, &mut full);
+                configs.extend_from_slice(&full);
+                seg_of.push(traj.segment_of[i]);
+            }
+        }
+        let mut hits = vec![false; seg_of.len()];
+        debug_assert_eq!(configs.len(), hits.len() * n);
+        self.checker.in_collision_batch_into(&configs, &mut hits);
+        hits.iter().position(|&h| h).map(|k| seg_of[k])
+    }
+}

@@ -1,0 +1,244 @@
+//! RRT-Connect (Kuffner and LaValle, 2000) in the active space, with every
+//! edge validated by the collision checker's vectorised motion check (eight
+//! configurations spread along the edge per SIMD pack, as VAMP does).
+//!
+//! The goal tree may hold several roots (a goal set from IK); the planner
+//! first tries the straight motion from the start to each goal.
+
+use std::time::{Duration, Instant};
+
+use ferrobot_collision::CollisionChecker;
+use rand::rngs::SmallRng;
+use rand::{Rng, SeedableRng};
+
+use crate::space::ActiveSpace;
+
+/// Options of RRT-Connect.
+#[derive(Debug, Clone)]
+pub struct RrtOptions {
+    /// Longest edge added by one extension (Euclidean, active space).
+    pub range: f64,
+    /// Motion-check resolution: largest joint step between checked
+    /// configurations (max norm, rad or m).
+    pub resolution: f64,
+    /// Samples at most.
+    pub max_samples: usize,
+    /// Wall-clock limit.
+    pub time_limit: Duration,
+    /// Random seed (same inputs and seed, same path).
+    pub seed: u64,
+}
+
+impl Default for RrtOptions {
+    fn default() -> Self {
+        Self {
+            range: 1.0,
+            resolution: 0.005,
+            max_samples: 100_000,
+            time_limit: Duration::from_secs(1),
+            seed: 0,
+        }
+    }
+}
+
+/// A tree of configurations stored flat.
+struct Tree {
+    dim: usize,
+    nodes: Vec<f64>,
+    parents: Vec<u32>,
+}
+
+impl Tree {
+    fn new(dim: usize) -> Self {
+        Self {
+            dim,
+            nodes: Vec::with_capacity(dim * 256),
+            parents: Vec::with_capacity(256),
+        }
+    }
+
+    fn push(&mut self, q: &[f64], parent: u32) -> u32 {
+        self.nodes.extend_from_slice(q);
+        self.parents.push(parent);
+        (self.parents.len() - 1) as u32
+    }
+
+    fn node(&self, i: u32) -> &[f64] {
+        let i = i as usize * self.dim;
+        &self.nodes[i..i + self.dim]
+    }
+
+    fn nearest(&self, q: &[f64]) -> u32 {
+        let mut best = (f64::INFINITY, 0u32);
+        for (i, n) in self.nodes.chunks_exact(self.dim).enumerate() {
+            let d: f64 = n.iter().zip(q).map(|(a, b)| (a - b) * (a - b)).sum();
+            if d < best.0 {
+                best = (d, i as u32);
+            }
+        }
+        best.1
+    }
+
+    /// Path from the root to node `i`.
+    fn path_to(&self, mut i: u32) -> Vec<Vec<f64>> {
+        let mut out = vec![self.node(i).to_vec()];
+        while self.parents[i as usize] != u32::MAX {
+            i = self.parents[i as usize];
+            out.push(self.node(i).to_vec());
+        }
+        out.reverse();
+        out
+    }
+}
+
+/// Edge validation with reusable full-configuration buffers.
+pub(crate) struct Edges<'a> {
+    checker: &'a CollisionChecker,
+    space: &'a ActiveSpace,
+    resolution: f64,
+    a: Vec<f64>,
+    b: Vec<f64>,
+    /// Motion checks run.
+    pub checks: usize,
+}
+
+impl<'a> Edges<'a> {
+    pub(crate) fn new(
+        checker: &'a CollisionChecker,
+        space: &'a ActiveSpace,
+        resolution: f64,
+    ) -> Self {
+        Self {
+            checker,
+            space,
+            resolution,
+            a: space.locked.clone(),
+            b: space.locked.clone(),
+            checks: 0,
+        }
+    }
+
+    /// Whether the straight motion from `q0` to `q1` (active) is free.
+    pub(crate) fn valid(&mut self, q0: &[f64], q1: &[f64]) -> bool {
+        self.checks += 1;
+        self.space.expand_into(q0, &mut self.a);
+        self.space.expand_into(q1, &mut self.b);
+        self.checker
+            .motion_valid_unchecked(&self.a, &self.b, self.resolution)
+    }
+}
+
+/// Why RRT-Connect stopped without a path.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RrtFailure {
+    /// The time limit passed.
+    Timeout,
+    /// The sample budget ran out.
+    SampleLimit,
+}
+
+/// Statistics of a run.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct RrtStats {
+    /// Samples drawn.
+    pub samples: usize,
+    /// Nodes in both trees.
+    pub nodes: usize,
+    /// Motion checks run.
+    pub motion_checks: usize,
+}
+
+/// Moves from `from` towards `to` by at most `range`; returns the new
+/// configuration and whether it reached `to`.
+fn steer(from: &[f64], to: &[f64], range: f64, out: &mut Vec<f64>) -> bool {
+    let d: f64 = from
+        .iter()
+        .zip(to)
+        .map(|(a, b)| (a - b) * (a - b))
+        .sum::<f64>()
+        .sqrt();
+    out.clear();
+    if d <= range {
+        out.extend_from_slice(to);
+        true
+    } else {
+        let t = range / d;
+        out.extend(from.iter().zip(to).map(|(a, b)| a + (b - a) * t));
+        false
+    }
+}
+
+/// Plans from `start` to any of `goals` (active, all collision-free and in
+/// limits). Returns the path of active configurations (start first).
+pub fn rrt_connect(
+    checker: &CollisionChecker,
+    space: &ActiveSpace,
+    start: &[f64],
+    goals: &[Vec<f64>],
+    opts: &RrtOptions,
+) -> (Result<Vec<Vec<f64>>, RrtFailure>, RrtStats) {
+    let began = Instant::now();
+    let dim = space.len();
+    let mut edges = Edges::new(checker, space, opts.resolution);
+    let mut stats = RrtStats::default();
+    for g in goals {
+        if edges.valid(start, g) {
+            stats.motion_checks = edges.checks;
+            return (Ok(vec![start.to_vec(), g.clone()]), stats);
+        }
+    }
+    let mut rng = SmallRng::seed_from_u64(opts.seed);
+    let mut ta = Tree::new(dim);
+    let mut tb = Tree::new(dim);
+    ta.push(start, u32::MAX);
+    for g in goals {
+        tb.push(g, u32::MAX);
+    }
+    // Whether `ta` is the start tree.
+    let mut a_is_start = true;
+    let mut sample = vec![0.0; dim];
+    let mut new = Vec::with_capacity(dim);
+    let mut step = Vec::with_capacity(dim);
+    let failure = loop {
+        if stats.samples >= opts.max_samples {
+            break RrtFailure::SampleLimit;
+        }
+        if stats.samples % 16 == 0 && began.elapsed() > opts.time_limit {
+            break RrtFailure::Timeout;
+        }
+        stats.samples += 1;
+        for (k, s) in sample.iter_mut().enumerate() {
+            *s = rng.random_range(space.sample_lower[k]..=space.sample_upper[k]);
+        }
+        // Extend tree A towards the sample.
+        let near = ta.nearest(&sample);
+        steer(ta.node(near), &sample, opts.range, &mut new);
+        if edges.valid(ta.node(near), &new) {
+            let added = ta.push(&new, near);
+            // Connect tree B to the new node, step by step.
+            let mut nb = tb.nearest(&new);
+            loop {
+                let reached = steer(tb.node(nb), &new, opts.range, &mut step);
+                if !edges.valid(tb.node(nb), &step) {
+                    break;
+                }
+                nb = tb.push(&step, nb);
+                if reached {
+                    let (pa, pb) = (ta.path_to(added), tb.path_to(nb));
+                    let (mut from_start, to_goal) = if a_is_start { (pa, pb) } else { (pb, pa) };
+                    // The meeting node appears in both halves.
+                    from_start.pop();
+                    from_start.extend(to_goal.into_iter().rev());
+                    stats.nodes = ta.parents.len() + tb.parents.len();
+                    stats.motion_checks = edges.checks;
+                    return (Ok(from_start), stats);
+                }
+            }
+        }
+        std::mem::swap(&mut ta, &mut tb);
+        a_is_start = !a_is_start;
+    };
+    stats.nodes = ta.parents.len() + tb.parents.len();
+    stats.motion_checks = edges.checks;
+    (Err(failure), stats)
+}
