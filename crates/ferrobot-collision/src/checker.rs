@@ -76,6 +76,7 @@ static NEXT_ID: AtomicU64 = AtomicU64::new(1);
 
 thread_local! {
     static SCALAR_SCRATCH: RefCell<Option<(u64, OneScratch)>> = const { RefCell::new(None) };
+    static MOTION_SCRATCH: RefCell<Option<(u64, Scratch<f32x8>)>> = const { RefCell::new(None) };
 }
 
 /// Collision queries for one robot in one world.
@@ -92,6 +93,7 @@ pub struct CollisionChecker {
     /// Whether bodies fixed to the base touch the world (true for every q).
     static_hit: bool,
     id: u64,
+    exact_self: bool,
 }
 
 impl CollisionChecker {
@@ -122,6 +124,7 @@ impl CollisionChecker {
             compiled_world,
             static_hit: false,
             id: 0,
+            exact_self: true,
         };
         checker.recompile_robot();
         Ok(checker)
@@ -150,8 +153,24 @@ impl CollisionChecker {
                     }
                 }
             });
+        if !self.exact_self {
+            self.robot.exact.iter_mut().for_each(|e| *e = None);
+        }
         self.id = NEXT_ID.fetch_add(1, Ordering::Relaxed);
         self.update_static();
+    }
+
+    /// Whether self-collisions found by spheres are confirmed on the links'
+    /// exact geometry (see [`crate::exact`]); true by default.
+    pub fn exact_self_collision(&self) -> bool {
+        self.exact_self
+    }
+
+    /// Decides self-collision by exact geometry after the spheres (true) or
+    /// by the spheres alone (false, as cuRobo and VAMP do).
+    pub fn set_exact_self_collision(&mut self, exact: bool) {
+        self.exact_self = exact;
+        self.recompile_robot();
     }
 
     fn recompile_world(&mut self) {
@@ -369,30 +388,44 @@ impl CollisionChecker {
         let steps = ((span / resolution).ceil() as usize).max(1);
         let points = steps + 1;
         let packs = points.div_ceil(8);
-        let mut scratch = Scratch::<f32x8>::new(&self.robot);
-        let mut lanes = vec![f32x8::splat(0.0); dof];
-        for p in 0..packs {
-            let index = |i: usize| (i * packs + p).min(points - 1);
-            for (d, lane) in lanes.iter_mut().enumerate() {
-                *lane = f32x8::from_fn(|i| {
-                    let t = index(i) as f64 / steps as f64;
-                    (q0[d] + (q1[d] - q0[d]) * t) as f32
-                });
+        // Up to 64 DOFs on the stack (no allocation on the hot path).
+        let mut stack = [f32x8::splat(0.0); 64];
+        let mut heap: Vec<f32x8> = Vec::new();
+        let lanes: &mut [f32x8] = if dof <= stack.len() {
+            &mut stack[..dof]
+        } else {
+            heap.resize(dof, f32x8::splat(0.0));
+            &mut heap
+        };
+        MOTION_SCRATCH.with(|cell| {
+            let mut slot = cell.borrow_mut();
+            if slot.as_ref().is_none_or(|(id, _)| *id != self.id) {
+                *slot = Some((self.id, Scratch::new(&self.robot)));
             }
-            if check(
-                &self.robot,
-                &self.compiled_world,
-                &lanes,
-                self.margin as f32,
-                0xff,
-                true,
-                &mut scratch,
-            ) != 0
-            {
-                return false;
+            let scratch = &mut slot.as_mut().expect("set above").1;
+            for p in 0..packs {
+                let index = |i: usize| (i * packs + p).min(points - 1);
+                for (d, lane) in lanes.iter_mut().enumerate() {
+                    *lane = f32x8::from_fn(|i| {
+                        let t = index(i) as f64 / steps as f64;
+                        (q0[d] + (q1[d] - q0[d]) * t) as f32
+                    });
+                }
+                if check(
+                    &self.robot,
+                    &self.compiled_world,
+                    lanes,
+                    self.margin as f32,
+                    0xff,
+                    true,
+                    scratch,
+                ) != 0
+                {
+                    return false;
+                }
             }
-        }
-        true
+            true
+        })
     }
 
     /// Attaches an object made of `parts` (object frame) at `pose_in_link`

@@ -112,6 +112,9 @@ pub struct CompiledRobot {
     pub radii: Vec<f32>,
     /// The same spheres in packs of eight per body.
     pub packs: Vec<SpherePack>,
+    /// Exact geometry of each body (robot links with collision geometry),
+    /// for confirming self-collisions.
+    pub exact: Vec<Option<crate::exact::ExactBody>>,
     /// Body pairs checked for self-collision (body indices).
     pub pairs: Vec<(usize, usize)>,
     /// For each model link: its lane frame and the constant transform from
@@ -192,14 +195,15 @@ impl CompiledRobot {
             centers: Vec::new(),
             radii: Vec::new(),
             packs: Vec::new(),
+            exact: Vec::new(),
             pairs: Vec::new(),
             link_frames,
         };
         for (l, spheres) in link_spheres.iter().enumerate() {
-            robot.push_body(l, None, spheres);
+            robot.push_body(l, None, spheres, Some(&model.links()[l]));
         }
         for (l, name, spheres) in attached {
-            robot.push_body(*l, Some(name.clone()), spheres);
+            robot.push_body(*l, Some(name.clone()), spheres, None);
         }
         for a in 0..robot.bodies.len() {
             for b in a + 1..robot.bodies.len() {
@@ -211,7 +215,13 @@ impl CompiledRobot {
         robot
     }
 
-    fn push_body(&mut self, link: usize, attached: Option<String>, spheres: &[Sphere]) {
+    fn push_body(
+        &mut self,
+        link: usize,
+        attached: Option<String>,
+        spheres: &[Sphere],
+        geometry: Option<&ferrobot_model::Link>,
+    ) {
         if spheres.is_empty() {
             return;
         }
@@ -227,6 +237,8 @@ impl CompiledRobot {
                 .push([s.center.x as f32, s.center.y as f32, s.center.z as f32]);
             self.radii.push(s.radius as f32);
         }
+        self.exact
+            .push(geometry.and_then(|g| crate::exact::ExactBody::of_link(g, &corr)));
         let first_pack = self.packs.len();
         let count = in_frame.len();
         for chunk in 0..count.div_ceil(8) {

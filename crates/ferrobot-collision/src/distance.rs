@@ -17,7 +17,9 @@ pub struct Distance {
     pub distance: f64,
     /// Smallest distance to the world.
     pub world_distance: f64,
-    /// Smallest distance between checked robot bodies.
+    /// Smallest distance between the spheres of checked robot bodies (the
+    /// sphere model's, conservative: with exact self-collision checks,
+    /// `in_collision` may be false while this is slightly negative).
     pub self_distance: f64,
     /// Gradient of `distance` with respect to `q` (num_dof values).
     pub gradient: Vec<f64>,

@@ -211,13 +211,15 @@ pub fn check<L: Lanes>(
         let (fa, fb) = (scratch.frames[ba.frame], scratch.frames[bb.frame]);
         ensure_centers(robot, a, &fa, scratch);
         ensure_centers(robot, b, &fb, scratch);
+        let mut spheres_hit = 0u32;
         for i in ba.first..ba.first + ba.count {
             // Each sphere of `a` against the bounding sphere of `b` first.
             let p = scratch.centers[i];
             let ri = L::splat(robot.radii[i]) + m;
             let d = [p[0] - cb[0], p[1] - cb[1], p[2] - cb[2]];
             let rb = ri + L::splat(bb.bound.1);
-            let near_i = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).lt_mask(rb * rb) & near & !hit;
+            let near_i =
+                (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).lt_mask(rb * rb) & near & !spheres_hit;
             if near_i == 0 {
                 continue;
             }
@@ -225,11 +227,18 @@ pub fn check<L: Lanes>(
                 let q = scratch.centers[j];
                 let d = [p[0] - q[0], p[1] - q[1], p[2] - q[2]];
                 let rr = ri + L::splat(robot.radii[j]);
-                hit |= (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).lt_mask(rr * rr) & near_i;
+                spheres_hit |= (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).lt_mask(rr * rr) & near_i;
             }
-            if hit & active == active {
-                return hit & active;
+        }
+        // Spheres overlap: the links' exact geometry decides.
+        hit |= match (&robot.exact[a], &robot.exact[b]) {
+            (Some(ea), Some(eb)) if spheres_hit != 0 => {
+                crate::exact::confirm(ea, eb, &fa, &fb, spheres_hit, margin)
             }
+            _ => spheres_hit,
+        };
+        if hit & active == active {
+            return hit & active;
         }
     }
     hit & active

@@ -13,6 +13,7 @@ pub mod cloud;
 pub mod compiled;
 pub mod distance;
 pub mod error;
+pub mod exact;
 pub mod kernel;
 pub mod lanes;
 pub mod moveit;

@@ -132,7 +132,8 @@ pub fn check_one(
         body_packs(robot, b, &fb, s);
         let cb8 = cb.map(f32x8::splat);
         let rb = f32x8::splat(bb.bound.1);
-        for ka in ba.first_pack..ba.first_pack + ba.pack_count {
+        let exact = (&robot.exact[a], &robot.exact[b]);
+        'pair: for ka in ba.first_pack..ba.first_pack + ba.pack_count {
             // Eight spheres of `a` against the bounding sphere of `b`.
             let p = s.packs[ka];
             let ri = robot.packs[ka].r + m8;
@@ -154,7 +155,16 @@ pub fn check_one(
                     let d = [pi[0] - q[0], pi[1] - q[1], pi[2] - q[2]];
                     let rr = ri + robot.packs[kb].r;
                     if (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).lt_mask(rr * rr) != 0 {
-                        return true;
+                        // Spheres overlap: the links' exact geometry decides.
+                        match exact {
+                            (Some(ea), Some(eb)) => {
+                                if crate::exact::confirm(ea, eb, &fa, &fb, 1, margin) != 0 {
+                                    return true;
+                                }
+                                break 'pair;
+                            }
+                            _ => return true,
+                        }
                     }
                 }
             }

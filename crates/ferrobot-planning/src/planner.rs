@@ -47,6 +47,10 @@ pub struct PlanOptions {
     pub velocity_scale: f64,
     /// Acceleration and jerk limit factor in (0, 1].
     pub acceleration_scale: f64,
+    /// RRT-Connect and shortcutting check motions at `rrt.resolution`
+    /// times this factor; the final path is then checked at
+    /// `rrt.resolution` (1 checks at the fine resolution throughout).
+    pub coarse_factor: f64,
     /// Times the smooth trajectory is refined (a waypoint added where it
     /// collided) before falling back to stopping at every waypoint.
     pub refinements: usize,
@@ -67,6 +71,7 @@ impl Default for PlanOptions {
             velocity_scale: 1.0,
             acceleration_scale: 1.0,
             refinements: 4,
+            coarse_factor: 4.0,
         }
     }
 }
@@ -77,6 +82,13 @@ impl PlanOptions {
         check_positive("range", self.rrt.range)?;
         check_positive("resolution", self.rrt.resolution)?;
         check_positive("time_limit", self.rrt.time_limit.as_secs_f64())?;
+        check_positive("coarse_factor", self.coarse_factor)?;
+        if self.coarse_factor < 1.0 {
+            return Err(PlanningError::InvalidArgument(format!(
+                "coarse_factor must be at least 1, got {}",
+                self.coarse_factor
+            )));
+        }
         if self.rrt.max_samples == 0 || self.goal_solutions == 0 {
             return Err(PlanningError::InvalidArgument(
                 "max_samples and goal_solutions must be at least 1".into(),
@@ -404,14 +416,27 @@ impl Planner {
         began: Instant,
         ik_time: f64,
     ) -> PlanResult {
-        let t0 = Instant::now();
-        let (found, stats) = rrt_connect(&self.checker, &self.space, start, goals, &opts.rrt);
-        let planning = t0.elapsed().as_secs_f64();
         let mut times = StageTimes {
             ik: ik_time,
-            planning,
             ..StageTimes::default()
         };
+        // Search and shortcut at the coarse resolution, then check the
+        // final edges at the fine one; a path that fails there (rare) is
+        // searched again at the fine resolution.
+        let coarse = opts.rrt.resolution * opts.coarse_factor;
+        let mut attempt = self.find_path(start, goals, opts, coarse, &mut times);
+        if opts.coarse_factor > 1.0
+            && let (Ok(path), _) = &attempt
+        {
+            let t = Instant::now();
+            let mut fine = Edges::new(&self.checker, &self.space, opts.rrt.resolution);
+            let ok = path.windows(2).all(|w| fine.valid(&w[0], &w[1]));
+            times.simplify += t.elapsed().as_secs_f64();
+            if !ok {
+                attempt = self.find_path(start, goals, opts, opts.rrt.resolution, &mut times);
+            }
+        }
+        let (found, stats) = attempt;
         let path = match found {
             Ok(p) => p,
             Err(f) => {
@@ -429,15 +454,6 @@ impl Planner {
                 return r;
             }
         };
-        let t1 = Instant::now();
-        let mut edges = Edges::new(&self.checker, &self.space, opts.rrt.resolution);
-        let path = if opts.simplify_path {
-            let mut rng = SmallRng::seed_from_u64(opts.rrt.seed ^ 0x5EED);
-            simplify(&mut edges, path, &opts.simplify, &mut rng)
-        } else {
-            path
-        };
-        times.simplify = t1.elapsed().as_secs_f64();
         let t2 = Instant::now();
         let mut stops = false;
         let trajectory = if opts.trajectory {
@@ -463,6 +479,40 @@ impl Planner {
             samples: stats.samples,
             stops_at_waypoints: stops,
         }
+    }
+
+    /// RRT-Connect and shortcutting with motion checks at `resolution`;
+    /// stage times are added to `times`.
+    fn find_path(
+        &self,
+        start: &[f64],
+        goals: &[Vec<f64>],
+        opts: &PlanOptions,
+        resolution: f64,
+        times: &mut StageTimes,
+    ) -> (
+        std::result::Result<Vec<Vec<f64>>, RrtFailure>,
+        crate::rrt::RrtStats,
+    ) {
+        let t0 = Instant::now();
+        let rrt = RrtOptions {
+            resolution,
+            ..opts.rrt.clone()
+        };
+        let (found, stats) = rrt_connect(&self.checker, &self.space, start, goals, &rrt);
+        times.planning += t0.elapsed().as_secs_f64();
+        let t1 = Instant::now();
+        let found = found.map(|path| {
+            if opts.simplify_path {
+                let mut edges = Edges::new(&self.checker, &self.space, resolution);
+                let mut rng = SmallRng::seed_from_u64(opts.rrt.seed ^ 0x5EED);
+                simplify(&mut edges, path, &opts.simplify, &mut rng)
+            } else {
+                path
+            }
+        });
+        times.simplify += t1.elapsed().as_secs_f64();
+        (found, stats)
     }
 
     /// The smooth trajectory through `path`, refined where it collides;

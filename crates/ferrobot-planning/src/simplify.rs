@@ -38,43 +38,51 @@ fn distance(a: &[f64], b: &[f64]) -> f64 {
         .sqrt()
 }
 
+/// A path vertex and whether the edge arriving at it was checked whole
+/// (a part of a checked edge is not: its sample points differ).
+type Vertex = (Vec<f64>, bool);
+
 /// Keeps the first vertex, then from each kept vertex jumps to the farthest
-/// later vertex reachable in a straight line.
-pub(crate) fn reduce_vertices(edges: &mut Edges<'_>, path: Vec<Vec<f64>>) -> Vec<Vec<f64>> {
+/// later vertex reachable in a straight line (a checked, whole edge).
+fn reduce_vertices(edges: &mut Edges<'_>, path: Vec<Vertex>) -> Vec<Vertex> {
     if path.len() <= 2 {
         return path;
     }
     let n = path.len();
-    let mut keep = vec![0usize];
+    let mut out = vec![path[0].clone()];
     let mut i = 0;
     while i < n - 1 {
         let mut j = n - 1;
-        while j > i + 1 && !edges.valid(&path[i], &path[j]) {
+        while j > i + 1 && !edges.valid(&path[i].0, &path[j].0) {
             j -= 1;
         }
-        keep.push(j);
+        // j == i + 1 keeps the existing edge (and its flag) unchecked.
+        let whole = j > i + 1 || path[j].1;
+        out.push((path[j].0.clone(), whole));
         i = j;
     }
-    keep.into_iter().map(|k| path[k].clone()).collect()
+    out
 }
 
 /// Point at parameter `t` along segment `s` of `path`.
-fn point(path: &[Vec<f64>], s: usize, t: f64) -> Vec<f64> {
+fn point(path: &[Vertex], s: usize, t: f64) -> Vec<f64> {
     path[s]
+        .0
         .iter()
-        .zip(&path[s + 1])
+        .zip(&path[s + 1].0)
         .map(|(a, b)| a + (b - a) * t)
         .collect()
 }
 
-/// Shortens a valid path; the result is valid at the edges' resolution and
-/// has the same end points.
+/// Shortens a valid path (every edge checked whole); the result is valid
+/// at the edges' resolution, every edge checked whole, same end points.
 pub(crate) fn simplify(
     edges: &mut Edges<'_>,
     path: Vec<Vec<f64>>,
     opts: &SimplifyOptions,
     rng: &mut SmallRng,
 ) -> Vec<Vec<f64>> {
+    let path: Vec<Vertex> = path.into_iter().map(|q| (q, true)).collect();
     let mut path = reduce_vertices(edges, path);
     let vertex_only = path.clone();
     let mut failures = 0;
@@ -95,25 +103,25 @@ pub(crate) fn simplify(
         let (a, b) = (point(&path, s0, t0), point(&path, s1, t1));
         if edges.valid(&a, &b) {
             let mut next = path[..=s0].to_vec();
-            next.push(a);
-            next.push(b);
-            next.extend_from_slice(&path[s1 + 1..]);
-            // Drop points that coincide with their neighbour (t = 0 or 1).
-            next.dedup_by(|x, y| distance(x, y) < 1e-9);
+            next.push((a, false));
+            next.push((b, true));
+            next.push((path[s1 + 1].0.clone(), false));
+            next.extend_from_slice(&path[s1 + 2..]);
             path = next;
             failures = 0;
         } else {
             failures += 1;
         }
     }
-    let reduced = reduce_vertices(edges, path);
-    // Partial shortcuts create edges that are parts of checked edges; the
-    // sample points of a part differ from those of the whole, so every
-    // final edge is checked on its own, falling back to the vertex-only
-    // reduction (whose edges were all checked whole) if one fails.
-    if reduced.windows(2).all(|w| edges.valid(&w[0], &w[1])) {
-        reduced
-    } else {
-        vertex_only
+    let path = reduce_vertices(edges, path);
+    // Parts of checked edges that survived are checked on their own (their
+    // sample points differ from the whole edge's); if one fails, the
+    // shortcuts are given up for the vertex-only reduction, whose edges
+    // were all checked whole.
+    for w in path.windows(2) {
+        if !w[1].1 && !edges.valid(&w[0].0, &w[1].0) {
+            return vertex_only.into_iter().map(|v| v.0).collect();
+        }
     }
+    path.into_iter().map(|v| v.0).collect()
 }

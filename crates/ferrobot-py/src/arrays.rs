@@ -108,49 +108,75 @@ pub fn read_array<'py>(
 /// `[x, y, z, qw, qx, qy, qz]`. The rotation must be a rotation (matrix
 /// orthonormal to 1e-6; quaternion norm within 1e-3 of 1, then normalised).
 pub fn read_pose(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<nalgebra::Isometry3<f64>> {
-    use nalgebra::{Isometry3, Matrix3, Quaternion, Rotation3, Translation3, UnitQuaternion};
     let arr = read_array_any(obj, what)?;
     match arr.shape.as_slice() {
-        [7] => {
-            let v = arr.data();
-            let q = Quaternion::new(v[3], v[4], v[5], v[6]);
-            if (q.norm() - 1.0).abs() > 1e-3 {
-                return Err(InvalidArgumentError::new_err(format!(
-                    "{what}: quaternion (w, x, y, z) has norm {:.6}, expected 1",
-                    q.norm()
-                )));
-            }
-            Ok(Isometry3::from_parts(
-                Translation3::new(v[0], v[1], v[2]),
-                UnitQuaternion::from_quaternion(q),
-            ))
-        }
-        [4, 4] => {
-            let v = arr.data();
-            let m = Matrix3::from_fn(|r, c| v[r * 4 + c]);
-            let bottom = [v[12], v[13], v[14], v[15]];
-            if bottom != [0.0, 0.0, 0.0, 1.0] {
-                return Err(InvalidArgumentError::new_err(format!(
-                    "{what}: the last row of a 4x4 pose must be [0, 0, 0, 1]"
-                )));
-            }
-            let err = (m.transpose() * m - Matrix3::identity()).abs().max();
-            if err > 1e-6 || m.determinant() < 0.0 {
-                return Err(InvalidArgumentError::new_err(format!(
-                    "{what}: the 3x3 block is not a rotation (error {err:.2e})"
-                )));
-            }
-            let rot = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(m));
-            Ok(Isometry3::from_parts(
-                Translation3::new(v[3], v[7], v[11]),
-                rot,
-            ))
-        }
+        [7] | [4, 4] => pose_from(arr.data(), what),
         other => Err(ShapeError::new_err(format!(
             "{what}: expected a 4x4 matrix or a 7-vector [x, y, z, qw, qx, qy, qz], got shape {}",
             shape_str(other)
         ))),
     }
+}
+
+/// Reads one pose or a batch of poses: shapes (7,), (4, 4), (N, 7) or
+/// (N, 4, 4), each checked as [`read_pose`] does.
+pub fn read_poses(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Vec<nalgebra::Isometry3<f64>>> {
+    let arr = read_array_any(obj, what)?;
+    let data = arr.data();
+    match arr.shape.as_slice() {
+        [7] | [4, 4] => Ok(vec![pose_from(data, what)?]),
+        [_, 7] => data
+            .chunks_exact(7)
+            .enumerate()
+            .map(|(i, c)| pose_from(c, &format!("{what}[{i}]")))
+            .collect(),
+        [_, 4, 4] => data
+            .chunks_exact(16)
+            .enumerate()
+            .map(|(i, c)| pose_from(c, &format!("{what}[{i}]")))
+            .collect(),
+        other => Err(ShapeError::new_err(format!(
+            "{what}: expected poses of shape (7,), (4, 4), (N, 7) or (N, 4, 4), got {}",
+            shape_str(other)
+        ))),
+    }
+}
+
+/// A pose from 7 values `[x, y, z, qw, qx, qy, qz]` or 16 (a row-major
+/// 4x4 matrix), validated.
+fn pose_from(v: &[f64], what: &str) -> PyResult<nalgebra::Isometry3<f64>> {
+    use nalgebra::{Isometry3, Matrix3, Quaternion, Rotation3, Translation3, UnitQuaternion};
+    if v.len() == 7 {
+        let q = Quaternion::new(v[3], v[4], v[5], v[6]);
+        if (q.norm() - 1.0).abs() > 1e-3 {
+            return Err(InvalidArgumentError::new_err(format!(
+                "{what}: quaternion (w, x, y, z) has norm {:.6}, expected 1",
+                q.norm()
+            )));
+        }
+        return Ok(Isometry3::from_parts(
+            Translation3::new(v[0], v[1], v[2]),
+            UnitQuaternion::from_quaternion(q),
+        ));
+    }
+    let m = Matrix3::from_fn(|r, c| v[r * 4 + c]);
+    let bottom = [v[12], v[13], v[14], v[15]];
+    if bottom != [0.0, 0.0, 0.0, 1.0] {
+        return Err(InvalidArgumentError::new_err(format!(
+            "{what}: the last row of a 4x4 pose must be [0, 0, 0, 1]"
+        )));
+    }
+    let err = (m.transpose() * m - Matrix3::identity()).abs().max();
+    if err > 1e-6 || m.determinant() < 0.0 {
+        return Err(InvalidArgumentError::new_err(format!(
+            "{what}: the 3x3 block is not a rotation (error {err:.2e})"
+        )));
+    }
+    let rot = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(m));
+    Ok(Isometry3::from_parts(
+        Translation3::new(v[3], v[7], v[11]),
+        rot,
+    ))
 }
 
 /// Reads a finite float64 array of any shape.

@@ -482,6 +482,53 @@ impl PyCollisionChecker {
     }
 }
 
+/// A collision checker for `model` in `world` (default: empty) with
+/// `spheres` (default: the automatic sphere model), excluded pairs from
+/// adjacency, rigid attachment and the SRDF. Shared by the checker and the
+/// planner bindings.
+pub(crate) fn build_checker(
+    py: Python<'_>,
+    model: &PyRobotModel,
+    world: Option<&PyCollisionWorld>,
+    spheres: Option<&PySphereModel>,
+    margin: f64,
+) -> PyResult<CollisionChecker> {
+    let m = model.inner.clone();
+    let spheres = match spheres {
+        Some(s) => {
+            let same_links = s.model.links().len() == m.links().len()
+                && s.model
+                    .links()
+                    .iter()
+                    .zip(m.links())
+                    .all(|(a, b)| a.name == b.name);
+            if !Arc::ptr_eq(&s.model, &m) && !same_links {
+                return Err(InvalidArgumentError::new_err(format!(
+                    "spheres: made for robot '{}', whose links differ from those of '{}'",
+                    s.model.name(),
+                    m.name()
+                )));
+            }
+            s.inner.clone()
+        }
+        None => match model.auto_spheres.get() {
+            Some(s) => s.clone(),
+            None => {
+                let (links, _) = py
+                    .detach(|| spherize_robot(&m, &SpherizeOptions::default()))
+                    .map_err(collision_err)?;
+                let made = RobotSpheres::new(&m, links).map_err(collision_err)?;
+                model.auto_spheres.get_or_init(|| made).clone()
+            }
+        },
+    };
+    let acm = AllowedCollisions::from_model(&m);
+    let w = world.map(|w| w.inner.clone()).unwrap_or_default();
+    let mut inner = CollisionChecker::new(m, spheres, acm, w).map_err(collision_err)?;
+    inner.set_margin(margin).map_err(collision_err)?;
+    Ok(inner)
+}
+
 #[pymethods]
 impl PyCollisionChecker {
     /// A checker for `model` in `world` (default: empty) with `spheres`
@@ -497,36 +544,9 @@ impl PyCollisionChecker {
         margin: f64,
     ) -> PyResult<Self> {
         guard(|| {
-            let m = model.inner.clone();
-            let spheres = match spheres {
-                Some(s) => {
-                    let same_links = s.model.links().len() == m.links().len()
-                        && s.model
-                            .links()
-                            .iter()
-                            .zip(m.links())
-                            .all(|(a, b)| a.name == b.name);
-                    if !Arc::ptr_eq(&s.model, &m) && !same_links {
-                        return Err(InvalidArgumentError::new_err(format!(
-                            "spheres: made for robot '{}', whose links differ from those of '{}'",
-                            s.model.name(),
-                            m.name()
-                        )));
-                    }
-                    s.inner.clone()
-                }
-                None => {
-                    let (links, _) = py
-                        .detach(|| spherize_robot(&m, &SpherizeOptions::default()))
-                        .map_err(collision_err)?;
-                    RobotSpheres::new(&m, links).map_err(collision_err)?
-                }
-            };
-            let acm = AllowedCollisions::from_model(&m);
-            let w = world.map(|w| w.inner.clone()).unwrap_or_default();
-            let mut inner = CollisionChecker::new(m, spheres, acm, w).map_err(collision_err)?;
-            inner.set_margin(margin).map_err(collision_err)?;
-            Ok(Self { inner })
+            Ok(Self {
+                inner: build_checker(py, model, world, spheres, margin)?,
+            })
         })
     }
 

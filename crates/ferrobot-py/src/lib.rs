@@ -7,6 +7,7 @@ mod arrays;
 mod collision;
 mod errors;
 mod model;
+mod planning;
 
 use pyo3::prelude::*;
 
@@ -32,6 +33,10 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<collision::PyCollisionWorld>()?;
     m.add_class::<collision::PySphereModel>()?;
     m.add_class::<collision::PyCollisionChecker>()?;
+    m.add_class::<planning::PyPlanner>()?;
+    m.add_class::<planning::PyPlanResult>()?;
+    m.add_class::<planning::PyIkResult>()?;
+    m.add_class::<planning::PyJointTrajectory>()?;
     m.add_function(wrap_pyfunction!(bundled_robot, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())

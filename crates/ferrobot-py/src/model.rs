@@ -21,6 +21,9 @@ use crate::errors::{guard, model_err};
 pub struct PyRobotModel {
     /// The shared model (later crates hold it too).
     pub inner: Arc<RobotModel>,
+    /// The automatic sphere model, made once on first use (checkers and
+    /// planners of this model share it).
+    pub auto_spheres: std::sync::OnceLock<ferrobot_collision::RobotSpheres>,
 }
 
 fn options(
@@ -132,6 +135,7 @@ impl PyRobotModel {
             let model = py.detach(|| loader(opts)).map_err(model_err)?;
             Ok(Self {
                 inner: Arc::new(model),
+                auto_spheres: std::sync::OnceLock::new(),
             })
         })
     }

@@ -1,0 +1,883 @@
+//! Python bindings of the planning crate: `ferrobot.Planner`, its IK and
+//! plan results, and the interpolated joint trajectory.
+
+use std::time::Duration;
+
+use ferrobot_planning::{
+    ActiveSpace, IkOptions, IkSolution, JointOrder, PlanOptions, PlanResult, Planner,
+    PlanningError, Trajectory,
+};
+use numpy::ndarray::{Array1, Array2};
+use numpy::{IntoPyArray, PyArray1, PyArray2};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use crate::arrays::{read_array, read_poses};
+use crate::collision::{PyCollisionWorld, PySphereModel, build_checker};
+use crate::errors::{InvalidArgumentError, ShapeError, collision_err, guard, model_err};
+use crate::model::PyRobotModel;
+
+/// Converts a planning error to the matching Python exception.
+pub fn planning_err(e: PlanningError) -> PyErr {
+    match e {
+        PlanningError::Model(m) => model_err(m),
+        PlanningError::Collision(c) => collision_err(c),
+        PlanningError::InvalidArgument(m) => InvalidArgumentError::new_err(m),
+    }
+}
+
+fn rows<'py>(py: Python<'py>, data: Vec<f64>, cols: usize) -> Bound<'py, PyArray2<f64>> {
+    let n = if cols == 0 { 0 } else { data.len() / cols };
+    Array2::from_shape_vec((n, cols), data)
+        .expect("rows x cols")
+        .into_pyarray(py)
+}
+
+fn vec1<'py>(py: Python<'py>, v: Vec<f64>) -> Bound<'py, PyArray1<f64>> {
+    Array1::from_vec(v).into_pyarray(py)
+}
+
+/// The output order of a result: a user's joint order, or the planner's.
+#[derive(Clone)]
+struct Output {
+    space: ActiveSpace,
+    order: Option<JointOrder>,
+}
+
+impl Output {
+    fn names(&self) -> Vec<String> {
+        match &self.order {
+            Some(o) => o.names().to_vec(),
+            None => self.space.names.clone(),
+        }
+    }
+
+    fn positions(&self, q: &[f64]) -> Vec<f64> {
+        match &self.order {
+            Some(o) => o.from_active(&self.space, q),
+            None => q.to_vec(),
+        }
+    }
+
+    fn derivatives(&self, dq: &[f64]) -> Vec<f64> {
+        match &self.order {
+            Some(o) => o.derivative_from_active(&self.space, dq),
+            None => dq.to_vec(),
+        }
+    }
+
+    fn width(&self) -> usize {
+        self.order.as_ref().map_or(self.space.len(), |o| o.len())
+    }
+}
+
+/// A trajectory sampled at a fixed time step.
+#[pyclass(name = "JointTrajectory", module = "ferrobot", frozen)]
+pub struct PyJointTrajectory {
+    #[pyo3(get)]
+    dt: f64,
+    #[pyo3(get)]
+    joint_names: Vec<String>,
+    times: Vec<f64>,
+    positions: Vec<f64>,
+    velocities: Vec<f64>,
+    accelerations: Vec<f64>,
+    width: usize,
+}
+
+#[pymethods]
+impl PyJointTrajectory {
+    /// Sample times (s), shape (T,); the last is the trajectory's end.
+    #[getter]
+    fn times<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        vec1(py, self.times.clone())
+    }
+
+    /// Positions, shape (T, len(joint_names)).
+    #[getter]
+    fn positions<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        rows(py, self.positions.clone(), self.width)
+    }
+
+    /// Velocities, shape (T, len(joint_names)).
+    #[getter]
+    fn velocities<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        rows(py, self.velocities.clone(), self.width)
+    }
+
+    /// Accelerations, shape (T, len(joint_names)).
+    #[getter]
+    fn accelerations<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        rows(py, self.accelerations.clone(), self.width)
+    }
+
+    fn __len__(&self) -> usize {
+        self.times.len()
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "JointTrajectory({} samples, dt={}, {:.3} s)",
+            self.times.len(),
+            self.dt,
+            self.times.last().copied().unwrap_or(0.0)
+        )
+    }
+}
+
+/// The result of `Planner.plan`: status, path, trajectory, stage times.
+#[pyclass(name = "PlanResult", module = "ferrobot", frozen)]
+pub struct PyPlanResult {
+    inner: PlanResult,
+    out: Output,
+}
+
+#[pymethods]
+impl PyPlanResult {
+    /// Whether a collision-free path was found.
+    #[getter]
+    fn success(&self) -> bool {
+        self.inner.success()
+    }
+
+    /// "solved", "start_in_collision", "goal_in_collision",
+    /// "start_out_of_limits", "goal_out_of_limits", "ik_failed", "timeout"
+    /// or "sample_limit".
+    #[getter]
+    fn status(&self) -> &'static str {
+        self.inner.status.name()
+    }
+
+    /// Why the plan failed (empty when solved).
+    #[getter]
+    fn message(&self) -> &str {
+        &self.inner.message
+    }
+
+    /// Joint order of `path`, `goal` and the interpolated trajectory.
+    #[getter]
+    fn joint_names(&self) -> Vec<String> {
+        self.out.names()
+    }
+
+    /// The geometric path, shape (K, len(joint_names)); empty if failed.
+    #[getter]
+    fn path<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        let data: Vec<f64> = self
+            .inner
+            .path
+            .iter()
+            .flat_map(|q| self.out.positions(q))
+            .collect();
+        rows(py, data, self.out.width())
+    }
+
+    /// The goal configuration reached (the IK solution for pose goals).
+    #[getter]
+    fn goal<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray1<f64>>> {
+        self.inner
+            .goal
+            .as_ref()
+            .map(|g| vec1(py, self.out.positions(g)))
+    }
+
+    /// Stage wall-clock times (s): ik, planning, simplify, trajectory, total.
+    #[getter]
+    fn times<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        let t = self.inner.times;
+        for (k, v) in [
+            ("ik", t.ik),
+            ("planning", t.planning),
+            ("simplify", t.simplify),
+            ("trajectory", t.trajectory),
+            ("total", t.total),
+        ] {
+            d.set_item(k, v)?;
+        }
+        Ok(d)
+    }
+
+    /// RRT-Connect samples drawn.
+    #[getter]
+    fn samples(&self) -> usize {
+        self.inner.samples
+    }
+
+    /// True when the smooth spline kept colliding and the trajectory stops
+    /// at every waypoint instead (it then follows the checked path exactly).
+    #[getter]
+    fn stops_at_waypoints(&self) -> bool {
+        self.inner.stops_at_waypoints
+    }
+
+    /// Length of the path in joint space (Euclidean over planned joints).
+    #[getter]
+    fn path_length(&self) -> f64 {
+        self.inner.path_length()
+    }
+
+    /// Duration of the trajectory (s), or None.
+    #[getter]
+    fn duration(&self) -> Option<f64> {
+        self.inner.trajectory.as_ref().map(Trajectory::duration)
+    }
+
+    /// The trajectory sampled every `dt` seconds (the last sample at its
+    /// end): positions, velocities and accelerations.
+    #[pyo3(signature = (dt=0.01))]
+    fn interpolated(&self, dt: f64) -> PyResult<PyJointTrajectory> {
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(InvalidArgumentError::new_err(format!(
+                "dt must be a positive number of seconds, got {dt}"
+            )));
+        }
+        let traj = self.inner.trajectory.as_ref().ok_or_else(|| {
+            InvalidArgumentError::new_err(format!(
+                "no trajectory: the plan's status is '{}'{}",
+                self.inner.status.name(),
+                if self.inner.success() {
+                    " (planned with trajectory=False)"
+                } else {
+                    ""
+                }
+            ))
+        })?;
+        let k = traj.dim();
+        let (times, q, v, a) = traj.interpolated(dt);
+        let map = |src: &[f64], f: &dyn Fn(&[f64]) -> Vec<f64>| -> Vec<f64> {
+            src.chunks_exact(k).flat_map(f).collect()
+        };
+        Ok(PyJointTrajectory {
+            dt,
+            joint_names: self.out.names(),
+            positions: map(&q, &|r| self.out.positions(r)),
+            velocities: map(&v, &|r| self.out.derivatives(r)),
+            accelerations: map(&a, &|r| self.out.derivatives(r)),
+            times,
+            width: self.out.width(),
+        })
+    }
+
+    fn __bool__(&self) -> bool {
+        self.inner.success()
+    }
+
+    fn __repr__(&self) -> String {
+        let t = self.inner.times;
+        format!(
+            "PlanResult(status='{}', waypoints={}, total={:.3} ms{})",
+            self.inner.status.name(),
+            self.inner.path.len(),
+            t.total * 1e3,
+            if self.inner.message.is_empty() {
+                String::new()
+            } else {
+                format!(", message={:?}", self.inner.message)
+            }
+        )
+    }
+}
+
+/// IK results: one solve (scalars and 1-D arrays) or a batch (arrays).
+#[pyclass(name = "IkResult", module = "ferrobot", frozen)]
+pub struct PyIkResult {
+    solutions: Vec<IkSolution>,
+    out: Output,
+    batched: bool,
+}
+
+#[pymethods]
+impl PyIkResult {
+    /// Success flag(s).
+    #[getter]
+    fn success<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        if self.batched {
+            let v: Vec<bool> = self.solutions.iter().map(|s| s.success).collect();
+            Ok(Array1::from_vec(v).into_pyarray(py).into_any())
+        } else {
+            Ok(pyo3::types::PyBool::new(py, self.solutions[0].success)
+                .to_owned()
+                .into_any())
+        }
+    }
+
+    /// Solution(s) (or best attempts where `success` is false), shape
+    /// (len(joint_names),) or (N, len(joint_names)).
+    #[getter]
+    fn q<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
+        let data: Vec<f64> = self
+            .solutions
+            .iter()
+            .flat_map(|s| self.out.positions(&s.q))
+            .collect();
+        if self.batched {
+            rows(py, data, self.out.width()).into_any()
+        } else {
+            vec1(py, data).into_any()
+        }
+    }
+
+    /// Position error(s) (m).
+    #[getter]
+    fn position_error<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        self.scalars(py, |s| s.position_error)
+    }
+
+    /// Rotation error(s) (rad).
+    #[getter]
+    fn rotation_error<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        self.scalars(py, |s| s.rotation_error)
+    }
+
+    /// Index of the goal reached in a goal set (0 for single goals).
+    #[getter]
+    fn goal_index<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        self.scalars(py, |s| s.goal_index as f64).and_then(|v| {
+            if self.batched {
+                v.call_method1("astype", ("int64",))
+            } else {
+                v.call_method0("__int__")
+            }
+        })
+    }
+
+    /// Seeds tried (per solve).
+    #[getter]
+    fn seeds_tried<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        self.scalars(py, |s| s.seeds_tried as f64).and_then(|v| {
+            if self.batched {
+                v.call_method1("astype", ("int64",))
+            } else {
+                v.call_method0("__int__")
+            }
+        })
+    }
+
+    /// Joint order of `q`.
+    #[getter]
+    fn joint_names(&self) -> Vec<String> {
+        self.out.names()
+    }
+
+    fn __len__(&self) -> usize {
+        self.solutions.len()
+    }
+
+    fn __repr__(&self) -> String {
+        let ok = self.solutions.iter().filter(|s| s.success).count();
+        format!("IkResult({ok}/{} solved)", self.solutions.len())
+    }
+}
+
+impl PyIkResult {
+    fn scalars<'py>(
+        &self,
+        py: Python<'py>,
+        f: impl Fn(&IkSolution) -> f64,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let v: Vec<f64> = self.solutions.iter().map(f).collect();
+        if self.batched {
+            Ok(vec1(py, v).into_any())
+        } else {
+            Ok(pyo3::types::PyFloat::new(py, v[0]).into_any())
+        }
+    }
+}
+
+/// Motion planner: multi-seed IK, RRT-Connect with vectorised motion
+/// checks, shortcutting and smooth time-parametrised trajectories.
+#[pyclass(name = "Planner", module = "ferrobot")]
+pub struct PyPlanner {
+    inner: Planner,
+}
+
+impl PyPlanner {
+    fn order(&self, joint_names: Option<Vec<String>>) -> PyResult<Option<JointOrder>> {
+        joint_names
+            .map(|n| JointOrder::new(self.inner.model(), self.inner.space(), &n))
+            .transpose()
+            .map_err(planning_err)
+    }
+
+    /// Reads a configuration: in `order` if given; else a full vector in
+    /// `dof_names` order (which also sets the locked joints) or the planned
+    /// joints in `joint_names` order. Returns (active, full if given).
+    fn config(
+        &self,
+        obj: &Bound<'_, PyAny>,
+        what: &str,
+        order: Option<&JointOrder>,
+    ) -> PyResult<(Vec<f64>, Option<Vec<f64>>)> {
+        let arr = read_array(obj, what, 1, &[None])?;
+        let v = arr.data();
+        let space = self.inner.space();
+        let n = self.inner.model().num_dof();
+        if let Some(o) = order {
+            return Ok((o.to_active(what, v).map_err(planning_err)?, None));
+        }
+        if v.len() == space.len() {
+            Ok((v.to_vec(), None))
+        } else if v.len() == n {
+            Ok((space.restrict(v), Some(v.to_vec())))
+        } else {
+            Err(ShapeError::new_err(format!(
+                "{what}: expected ({},) in dof_names order or ({},) in planner joint_names order {:?}, got ({},)",
+                n,
+                space.len(),
+                space.names,
+                v.len()
+            )))
+        }
+    }
+
+    fn output(&self, order: Option<JointOrder>, space: &ActiveSpace) -> Output {
+        Output {
+            space: space.clone(),
+            order,
+        }
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn ik_opts(
+        position_tolerance: f64,
+        rotation_tolerance: f64,
+        num_seeds: usize,
+        max_iterations: usize,
+        collision_free: bool,
+        random_seed: u64,
+    ) -> PyResult<IkOptions> {
+        let o = IkOptions {
+            position_tolerance,
+            rotation_tolerance,
+            num_seeds,
+            max_iterations,
+            collision_free,
+            seed: random_seed,
+        };
+        o.validate().map_err(planning_err)?;
+        Ok(o)
+    }
+
+    fn link(&self, link: Option<&str>) -> PyResult<Option<usize>> {
+        link.map(|l| self.inner.model().link(l).map_err(model_err))
+            .transpose()
+    }
+}
+
+#[pymethods]
+impl PyPlanner {
+    /// A planner for `model` (its planning group: the SRDF group chosen at
+    /// load, or the chain from the base to the end effector) in `world`
+    /// (robot base frame; default empty), with `spheres` (default: the
+    /// automatic sphere model) and IK for `ee_link` (default: the model's
+    /// end effector).
+    #[new]
+    #[pyo3(signature = (model, world=None, spheres=None, *, margin=0.0, ee_link=None))]
+    fn new(
+        py: Python<'_>,
+        model: &PyRobotModel,
+        world: Option<&PyCollisionWorld>,
+        spheres: Option<&PySphereModel>,
+        margin: f64,
+        ee_link: Option<&str>,
+    ) -> PyResult<Self> {
+        guard(|| {
+            let checker = build_checker(py, model, world, spheres, margin)?;
+            let link = ee_link
+                .map(|l| model.inner.link(l).map_err(model_err))
+                .transpose()?;
+            Ok(Self {
+                inner: Planner::new(checker, link).map_err(planning_err)?,
+            })
+        })
+    }
+
+    /// The planned joints, in the planner's own order (a subset of
+    /// `dof_names`, in the same order).
+    #[getter]
+    fn joint_names(&self) -> Vec<String> {
+        self.inner.space().names.clone()
+    }
+
+    /// All DOF names of the model.
+    #[getter]
+    fn dof_names(&self) -> Vec<String> {
+        self.inner.model().dof_names().to_vec()
+    }
+
+    /// The IK link's name.
+    #[getter]
+    fn ee_link(&self) -> String {
+        self.inner.model().links()[self.inner.ik_link()]
+            .name
+            .clone()
+    }
+
+    /// Values of the joints the planner does not move, `dof_names` order.
+    #[getter]
+    fn locked_positions<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        vec1(py, self.inner.space().locked.clone())
+    }
+
+    /// Sets the joints the planner does not move (fingers, say) from a full
+    /// configuration in `dof_names` order.
+    fn set_locked_positions(&mut self, q: &Bound<'_, PyAny>) -> PyResult<()> {
+        guard(|| {
+            let n = self.inner.model().num_dof();
+            let arr = read_array(q, "q", 1, &[Some(n)])?;
+            self.inner.set_locked(arr.data()).map_err(planning_err)
+        })
+    }
+
+    /// Limits of the planned joints: lower, upper, velocity, acceleration,
+    /// jerk (arrays in `joint_names` order).
+    #[getter]
+    fn limits<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let l = self.inner.limits();
+        let d = PyDict::new(py);
+        d.set_item("lower", vec1(py, l.lower.clone()))?;
+        d.set_item("upper", vec1(py, l.upper.clone()))?;
+        d.set_item("velocity", vec1(py, l.velocity.clone()))?;
+        d.set_item("acceleration", vec1(py, l.acceleration.clone()))?;
+        d.set_item("jerk", vec1(py, l.jerk.clone()))?;
+        Ok(d)
+    }
+
+    /// Replaces velocity, acceleration and/or jerk limits (positive, one per
+    /// planned joint).
+    #[pyo3(signature = (*, velocity=None, acceleration=None, jerk=None))]
+    fn set_limits(
+        &mut self,
+        velocity: Option<&Bound<'_, PyAny>>,
+        acceleration: Option<&Bound<'_, PyAny>>,
+        jerk: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<()> {
+        guard(|| {
+            let k = self.inner.space().len();
+            let mut next = self.inner.limits().clone();
+            for (what, v) in [
+                ("velocity", velocity),
+                ("acceleration", acceleration),
+                ("jerk", jerk),
+            ] {
+                if let Some(v) = v {
+                    let arr = read_array(v, what, 1, &[Some(k)])?;
+                    next.set(what, arr.data()).map_err(planning_err)?;
+                }
+            }
+            *self.inner.limits_mut() = next;
+            Ok(())
+        })
+    }
+
+    /// Replaces the planner's world (robot base frame; a copy is taken).
+    fn update_world(&mut self, world: &PyCollisionWorld) {
+        self.inner.update_world(world.inner.clone());
+    }
+
+    /// A copy of the planner's world.
+    #[getter]
+    fn world(&self) -> PyCollisionWorld {
+        PyCollisionWorld {
+            inner: self.inner.checker().world().clone(),
+        }
+    }
+
+    /// Whether configuration `q` collides (world or self).
+    #[pyo3(signature = (q, joint_names=None))]
+    fn in_collision(
+        &self,
+        q: &Bound<'_, PyAny>,
+        joint_names: Option<Vec<String>>,
+    ) -> PyResult<bool> {
+        guard(|| {
+            let order = self.order(joint_names)?;
+            let (active, full) = self.config(q, "q", order.as_ref())?;
+            let mut space = self.inner.space().clone();
+            if let Some(f) = full {
+                space.lock_from(&f);
+            }
+            Ok(self
+                .inner
+                .checker()
+                .in_collision_unchecked(&space.expand(&active)))
+        })
+    }
+
+    /// IK for one pose (base frame; 4x4 or [x, y, z, qw, qx, qy, qz]):
+    /// `seed` first, then random seeds. With `collision_free`, solutions in
+    /// collision are rejected.
+    #[pyo3(signature = (goal_pose, seed=None, *, link=None, joint_names=None,
+        position_tolerance=1e-3, rotation_tolerance=0.01, num_seeds=64, max_iterations=60,
+        collision_free=false, random_seed=0))]
+    #[allow(clippy::too_many_arguments)]
+    fn ik(
+        &self,
+        py: Python<'_>,
+        goal_pose: &Bound<'_, PyAny>,
+        seed: Option<&Bound<'_, PyAny>>,
+        link: Option<&str>,
+        joint_names: Option<Vec<String>>,
+        position_tolerance: f64,
+        rotation_tolerance: f64,
+        num_seeds: usize,
+        max_iterations: usize,
+        collision_free: bool,
+        random_seed: u64,
+    ) -> PyResult<PyIkResult> {
+        guard(|| {
+            let goals = read_poses(goal_pose, "goal_pose")?;
+            if goals.len() != 1 {
+                return Err(ShapeError::new_err(
+                    "goal_pose: one pose expected (use ik_goalset or ik_batch for several)",
+                ));
+            }
+            self.goalset(
+                py,
+                goals,
+                seed,
+                link,
+                joint_names,
+                Self::ik_opts(
+                    position_tolerance,
+                    rotation_tolerance,
+                    num_seeds,
+                    max_iterations,
+                    collision_free,
+                    random_seed,
+                )?,
+            )
+        })
+    }
+
+    /// IK for a goal set: any of the poses (N, 7) or (N, 4, 4) will do
+    /// (grasp candidates, say); `goal_index` tells which was reached.
+    #[pyo3(signature = (goal_poses, seed=None, *, link=None, joint_names=None,
+        position_tolerance=1e-3, rotation_tolerance=0.01, num_seeds=64, max_iterations=60,
+        collision_free=false, random_seed=0))]
+    #[allow(clippy::too_many_arguments)]
+    fn ik_goalset(
+        &self,
+        py: Python<'_>,
+        goal_poses: &Bound<'_, PyAny>,
+        seed: Option<&Bound<'_, PyAny>>,
+        link: Option<&str>,
+        joint_names: Option<Vec<String>>,
+        position_tolerance: f64,
+        rotation_tolerance: f64,
+        num_seeds: usize,
+        max_iterations: usize,
+        collision_free: bool,
+        random_seed: u64,
+    ) -> PyResult<PyIkResult> {
+        guard(|| {
+            let goals = read_poses(goal_poses, "goal_poses")?;
+            self.goalset(
+                py,
+                goals,
+                seed,
+                link,
+                joint_names,
+                Self::ik_opts(
+                    position_tolerance,
+                    rotation_tolerance,
+                    num_seeds,
+                    max_iterations,
+                    collision_free,
+                    random_seed,
+                )?,
+            )
+        })
+    }
+
+    /// IK for each of N poses independently, in parallel; `seeds` (N, k)
+    /// optional. Results are arrays over the batch.
+    #[pyo3(signature = (goal_poses, seeds=None, *, link=None, joint_names=None,
+        position_tolerance=1e-3, rotation_tolerance=0.01, num_seeds=64, max_iterations=60,
+        collision_free=false, random_seed=0))]
+    #[allow(clippy::too_many_arguments)]
+    fn ik_batch(
+        &self,
+        py: Python<'_>,
+        goal_poses: &Bound<'_, PyAny>,
+        seeds: Option<&Bound<'_, PyAny>>,
+        link: Option<&str>,
+        joint_names: Option<Vec<String>>,
+        position_tolerance: f64,
+        rotation_tolerance: f64,
+        num_seeds: usize,
+        max_iterations: usize,
+        collision_free: bool,
+        random_seed: u64,
+    ) -> PyResult<PyIkResult> {
+        guard(|| {
+            let opts = Self::ik_opts(
+                position_tolerance,
+                rotation_tolerance,
+                num_seeds,
+                max_iterations,
+                collision_free,
+                random_seed,
+            )?;
+            let goals = read_poses(goal_poses, "goal_poses")?;
+            let order = self.order(joint_names)?;
+            let seeds: Option<Vec<Vec<f64>>> = match seeds {
+                None => None,
+                Some(s) => {
+                    let arr = read_array(s, "seeds", 2, &[None])?;
+                    let w = arr.shape[1];
+                    if arr.shape[0] != goals.len() {
+                        return Err(ShapeError::new_err(format!(
+                            "seeds: {} rows for {} goal poses",
+                            arr.shape[0],
+                            goals.len()
+                        )));
+                    }
+                    let mut out = Vec::with_capacity(goals.len());
+                    for row in arr.data().chunks_exact(w.max(1)) {
+                        let list = pyo3::types::PyList::new(py, row)?;
+                        out.push(self.config(list.as_any(), "seeds row", order.as_ref())?.0);
+                    }
+                    Some(out)
+                }
+            };
+            let link = self.link(link)?;
+            let solver = self.inner.ik_solver(link).map_err(planning_err)?;
+            let solutions = py
+                .detach(|| solver.solve_batch(&goals, seeds.as_deref(), &opts))
+                .map_err(planning_err)?;
+            Ok(PyIkResult {
+                solutions,
+                out: self.output(order, self.inner.space()),
+                batched: true,
+            })
+        })
+    }
+
+    /// Plans from `start` to `goal_q` (a configuration) or `goal_pose` (a
+    /// pose of the IK link in the base frame, or a goal set (N, 7) /
+    /// (N, 4, 4), reached through collision-free IK). Configurations are in
+    /// `joint_names` order if given, else full `dof_names` vectors or the
+    /// planner's `joint_names`. Failures are reported in the result's
+    /// `status`, not raised.
+    #[pyo3(signature = (start, goal_q=None, goal_pose=None, joint_names=None, *,
+        time_limit=1.0, max_samples=100_000, resolution=0.005, range=1.0, seed=0,
+        velocity_scale=1.0, acceleration_scale=1.0, simplify=true, trajectory=true,
+        goal_solutions=4, coarse_factor=4.0))]
+    #[allow(clippy::too_many_arguments)]
+    fn plan(
+        &self,
+        py: Python<'_>,
+        start: &Bound<'_, PyAny>,
+        goal_q: Option<&Bound<'_, PyAny>>,
+        goal_pose: Option<&Bound<'_, PyAny>>,
+        joint_names: Option<Vec<String>>,
+        time_limit: f64,
+        max_samples: usize,
+        resolution: f64,
+        range: f64,
+        seed: u64,
+        velocity_scale: f64,
+        acceleration_scale: f64,
+        simplify: bool,
+        trajectory: bool,
+        goal_solutions: usize,
+        coarse_factor: f64,
+    ) -> PyResult<PyPlanResult> {
+        guard(|| {
+            if !(time_limit.is_finite() && time_limit > 0.0) {
+                return Err(InvalidArgumentError::new_err(format!(
+                    "time_limit must be a positive number of seconds, got {time_limit}"
+                )));
+            }
+            let mut opts = PlanOptions::default();
+            opts.rrt.time_limit = Duration::from_secs_f64(time_limit);
+            opts.rrt.max_samples = max_samples;
+            opts.rrt.resolution = resolution;
+            opts.rrt.range = range;
+            opts.rrt.seed = seed;
+            opts.velocity_scale = velocity_scale;
+            opts.acceleration_scale = acceleration_scale;
+            opts.simplify_path = simplify;
+            opts.trajectory = trajectory;
+            opts.goal_solutions = goal_solutions;
+            opts.coarse_factor = coarse_factor;
+            opts.validate().map_err(planning_err)?;
+            self.inner
+                .limits()
+                .scaled(velocity_scale, acceleration_scale)
+                .map_err(planning_err)?;
+            let order = self.order(joint_names)?;
+            let (start, full) = self.config(start, "start", order.as_ref())?;
+            // A full start sets the locked joints for this plan.
+            let local;
+            let planner = match full {
+                Some(f) if f != self.inner.space().locked => {
+                    let mut p = self.inner.clone();
+                    p.set_locked(&f).map_err(planning_err)?;
+                    local = p;
+                    &local
+                }
+                _ => &self.inner,
+            };
+            let result = match (goal_q, goal_pose) {
+                (Some(g), None) => {
+                    let (goal, _) = self.config(g, "goal_q", order.as_ref())?;
+                    py.detach(|| planner.plan(&start, &goal, &opts))
+                }
+                (None, Some(p)) => {
+                    let goals = read_poses(p, "goal_pose")?;
+                    py.detach(|| planner.plan_to_poses(&start, &goals, &opts))
+                }
+                _ => {
+                    return Err(InvalidArgumentError::new_err(
+                        "give exactly one of goal_q and goal_pose",
+                    ));
+                }
+            }
+            .map_err(planning_err)?;
+            Ok(PyPlanResult {
+                inner: result,
+                out: self.output(order, planner.space()),
+            })
+        })
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Planner(robot='{}', joints={:?}, ee_link='{}')",
+            self.inner.model().name(),
+            self.inner.space().names,
+            self.ee_link()
+        )
+    }
+}
+
+impl PyPlanner {
+    fn goalset(
+        &self,
+        py: Python<'_>,
+        goals: Vec<nalgebra::Isometry3<f64>>,
+        seed: Option<&Bound<'_, PyAny>>,
+        link: Option<&str>,
+        joint_names: Option<Vec<String>>,
+        opts: IkOptions,
+    ) -> PyResult<PyIkResult> {
+        let order = self.order(joint_names)?;
+        let seeds = match seed {
+            Some(s) => vec![self.config(s, "seed", order.as_ref())?.0],
+            None => Vec::new(),
+        };
+        let link = self.link(link)?;
+        let solver = self.inner.ik_solver(link).map_err(planning_err)?;
+        let solution = py
+            .detach(|| solver.solve(&goals, &seeds, &opts))
+            .map_err(planning_err)?;
+        Ok(PyIkResult {
+            solutions: vec![solution],
+            out: self.output(order, self.inner.space()),
+            batched: false,
+        })
+    }
+}
