@@ -47,3 +47,17 @@ def bundled_panda():
     import ferrobot
 
     return ferrobot.robots.panda()
+
+
+MBM = SHARED / "bench" / "mbm"
+
+
+def mbm_problem(scene: Path) -> tuple[dict[str, float], dict[str, float]]:
+    """Start and goal joint values (by name) of a MotionBenchMaker problem, from its request file."""
+    import yaml
+
+    req = yaml.safe_load((scene.parent / scene.name.replace("scene", "request")).read_text())
+    js = req["start_state"]["joint_state"]
+    start = dict(zip(js["name"], js["position"], strict=True))
+    goal = {c["joint_name"]: c["position"] for c in req["goal_constraints"][0]["joint_constraints"]}
+    return start, goal

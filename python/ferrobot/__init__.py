@@ -12,11 +12,25 @@ Conventions (everywhere in the public API):
 from __future__ import annotations
 
 from . import errors, robots
-from ._core import CollisionChecker, CollisionWorld, RobotModel, SphereModel, __version__
+from ._core import (
+    CollisionChecker,
+    CollisionWorld,
+    IkResult,
+    JointTrajectory,
+    Planner,
+    PlanResult,
+    RobotModel,
+    SphereModel,
+    __version__,
+)
 
 __all__ = [
     "CollisionChecker",
     "CollisionWorld",
+    "IkResult",
+    "JointTrajectory",
+    "Planner",
+    "PlanResult",
     "RobotModel",
     "SphereModel",
     "errors",

@@ -176,3 +176,149 @@ class CollisionChecker:
     def attached(self) -> list[str]: ...
     @property
     def num_spheres(self) -> int: ...
+
+class JointTrajectory:
+    """A trajectory sampled every ``dt`` seconds (the last sample at its end)."""
+
+    dt: float
+    joint_names: list[str]
+    @property
+    def times(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def positions(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def velocities(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def accelerations(self) -> npt.NDArray[np.float64]: ...
+    def __len__(self) -> int: ...
+
+class PlanResult:
+    """Outcome of ``Planner.plan``; failures are reported in ``status``, never raised."""
+
+    success: bool
+    status: str
+    message: str
+    joint_names: list[str]
+    samples: int
+    stops_at_waypoints: bool
+    path_length: float
+    duration: float | None
+    @property
+    def path(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def goal(self) -> npt.NDArray[np.float64] | None: ...
+    @property
+    def times(self) -> dict[str, float]: ...
+    def interpolated(self, dt: float = 0.01) -> JointTrajectory: ...
+    def __bool__(self) -> bool: ...
+
+class IkResult:
+    """IK outcome: scalars for one solve, arrays for a batch."""
+
+    joint_names: list[str]
+    @property
+    def success(self) -> bool | npt.NDArray[np.bool_]: ...
+    @property
+    def q(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def position_error(self) -> float | npt.NDArray[np.float64]: ...
+    @property
+    def rotation_error(self) -> float | npt.NDArray[np.float64]: ...
+    @property
+    def goal_index(self) -> int | npt.NDArray[np.int64]: ...
+    @property
+    def seeds_tried(self) -> int | npt.NDArray[np.int64]: ...
+    def __len__(self) -> int: ...
+
+class Planner:
+    """Multi-seed IK, RRT-Connect, shortcutting and time-parametrised smooth trajectories."""
+
+    def __init__(
+        self,
+        model: RobotModel,
+        world: CollisionWorld | None = None,
+        spheres: SphereModel | None = None,
+        *,
+        margin: float = 0.0,
+        ee_link: str | None = None,
+    ) -> None: ...
+    joint_names: list[str]
+    dof_names: list[str]
+    ee_link: str
+    @property
+    def locked_positions(self) -> npt.NDArray[np.float64]: ...
+    def set_locked_positions(self, q: npt.ArrayLike) -> None: ...
+    @property
+    def limits(self) -> dict[str, npt.NDArray[np.float64]]: ...
+    def set_limits(
+        self,
+        *,
+        velocity: npt.ArrayLike | None = None,
+        acceleration: npt.ArrayLike | None = None,
+        jerk: npt.ArrayLike | None = None,
+    ) -> None: ...
+    def update_world(self, world: CollisionWorld) -> None: ...
+    @property
+    def world(self) -> CollisionWorld: ...
+    def in_collision(self, q: npt.ArrayLike, joint_names: list[str] | None = None) -> bool: ...
+    def ik(
+        self,
+        goal_pose: npt.ArrayLike,
+        seed: npt.ArrayLike | None = None,
+        *,
+        link: str | None = None,
+        joint_names: list[str] | None = None,
+        position_tolerance: float = 1e-3,
+        rotation_tolerance: float = 0.01,
+        num_seeds: int = 64,
+        max_iterations: int = 60,
+        collision_free: bool = False,
+        random_seed: int = 0,
+    ) -> IkResult: ...
+    def ik_goalset(
+        self,
+        goal_poses: npt.ArrayLike,
+        seed: npt.ArrayLike | None = None,
+        *,
+        link: str | None = None,
+        joint_names: list[str] | None = None,
+        position_tolerance: float = 1e-3,
+        rotation_tolerance: float = 0.01,
+        num_seeds: int = 64,
+        max_iterations: int = 60,
+        collision_free: bool = False,
+        random_seed: int = 0,
+    ) -> IkResult: ...
+    def ik_batch(
+        self,
+        goal_poses: npt.ArrayLike,
+        seeds: npt.ArrayLike | None = None,
+        *,
+        link: str | None = None,
+        joint_names: list[str] | None = None,
+        position_tolerance: float = 1e-3,
+        rotation_tolerance: float = 0.01,
+        num_seeds: int = 64,
+        max_iterations: int = 60,
+        collision_free: bool = False,
+        random_seed: int = 0,
+    ) -> IkResult: ...
+    def plan(
+        self,
+        start: npt.ArrayLike,
+        goal_q: npt.ArrayLike | None = None,
+        goal_pose: npt.ArrayLike | None = None,
+        joint_names: list[str] | None = None,
+        *,
+        time_limit: float = 1.0,
+        max_samples: int = 100_000,
+        resolution: float = 0.005,
+        range: float = 1.0,
+        seed: int = 0,
+        velocity_scale: float = 1.0,
+        acceleration_scale: float = 1.0,
+        simplify: bool = True,
+        trajectory: bool = True,
+        goal_solutions: int = 4,
+        coarse_factor: float = 4.0,
+    ) -> PlanResult: ...
