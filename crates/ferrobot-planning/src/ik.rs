@@ -42,7 +42,7 @@ impl Default for IkOptions {
         Self {
             position_tolerance: 1e-3,
             rotation_tolerance: 0.01,
-            num_seeds: 64,
+            num_seeds: 200,
             max_iterations: 60,
             collision_free: false,
             seed: 0,

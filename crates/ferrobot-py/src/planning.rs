@@ -609,7 +609,7 @@ impl PyPlanner {
     /// `seed` first, then random seeds. With `collision_free`, solutions in
     /// collision are rejected.
     #[pyo3(signature = (goal_pose, seed=None, *, link=None, joint_names=None,
-        position_tolerance=1e-3, rotation_tolerance=0.01, num_seeds=64, max_iterations=60,
+        position_tolerance=1e-3, rotation_tolerance=0.01, num_seeds=200, max_iterations=60,
         collision_free=false, random_seed=0))]
     #[allow(clippy::too_many_arguments)]
     fn ik(
@@ -654,7 +654,7 @@ impl PyPlanner {
     /// IK for a goal set: any of the poses (N, 7) or (N, 4, 4) will do
     /// (grasp candidates, say); `goal_index` tells which was reached.
     #[pyo3(signature = (goal_poses, seed=None, *, link=None, joint_names=None,
-        position_tolerance=1e-3, rotation_tolerance=0.01, num_seeds=64, max_iterations=60,
+        position_tolerance=1e-3, rotation_tolerance=0.01, num_seeds=200, max_iterations=60,
         collision_free=false, random_seed=0))]
     #[allow(clippy::too_many_arguments)]
     fn ik_goalset(
@@ -694,7 +694,7 @@ impl PyPlanner {
     /// IK for each of N poses independently, in parallel; `seeds` (N, k)
     /// optional. Results are arrays over the batch.
     #[pyo3(signature = (goal_poses, seeds=None, *, link=None, joint_names=None,
-        position_tolerance=1e-3, rotation_tolerance=0.01, num_seeds=64, max_iterations=60,
+        position_tolerance=1e-3, rotation_tolerance=0.01, num_seeds=200, max_iterations=60,
         collision_free=false, random_seed=0))]
     #[allow(clippy::too_many_arguments)]
     fn ik_batch(
