@@ -63,10 +63,7 @@ impl Default for PlanOptions {
             simplify: SimplifyOptions::default(),
             simplify_path: true,
             trajectory: true,
-            ik: IkOptions {
-                num_seeds: 48,
-                ..IkOptions::default()
-            },
+            ik: IkOptions::default(),
             goal_solutions: 4,
             velocity_scale: 1.0,
             acceleration_scale: 1.0,
