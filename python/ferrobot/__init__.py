@@ -12,13 +12,37 @@ Conventions (everywhere in the public API):
 from __future__ import annotations
 
 from . import errors, robots
-from ._core import CollisionChecker, CollisionWorld, RobotModel, SphereModel, __version__
+from ._core import (
+    Camera,
+    CollisionChecker,
+    CollisionWorld,
+    JointPID,
+    ResolvedRateController,
+    Robot,
+    RobotModel,
+    SphereModel,
+    World,
+    __version__,
+    depth_to_points,
+    look_at,
+    opencv_to_opengl,
+    opengl_to_opencv,
+)
 
 __all__ = [
+    "Camera",
     "CollisionChecker",
     "CollisionWorld",
+    "JointPID",
+    "ResolvedRateController",
+    "Robot",
     "RobotModel",
     "SphereModel",
+    "World",
+    "depth_to_points",
+    "look_at",
+    "opencv_to_opengl",
+    "opengl_to_opencv",
     "errors",
     "robots",
     "__version__",

@@ -500,7 +500,7 @@ impl Robot {
         }
         mb.apply_displacements(&disp);
         mb.generalized_velocity_mut().fill(0.0);
-        mb.forward_kinematics(bodies, false);
+        mb.forward_kinematics(bodies, true);
         mb.update_rigid_bodies(bodies, true);
         for &h in &self.bodies[1..] {
             if let Some(b) = bodies.get_mut(h) {
@@ -594,6 +594,17 @@ impl Robot {
                 let p = crate::convert::to_vec(&child_pose.translation.vector);
                 state.bodies[d.child_body].add_force_at_point(f, p, true);
                 state.bodies[d.parent_body].add_force_at_point(-f, p, true);
+            }
+        }
+    }
+}
+
+impl Robot {
+    /// Sets the extra solver iterations of the robot's moving bodies.
+    pub fn set_solver_iterations(&self, state: &mut PhysState, n: usize) {
+        for &h in &self.bodies[1..] {
+            if let Some(b) = state.bodies.get_mut(h) {
+                b.set_additional_solver_iterations(n);
             }
         }
     }
