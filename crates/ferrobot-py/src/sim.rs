@@ -132,13 +132,16 @@ impl PyWorld {
     /// A new world: time step `dt` (s), `gravity` (m/s², z up),
     /// `solver_iterations`, a ground plane at z = 0 when `ground`.
     #[new]
-    #[pyo3(signature = (dt=1.0/240.0, gravity=None, solver_iterations=4, ground=true, ground_friction=0.8))]
+    #[pyo3(signature = (dt=1.0/240.0, gravity=None, solver_iterations=4, ground=true, ground_friction=0.8, *, contact_frequency=ferrobot_sim::world::CONTACT_FREQUENCY, allowed_penetration=ferrobot_sim::world::ALLOWED_PENETRATION))]
+    #[allow(clippy::too_many_arguments)]
     fn new(
         dt: f64,
         gravity: Option<&Bound<'_, PyAny>>,
         solver_iterations: usize,
         ground: bool,
         ground_friction: f64,
+        contact_frequency: f64,
+        allowed_penetration: f64,
     ) -> PyResult<Self> {
         guard(|| {
             let gravity = match gravity {
@@ -151,6 +154,8 @@ impl PyWorld {
                 solver_iterations,
                 ground,
                 ground_friction,
+                contact_frequency,
+                allowed_penetration,
             })
             .map_err(sim_err)?;
             Ok(Self {
