@@ -381,6 +381,15 @@ impl Robot {
             base_pose: options.pose,
         };
         if let Some(mb) = robot.multibody_mut(state) {
+            // Joint damping and friction from the URDF's <dynamics> (Rapier
+            // otherwise adds a default damping of 0.1 on rotational DOFs).
+            let movable = robot.dofs.iter().chain(robot.mimics.iter().map(|m| &m.0));
+            for a in movable {
+                let j = &robot.model.joints()[a.joint];
+                let id = mb.link(a.link.id).expect("link").assembly_id();
+                mb.damping_mut()[id] = j.damping as f32;
+                mb.frictions_mut()[id] = j.friction as f32;
+            }
             for &(a, dof, coeff, off) in &robot.mimics {
                 let d = robot.dofs[dof];
                 mb.add_dof_coupling(MultibodyDofCoupling {

@@ -115,9 +115,13 @@ pub struct World {
     steps: u64,
 }
 
-/// Largest speed (m/s) or angular speed (rad/s) a body may reach before
-/// the simulation counts as diverged.
-pub const DIVERGENCE_SPEED: f32 = 1.0e4;
+/// Largest speed (m/s) a body may reach before the simulation counts as
+/// diverged (Rapier clamps speeds at 400 m/s, so a runaway body ends there).
+pub const DIVERGENCE_SPEED: f32 = 300.0;
+/// Largest angular speed (rad/s) before the simulation counts as diverged.
+pub const DIVERGENCE_ANGULAR_SPEED: f32 = 1.0e4;
+/// Largest distance (m) from the origin before the simulation counts as diverged.
+pub const DIVERGENCE_DISTANCE: f32 = 1.0e4;
 
 fn default_color(id: u32) -> [f32; 3] {
     // Distinct, reproducible colours (golden-angle hue walk).
@@ -488,7 +492,8 @@ impl World {
                 && b.linvel().is_finite()
                 && b.angvel().is_finite()
                 && b.linvel().length() < DIVERGENCE_SPEED
-                && b.angvel().length() < DIVERGENCE_SPEED;
+                && b.angvel().length() < DIVERGENCE_ANGULAR_SPEED
+                && p.translation.length() < DIVERGENCE_DISTANCE;
             if !ok {
                 let name = self.body_name(b.colliders().first().copied());
                 return Err(SimError::Diverged(format!(
