@@ -191,7 +191,17 @@ impl World {
             if !c.is_enabled() {
                 continue;
             }
-            let pose = world_cam * *c.position();
+            // From the parent body: collider poses are only synced during a
+            // step, and a teleport (set_joint_positions, set_object_pose)
+            // moves the bodies at once.
+            let world_pose = match (c.parent(), c.position_wrt_parent()) {
+                (Some(b), Some(rel)) => match self.state.bodies.get(b) {
+                    Some(body) => *body.position() * *rel,
+                    None => *c.position(),
+                },
+                _ => *c.position(),
+            };
+            let pose = world_cam * world_pose;
             let shape = c.shared_shape().clone();
             let rect = if shape.as_halfspace().is_some() {
                 Some(full)

@@ -33,7 +33,7 @@ pub fn look_at(eye: &Point3<f64>, target: &Point3<f64>, up: &Vector3<f64>) -> Re
         ));
     }
     let z = z.normalize();
-    let x = z.cross(&-up);
+    let x = z.cross(up);
     if !(x.norm() > 1e-9) {
         return Err(SimError::InvalidArgument(
             "look_at: the up vector is parallel to the viewing direction".into(),
