@@ -64,6 +64,32 @@ def test_depth_of_sphere_matches_ray_sphere_intersection():
     assert np.all(rgb[inner][:, 1:] == 0) and rgb[inner][:, 0].min() > 50
 
 
+def test_capsule_depth_along_the_centre_row():
+    # capsule along the camera's x axis at depth D: the centre row sees the
+    # cylinder at D - r where |x| <= L / 2 and the end spheres beyond
+    w = ferrobot.World(ground=False)
+    depth_c, r, length = 1.0, 0.1, 0.6
+    c = np.cos(np.pi / 4)
+    w.add_capsule("cap", r, length, [0, 0, depth_c, c, 0, c, 0], static_=True)  # z axis -> x axis
+    cam = ferrobot.Camera(w, 200, 41, 100.0)
+    row = cam.render(rgb=False)["depth"][20]
+    a = (np.arange(200) - cam.intrinsic_matrix[0, 2]) / 100.0
+    expected = np.full(200, np.inf)
+    body = np.abs(a * (depth_c - r)) <= length / 2
+    expected[body] = depth_c - r
+    for sx in (-length / 2, length / 2):
+        d = np.stack([a, np.zeros_like(a), np.ones_like(a)], -1)
+        cen = np.array([sx, 0.0, depth_c])
+        dd, dc = (d * d).sum(-1), d @ cen
+        disc = dc**2 - dd * (cen @ cen - r * r)
+        t = np.where(disc > 0, (dc - np.sqrt(np.abs(disc))) / dd, np.inf)
+        expected = np.minimum(expected, t)
+    finite = np.isfinite(expected)
+    assert finite.sum() > 60
+    assert np.allclose(row[finite], expected[finite], atol=1e-5)
+    assert np.all(np.isinf(row[~finite]))
+
+
 def test_box_face_depth_and_occlusion():
     w = ferrobot.World(ground=False)
     w.add_box("back", [2.0, 2.0, 0.1], [0, 0, 2.05, 1, 0, 0, 0], static_=True)

@@ -156,6 +156,86 @@ struct Item {
     seg: u32,
     /// Inclusive pixel bounds (u0, u1, v0, v1).
     rect: (i64, i64, i64, i64),
+    /// Camera-frame bounding box (for a quick slab test and front-to-back
+    /// early exit); unused for half-spaces.
+    mins: Vector,
+    maxs: Vector,
+    /// Half-space: outward normal and offset in the camera frame
+    /// (points x with n.x <= d are inside).
+    plane: Option<(Vector, f32)>,
+    /// Capsule: segment end points in the camera frame and radius (cast
+    /// analytically; parry casts capsules through GJK, ten times slower).
+    capsule: Option<(Vector, Vector, f32)>,
+}
+
+/// First intersection `t` (in units of `dir`, origin at the camera) of the
+/// ray with a capsule, and the outward normal there; `None` when missed or
+/// when the camera is inside.
+fn ray_capsule(dir: Vector, pa: Vector, pb: Vector, r: f32) -> Option<(f32, Vector)> {
+    let len = dir.length();
+    let rd = dir / len;
+    let ba = pb - pa;
+    let oa = -pa;
+    let baba = ba.dot(ba);
+    let bard = ba.dot(rd);
+    let baoa = ba.dot(oa);
+    let rdoa = rd.dot(oa);
+    let oaoa = oa.dot(oa);
+    let a = baba - bard * bard;
+    if a > 1e-12 * baba.max(1e-12) {
+        let b = baba * rdoa - baoa * bard;
+        let c = baba * oaoa - baoa * baoa - r * r * baba;
+        let h = b * b - a * c;
+        if h < 0.0 {
+            return None;
+        }
+        let t = (-b - h.sqrt()) / a;
+        let y = baoa + t * bard;
+        if y > 0.0 && y < baba {
+            if t <= 0.0 {
+                return None;
+            }
+            let p = rd * t;
+            let axis_point = pa + ba * (y / baba);
+            return Some((t / len, (p - axis_point).normalize_or_zero()));
+        }
+        let centre = if y <= 0.0 { pa } else { pb };
+        return ray_sphere(rd, centre, r).map(|t| (t / len, (rd * t - centre).normalize_or_zero()));
+    }
+    // Ray along the axis: the nearer cap decides.
+    let ta = ray_sphere(rd, pa, r);
+    let tb = ray_sphere(rd, pb, r);
+    let (t, c) = match (ta, tb) {
+        (Some(x), Some(y)) if x <= y => (x, pa),
+        (Some(_), Some(y)) => (y, pb),
+        (Some(x), None) => (x, pa),
+        (None, Some(y)) => (y, pb),
+        (None, None) => return None,
+    };
+    Some((t / len, (rd * t - c).normalize_or_zero()))
+}
+
+/// Entry distance along the unit ray `rd` (from the origin) into a sphere.
+fn ray_sphere(rd: Vector, centre: Vector, r: f32) -> Option<f32> {
+    let b = rd.dot(centre);
+    let c = centre.dot(centre) - r * r;
+    let h = b * b - c;
+    if h < 0.0 || c < 0.0 {
+        return None;
+    }
+    let t = b - h.sqrt();
+    (t > 0.0).then_some(t)
+}
+
+/// Entry parameter of the ray `t dir` (origin at the camera) into the box,
+/// if it enters before `tmax`.
+#[inline]
+fn slab(inv: Vector, mins: Vector, maxs: Vector, tmax: f32) -> bool {
+    let t1 = mins * inv;
+    let t2 = maxs * inv;
+    let tmin = t1.min(t2).max_element().max(0.0);
+    let tout = t1.max(t2).min_element().min(tmax);
+    tmin <= tout
 }
 
 impl World {
@@ -203,43 +283,72 @@ impl World {
             };
             let pose = world_cam * world_pose;
             let shape = c.shared_shape().clone();
-            let rect = if shape.as_halfspace().is_some() {
+            if let Some(h) = shape.as_halfspace() {
+                let n = pose.rotation * h.normal;
+                let d = n.dot(pose.translation);
+                items.push(Item {
+                    shape,
+                    pose,
+                    seg: seg_of(c.user_data),
+                    rect: full,
+                    mins: Vector::splat(f32::NEG_INFINITY),
+                    maxs: Vector::splat(f32::INFINITY),
+                    plane: Some((n, d)),
+                    capsule: None,
+                });
+                continue;
+            }
+            let aabb = shape.compute_aabb(&pose);
+            let rect = if aabb.maxs.z <= near || aabb.mins.z >= far {
+                None
+            } else if aabb.mins.z <= near {
                 Some(full)
             } else {
-                let aabb = shape.compute_aabb(&pose);
-                if aabb.maxs.z <= near || aabb.mins.z >= far {
-                    None
-                } else if aabb.mins.z <= near {
-                    Some(full)
-                } else {
-                    let (mut u0, mut u1, mut v0, mut v1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
-                    for corner in aabb.vertices() {
-                        let z = corner.z as f64;
-                        let u = intr.fx * corner.x as f64 / z + intr.cx;
-                        let v = intr.fy * corner.y as f64 / z + intr.cy;
-                        u0 = u0.min(u);
-                        u1 = u1.max(u);
-                        v0 = v0.min(v);
-                        v1 = v1.max(v);
-                    }
-                    let r = (
-                        (u0.floor() as i64).max(0),
-                        (u1.ceil() as i64).min(w as i64 - 1),
-                        (v0.floor() as i64).max(0),
-                        (v1.ceil() as i64).min(h as i64 - 1),
-                    );
-                    (r.0 <= r.1 && r.2 <= r.3).then_some(r)
+                let (mut u0, mut u1, mut v0, mut v1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+                for corner in aabb.vertices() {
+                    let z = corner.z as f64;
+                    let u = intr.fx * corner.x as f64 / z + intr.cx;
+                    let v = intr.fy * corner.y as f64 / z + intr.cy;
+                    u0 = u0.min(u);
+                    u1 = u1.max(u);
+                    v0 = v0.min(v);
+                    v1 = v1.max(v);
                 }
+                let r = (
+                    (u0.floor() as i64).max(0),
+                    (u1.ceil() as i64).min(w as i64 - 1),
+                    (v0.floor() as i64).max(0),
+                    (v1.ceil() as i64).min(h as i64 - 1),
+                );
+                (r.0 <= r.1 && r.2 <= r.3).then_some(r)
             };
             if let Some(rect) = rect {
+                let capsule = shape.as_capsule().map(|c| {
+                    (
+                        pose.transform_point(c.segment.a),
+                        pose.transform_point(c.segment.b),
+                        c.radius,
+                    )
+                });
                 items.push(Item {
                     shape,
                     pose,
                     seg: seg_of(c.user_data),
                     rect,
+                    mins: aabb.mins,
+                    maxs: aabb.maxs,
+                    plane: None,
+                    capsule,
                 });
             }
         }
+        // Half-spaces first (analytic), then bodies front to back so that a
+        // pixel stops at the first box farther than its nearest hit.
+        items.sort_by(|a, b| {
+            (a.plane.is_none(), a.mins.z)
+                .partial_cmp(&(b.plane.is_none(), b.mins.z))
+                .unwrap_or(std::cmp::Ordering::Equal)
+        });
         let colors: Vec<[f32; 3]> = {
             let max = self.labels().iter().map(|l| l.id).max().unwrap_or(0) as usize;
             let mut c = vec![[0.0f32; 3]; max + 1];
@@ -269,11 +378,35 @@ impl World {
                 // Depth equals the ray parameter because dir.z == 1.
                 let mut best = far;
                 let mut hit: Option<&Item> = None;
+                let inv = Vector::ONE / dir;
                 for it in &cands {
-                    if ui < it.rect.0 || ui > it.rect.1 {
+                    if let Some((n, d)) = it.plane {
+                        // Ray t*dir enters n.x <= d where n.(t dir) = d from outside.
+                        let nd = n.dot(dir);
+                        if d < 0.0 && nd < 0.0 {
+                            let t = d / nd;
+                            if t >= near && t < best {
+                                best = t;
+                                hit = Some(it);
+                            }
+                        } else if d >= 0.0 && near < best {
+                            // The camera is inside the half-space.
+                            best = near;
+                            hit = Some(it);
+                        }
                         continue;
                     }
-                    if let Some(t) = it.shape.cast_ray(&it.pose, &ray, best, true)
+                    if it.mins.z >= best {
+                        break;
+                    }
+                    if ui < it.rect.0 || ui > it.rect.1 || !slab(inv, it.mins, it.maxs, best) {
+                        continue;
+                    }
+                    let t = match it.capsule {
+                        Some((pa, pb, r)) => ray_capsule(dir, pa, pb, r).map(|(t, _)| t),
+                        None => it.shape.cast_ray(&it.pose, &ray, best, true),
+                    };
+                    if let Some(t) = t
                         && t >= near
                         && t < best
                     {
@@ -285,13 +418,17 @@ impl World {
                     drow[u] = best;
                     srow[u] = it.seg;
                     if !crow.is_empty() {
-                        let shade = it
-                            .shape
-                            .cast_ray_and_get_normal(&it.pose, &ray, best * 1.001 + 1e-4, true)
-                            .map_or(1.0, |i| {
-                                let n = i.normal.normalize_or_zero();
-                                0.35 + 0.65 * (n.dot(dir.normalize())).abs()
-                            });
+                        let normal = match (it.plane, it.capsule) {
+                            (Some((n, _)), _) => Some(n),
+                            (_, Some((pa, pb, r))) => ray_capsule(dir, pa, pb, r).map(|(_, n)| n),
+                            _ => it
+                                .shape
+                                .cast_ray_and_get_normal(&it.pose, &ray, best * 1.001 + 1e-4, true)
+                                .map(|i| i.normal),
+                        };
+                        let shade = normal.map_or(1.0, |n| {
+                            0.35 + 0.65 * n.normalize_or_zero().dot(dir.normalize()).abs()
+                        });
                         let c = colors.get(it.seg as usize).copied().unwrap_or([1.0; 3]);
                         for k in 0..3 {
                             crow[3 * u + k] = (c[k] * shade * 255.0).clamp(0.0, 255.0) as u8;
