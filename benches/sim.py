@@ -86,7 +86,10 @@ def main() -> None:
         out[key] = 1e3 * t
         out[key.replace("_ms", "_cpu_ms")] = 1e3 * cpu
         what = "depth + segmentation + RGB" if rgb else "depth + segmentation"
-        print(f"Render 640x480 {what}: {1e3 * t:.2f} ms wall (median), {1e3 * cpu:.2f} ms CPU per frame (mean, all threads)")
+        print(
+            f"Render 640x480 {what}: {1e3 * t:.2f} ms wall (median), "
+            f"{1e3 * cpu:.2f} ms CPU per frame (mean, all threads)"
+        )
 
     # 4. A pick-and-place episode on the table.
     dt = 1 / 240

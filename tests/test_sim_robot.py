@@ -9,10 +9,10 @@ import os
 import numpy as np
 import pytest
 from _sim_helpers import PANDA_Q0, ik, pose_at, straight_line
-from conftest import PANDA_SRDF, PANDA_URDF, UR5_URDF, random_configurations
 from scipy.special import ellipk
 
 import ferrobot
+from conftest import PANDA_SRDF, PANDA_URDF, UR5_URDF, random_configurations
 from ferrobot import errors
 
 G = 9.81

@@ -128,8 +128,20 @@ def test_mesh_objects():
     # a unit-ish tetrahedron-free cube mesh as hull and decomposition
     v = np.array([[x, y, z] for x in (-0.05, 0.05) for y in (-0.05, 0.05) for z in (-0.05, 0.05)], float)
     f = np.array(
-        [[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1], [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4],
-         [1, 5, 7], [1, 7, 3]]
+        [
+            [0, 1, 3],
+            [0, 3, 2],
+            [4, 6, 7],
+            [4, 7, 5],
+            [0, 4, 5],
+            [0, 5, 1],
+            [2, 3, 7],
+            [2, 7, 6],
+            [0, 2, 6],
+            [0, 6, 4],
+            [1, 5, 7],
+            [1, 7, 3],
+        ]
     )
     w = ferrobot.World()
     w.add_mesh("hull", v, f, [0, 0, 0.3, 1, 0, 0, 0], approximation="convex_hull")
@@ -153,7 +165,9 @@ def _scene():
 
 
 def _state(w):
-    return np.concatenate([np.concatenate([w.get_object_pose(n).ravel(), *w.get_object_velocity(n)]) for n in w.object_names])
+    return np.concatenate(
+        [np.concatenate([w.get_object_pose(n).ravel(), *w.get_object_velocity(n)]) for n in w.object_names]
+    )
 
 
 def test_determinism_bit_for_bit():

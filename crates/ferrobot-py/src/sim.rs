@@ -220,7 +220,16 @@ impl PyWorld {
         let shape = ObjectShape::Box {
             half_extents: s / 2.0,
         };
-        self.add(object_desc(name, shape, pose, mass, friction, restitution, static_, color)?)
+        self.add(object_desc(
+            name,
+            shape,
+            pose,
+            mass,
+            friction,
+            restitution,
+            static_,
+            color,
+        )?)
     }
 
     /// Adds a sphere.
@@ -238,7 +247,16 @@ impl PyWorld {
         color: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<String> {
         let shape = ObjectShape::Sphere { radius };
-        self.add(object_desc(name, shape, pose, mass, friction, restitution, static_, color)?)
+        self.add(object_desc(
+            name,
+            shape,
+            pose,
+            mass,
+            friction,
+            restitution,
+            static_,
+            color,
+        )?)
     }
 
     /// Adds a cylinder along its z axis.
@@ -257,7 +275,16 @@ impl PyWorld {
         color: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<String> {
         let shape = ObjectShape::Cylinder { radius, length };
-        self.add(object_desc(name, shape, pose, mass, friction, restitution, static_, color)?)
+        self.add(object_desc(
+            name,
+            shape,
+            pose,
+            mass,
+            friction,
+            restitution,
+            static_,
+            color,
+        )?)
     }
 
     /// Adds a capsule along its z axis (`length` of the cylindrical part).
@@ -276,7 +303,16 @@ impl PyWorld {
         color: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<String> {
         let shape = ObjectShape::Capsule { radius, length };
-        self.add(object_desc(name, shape, pose, mass, friction, restitution, static_, color)?)
+        self.add(object_desc(
+            name,
+            shape,
+            pose,
+            mass,
+            friction,
+            restitution,
+            static_,
+            color,
+        )?)
     }
 
     /// Adds a mesh (vertices (N, 3), faces (M, 3)) approximated as
@@ -306,7 +342,9 @@ impl PyWorld {
         let f = read_array(faces, "faces", 2, &[Some(3)])?;
         let mut tris = Vec::with_capacity(f.shape[0]);
         for c in f.data().chunks_exact(3) {
-            if c.iter().any(|&i| i < 0.0 || i.fract() != 0.0 || i >= pts.len() as f64) {
+            if c.iter()
+                .any(|&i| i < 0.0 || i.fract() != 0.0 || i >= pts.len() as f64)
+            {
                 return Err(InvalidArgumentError::new_err(format!(
                     "faces: indices must be integers in [0, {}), got {c:?}",
                     pts.len()
@@ -330,7 +368,16 @@ impl PyWorld {
                 )));
             }
         };
-        let desc = object_desc(name, shape, pose, mass, friction, restitution, static_, color)?;
+        let desc = object_desc(
+            name,
+            shape,
+            pose,
+            mass,
+            friction,
+            restitution,
+            static_,
+            color,
+        )?;
         let inner = self.inner.clone();
         guard(|| {
             let name = desc.name.clone();
@@ -344,7 +391,11 @@ impl PyWorld {
     }
 
     /// World pose (4x4) of an object.
-    fn get_object_pose<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    fn get_object_pose<'py>(
+        &self,
+        py: Python<'py>,
+        name: &str,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
         let w = lock(&self.inner)?;
         let i = self.object(&w, name)?;
         Ok(matrix(py, &w.object_pose(i)))
@@ -367,7 +418,10 @@ impl PyWorld {
         let w = lock(&self.inner)?;
         let i = self.object(&w, name)?;
         let (l, a) = w.object_velocity(i);
-        Ok((vec1(py, l.as_slice().to_vec()), vec1(py, a.as_slice().to_vec())))
+        Ok((
+            vec1(py, l.as_slice().to_vec()),
+            vec1(py, a.as_slice().to_vec()),
+        ))
     }
 
     /// Sets an object's velocity (angular defaults to zero).
@@ -405,7 +459,9 @@ impl PyWorld {
         let mut opts = RobotOptions::new(name);
         opts.pose = pose_arg(pose, "pose")?;
         opts.q = q
-            .map(|q| read_array(q, "q", 1, &[Some(model.inner.num_dof())]).map(|a| a.data().to_vec()))
+            .map(|q| {
+                read_array(q, "q", 1, &[Some(model.inner.num_dof())]).map(|a| a.data().to_vec())
+            })
             .transpose()?;
         opts.gravity_compensation = gravity_compensation;
         opts.solver_iterations = solver_iterations;
@@ -474,9 +530,16 @@ fn indices_arg(ix: Option<Vec<i64>>) -> PyResult<Option<Vec<usize>>> {
 impl PyRobot {
     fn with<T>(
         &self,
-        f: impl FnOnce(&mut ferrobot_sim::Robot, &mut ferrobot_sim::state::PhysState) -> ferrobot_sim::Result<T>,
+        f: impl FnOnce(
+            &mut ferrobot_sim::Robot,
+            &mut ferrobot_sim::state::PhysState,
+        ) -> ferrobot_sim::Result<T>,
     ) -> PyResult<T> {
-        guard(|| lock(&self.world)?.with_robot(self.index, f).map_err(sim_err))
+        guard(|| {
+            lock(&self.world)?
+                .with_robot(self.index, f)
+                .map_err(sim_err)
+        })
     }
 
     fn read<T>(&self, f: impl FnOnce(&ferrobot_sim::Robot, &World) -> T) -> PyResult<T> {
@@ -533,43 +596,71 @@ impl PyRobot {
     /// Teleports the joints (zero velocity; mimic joints follow). Drive
     /// targets are unchanged, as in Isaac Sim.
     fn set_joint_positions(&self, q: &Bound<'_, PyAny>) -> PyResult<()> {
-        let q = read_array(q, "q", 1, &[Some(self.model.num_dof())])?.data().to_vec();
+        let q = read_array(q, "q", 1, &[Some(self.model.num_dof())])?
+            .data()
+            .to_vec();
         self.with(|r, s| r.set_joint_positions(s, &q))
     }
 
     /// Sets the joint velocities.
     fn set_joint_velocities(&self, qd: &Bound<'_, PyAny>) -> PyResult<()> {
-        let qd = read_array(qd, "qd", 1, &[Some(self.model.num_dof())])?.data().to_vec();
+        let qd = read_array(qd, "qd", 1, &[Some(self.model.num_dof())])?
+            .data()
+            .to_vec();
         self.with(|r, s| r.set_joint_velocities(s, &qd))
     }
 
     /// Drive position targets for `joint_indices` (all DOFs when None).
     #[pyo3(signature = (targets, joint_indices=None))]
-    fn set_joint_position_targets(&self, targets: &Bound<'_, PyAny>, joint_indices: Option<Vec<i64>>) -> PyResult<()> {
+    fn set_joint_position_targets(
+        &self,
+        targets: &Bound<'_, PyAny>,
+        joint_indices: Option<Vec<i64>>,
+    ) -> PyResult<()> {
         let ix = indices_arg(joint_indices)?;
-        let t = read_array(targets, "targets", 1, &[self.targets_len(&ix)])?.data().to_vec();
+        let t = read_array(targets, "targets", 1, &[self.targets_len(&ix)])?
+            .data()
+            .to_vec();
         self.with(|r, s| r.set_position_targets(s, &t, ix.as_deref()))
     }
 
     /// Drive velocity targets for `joint_indices` (all DOFs when None).
     #[pyo3(signature = (targets, joint_indices=None))]
-    fn set_joint_velocity_targets(&self, targets: &Bound<'_, PyAny>, joint_indices: Option<Vec<i64>>) -> PyResult<()> {
+    fn set_joint_velocity_targets(
+        &self,
+        targets: &Bound<'_, PyAny>,
+        joint_indices: Option<Vec<i64>>,
+    ) -> PyResult<()> {
         let ix = indices_arg(joint_indices)?;
-        let t = read_array(targets, "targets", 1, &[self.targets_len(&ix)])?.data().to_vec();
+        let t = read_array(targets, "targets", 1, &[self.targets_len(&ix)])?
+            .data()
+            .to_vec();
         self.with(|r, s| r.set_velocity_targets(s, &t, ix.as_deref()))
     }
 
     /// Efforts (N·m or N) applied every step on top of the drives.
     #[pyo3(signature = (efforts, joint_indices=None))]
-    fn set_joint_efforts(&self, efforts: &Bound<'_, PyAny>, joint_indices: Option<Vec<i64>>) -> PyResult<()> {
+    fn set_joint_efforts(
+        &self,
+        efforts: &Bound<'_, PyAny>,
+        joint_indices: Option<Vec<i64>>,
+    ) -> PyResult<()> {
         let ix = indices_arg(joint_indices)?;
-        let e = read_array(efforts, "efforts", 1, &[self.targets_len(&ix)])?.data().to_vec();
+        let e = read_array(efforts, "efforts", 1, &[self.targets_len(&ix)])?
+            .data()
+            .to_vec();
         self.with(|r, _| r.set_efforts(&e, ix.as_deref()))
     }
 
     /// Current drive position targets (num_dof,).
-    fn get_joint_position_targets<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        Ok(vec1(py, self.read(|r, _| r.drives().iter().map(|d| d.target_position).collect())?))
+    fn get_joint_position_targets<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        Ok(vec1(
+            py,
+            self.read(|r, _| r.drives().iter().map(|d| d.target_position).collect())?,
+        ))
     }
 
     /// (stiffness, damping, max_force), each (num_dof,).
@@ -577,7 +668,11 @@ impl PyRobot {
     fn get_drive_gains<'py>(
         &self,
         py: Python<'py>,
-    ) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>)> {
+    ) -> PyResult<(
+        Bound<'py, PyArray1<f64>>,
+        Bound<'py, PyArray1<f64>>,
+        Bound<'py, PyArray1<f64>>,
+    )> {
         let d = self.read(|r, _| r.drives().to_vec())?;
         Ok((
             vec1(py, d.iter().map(|d| d.stiffness).collect()),
@@ -639,7 +734,11 @@ impl PyRobot {
 
     /// World pose (4x4) of a link (default: the end effector).
     #[pyo3(signature = (link=None))]
-    fn get_link_pose<'py>(&self, py: Python<'py>, link: Option<&str>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    fn get_link_pose<'py>(
+        &self,
+        py: Python<'py>,
+        link: Option<&str>,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
         let l = match link {
             Some(l) => self.model.link(l).map_err(model_err)?,
             None => self.model.ee_link(),
@@ -660,7 +759,12 @@ impl PyRobot {
     }
 
     /// Describes a parallel gripper: finger DOF names with open and closed positions.
-    fn set_gripper(&self, joint_names: Vec<String>, open: &Bound<'_, PyAny>, closed: &Bound<'_, PyAny>) -> PyResult<()> {
+    fn set_gripper(
+        &self,
+        joint_names: Vec<String>,
+        open: &Bound<'_, PyAny>,
+        closed: &Bound<'_, PyAny>,
+    ) -> PyResult<()> {
         let o = vec_arg(open, "open")?;
         let c = vec_arg(closed, "closed")?;
         let g = ParallelGripper::new(&self.model, &joint_names, &o, &c).map_err(sim_err)?;
@@ -707,7 +811,15 @@ impl PyRobot {
         let rep = guard(|| {
             py.detach(|| {
                 let mut w = world.lock().expect("world lock");
-                execute_trajectory(&mut w, index, &p, dt, v.as_deref(), ix.as_deref(), settle_time)
+                execute_trajectory(
+                    &mut w,
+                    index,
+                    &p,
+                    dt,
+                    v.as_deref(),
+                    ix.as_deref(),
+                    settle_time,
+                )
             })
             .map_err(sim_err)
         })?;
@@ -717,11 +829,15 @@ impl PyRobot {
         d.set_item("times", vec1(py, rep.times))?;
         d.set_item(
             "desired",
-            Array2::from_shape_vec((m, k), rep.desired).expect("m x k").into_pyarray(py),
+            Array2::from_shape_vec((m, k), rep.desired)
+                .expect("m x k")
+                .into_pyarray(py),
         )?;
         d.set_item(
             "actual",
-            Array2::from_shape_vec((m, k), rep.actual).expect("m x k").into_pyarray(py),
+            Array2::from_shape_vec((m, k), rep.actual)
+                .expect("m x k")
+                .into_pyarray(py),
         )?;
         d.set_item("max_error", vec1(py, rep.max_error))?;
         d.set_item("rms_error", vec1(py, rep.rms_error))?;
@@ -772,16 +888,23 @@ impl PyCamera {
             (None, None) => CameraMount::World,
             (Some(r), l) => {
                 if !Arc::ptr_eq(&r.world, &world.inner) {
-                    return Err(InvalidArgumentError::new_err("robot: the robot belongs to another world"));
+                    return Err(InvalidArgumentError::new_err(
+                        "robot: the robot belongs to another world",
+                    ));
                 }
                 let link = match l {
                     Some(l) => r.model.link(l).map_err(model_err)?,
                     None => r.model.ee_link(),
                 };
-                CameraMount::Link { robot: r.index, link }
+                CameraMount::Link {
+                    robot: r.index,
+                    link,
+                }
             }
             (None, Some(_)) => {
-                return Err(InvalidArgumentError::new_err("link: give the robot the link belongs to"));
+                return Err(InvalidArgumentError::new_err(
+                    "link: give the robot the link belongs to",
+                ));
             }
         };
         let camera = Camera {
@@ -814,9 +937,12 @@ impl PyCamera {
     #[getter]
     fn intrinsic_matrix<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
         let i = &self.camera.intrinsics;
-        Array2::from_shape_vec((3, 3), vec![i.fx, 0.0, i.cx, 0.0, i.fy, i.cy, 0.0, 0.0, 1.0])
-            .expect("3x3")
-            .into_pyarray(py)
+        Array2::from_shape_vec(
+            (3, 3),
+            vec![i.fx, 0.0, i.cx, 0.0, i.fy, i.cy, 0.0, 0.0, 1.0],
+        )
+        .expect("3x3")
+        .into_pyarray(py)
     }
 
     /// Pose of the camera relative to its mount (OpenCV frame).
@@ -832,7 +958,11 @@ impl PyCamera {
 
     /// World pose (4x4) of the OpenCV camera frame.
     fn get_world_pose<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        let p = guard(|| lock(&self.world)?.camera_pose(&self.camera).map_err(sim_err))?;
+        let p = guard(|| {
+            lock(&self.world)?
+                .camera_pose(&self.camera)
+                .map_err(sim_err)
+        })?;
         Ok(matrix(py, &p))
     }
 
@@ -851,12 +981,24 @@ impl PyCamera {
         let d = PyDict::new(py);
         d.set_item(
             "depth",
-            Array2::from_shape_vec((h, w), frame.depth).expect("h x w").into_pyarray(py),
+            Array2::from_shape_vec((h, w), frame.depth)
+                .expect("h x w")
+                .into_pyarray(py),
         )?;
         let seg: Vec<i32> = frame.segmentation.iter().map(|&s| s as i32).collect();
-        d.set_item("segmentation", Array2::from_shape_vec((h, w), seg).expect("h x w").into_pyarray(py))?;
+        d.set_item(
+            "segmentation",
+            Array2::from_shape_vec((h, w), seg)
+                .expect("h x w")
+                .into_pyarray(py),
+        )?;
         if let Some(c) = frame.rgb {
-            d.set_item("rgb", Array3::from_shape_vec((h, w, 3), c).expect("h x w x 3").into_pyarray(py))?;
+            d.set_item(
+                "rgb",
+                Array3::from_shape_vec((h, w, 3), c)
+                    .expect("h x w x 3")
+                    .into_pyarray(py),
+            )?;
         }
         Ok(d)
     }
@@ -909,11 +1051,14 @@ pub fn depth_to_points<'py>(
     cx: f64,
     cy: f64,
 ) -> PyResult<(Bound<'py, PyArray2<f64>>, Bound<'py, PyArray1<i64>>)> {
-    let shape: Vec<usize> = depth.getattr("shape").and_then(|s| s.extract()).map_err(|_| {
-        InvalidArgumentError::new_err("depth: expected a 2-D numpy array")
-    })?;
+    let shape: Vec<usize> = depth
+        .getattr("shape")
+        .and_then(|s| s.extract())
+        .map_err(|_| InvalidArgumentError::new_err("depth: expected a 2-D numpy array"))?;
     if shape.len() != 2 {
-        return Err(ShapeError::new_err(format!("depth: expected shape (H, W), got {shape:?}")));
+        return Err(ShapeError::new_err(format!(
+            "depth: expected shape (H, W), got {shape:?}"
+        )));
     }
     let intr = Intrinsics {
         width: shape[1],
@@ -928,14 +1073,26 @@ pub fn depth_to_points<'py>(
 
 /// The OpenGL/USD camera pose (-z forward, y up) of an OpenCV camera pose.
 #[pyfunction]
-pub fn opencv_to_opengl<'py>(py: Python<'py>, pose: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyArray2<f64>>> {
-    Ok(matrix(py, &conventions::opencv_to_opengl(&pose_arg(Some(pose), "pose")?)))
+pub fn opencv_to_opengl<'py>(
+    py: Python<'py>,
+    pose: &Bound<'py, PyAny>,
+) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    Ok(matrix(
+        py,
+        &conventions::opencv_to_opengl(&pose_arg(Some(pose), "pose")?),
+    ))
 }
 
 /// The OpenCV camera pose (z forward, y down) of an OpenGL/USD camera pose.
 #[pyfunction]
-pub fn opengl_to_opencv<'py>(py: Python<'py>, pose: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyArray2<f64>>> {
-    Ok(matrix(py, &conventions::opengl_to_opencv(&pose_arg(Some(pose), "pose")?)))
+pub fn opengl_to_opencv<'py>(
+    py: Python<'py>,
+    pose: &Bound<'py, PyAny>,
+) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    Ok(matrix(
+        py,
+        &conventions::opengl_to_opencv(&pose_arg(Some(pose), "pose")?),
+    ))
 }
 
 /// The OpenCV camera pose at `eye` looking at `target` with `up` up.
@@ -949,7 +1106,10 @@ pub fn look_at<'py>(
 ) -> PyResult<Bound<'py, PyArray2<f64>>> {
     let e = vec3_arg(eye, "eye")?;
     let t = vec3_arg(target, "target")?;
-    let u = up.map(|u| vec3_arg(u, "up")).transpose()?.unwrap_or_else(Vector3::z);
+    let u = up
+        .map(|u| vec3_arg(u, "up"))
+        .transpose()?
+        .unwrap_or_else(Vector3::z);
     let p = conventions::look_at(&e.into(), &t.into(), &u).map_err(sim_err)?;
     Ok(matrix(py, &p))
 }
@@ -972,7 +1132,9 @@ fn broadcast(obj: &Bound<'_, PyAny>, what: &str, n: usize) -> PyResult<Vec<f64>>
         .map_err(|_| InvalidArgumentError::new_err(format!("{what}: expected numbers")))?;
     let v: Vec<f64> = a.as_array().iter().copied().collect();
     if a.ndim() != 1 || v.len() != n {
-        return Err(ShapeError::new_err(format!("{what}: expected shape ({n},) or a scalar")));
+        return Err(ShapeError::new_err(format!(
+            "{what}: expected shape ({n},) or a scalar"
+        )));
     }
     if v.iter().any(|x| x.is_nan()) {
         return Err(NonFiniteError::new_err(format!("{what}: NaN")));
@@ -996,8 +1158,14 @@ impl PyJointPid {
         let n = kp.len();
         let ki = broadcast(ki, "ki", n)?;
         let kd = broadcast(kd, "kd", n)?;
-        let il = integral_limit.map(|v| broadcast(v, "integral_limit", n)).transpose()?.unwrap_or(vec![f64::INFINITY; n]);
-        let ol = output_limit.map(|v| broadcast(v, "output_limit", n)).transpose()?.unwrap_or(vec![f64::INFINITY; n]);
+        let il = integral_limit
+            .map(|v| broadcast(v, "integral_limit", n))
+            .transpose()?
+            .unwrap_or(vec![f64::INFINITY; n]);
+        let ol = output_limit
+            .map(|v| broadcast(v, "output_limit", n))
+            .transpose()?
+            .unwrap_or(vec![f64::INFINITY; n]);
         Ok(Self {
             inner: JointPid::new(kp, ki, kd, il, ol).map_err(sim_err)?,
         })
@@ -1019,10 +1187,15 @@ impl PyJointPid {
         let qd = read_array(qd, "qd", 1, &[Some(n)])?.data().to_vec();
         let t = read_array(target, "target", 1, &[Some(n)])?.data().to_vec();
         let tv = match target_velocity {
-            Some(v) => read_array(v, "target_velocity", 1, &[Some(n)])?.data().to_vec(),
+            Some(v) => read_array(v, "target_velocity", 1, &[Some(n)])?
+                .data()
+                .to_vec(),
             None => vec![0.0; n],
         };
-        Ok(vec1(py, self.inner.update(&q, &qd, &t, &tv, dt).map_err(sim_err)?))
+        Ok(vec1(
+            py,
+            self.inner.update(&q, &qd, &t, &tv, dt).map_err(sim_err)?,
+        ))
     }
 
     /// The integral state.
@@ -1079,9 +1252,19 @@ impl PyResolvedRate {
     }
 
     /// Joint velocities (num_dof,) moving the link towards `target` (base frame).
-    fn compute<'py>(&self, py: Python<'py>, q: &Bound<'py, PyAny>, target: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        let q = read_array(q, "q", 1, &[Some(self.model.num_dof())])?.data().to_vec();
+    fn compute<'py>(
+        &self,
+        py: Python<'py>,
+        q: &Bound<'py, PyAny>,
+        target: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let q = read_array(q, "q", 1, &[Some(self.model.num_dof())])?
+            .data()
+            .to_vec();
         let t = pose_arg(Some(target), "target")?;
-        Ok(vec1(py, self.inner.compute(&self.model, &q, &t).map_err(sim_err)?))
+        Ok(vec1(
+            py,
+            self.inner.compute(&self.model, &q, &t).map_err(sim_err)?,
+        ))
     }
 }

@@ -359,7 +359,11 @@ impl World {
         };
         let mut depth = vec![f32::INFINITY; w * h];
         let mut seg = vec![0u32; w * h];
-        let mut rgb_buf = if rgb { vec![0u8; 3 * w * h] } else { Vec::new() };
+        let mut rgb_buf = if rgb {
+            vec![0u8; 3 * w * h]
+        } else {
+            Vec::new()
+        };
         let (fx, fy, cx, cy) = (intr.fx, intr.fy, intr.cx, intr.cy);
         let render_row = |v: usize, drow: &mut [f32], srow: &mut [u32], crow: &mut [u8]| {
             let vi = v as i64;

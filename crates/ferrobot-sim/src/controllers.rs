@@ -37,12 +37,17 @@ impl JointPid {
     ) -> Result<Self> {
         let n = kp.len();
         if n == 0 {
-            return Err(SimError::InvalidArgument("PID needs at least one joint".into()));
+            return Err(SimError::InvalidArgument(
+                "PID needs at least one joint".into(),
+            ));
         }
         for (what, v) in [("ki", &ki), ("kd", &kd)] {
             check_len(what, v, n)?;
         }
-        for (what, v) in [("integral_limit", &integral_limit), ("output_limit", &output_limit)] {
+        for (what, v) in [
+            ("integral_limit", &integral_limit),
+            ("output_limit", &output_limit),
+        ] {
             if v.len() != n {
                 return Err(SimError::Shape {
                     what: what.into(),
@@ -51,7 +56,9 @@ impl JointPid {
                 });
             }
             if v.iter().any(|x| x.is_nan() || *x <= 0.0) {
-                return Err(SimError::InvalidArgument(format!("{what} must be > 0 (inf allowed)")));
+                return Err(SimError::InvalidArgument(format!(
+                    "{what} must be > 0 (inf allowed)"
+                )));
             }
         }
         check_finite("kp", &kp)?;
@@ -94,7 +101,9 @@ impl JointPid {
         check_len("target", target, n)?;
         check_len("target_velocity", target_velocity, n)?;
         if !(dt.is_finite() && dt > 0.0) {
-            return Err(SimError::InvalidArgument(format!("dt must be > 0, got {dt}")));
+            return Err(SimError::InvalidArgument(format!(
+                "dt must be > 0, got {dt}"
+            )));
         }
         let mut out = vec![0.0; n];
         for i in 0..n {
@@ -140,7 +149,10 @@ pub struct ResolvedRate {
 
 /// A pose error: position error (m) and rotation error vector (rad), in the
 /// base frame, target minus current.
-pub fn pose_error(current: &Isometry3<f64>, target: &Isometry3<f64>) -> (Vector3<f64>, Vector3<f64>) {
+pub fn pose_error(
+    current: &Isometry3<f64>,
+    target: &Isometry3<f64>,
+) -> (Vector3<f64>, Vector3<f64>) {
     let dp = target.translation.vector - current.translation.vector;
     let dr = (target.rotation * current.rotation.inverse()).scaled_axis();
     (dp, dr)
@@ -167,7 +179,9 @@ impl ResolvedRate {
             return Err(SimError::UnknownName(format!("no link {}", self.link)));
         }
         if let Some(d) = self.dofs.iter().find(|&&d| d >= model.num_dof()) {
-            return Err(SimError::UnknownName(format!("joint index {d} out of range")));
+            return Err(SimError::UnknownName(format!(
+                "joint index {d} out of range"
+            )));
         }
         for (n, v) in [
             ("linear_gain", self.linear_gain),
@@ -176,7 +190,9 @@ impl ResolvedRate {
             ("max_angular_speed", self.max_angular_speed),
         ] {
             if !(v.is_finite() && v > 0.0) {
-                return Err(SimError::InvalidArgument(format!("{n} must be > 0, got {v}")));
+                return Err(SimError::InvalidArgument(format!(
+                    "{n} must be > 0, got {v}"
+                )));
             }
         }
         if !(self.damping.is_finite() && self.damping >= 0.0) {
@@ -189,7 +205,12 @@ impl ResolvedRate {
     }
 
     /// Joint velocities (all DOFs) driving the link towards `target` (base frame).
-    pub fn compute(&self, model: &RobotModel, q: &[f64], target: &Isometry3<f64>) -> Result<Vec<f64>> {
+    pub fn compute(
+        &self,
+        model: &RobotModel,
+        q: &[f64],
+        target: &Isometry3<f64>,
+    ) -> Result<Vec<f64>> {
         self.validate(model)?;
         if !crate::convert::pose_is_finite(target) {
             return Err(SimError::NonFinite("target pose is not finite".into()));
@@ -213,7 +234,9 @@ impl ResolvedRate {
         let y = jjt
             .lu()
             .solve(&DVector::from_column_slice(twist.as_slice()))
-            .ok_or_else(|| SimError::InvalidArgument("singular Jacobian with zero damping".into()))?;
+            .ok_or_else(|| {
+                SimError::InvalidArgument("singular Jacobian with zero damping".into())
+            })?;
         let qd_sub = j.transpose() * y;
         let vmax = model.velocity_limits();
         let mut scale: f64 = 1.0;

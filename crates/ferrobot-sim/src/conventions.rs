@@ -25,7 +25,11 @@ pub fn opengl_to_opencv(pose: &Isometry3<f64>) -> Isometry3<f64> {
 
 /// The OpenCV camera pose at `eye` looking at `target`, with image "up"
 /// towards `up` (world frame).
-pub fn look_at(eye: &Point3<f64>, target: &Point3<f64>, up: &Vector3<f64>) -> Result<Isometry3<f64>> {
+pub fn look_at(
+    eye: &Point3<f64>,
+    target: &Point3<f64>,
+    up: &Vector3<f64>,
+) -> Result<Isometry3<f64>> {
     let z = target - eye;
     if !(z.norm() > 1e-9) {
         return Err(SimError::InvalidArgument(

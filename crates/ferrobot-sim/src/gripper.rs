@@ -49,7 +49,12 @@ impl ParallelGripper {
     }
 
     /// A gripper from DOF names with open and closed positions.
-    pub fn new(model: &RobotModel, joints: &[String], open: &[f64], closed: &[f64]) -> Result<Self> {
+    pub fn new(
+        model: &RobotModel,
+        joints: &[String],
+        open: &[f64],
+        closed: &[f64],
+    ) -> Result<Self> {
         if joints.is_empty() || joints.len() != open.len() || joints.len() != closed.len() {
             return Err(SimError::Shape {
                 what: "gripper".into(),

@@ -94,10 +94,14 @@ impl ObjectDesc {
     pub fn validate(&self) -> Result<()> {
         let n = &self.name;
         if n.is_empty() {
-            return Err(SimError::InvalidArgument("object name must not be empty".into()));
+            return Err(SimError::InvalidArgument(
+                "object name must not be empty".into(),
+            ));
         }
         if !crate::convert::pose_is_finite(&self.pose) {
-            return Err(SimError::NonFinite(format!("object '{n}': pose is not finite")));
+            return Err(SimError::NonFinite(format!(
+                "object '{n}': pose is not finite"
+            )));
         }
         check_finite(&format!("object '{n}': mass"), &[self.mass])?;
         check_finite(&format!("object '{n}': friction"), &[self.friction])?;
@@ -181,10 +185,7 @@ impl ObjectShape {
                 // parry's cylinder is along y: rotate it to z through a compound.
                 let r = positive(&format!("{what}: cylinder radius"), *radius)?;
                 let l = positive(&format!("{what}: cylinder length"), *length)?;
-                SharedShape::compound(vec![(
-                    y_to_z(),
-                    SharedShape::cylinder(l / 2.0, r),
-                )])
+                SharedShape::compound(vec![(y_to_z(), SharedShape::cylinder(l / 2.0, r))])
             }
             Self::Capsule { radius, length } => {
                 let r = positive(&format!("{what}: capsule radius"), *radius)?;

@@ -118,10 +118,9 @@ fn x_to(axis: &Unit<Vector3<f64>>) -> UnitQuaternion<f64> {
 fn link_shape(shape: &Shape) -> Option<(SharedShape, Isometry3<f64>)> {
     let id = Isometry3::identity();
     Some(match shape {
-        Shape::Box { half_extents: h } => (
-            SharedShape::cuboid(h.x as f32, h.y as f32, h.z as f32),
-            id,
-        ),
+        Shape::Box { half_extents: h } => {
+            (SharedShape::cuboid(h.x as f32, h.y as f32, h.z as f32), id)
+        }
         Shape::Sphere { radius } => (SharedShape::ball(*radius as f32), id),
         Shape::Cylinder { radius, length } => (
             SharedShape::cylinder(*length as f32 / 2.0, *radius as f32),
@@ -220,7 +219,8 @@ impl Robot {
                 m[(1, 2)] as f32,
                 m[(2, 2)] as f32,
             ]);
-            let local = MassProperties::with_inertia_matrix(Vector::ZERO, inertial.mass as f32, mat);
+            let local =
+                MassProperties::with_inertia_matrix(Vector::ZERO, inertial.mass as f32, mat);
             let in_body = local.transform_by(&to_pose(&(offset[l] * inertial.origin)));
             mprops[body_of[l]] += in_body;
         }
@@ -476,7 +476,8 @@ impl Robot {
     /// Positions of every movable joint (DOFs and mimics) for DOF vector `q`,
     /// as (joint, position).
     fn all_positions(&self, q: &[f64]) -> Vec<(ArtJoint, f64)> {
-        let mut out: Vec<(ArtJoint, f64)> = self.dofs.iter().copied().zip(q.iter().copied()).collect();
+        let mut out: Vec<(ArtJoint, f64)> =
+            self.dofs.iter().copied().zip(q.iter().copied()).collect();
         out.extend(
             self.mimics
                 .iter()
@@ -526,7 +527,8 @@ impl Robot {
         let Some(id) = self.dofs.first().map(|d| d.link.multibody) else {
             return Ok(());
         };
-        let mut vels: Vec<(ArtJoint, f64)> = self.dofs.iter().copied().zip(qd.iter().copied()).collect();
+        let mut vels: Vec<(ArtJoint, f64)> =
+            self.dofs.iter().copied().zip(qd.iter().copied()).collect();
         vels.extend(self.mimics.iter().map(|&(a, dof, m, _)| (a, m * qd[dof])));
         let mb = state
             .multibody_joints
@@ -560,7 +562,10 @@ impl Robot {
         if !crate::convert::pose_is_finite(&pose) {
             return Err(SimError::NonFinite("robot world pose is not finite".into()));
         }
-        let root_in_base = self.model.chain(0).pose(&self.model.neutral_configuration());
+        let root_in_base = self
+            .model
+            .chain(0)
+            .pose(&self.model.neutral_configuration());
         self.base_pose = pose;
         state.bodies[self.root].set_position(to_pose(&(pose * root_in_base)), true);
         let PhysState {

@@ -63,7 +63,9 @@ pub fn execute_trajectory(
         check_finite("velocities", v)?;
     }
     if !(dt.is_finite() && dt > 0.0) {
-        return Err(SimError::InvalidArgument(format!("dt must be > 0, got {dt}")));
+        return Err(SimError::InvalidArgument(format!(
+            "dt must be > 0, got {dt}"
+        )));
     }
     if !(settle_time.is_finite() && settle_time >= 0.0) {
         return Err(SimError::InvalidArgument(format!(

@@ -274,7 +274,8 @@ impl World {
             name: desc.name.clone(),
             color: [c[0] as f32, c[1] as f32, c[2] as f32],
         });
-        self.object_index.insert(desc.name.clone(), self.objects.len());
+        self.object_index
+            .insert(desc.name.clone(), self.objects.len());
         self.objects.push(Object {
             desc,
             body,
@@ -289,7 +290,9 @@ impl World {
     pub fn add_robot(&mut self, model: Arc<RobotModel>, options: &RobotOptions) -> Result<usize> {
         self.check_name(&options.name)?;
         if options.name.is_empty() {
-            return Err(SimError::InvalidArgument("robot name must not be empty".into()));
+            return Err(SimError::InvalidArgument(
+                "robot name must not be empty".into(),
+            ));
         }
         check_finite("robot friction", &[options.friction])?;
         if options.friction < 0.0 {

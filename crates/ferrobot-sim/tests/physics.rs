@@ -28,7 +28,10 @@ fn free_fall_matches_analytic() {
     let z = w.object_pose(i).translation.z;
     // Exact z0 - g t^2 / 2 up to the integrator's O(g t dt) error.
     let exact = 10.0 - 0.5 * 9.81 * t * t;
-    assert!((z - exact).abs() < 9.81 * t / 240.0, "z {z} vs exact {exact}");
+    assert!(
+        (z - exact).abs() < 9.81 * t / 240.0,
+        "z {z} vs exact {exact}"
+    );
     let (v, _) = w.object_velocity(i);
     assert!((v.z + 9.81 * t).abs() < 1e-3);
 }
@@ -59,7 +62,8 @@ fn panda_teleport_matches_fk_and_mimic_follows() {
     opts.pose = base;
     let r = w.add_robot(model.clone(), &opts).unwrap();
     let q = vec![0.3, -0.5, 0.2, -2.0, 0.1, 1.6, 0.7, 0.03];
-    w.with_robot(r, |rb, s| rb.set_joint_positions(s, &q)).unwrap();
+    w.with_robot(r, |rb, s| rb.set_joint_positions(s, &q))
+        .unwrap();
     let got = w.robot(r).unwrap().joint_positions(w.state());
     for (a, b) in got.iter().zip(&q) {
         assert!((a - b).abs() < 1e-5, "{got:?} vs {q:?}");
@@ -73,7 +77,8 @@ fn panda_teleport_matches_fk_and_mimic_follows() {
         assert!(d < 1e-5 && a < 1e-5, "link {l}: {d} m, {a} rad");
     }
     // Hold the pose: drives target q, gravity compensated.
-    w.with_robot(r, |rb, s| rb.set_position_targets(s, &q, None)).unwrap();
+    w.with_robot(r, |rb, s| rb.set_position_targets(s, &q, None))
+        .unwrap();
     w.step(240).unwrap();
     let held = w.robot(r).unwrap().joint_positions(w.state());
     for (a, b) in held.iter().zip(&q) {
