@@ -37,6 +37,10 @@ pub fn sim_err(e: SimError) -> PyErr {
 }
 
 type Shared = Arc<Mutex<World>>;
+/// Two 3-vectors (linear, angular).
+type VecPair<'py> = (Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>);
+/// Points (N, 3) and their flat pixel indices (N,).
+type PointsAndPixels<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray1<i64>>);
 
 fn lock(w: &Shared) -> PyResult<MutexGuard<'_, World>> {
     w.lock()
@@ -410,11 +414,7 @@ impl PyWorld {
     }
 
     /// (linear (3,), angular (3,)) velocity of an object, world frame.
-    fn get_object_velocity<'py>(
-        &self,
-        py: Python<'py>,
-        name: &str,
-    ) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>)> {
+    fn get_object_velocity<'py>(&self, py: Python<'py>, name: &str) -> PyResult<VecPair<'py>> {
         let w = lock(&self.inner)?;
         let i = self.object(&w, name)?;
         let (l, a) = w.object_velocity(i);
@@ -1009,7 +1009,7 @@ impl PyCamera {
         &self,
         py: Python<'py>,
         depth: &Bound<'py, PyAny>,
-    ) -> PyResult<(Bound<'py, PyArray2<f64>>, Bound<'py, PyArray1<i64>>)> {
+    ) -> PyResult<PointsAndPixels<'py>> {
         depth_to_points_impl(py, depth, &self.camera.intrinsics)
     }
 }
@@ -1018,7 +1018,7 @@ fn depth_to_points_impl<'py>(
     py: Python<'py>,
     depth: &Bound<'py, PyAny>,
     intr: &Intrinsics,
-) -> PyResult<(Bound<'py, PyArray2<f64>>, Bound<'py, PyArray1<i64>>)> {
+) -> PyResult<PointsAndPixels<'py>> {
     let a: numpy::PyArrayLikeDyn<'_, f64, numpy::AllowTypeChange> = depth
         .extract()
         .map_err(|_| InvalidArgumentError::new_err("depth: expected an array of numbers"))?;
@@ -1050,7 +1050,7 @@ pub fn depth_to_points<'py>(
     fy: f64,
     cx: f64,
     cy: f64,
-) -> PyResult<(Bound<'py, PyArray2<f64>>, Bound<'py, PyArray1<i64>>)> {
+) -> PyResult<PointsAndPixels<'py>> {
     let shape: Vec<usize> = depth
         .getattr("shape")
         .and_then(|s| s.extract())

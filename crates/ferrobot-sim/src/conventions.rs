@@ -31,14 +31,14 @@ pub fn look_at(
     up: &Vector3<f64>,
 ) -> Result<Isometry3<f64>> {
     let z = target - eye;
-    if !(z.norm() > 1e-9) {
+    if z.norm().is_nan() || z.norm() <= 1e-9 {
         return Err(SimError::InvalidArgument(
             "look_at: eye and target coincide".into(),
         ));
     }
     let z = z.normalize();
     let x = z.cross(up);
-    if !(x.norm() > 1e-9) {
+    if x.norm().is_nan() || x.norm() <= 1e-9 {
         return Err(SimError::InvalidArgument(
             "look_at: the up vector is parallel to the viewing direction".into(),
         ));

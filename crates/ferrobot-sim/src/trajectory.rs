@@ -44,7 +44,7 @@ pub fn execute_trajectory(
 ) -> Result<TrackingReport> {
     let ix = resolve_indices(world.robot(robot)?, joint_indices)?;
     let k = ix.len();
-    if k == 0 || positions.is_empty() || positions.len() % k != 0 {
+    if k == 0 || positions.is_empty() || !positions.len().is_multiple_of(k) {
         return Err(SimError::Shape {
             what: "positions".into(),
             expected: format!("(N, {k}) with N >= 1"),
