@@ -177,6 +177,236 @@ class CollisionChecker:
     @property
     def num_spheres(self) -> int: ...
 
+# --- Simulation (ferrobot-sim on Rapier) ---
+
+class World:
+    """A physics world: ground plane at z = 0, rigid objects, robots; z is up."""
+
+    def __init__(
+        self,
+        dt: float = 1 / 240,
+        gravity: ArrayLike | None = None,
+        solver_iterations: int = 4,
+        ground: bool = True,
+        ground_friction: float = 0.8,
+        *,
+        contact_frequency: float = 100.0,
+        allowed_penetration: float = 0.001,
+    ) -> None: ...
+    @property
+    def dt(self) -> float: ...
+    @property
+    def time(self) -> float: ...
+    @property
+    def num_steps(self) -> int: ...
+    @property
+    def object_names(self) -> list[str]: ...
+    @property
+    def segmentation_labels(self) -> dict[int, str]:
+        """Segmentation id -> name: 0 background, 1 ground, objects, "robot/link"."""
+    def add_box(
+        self,
+        name: str,
+        size: ArrayLike,
+        pose: Pose | None = None,
+        *,
+        mass: float = 1.0,
+        friction: float = 0.5,
+        restitution: float = 0.0,
+        static_: bool = False,
+        color: ArrayLike | None = None,
+    ) -> str: ...
+    def add_sphere(
+        self,
+        name: str,
+        radius: float,
+        pose: Pose | None = None,
+        *,
+        mass: float = 1.0,
+        friction: float = 0.5,
+        restitution: float = 0.0,
+        static_: bool = False,
+        color: ArrayLike | None = None,
+    ) -> str: ...
+    def add_cylinder(
+        self,
+        name: str,
+        radius: float,
+        length: float,
+        pose: Pose | None = None,
+        *,
+        mass: float = 1.0,
+        friction: float = 0.5,
+        restitution: float = 0.0,
+        static_: bool = False,
+        color: ArrayLike | None = None,
+    ) -> str: ...
+    def add_capsule(
+        self,
+        name: str,
+        radius: float,
+        length: float,
+        pose: Pose | None = None,
+        *,
+        mass: float = 1.0,
+        friction: float = 0.5,
+        restitution: float = 0.0,
+        static_: bool = False,
+        color: ArrayLike | None = None,
+    ) -> str: ...
+    def add_mesh(
+        self,
+        name: str,
+        vertices: ArrayLike,
+        faces: ArrayLike,
+        pose: Pose | None = None,
+        *,
+        approximation: str = "convex_hull",
+        mass: float = 1.0,
+        friction: float = 0.5,
+        restitution: float = 0.0,
+        static_: bool = False,
+        color: ArrayLike | None = None,
+    ) -> str:
+        """``approximation``: "convex_hull", "convex_decomposition" or "trimesh" (static only)."""
+    def get_object_pose(self, name: str) -> F64: ...
+    def set_object_pose(self, name: str, pose: Pose) -> None: ...
+    def get_object_velocity(self, name: str) -> tuple[F64, F64]: ...
+    def set_object_velocity(self, name: str, linear: ArrayLike, angular: ArrayLike | None = None) -> None: ...
+    def add_robot(
+        self,
+        model: RobotModel,
+        pose: Pose | None = None,
+        *,
+        name: str = "robot",
+        q: ArrayLike | None = None,
+        gravity_compensation: bool = True,
+        solver_iterations: int = 4,
+        friction: float = 1.0,
+    ) -> Robot: ...
+    def step(self, n: int = 1) -> None:
+        """Advance ``n`` steps; raises ``errors.SimulationDiverged`` if the simulation blows up."""
+    def reset(self) -> None: ...
+    def mark_initial_state(self) -> None: ...
+
+class Robot:
+    """A robot simulated in a World (API after Isaac Sim's Robot); joint vectors in ``dof_names`` order."""
+
+    @property
+    def name(self) -> str: ...
+    @property
+    def model(self) -> RobotModel: ...
+    @property
+    def dof_names(self) -> list[str]: ...
+    @property
+    def num_dof(self) -> int: ...
+    def get_joint_positions(self) -> F64: ...
+    def get_joint_velocities(self) -> F64: ...
+    def set_joint_positions(self, q: ArrayLike) -> None: ...
+    def set_joint_velocities(self, qd: ArrayLike) -> None: ...
+    def set_joint_position_targets(self, targets: ArrayLike, joint_indices: list[int] | None = None) -> None: ...
+    def set_joint_velocity_targets(self, targets: ArrayLike, joint_indices: list[int] | None = None) -> None: ...
+    def set_joint_efforts(self, efforts: ArrayLike, joint_indices: list[int] | None = None) -> None: ...
+    def get_joint_position_targets(self) -> F64: ...
+    def get_drive_gains(self) -> tuple[F64, F64, F64]: ...
+    def set_drive_gains(
+        self,
+        stiffness: ArrayLike,
+        damping: ArrayLike,
+        max_force: ArrayLike | None = None,
+        joint_indices: list[int] | None = None,
+    ) -> None: ...
+    def set_solver_iterations(self, n: int) -> None: ...
+    def get_world_pose(self) -> F64: ...
+    def set_world_pose(self, pose: Pose) -> None: ...
+    def get_link_pose(self, link: str | None = None) -> F64: ...
+    def open_gripper(self, force: float | None = None) -> None: ...
+    def close_gripper(self, force: float | None = None) -> None: ...
+    def set_gripper(self, joint_names: list[str], open: ArrayLike, closed: ArrayLike) -> None: ...
+    def get_gripper_positions(self) -> F64: ...
+    def execute_trajectory(
+        self,
+        positions: ArrayLike,
+        dt: float,
+        velocities: ArrayLike | None = None,
+        joint_indices: list[int] | None = None,
+        settle_time: float = 0.0,
+    ) -> dict[str, F64]:
+        """Keys: times, desired, actual, max_error, rms_error, final_error."""
+
+class Camera:
+    """Pinhole camera (OpenCV frame: x right, y down, z forward) fixed to the world or a robot link."""
+
+    def __init__(
+        self,
+        world: World,
+        width: int,
+        height: int,
+        fx: float,
+        fy: float | None = None,
+        cx: float | None = None,
+        cy: float | None = None,
+        pose: Pose | None = None,
+        *,
+        robot: Robot | None = None,
+        link: str | None = None,
+        near: float = 0.01,
+        far: float = 100.0,
+    ) -> None: ...
+    @property
+    def width(self) -> int: ...
+    @property
+    def height(self) -> int: ...
+    @property
+    def intrinsic_matrix(self) -> F64: ...
+    def get_local_pose(self) -> F64: ...
+    def set_local_pose(self, pose: Pose) -> None: ...
+    def get_world_pose(self) -> F64: ...
+    def render(self, rgb: bool = True) -> dict[str, npt.NDArray[Any]]:
+        """Keys "depth" (H, W) float32 (inf: no hit), "segmentation" (H, W) int32, "rgb" (H, W, 3) uint8."""
+    def depth_to_points(self, depth: ArrayLike) -> tuple[F64, npt.NDArray[np.int64]]: ...
+
+def depth_to_points(
+    depth: ArrayLike, fx: float, fy: float, cx: float, cy: float
+) -> tuple[F64, npt.NDArray[np.int64]]: ...
+def opencv_to_opengl(pose: Pose) -> F64: ...
+def opengl_to_opencv(pose: Pose) -> F64: ...
+def look_at(eye: ArrayLike, target: ArrayLike, up: ArrayLike | None = None) -> F64: ...
+
+class JointPID:
+    """Joint-space PID with anti-windup (integral clamp + conditional integration)."""
+
+    def __init__(
+        self,
+        kp: ArrayLike,
+        ki: ArrayLike | float,
+        kd: ArrayLike | float,
+        integral_limit: ArrayLike | float | None = None,
+        output_limit: ArrayLike | float | None = None,
+    ) -> None: ...
+    def update(
+        self, q: ArrayLike, qd: ArrayLike, target: ArrayLike, dt: float, target_velocity: ArrayLike | None = None
+    ) -> F64: ...
+    @property
+    def integral(self) -> F64: ...
+    def reset(self) -> None: ...
+
+class ResolvedRateController:
+    """Cartesian resolved-rate control through the damped Jacobian pseudo-inverse."""
+
+    def __init__(
+        self,
+        model: RobotModel,
+        link: str | None = None,
+        joint_indices: list[int] | None = None,
+        linear_gain: float = 5.0,
+        angular_gain: float = 5.0,
+        damping: float = 0.05,
+        max_linear_speed: float = 0.5,
+        max_angular_speed: float = 1.5,
+    ) -> None: ...
+    def compute(self, q: ArrayLike, target: Pose) -> F64: ...
+
 class JointTrajectory:
     """A trajectory sampled every ``dt`` seconds (the last sample at its end)."""
 

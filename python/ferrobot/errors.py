@@ -20,6 +20,7 @@ __all__ = [
     "InternalError",
     "FileFormatError",
     "DuplicateNameError",
+    "SimulationDiverged",
 ]
 
 
@@ -72,3 +73,7 @@ class DuplicateNameError(FerrobotError, ValueError):
 
 class InternalError(FerrobotError, RuntimeError):
     """A bug inside ferrobot (a Rust panic caught at the boundary); please report it."""
+
+
+class SimulationDiverged(FerrobotError, RuntimeError):
+    """A simulation blew up (non-finite or runaway body states); the message names the body, step and time."""

@@ -15,6 +15,7 @@ pyo3::import_exception!(ferrobot.errors, InvalidArgumentError);
 pyo3::import_exception!(ferrobot.errors, InternalError);
 pyo3::import_exception!(ferrobot.errors, FileFormatError);
 pyo3::import_exception!(ferrobot.errors, DuplicateNameError);
+pyo3::import_exception!(ferrobot.errors, SimulationDiverged);
 
 /// Converts a collision error to the matching Python exception.
 pub fn collision_err(e: ferrobot_collision::CollisionError) -> PyErr {

@@ -8,6 +8,7 @@ mod collision;
 mod errors;
 mod model;
 mod planning;
+mod sim;
 
 use pyo3::prelude::*;
 
@@ -37,6 +38,15 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<planning::PyPlanResult>()?;
     m.add_class::<planning::PyIkResult>()?;
     m.add_class::<planning::PyJointTrajectory>()?;
+    m.add_class::<sim::PyWorld>()?;
+    m.add_class::<sim::PyRobot>()?;
+    m.add_class::<sim::PyCamera>()?;
+    m.add_class::<sim::PyJointPid>()?;
+    m.add_class::<sim::PyResolvedRate>()?;
+    m.add_function(wrap_pyfunction!(sim::depth_to_points, m)?)?;
+    m.add_function(wrap_pyfunction!(sim::opencv_to_opengl, m)?)?;
+    m.add_function(wrap_pyfunction!(sim::opengl_to_opencv, m)?)?;
+    m.add_function(wrap_pyfunction!(sim::look_at, m)?)?;
     m.add_function(wrap_pyfunction!(bundled_robot, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())

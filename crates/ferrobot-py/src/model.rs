@@ -125,6 +125,14 @@ impl PyRobotModel {
             .to_vec())
     }
 
+    /// Wraps a shared model (its automatic sphere model made on first use).
+    pub fn from_arc(inner: Arc<RobotModel>) -> Self {
+        Self {
+            inner,
+            auto_spheres: std::sync::OnceLock::new(),
+        }
+    }
+
     /// Runs a loader with the GIL released and panics caught.
     fn load(
         py: Python<'_>,

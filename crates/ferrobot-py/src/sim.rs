@@ -1,0 +1,1268 @@
+//! `ferrobot.World`, `ferrobot.Robot`, `ferrobot.Camera` and the
+//! controllers (`JointPID`, `ResolvedRateController`).
+
+use std::sync::{Arc, Mutex, MutexGuard};
+
+use ferrobot_model::pose_to_matrix;
+use ferrobot_sim::camera::{Camera, CameraMount, Intrinsics};
+use ferrobot_sim::{
+    JointPid, ObjectDesc, ObjectShape, ParallelGripper, ResolvedRate, RobotOptions, SimError,
+    World, WorldConfig, conventions, execute_trajectory,
+};
+use nalgebra::{Isometry3, Point3, Vector3};
+use numpy::ndarray::{Array1, Array2, Array3};
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyUntypedArrayMethods};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use crate::arrays::{read_array, read_pose};
+use crate::errors::{
+    DuplicateNameError, InternalError, InvalidArgumentError, NonFiniteError, ShapeError,
+    SimulationDiverged, UnknownNameError, guard, model_err,
+};
+use crate::model::PyRobotModel;
+
+/// Converts a simulation error to the matching Python exception.
+pub fn sim_err(e: SimError) -> PyErr {
+    let msg = e.to_string();
+    match e {
+        SimError::InvalidArgument(_) => InvalidArgumentError::new_err(msg),
+        SimError::UnknownName(_) => UnknownNameError::new_err(msg),
+        SimError::Duplicate(_) => DuplicateNameError::new_err(msg),
+        SimError::Shape { .. } => ShapeError::new_err(msg),
+        SimError::NonFinite(_) => NonFiniteError::new_err(msg),
+        SimError::Diverged(_) => SimulationDiverged::new_err(msg),
+        SimError::Model(m) => model_err(m),
+    }
+}
+
+type Shared = Arc<Mutex<World>>;
+/// Two 3-vectors (linear, angular).
+type VecPair<'py> = (Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>);
+/// Points (N, 3) and their flat pixel indices (N,).
+type PointsAndPixels<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray1<i64>>);
+
+fn lock(w: &Shared) -> PyResult<MutexGuard<'_, World>> {
+    w.lock()
+        .map_err(|_| InternalError::new_err("the world's lock is poisoned by an earlier panic"))
+}
+
+fn matrix<'py>(py: Python<'py>, pose: &Isometry3<f64>) -> Bound<'py, PyArray2<f64>> {
+    Array2::from_shape_vec((4, 4), pose_to_matrix(pose).to_vec())
+        .expect("4x4")
+        .into_pyarray(py)
+}
+
+fn vec1<'py>(py: Python<'py>, v: Vec<f64>) -> Bound<'py, PyArray1<f64>> {
+    Array1::from_vec(v).into_pyarray(py)
+}
+
+fn vec_arg(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Vec<f64>> {
+    Ok(read_array(obj, what, 1, &[None])?.data().to_vec())
+}
+
+fn vec3_arg(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Vector3<f64>> {
+    let a = read_array(obj, what, 1, &[Some(3)])?;
+    let d = a.data();
+    Ok(Vector3::new(d[0], d[1], d[2]))
+}
+
+fn pose_arg(pose: Option<&Bound<'_, PyAny>>, what: &str) -> PyResult<Isometry3<f64>> {
+    match pose {
+        None => Ok(Isometry3::identity()),
+        Some(p) => {
+            check_pose_finite(p, what)?;
+            read_pose(p, what)
+        }
+    }
+}
+
+/// NaN in a pose is a `NonFiniteError` (read_pose would report it too;
+/// this keeps the message naming the argument).
+fn check_pose_finite(p: &Bound<'_, PyAny>, what: &str) -> PyResult<()> {
+    let a = crate::arrays::read_array_any(p, what)?;
+    if a.data().iter().any(|v| !v.is_finite()) {
+        return Err(NonFiniteError::new_err(format!("{what}: non-finite value")));
+    }
+    Ok(())
+}
+
+/// A physics world (Rapier): ground plane, rigid objects, robots, stepping,
+/// reset. z is up; poses are 4x4 matrices or [x, y, z, qw, qx, qy, qz].
+#[pyclass(name = "World", module = "ferrobot")]
+pub struct PyWorld {
+    inner: Shared,
+}
+
+#[allow(clippy::too_many_arguments)]
+fn object_desc(
+    name: String,
+    shape: ObjectShape,
+    pose: Option<&Bound<'_, PyAny>>,
+    mass: f64,
+    friction: f64,
+    restitution: f64,
+    is_static: bool,
+    color: Option<&Bound<'_, PyAny>>,
+) -> PyResult<ObjectDesc> {
+    let mut d = ObjectDesc::new(name, shape, pose_arg(pose, "pose")?);
+    d.mass = mass;
+    d.friction = friction;
+    d.restitution = restitution;
+    d.is_static = is_static;
+    if let Some(c) = color {
+        let c = vec3_arg(c, "color")?;
+        d.color = [c.x, c.y, c.z];
+    }
+    Ok(d)
+}
+
+impl PyWorld {
+    fn add(&self, desc: ObjectDesc) -> PyResult<String> {
+        guard(|| {
+            let name = desc.name.clone();
+            lock(&self.inner)?.add_object(desc).map_err(sim_err)?;
+            Ok(name)
+        })
+    }
+
+    fn object(&self, w: &World, name: &str) -> PyResult<usize> {
+        w.object_index(name).map_err(sim_err)
+    }
+}
+
+#[pymethods]
+impl PyWorld {
+    /// A new world: time step `dt` (s), `gravity` (m/s², z up),
+    /// `solver_iterations`, a ground plane at z = 0 when `ground`.
+    #[new]
+    #[pyo3(signature = (dt=1.0/240.0, gravity=None, solver_iterations=4, ground=true, ground_friction=0.8, *, contact_frequency=ferrobot_sim::world::CONTACT_FREQUENCY, allowed_penetration=ferrobot_sim::world::ALLOWED_PENETRATION))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        dt: f64,
+        gravity: Option<&Bound<'_, PyAny>>,
+        solver_iterations: usize,
+        ground: bool,
+        ground_friction: f64,
+        contact_frequency: f64,
+        allowed_penetration: f64,
+    ) -> PyResult<Self> {
+        guard(|| {
+            let gravity = match gravity {
+                Some(g) => vec3_arg(g, "gravity")?,
+                None => Vector3::new(0.0, 0.0, -9.81),
+            };
+            let w = World::new(WorldConfig {
+                dt,
+                gravity,
+                solver_iterations,
+                ground,
+                ground_friction,
+                contact_frequency,
+                allowed_penetration,
+            })
+            .map_err(sim_err)?;
+            Ok(Self {
+                inner: Arc::new(Mutex::new(w)),
+            })
+        })
+    }
+
+    /// Time step (s).
+    #[getter]
+    fn dt(&self) -> PyResult<f64> {
+        Ok(lock(&self.inner)?.config().dt)
+    }
+
+    /// Simulated time (s) since creation or the last reset.
+    #[getter]
+    fn time(&self) -> PyResult<f64> {
+        Ok(lock(&self.inner)?.time())
+    }
+
+    /// Steps taken since creation or the last reset.
+    #[getter]
+    fn num_steps(&self) -> PyResult<u64> {
+        Ok(lock(&self.inner)?.steps())
+    }
+
+    /// Names of the objects, in the order added.
+    #[getter]
+    fn object_names(&self) -> PyResult<Vec<String>> {
+        Ok(lock(&self.inner)?
+            .objects()
+            .iter()
+            .map(|o| o.desc.name.clone())
+            .collect())
+    }
+
+    /// Segmentation ids to names: 0 background, 1 ground, objects, "robot/link".
+    #[getter]
+    fn segmentation_labels(&self) -> PyResult<std::collections::BTreeMap<u32, String>> {
+        Ok(lock(&self.inner)?
+            .labels()
+            .iter()
+            .map(|l| (l.id, l.name.clone()))
+            .collect())
+    }
+
+    /// Adds a box of full edge lengths `size`.
+    #[pyo3(signature = (name, size, pose=None, *, mass=1.0, friction=0.5, restitution=0.0, static_=false, color=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn add_box(
+        &self,
+        name: String,
+        size: &Bound<'_, PyAny>,
+        pose: Option<&Bound<'_, PyAny>>,
+        mass: f64,
+        friction: f64,
+        restitution: f64,
+        static_: bool,
+        color: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<String> {
+        let s = vec3_arg(size, "size")?;
+        let shape = ObjectShape::Box {
+            half_extents: s / 2.0,
+        };
+        self.add(object_desc(
+            name,
+            shape,
+            pose,
+            mass,
+            friction,
+            restitution,
+            static_,
+            color,
+        )?)
+    }
+
+    /// Adds a sphere.
+    #[pyo3(signature = (name, radius, pose=None, *, mass=1.0, friction=0.5, restitution=0.0, static_=false, color=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn add_sphere(
+        &self,
+        name: String,
+        radius: f64,
+        pose: Option<&Bound<'_, PyAny>>,
+        mass: f64,
+        friction: f64,
+        restitution: f64,
+        static_: bool,
+        color: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<String> {
+        let shape = ObjectShape::Sphere { radius };
+        self.add(object_desc(
+            name,
+            shape,
+            pose,
+            mass,
+            friction,
+            restitution,
+            static_,
+            color,
+        )?)
+    }
+
+    /// Adds a cylinder along its z axis.
+    #[pyo3(signature = (name, radius, length, pose=None, *, mass=1.0, friction=0.5, restitution=0.0, static_=false, color=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn add_cylinder(
+        &self,
+        name: String,
+        radius: f64,
+        length: f64,
+        pose: Option<&Bound<'_, PyAny>>,
+        mass: f64,
+        friction: f64,
+        restitution: f64,
+        static_: bool,
+        color: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<String> {
+        let shape = ObjectShape::Cylinder { radius, length };
+        self.add(object_desc(
+            name,
+            shape,
+            pose,
+            mass,
+            friction,
+            restitution,
+            static_,
+            color,
+        )?)
+    }
+
+    /// Adds a capsule along its z axis (`length` of the cylindrical part).
+    #[pyo3(signature = (name, radius, length, pose=None, *, mass=1.0, friction=0.5, restitution=0.0, static_=false, color=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn add_capsule(
+        &self,
+        name: String,
+        radius: f64,
+        length: f64,
+        pose: Option<&Bound<'_, PyAny>>,
+        mass: f64,
+        friction: f64,
+        restitution: f64,
+        static_: bool,
+        color: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<String> {
+        let shape = ObjectShape::Capsule { radius, length };
+        self.add(object_desc(
+            name,
+            shape,
+            pose,
+            mass,
+            friction,
+            restitution,
+            static_,
+            color,
+        )?)
+    }
+
+    /// Adds a mesh (vertices (N, 3), faces (M, 3)) approximated as
+    /// "convex_hull", "convex_decomposition" or "trimesh" (static only).
+    #[pyo3(signature = (name, vertices, faces, pose=None, *, approximation="convex_hull", mass=1.0, friction=0.5, restitution=0.0, static_=false, color=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn add_mesh(
+        &self,
+        py: Python<'_>,
+        name: String,
+        vertices: &Bound<'_, PyAny>,
+        faces: &Bound<'_, PyAny>,
+        pose: Option<&Bound<'_, PyAny>>,
+        approximation: &str,
+        mass: f64,
+        friction: f64,
+        restitution: f64,
+        static_: bool,
+        color: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<String> {
+        let v = read_array(vertices, "vertices", 2, &[Some(3)])?;
+        let pts: Vec<Point3<f64>> = v
+            .data()
+            .chunks_exact(3)
+            .map(|c| Point3::new(c[0], c[1], c[2]))
+            .collect();
+        let f = read_array(faces, "faces", 2, &[Some(3)])?;
+        let mut tris = Vec::with_capacity(f.shape[0]);
+        for c in f.data().chunks_exact(3) {
+            if c.iter()
+                .any(|&i| i < 0.0 || i.fract() != 0.0 || i >= pts.len() as f64)
+            {
+                return Err(InvalidArgumentError::new_err(format!(
+                    "faces: indices must be integers in [0, {}), got {c:?}",
+                    pts.len()
+                )));
+            }
+            tris.push([c[0] as u32, c[1] as u32, c[2] as u32]);
+        }
+        let shape = match approximation {
+            "convex_hull" => ObjectShape::ConvexHull { points: pts },
+            "convex_decomposition" => ObjectShape::ConvexDecomposition {
+                vertices: pts,
+                triangles: tris,
+            },
+            "trimesh" => ObjectShape::TriMesh {
+                vertices: pts,
+                triangles: tris,
+            },
+            other => {
+                return Err(InvalidArgumentError::new_err(format!(
+                    "approximation must be 'convex_hull', 'convex_decomposition' or 'trimesh', got '{other}'"
+                )));
+            }
+        };
+        let desc = object_desc(
+            name,
+            shape,
+            pose,
+            mass,
+            friction,
+            restitution,
+            static_,
+            color,
+        )?;
+        let inner = self.inner.clone();
+        guard(|| {
+            let name = desc.name.clone();
+            py.detach(|| -> Result<(), SimError> {
+                let mut w = inner.lock().expect("world lock");
+                w.add_object(desc).map(|_| ())
+            })
+            .map_err(sim_err)?;
+            Ok(name)
+        })
+    }
+
+    /// World pose (4x4) of an object.
+    fn get_object_pose<'py>(
+        &self,
+        py: Python<'py>,
+        name: &str,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let w = lock(&self.inner)?;
+        let i = self.object(&w, name)?;
+        Ok(matrix(py, &w.object_pose(i)))
+    }
+
+    /// Teleports an object.
+    fn set_object_pose(&self, name: &str, pose: &Bound<'_, PyAny>) -> PyResult<()> {
+        let p = pose_arg(Some(pose), "pose")?;
+        let mut w = lock(&self.inner)?;
+        let i = self.object(&w, name)?;
+        w.set_object_pose(i, &p).map_err(sim_err)
+    }
+
+    /// (linear (3,), angular (3,)) velocity of an object, world frame.
+    fn get_object_velocity<'py>(&self, py: Python<'py>, name: &str) -> PyResult<VecPair<'py>> {
+        let w = lock(&self.inner)?;
+        let i = self.object(&w, name)?;
+        let (l, a) = w.object_velocity(i);
+        Ok((
+            vec1(py, l.as_slice().to_vec()),
+            vec1(py, a.as_slice().to_vec()),
+        ))
+    }
+
+    /// Sets an object's velocity (angular defaults to zero).
+    #[pyo3(signature = (name, linear, angular=None))]
+    fn set_object_velocity(
+        &self,
+        name: &str,
+        linear: &Bound<'_, PyAny>,
+        angular: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<()> {
+        let l = vec3_arg(linear, "linear")?;
+        let a = angular
+            .map(|a| vec3_arg(a, "angular"))
+            .transpose()?
+            .unwrap_or_else(Vector3::zeros);
+        let mut w = lock(&self.inner)?;
+        let i = self.object(&w, name)?;
+        w.set_object_velocity(i, &l, &a).map_err(sim_err)
+    }
+
+    /// Adds a robot built from `model` with its base link at `pose`.
+    #[pyo3(signature = (model, pose=None, *, name="robot".to_string(), q=None, gravity_compensation=true, solver_iterations=4, friction=1.0))]
+    #[allow(clippy::too_many_arguments)]
+    fn add_robot(
+        &self,
+        py: Python<'_>,
+        model: &PyRobotModel,
+        pose: Option<&Bound<'_, PyAny>>,
+        name: String,
+        q: Option<&Bound<'_, PyAny>>,
+        gravity_compensation: bool,
+        solver_iterations: usize,
+        friction: f64,
+    ) -> PyResult<PyRobot> {
+        let mut opts = RobotOptions::new(name);
+        opts.pose = pose_arg(pose, "pose")?;
+        opts.q = q
+            .map(|q| {
+                read_array(q, "q", 1, &[Some(model.inner.num_dof())]).map(|a| a.data().to_vec())
+            })
+            .transpose()?;
+        opts.gravity_compensation = gravity_compensation;
+        opts.solver_iterations = solver_iterations;
+        opts.friction = friction;
+        let inner = self.inner.clone();
+        let m = model.inner.clone();
+        guard(|| {
+            let index = py
+                .detach(|| inner.lock().expect("world lock").add_robot(m, &opts))
+                .map_err(sim_err)?;
+            Ok(PyRobot {
+                world: self.inner.clone(),
+                index,
+                model: model.inner.clone(),
+            })
+        })
+    }
+
+    /// Advances the simulation by `n` steps; raises `SimulationDiverged`
+    /// when it blows up.
+    #[pyo3(signature = (n=1))]
+    fn step(&self, py: Python<'_>, n: usize) -> PyResult<()> {
+        let inner = self.inner.clone();
+        guard(|| {
+            py.detach(|| inner.lock().expect("world lock").step(n))
+                .map_err(sim_err)
+        })
+    }
+
+    /// Returns to the initial state (the state at the first step after the
+    /// last object or robot was added, or at `mark_initial_state()`).
+    fn reset(&self) -> PyResult<()> {
+        lock(&self.inner)?.reset();
+        Ok(())
+    }
+
+    /// Makes the current state the one `reset()` returns to.
+    fn mark_initial_state(&self) -> PyResult<()> {
+        lock(&self.inner)?.mark_initial_state();
+        Ok(())
+    }
+}
+
+/// A robot simulated in a `World` (API after Isaac Sim's `Robot`). Joint
+/// vectors are in `dof_names` order; `joint_indices` select DOFs.
+#[pyclass(name = "Robot", module = "ferrobot", frozen)]
+pub struct PyRobot {
+    world: Shared,
+    index: usize,
+    model: Arc<ferrobot_model::RobotModel>,
+}
+
+fn indices_arg(ix: Option<Vec<i64>>) -> PyResult<Option<Vec<usize>>> {
+    ix.map(|v| {
+        v.into_iter()
+            .map(|i| {
+                usize::try_from(i).map_err(|_| {
+                    UnknownNameError::new_err(format!("joint index {i} out of range (negative)"))
+                })
+            })
+            .collect()
+    })
+    .transpose()
+}
+
+impl PyRobot {
+    fn with<T>(
+        &self,
+        f: impl FnOnce(
+            &mut ferrobot_sim::Robot,
+            &mut ferrobot_sim::state::PhysState,
+        ) -> ferrobot_sim::Result<T>,
+    ) -> PyResult<T> {
+        guard(|| {
+            lock(&self.world)?
+                .with_robot(self.index, f)
+                .map_err(sim_err)
+        })
+    }
+
+    fn read<T>(&self, f: impl FnOnce(&ferrobot_sim::Robot, &World) -> T) -> PyResult<T> {
+        guard(|| {
+            let w = lock(&self.world)?;
+            let r = w.robot(self.index).map_err(sim_err)?;
+            Ok(f(r, &w))
+        })
+    }
+
+    fn targets_len(&self, ix: &Option<Vec<usize>>) -> Option<usize> {
+        ix.as_ref().map(|v| v.len()).or(Some(self.model.num_dof()))
+    }
+}
+
+#[pymethods]
+impl PyRobot {
+    /// The robot's name in the world.
+    #[getter]
+    fn name(&self) -> PyResult<String> {
+        self.read(|r, _| r.name().to_string())
+    }
+
+    /// The robot model.
+    #[getter]
+    fn model(&self) -> PyRobotModel {
+        PyRobotModel::from_arc(self.model.clone())
+    }
+
+    /// Names of the DOFs (mimic joints excluded).
+    #[getter]
+    fn dof_names(&self) -> Vec<String> {
+        self.model.dof_names().to_vec()
+    }
+
+    /// Number of DOFs.
+    #[getter]
+    fn num_dof(&self) -> usize {
+        self.model.num_dof()
+    }
+
+    /// Joint positions (num_dof,).
+    fn get_joint_positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        Ok(vec1(py, self.read(|r, w| r.joint_positions(w.state()))?))
+    }
+
+    /// Joint velocities (num_dof,).
+    fn get_joint_velocities<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        Ok(vec1(py, self.read(|r, w| r.joint_velocities(w.state()))?))
+    }
+
+    /// Teleports the joints (zero velocity; mimic joints follow). Drive
+    /// targets are unchanged, as in Isaac Sim.
+    fn set_joint_positions(&self, q: &Bound<'_, PyAny>) -> PyResult<()> {
+        let q = read_array(q, "q", 1, &[Some(self.model.num_dof())])?
+            .data()
+            .to_vec();
+        self.with(|r, s| r.set_joint_positions(s, &q))
+    }
+
+    /// Sets the joint velocities.
+    fn set_joint_velocities(&self, qd: &Bound<'_, PyAny>) -> PyResult<()> {
+        let qd = read_array(qd, "qd", 1, &[Some(self.model.num_dof())])?
+            .data()
+            .to_vec();
+        self.with(|r, s| r.set_joint_velocities(s, &qd))
+    }
+
+    /// Drive position targets for `joint_indices` (all DOFs when None).
+    #[pyo3(signature = (targets, joint_indices=None))]
+    fn set_joint_position_targets(
+        &self,
+        targets: &Bound<'_, PyAny>,
+        joint_indices: Option<Vec<i64>>,
+    ) -> PyResult<()> {
+        let ix = indices_arg(joint_indices)?;
+        let t = read_array(targets, "targets", 1, &[self.targets_len(&ix)])?
+            .data()
+            .to_vec();
+        self.with(|r, s| r.set_position_targets(s, &t, ix.as_deref()))
+    }
+
+    /// Drive velocity targets for `joint_indices` (all DOFs when None).
+    #[pyo3(signature = (targets, joint_indices=None))]
+    fn set_joint_velocity_targets(
+        &self,
+        targets: &Bound<'_, PyAny>,
+        joint_indices: Option<Vec<i64>>,
+    ) -> PyResult<()> {
+        let ix = indices_arg(joint_indices)?;
+        let t = read_array(targets, "targets", 1, &[self.targets_len(&ix)])?
+            .data()
+            .to_vec();
+        self.with(|r, s| r.set_velocity_targets(s, &t, ix.as_deref()))
+    }
+
+    /// Efforts (N·m or N) applied every step on top of the drives.
+    #[pyo3(signature = (efforts, joint_indices=None))]
+    fn set_joint_efforts(
+        &self,
+        efforts: &Bound<'_, PyAny>,
+        joint_indices: Option<Vec<i64>>,
+    ) -> PyResult<()> {
+        let ix = indices_arg(joint_indices)?;
+        let e = read_array(efforts, "efforts", 1, &[self.targets_len(&ix)])?
+            .data()
+            .to_vec();
+        self.with(|r, _| r.set_efforts(&e, ix.as_deref()))
+    }
+
+    /// Current drive position targets (num_dof,).
+    fn get_joint_position_targets<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        Ok(vec1(
+            py,
+            self.read(|r, _| r.drives().iter().map(|d| d.target_position).collect())?,
+        ))
+    }
+
+    /// (stiffness, damping, max_force), each (num_dof,).
+    #[allow(clippy::type_complexity)]
+    fn get_drive_gains<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> PyResult<(
+        Bound<'py, PyArray1<f64>>,
+        Bound<'py, PyArray1<f64>>,
+        Bound<'py, PyArray1<f64>>,
+    )> {
+        let d = self.read(|r, _| r.drives().to_vec())?;
+        Ok((
+            vec1(py, d.iter().map(|d| d.stiffness).collect()),
+            vec1(py, d.iter().map(|d| d.damping).collect()),
+            vec1(py, d.iter().map(|d| d.max_force).collect()),
+        ))
+    }
+
+    /// Drive gains and force limits (inf: unlimited) for `joint_indices`.
+    #[pyo3(signature = (stiffness, damping, max_force=None, joint_indices=None))]
+    fn set_drive_gains(
+        &self,
+        stiffness: &Bound<'_, PyAny>,
+        damping: &Bound<'_, PyAny>,
+        max_force: Option<&Bound<'_, PyAny>>,
+        joint_indices: Option<Vec<i64>>,
+    ) -> PyResult<()> {
+        let ix = indices_arg(joint_indices)?;
+        let n = self.targets_len(&ix);
+        let k = read_array(stiffness, "stiffness", 1, &[n])?.data().to_vec();
+        let d = read_array(damping, "damping", 1, &[n])?.data().to_vec();
+        let m = match max_force {
+            None => None,
+            Some(m) => {
+                let a: numpy::PyArrayLikeDyn<'_, f64, numpy::AllowTypeChange> = m
+                    .extract()
+                    .map_err(|_| InvalidArgumentError::new_err("max_force: expected numbers"))?;
+                let v: Vec<f64> = a.as_array().iter().copied().collect();
+                if a.ndim() != 1 || Some(v.len()) != n {
+                    return Err(ShapeError::new_err(format!(
+                        "max_force: expected shape ({},)",
+                        n.unwrap_or(0)
+                    )));
+                }
+                Some(v)
+            }
+        };
+        self.with(|r, s| r.set_drive_gains(s, &k, &d, m.as_deref(), ix.as_deref()))
+    }
+
+    /// Extra solver iterations for the robot's bodies.
+    fn set_solver_iterations(&self, n: usize) -> PyResult<()> {
+        self.with(|r, s| {
+            r.set_solver_iterations(s, n);
+            Ok(())
+        })
+    }
+
+    /// World pose (4x4) of the base link.
+    fn get_world_pose<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        Ok(matrix(py, &self.read(|r, _| r.world_pose())?))
+    }
+
+    /// Moves the fixed base to `pose`.
+    fn set_world_pose(&self, pose: &Bound<'_, PyAny>) -> PyResult<()> {
+        let p = pose_arg(Some(pose), "pose")?;
+        self.with(|r, s| r.set_world_pose(s, p))
+    }
+
+    /// World pose (4x4) of a link (default: the end effector).
+    #[pyo3(signature = (link=None))]
+    fn get_link_pose<'py>(
+        &self,
+        py: Python<'py>,
+        link: Option<&str>,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let l = match link {
+            Some(l) => self.model.link(l).map_err(model_err)?,
+            None => self.model.ee_link(),
+        };
+        Ok(matrix(py, &self.read(|r, w| r.link_pose(w.state(), l))?))
+    }
+
+    /// Opens the gripper (force limit default: the finger effort limits).
+    #[pyo3(signature = (force=None))]
+    fn open_gripper(&self, force: Option<f64>) -> PyResult<()> {
+        self.with(|r, s| r.open_gripper(s, force))
+    }
+
+    /// Closes the gripper, squeezing with `force` N per finger.
+    #[pyo3(signature = (force=None))]
+    fn close_gripper(&self, force: Option<f64>) -> PyResult<()> {
+        self.with(|r, s| r.close_gripper(s, force))
+    }
+
+    /// Describes a parallel gripper: finger DOF names with open and closed positions.
+    fn set_gripper(
+        &self,
+        joint_names: Vec<String>,
+        open: &Bound<'_, PyAny>,
+        closed: &Bound<'_, PyAny>,
+    ) -> PyResult<()> {
+        let o = vec_arg(open, "open")?;
+        let c = vec_arg(closed, "closed")?;
+        let g = ParallelGripper::new(&self.model, &joint_names, &o, &c).map_err(sim_err)?;
+        self.with(|r, _| {
+            r.set_gripper(g);
+            Ok(())
+        })
+    }
+
+    /// Finger DOF positions of the gripper.
+    fn get_gripper_positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let v = guard(|| {
+            let w = lock(&self.world)?;
+            let r = w.robot(self.index).map_err(sim_err)?;
+            r.gripper_positions(w.state()).map_err(sim_err)
+        })?;
+        Ok(vec1(py, v))
+    }
+
+    /// Runs a joint trajectory sampled every `dt` s (positions (N, k) for
+    /// the k `joint_indices`, all DOFs when None) through the drives, one
+    /// target per physics step (linear interpolation, velocity
+    /// feed-forward), then holds the last point for `settle_time` s.
+    /// Returns a dict: times, desired, actual, max_error, rms_error,
+    /// final_error.
+    #[pyo3(signature = (positions, dt, velocities=None, joint_indices=None, settle_time=0.0))]
+    fn execute_trajectory<'py>(
+        &self,
+        py: Python<'py>,
+        positions: &Bound<'py, PyAny>,
+        dt: f64,
+        velocities: Option<&Bound<'py, PyAny>>,
+        joint_indices: Option<Vec<i64>>,
+        settle_time: f64,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let ix = indices_arg(joint_indices)?;
+        let k = self.targets_len(&ix);
+        let p = read_array(positions, "positions", 2, &[k])?.data().to_vec();
+        let v = velocities
+            .map(|v| read_array(v, "velocities", 2, &[k]).map(|a| a.data().to_vec()))
+            .transpose()?;
+        let world = self.world.clone();
+        let index = self.index;
+        let rep = guard(|| {
+            py.detach(|| {
+                let mut w = world.lock().expect("world lock");
+                execute_trajectory(
+                    &mut w,
+                    index,
+                    &p,
+                    dt,
+                    v.as_deref(),
+                    ix.as_deref(),
+                    settle_time,
+                )
+            })
+            .map_err(sim_err)
+        })?;
+        let d = PyDict::new(py);
+        let m = rep.times.len();
+        let k = rep.num_joints;
+        d.set_item("times", vec1(py, rep.times))?;
+        d.set_item(
+            "desired",
+            Array2::from_shape_vec((m, k), rep.desired)
+                .expect("m x k")
+                .into_pyarray(py),
+        )?;
+        d.set_item(
+            "actual",
+            Array2::from_shape_vec((m, k), rep.actual)
+                .expect("m x k")
+                .into_pyarray(py),
+        )?;
+        d.set_item("max_error", vec1(py, rep.max_error))?;
+        d.set_item("rms_error", vec1(py, rep.rms_error))?;
+        d.set_item("final_error", vec1(py, rep.final_error))?;
+        Ok(d)
+    }
+}
+
+/// A pinhole camera in a `World`, fixed to the world or to a robot link.
+/// Its frame is OpenCV's (x right, y down, z forward).
+#[pyclass(name = "Camera", module = "ferrobot")]
+pub struct PyCamera {
+    world: Shared,
+    camera: Camera,
+}
+
+#[pymethods]
+impl PyCamera {
+    /// A camera of `width` x `height` pixels with focal lengths `fx`, `fy`
+    /// and principal point `cx`, `cy` (defaults: the image centre); `pose`
+    /// of the OpenCV camera frame in the world, or in `link` of `robot`.
+    #[new]
+    #[pyo3(signature = (world, width, height, fx, fy=None, cx=None, cy=None, pose=None, *, robot=None, link=None, near=0.01, far=100.0))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        world: &PyWorld,
+        width: usize,
+        height: usize,
+        fx: f64,
+        fy: Option<f64>,
+        cx: Option<f64>,
+        cy: Option<f64>,
+        pose: Option<&Bound<'_, PyAny>>,
+        robot: Option<&PyRobot>,
+        link: Option<&str>,
+        near: f64,
+        far: f64,
+    ) -> PyResult<Self> {
+        let intrinsics = Intrinsics {
+            width,
+            height,
+            fx,
+            fy: fy.unwrap_or(fx),
+            cx: cx.unwrap_or((width as f64 - 1.0) / 2.0),
+            cy: cy.unwrap_or((height as f64 - 1.0) / 2.0),
+        };
+        let mount = match (robot, link) {
+            (None, None) => CameraMount::World,
+            (Some(r), l) => {
+                if !Arc::ptr_eq(&r.world, &world.inner) {
+                    return Err(InvalidArgumentError::new_err(
+                        "robot: the robot belongs to another world",
+                    ));
+                }
+                let link = match l {
+                    Some(l) => r.model.link(l).map_err(model_err)?,
+                    None => r.model.ee_link(),
+                };
+                CameraMount::Link {
+                    robot: r.index,
+                    link,
+                }
+            }
+            (None, Some(_)) => {
+                return Err(InvalidArgumentError::new_err(
+                    "link: give the robot the link belongs to",
+                ));
+            }
+        };
+        let camera = Camera {
+            intrinsics,
+            pose: pose_arg(pose, "pose")?,
+            mount,
+            near,
+            far,
+        };
+        camera.validate().map_err(sim_err)?;
+        Ok(Self {
+            world: world.inner.clone(),
+            camera,
+        })
+    }
+
+    /// Image width.
+    #[getter]
+    fn width(&self) -> usize {
+        self.camera.intrinsics.width
+    }
+
+    /// Image height.
+    #[getter]
+    fn height(&self) -> usize {
+        self.camera.intrinsics.height
+    }
+
+    /// The 3x3 intrinsic matrix K.
+    #[getter]
+    fn intrinsic_matrix<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        let i = &self.camera.intrinsics;
+        Array2::from_shape_vec(
+            (3, 3),
+            vec![i.fx, 0.0, i.cx, 0.0, i.fy, i.cy, 0.0, 0.0, 1.0],
+        )
+        .expect("3x3")
+        .into_pyarray(py)
+    }
+
+    /// Pose of the camera relative to its mount (OpenCV frame).
+    fn get_local_pose<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        matrix(py, &self.camera.pose)
+    }
+
+    /// Sets the pose relative to the mount (OpenCV frame).
+    fn set_local_pose(&mut self, pose: &Bound<'_, PyAny>) -> PyResult<()> {
+        self.camera.pose = pose_arg(Some(pose), "pose")?;
+        Ok(())
+    }
+
+    /// World pose (4x4) of the OpenCV camera frame.
+    fn get_world_pose<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let p = guard(|| {
+            lock(&self.world)?
+                .camera_pose(&self.camera)
+                .map_err(sim_err)
+        })?;
+        Ok(matrix(py, &p))
+    }
+
+    /// Renders the scene: dict with "depth" (H, W) float32 metres along the
+    /// optical axis (inf: no hit), "segmentation" (H, W) int32 ids (see
+    /// `World.segmentation_labels`) and, when `rgb`, "rgb" (H, W, 3) uint8.
+    #[pyo3(signature = (rgb=true))]
+    fn render<'py>(&self, py: Python<'py>, rgb: bool) -> PyResult<Bound<'py, PyDict>> {
+        let world = self.world.clone();
+        let cam = self.camera.clone();
+        let frame = guard(|| {
+            py.detach(|| world.lock().expect("world lock").render(&cam, rgb))
+                .map_err(sim_err)
+        })?;
+        let (h, w) = (frame.height, frame.width);
+        let d = PyDict::new(py);
+        d.set_item(
+            "depth",
+            Array2::from_shape_vec((h, w), frame.depth)
+                .expect("h x w")
+                .into_pyarray(py),
+        )?;
+        let seg: Vec<i32> = frame.segmentation.iter().map(|&s| s as i32).collect();
+        d.set_item(
+            "segmentation",
+            Array2::from_shape_vec((h, w), seg)
+                .expect("h x w")
+                .into_pyarray(py),
+        )?;
+        if let Some(c) = frame.rgb {
+            d.set_item(
+                "rgb",
+                Array3::from_shape_vec((h, w, 3), c)
+                    .expect("h x w x 3")
+                    .into_pyarray(py),
+            )?;
+        }
+        Ok(d)
+    }
+
+    /// Back-projects a depth image (H, W) to camera-frame points (N, 3),
+    /// skipping invalid pixels; returns (points, pixel indices (N,) flat).
+    fn depth_to_points<'py>(
+        &self,
+        py: Python<'py>,
+        depth: &Bound<'py, PyAny>,
+    ) -> PyResult<PointsAndPixels<'py>> {
+        depth_to_points_impl(py, depth, &self.camera.intrinsics)
+    }
+}
+
+fn depth_to_points_impl<'py>(
+    py: Python<'py>,
+    depth: &Bound<'py, PyAny>,
+    intr: &Intrinsics,
+) -> PyResult<PointsAndPixels<'py>> {
+    let a: numpy::PyArrayLikeDyn<'_, f64, numpy::AllowTypeChange> = depth
+        .extract()
+        .map_err(|_| InvalidArgumentError::new_err("depth: expected an array of numbers"))?;
+    if a.shape() != [intr.height, intr.width] {
+        return Err(ShapeError::new_err(format!(
+            "depth: expected shape ({}, {}), got {:?}",
+            intr.height,
+            intr.width,
+            a.shape()
+        )));
+    }
+    let d: Vec<f32> = a.as_array().iter().map(|&v| v as f32).collect();
+    let (pts, idx) = conventions::depth_to_points(&d, intr).map_err(sim_err)?;
+    let n = pts.len();
+    Ok((
+        Array2::from_shape_vec((n, 3), pts.into_iter().flatten().collect())
+            .expect("n x 3")
+            .into_pyarray(py),
+        Array1::from_vec(idx.into_iter().map(|i| i as i64).collect()).into_pyarray(py),
+    ))
+}
+
+/// Back-projects a depth image with intrinsics fx, fy, cx, cy.
+#[pyfunction]
+pub fn depth_to_points<'py>(
+    py: Python<'py>,
+    depth: &Bound<'py, PyAny>,
+    fx: f64,
+    fy: f64,
+    cx: f64,
+    cy: f64,
+) -> PyResult<PointsAndPixels<'py>> {
+    let shape: Vec<usize> = depth
+        .getattr("shape")
+        .and_then(|s| s.extract())
+        .map_err(|_| InvalidArgumentError::new_err("depth: expected a 2-D numpy array"))?;
+    if shape.len() != 2 {
+        return Err(ShapeError::new_err(format!(
+            "depth: expected shape (H, W), got {shape:?}"
+        )));
+    }
+    let intr = Intrinsics {
+        width: shape[1],
+        height: shape[0],
+        fx,
+        fy,
+        cx,
+        cy,
+    };
+    depth_to_points_impl(py, depth, &intr)
+}
+
+/// The OpenGL/USD camera pose (-z forward, y up) of an OpenCV camera pose.
+#[pyfunction]
+pub fn opencv_to_opengl<'py>(
+    py: Python<'py>,
+    pose: &Bound<'py, PyAny>,
+) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    Ok(matrix(
+        py,
+        &conventions::opencv_to_opengl(&pose_arg(Some(pose), "pose")?),
+    ))
+}
+
+/// The OpenCV camera pose (z forward, y down) of an OpenGL/USD camera pose.
+#[pyfunction]
+pub fn opengl_to_opencv<'py>(
+    py: Python<'py>,
+    pose: &Bound<'py, PyAny>,
+) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    Ok(matrix(
+        py,
+        &conventions::opengl_to_opencv(&pose_arg(Some(pose), "pose")?),
+    ))
+}
+
+/// The OpenCV camera pose at `eye` looking at `target` with `up` up.
+#[pyfunction]
+#[pyo3(signature = (eye, target, up=None))]
+pub fn look_at<'py>(
+    py: Python<'py>,
+    eye: &Bound<'py, PyAny>,
+    target: &Bound<'py, PyAny>,
+    up: Option<&Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    let e = vec3_arg(eye, "eye")?;
+    let t = vec3_arg(target, "target")?;
+    let u = up
+        .map(|u| vec3_arg(u, "up"))
+        .transpose()?
+        .unwrap_or_else(Vector3::z);
+    let p = conventions::look_at(&e.into(), &t.into(), &u).map_err(sim_err)?;
+    Ok(matrix(py, &p))
+}
+
+/// Joint-space PID with anti-windup (integral clamp + conditional integration).
+#[pyclass(name = "JointPID", module = "ferrobot")]
+pub struct PyJointPid {
+    inner: JointPid,
+}
+
+fn broadcast(obj: &Bound<'_, PyAny>, what: &str, n: usize) -> PyResult<Vec<f64>> {
+    if let Ok(v) = obj.extract::<f64>() {
+        if v.is_nan() {
+            return Err(NonFiniteError::new_err(format!("{what}: NaN")));
+        }
+        return Ok(vec![v; n]);
+    }
+    let a: numpy::PyArrayLikeDyn<'_, f64, numpy::AllowTypeChange> = obj
+        .extract()
+        .map_err(|_| InvalidArgumentError::new_err(format!("{what}: expected numbers")))?;
+    let v: Vec<f64> = a.as_array().iter().copied().collect();
+    if a.ndim() != 1 || v.len() != n {
+        return Err(ShapeError::new_err(format!(
+            "{what}: expected shape ({n},) or a scalar"
+        )));
+    }
+    if v.iter().any(|x| x.is_nan()) {
+        return Err(NonFiniteError::new_err(format!("{what}: NaN")));
+    }
+    Ok(v)
+}
+
+#[pymethods]
+impl PyJointPid {
+    /// Gains per joint (arrays of one length; ki, kd and limits may be scalars).
+    #[new]
+    #[pyo3(signature = (kp, ki, kd, integral_limit=None, output_limit=None))]
+    fn new(
+        kp: &Bound<'_, PyAny>,
+        ki: &Bound<'_, PyAny>,
+        kd: &Bound<'_, PyAny>,
+        integral_limit: Option<&Bound<'_, PyAny>>,
+        output_limit: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
+        let kp = vec_arg(kp, "kp")?;
+        let n = kp.len();
+        let ki = broadcast(ki, "ki", n)?;
+        let kd = broadcast(kd, "kd", n)?;
+        let il = integral_limit
+            .map(|v| broadcast(v, "integral_limit", n))
+            .transpose()?
+            .unwrap_or(vec![f64::INFINITY; n]);
+        let ol = output_limit
+            .map(|v| broadcast(v, "output_limit", n))
+            .transpose()?
+            .unwrap_or(vec![f64::INFINITY; n]);
+        Ok(Self {
+            inner: JointPid::new(kp, ki, kd, il, ol).map_err(sim_err)?,
+        })
+    }
+
+    /// One update: efforts for q, qd towards target (target_velocity default 0).
+    #[pyo3(signature = (q, qd, target, dt, target_velocity=None))]
+    fn update<'py>(
+        &mut self,
+        py: Python<'py>,
+        q: &Bound<'py, PyAny>,
+        qd: &Bound<'py, PyAny>,
+        target: &Bound<'py, PyAny>,
+        dt: f64,
+        target_velocity: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let n = self.inner.kp.len();
+        let q = read_array(q, "q", 1, &[Some(n)])?.data().to_vec();
+        let qd = read_array(qd, "qd", 1, &[Some(n)])?.data().to_vec();
+        let t = read_array(target, "target", 1, &[Some(n)])?.data().to_vec();
+        let tv = match target_velocity {
+            Some(v) => read_array(v, "target_velocity", 1, &[Some(n)])?
+                .data()
+                .to_vec(),
+            None => vec![0.0; n],
+        };
+        Ok(vec1(
+            py,
+            self.inner.update(&q, &qd, &t, &tv, dt).map_err(sim_err)?,
+        ))
+    }
+
+    /// The integral state.
+    #[getter]
+    fn integral<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        vec1(py, self.inner.integral().to_vec())
+    }
+
+    /// Clears the integral.
+    fn reset(&mut self) {
+        self.inner.reset();
+    }
+}
+
+/// Cartesian resolved-rate controller (damped Jacobian pseudo-inverse).
+#[pyclass(name = "ResolvedRateController", module = "ferrobot", frozen)]
+pub struct PyResolvedRate {
+    model: Arc<ferrobot_model::RobotModel>,
+    inner: ResolvedRate,
+}
+
+#[pymethods]
+impl PyResolvedRate {
+    /// Controls `link` (default: the end effector) with the DOFs `joint_indices`
+    /// (default: the planning group).
+    #[new]
+    #[pyo3(signature = (model, link=None, joint_indices=None, linear_gain=5.0, angular_gain=5.0, damping=0.05, max_linear_speed=0.5, max_angular_speed=1.5))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        model: &PyRobotModel,
+        link: Option<&str>,
+        joint_indices: Option<Vec<i64>>,
+        linear_gain: f64,
+        angular_gain: f64,
+        damping: f64,
+        max_linear_speed: f64,
+        max_angular_speed: f64,
+    ) -> PyResult<Self> {
+        let m = model.inner.clone();
+        let mut c = ResolvedRate::new(&m);
+        if let Some(l) = link {
+            c.link = m.link(l).map_err(model_err)?;
+        }
+        if let Some(ix) = indices_arg(joint_indices)? {
+            c.dofs = ix;
+        }
+        c.linear_gain = linear_gain;
+        c.angular_gain = angular_gain;
+        c.damping = damping;
+        c.max_linear_speed = max_linear_speed;
+        c.max_angular_speed = max_angular_speed;
+        c.validate(&m).map_err(sim_err)?;
+        Ok(Self { model: m, inner: c })
+    }
+
+    /// Joint velocities (num_dof,) moving the link towards `target` (base frame).
+    fn compute<'py>(
+        &self,
+        py: Python<'py>,
+        q: &Bound<'py, PyAny>,
+        target: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let q = read_array(q, "q", 1, &[Some(self.model.num_dof())])?
+            .data()
+            .to_vec();
+        let t = pose_arg(Some(target), "target")?;
+        Ok(vec1(
+            py,
+            self.inner.compute(&self.model, &q, &t).map_err(sim_err)?,
+        ))
+    }
+}

@@ -1,0 +1,203 @@
+//! Joint drives: PD position/velocity motors with a force limit, as in
+//! Isaac Sim's articulation drives (force = stiffness · (q* − q) +
+//! damping · (q̇* − q̇), clamped to ±max_force).
+
+use ferrobot_model::Joint;
+use rapier3d::prelude::MotorModel;
+
+use crate::error::{Result, SimError};
+use crate::robot::Robot;
+use crate::state::PhysState;
+
+/// The drive of one DOF.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Drive {
+    /// Position gain (N·m/rad or N/m).
+    pub stiffness: f64,
+    /// Velocity gain (N·m·s/rad or N·s/m).
+    pub damping: f64,
+    /// Largest force or torque the drive applies (N·m or N; inf: none).
+    pub max_force: f64,
+    /// Position target (rad or m).
+    pub target_position: f64,
+    /// Velocity target (rad/s or m/s).
+    pub target_velocity: f64,
+}
+
+/// Default gains of a revolute DOF.
+pub const REVOLUTE_STIFFNESS: f64 = 1.0e4;
+/// Default damping of a revolute DOF.
+pub const REVOLUTE_DAMPING: f64 = 1.0e2;
+/// Default gains of a prismatic DOF.
+pub const PRISMATIC_STIFFNESS: f64 = 1.0e4;
+/// Default damping of a prismatic DOF.
+pub const PRISMATIC_DAMPING: f64 = 1.0e2;
+
+impl Drive {
+    /// The default drive of `joint`, holding position `q`: stiff PD gains
+    /// and the URDF effort limit as the force limit.
+    pub fn default_for(joint: &Joint, q: f64) -> Self {
+        let (stiffness, damping) = if joint.kind.is_rotational() {
+            (REVOLUTE_STIFFNESS, REVOLUTE_DAMPING)
+        } else {
+            (PRISMATIC_STIFFNESS, PRISMATIC_DAMPING)
+        };
+        let effort = joint.limits.effort;
+        Self {
+            stiffness,
+            damping,
+            max_force: if effort > 0.0 { effort } else { f64::INFINITY },
+            target_position: q,
+            target_velocity: 0.0,
+        }
+    }
+}
+
+/// Checks DOF indices and returns them (all DOFs when `None`).
+pub fn resolve_indices(robot: &Robot, indices: Option<&[usize]>) -> Result<Vec<usize>> {
+    let n = robot.num_dof();
+    match indices {
+        None => Ok((0..n).collect()),
+        Some(ix) => {
+            if let Some(&bad) = ix.iter().find(|&&i| i >= n) {
+                return Err(SimError::UnknownName(format!(
+                    "joint index {bad} out of range: robot '{}' has {n} DOFs ({})",
+                    robot.name(),
+                    robot.model().dof_names().join(", ")
+                )));
+            }
+            let mut seen = vec![false; n];
+            for &i in ix {
+                if std::mem::replace(&mut seen[i], true) {
+                    return Err(SimError::InvalidArgument(format!(
+                        "joint index {i} given twice"
+                    )));
+                }
+            }
+            Ok(ix.to_vec())
+        }
+    }
+}
+
+fn values<'a>(what: &str, v: &'a [f64], n: usize) -> Result<&'a [f64]> {
+    crate::error::check_len(what, v, n)?;
+    Ok(v)
+}
+
+impl Robot {
+    /// Writes every drive into the Rapier joint motors.
+    pub(crate) fn apply_drives(&self, state: &mut PhysState) {
+        let Some(mb) = self.multibody_mut(state) else {
+            return;
+        };
+        for (d, drive) in self.dofs.iter().zip(&self.drives) {
+            let axis = d.axis();
+            let data = &mut mb.link_mut(d.link.id).expect("link").joint.data;
+            data.set_motor_model(axis, MotorModel::ForceBased);
+            data.set_motor(
+                axis,
+                drive.target_position as f32,
+                drive.target_velocity as f32,
+                drive.stiffness as f32,
+                drive.damping as f32,
+            );
+            // Rapier solves a motor with zero gains as a rigid velocity
+            // lock; a drive without gains must exert nothing.
+            let max_force = if drive.stiffness == 0.0 && drive.damping == 0.0 {
+                0.0
+            } else if drive.max_force.is_finite() {
+                drive.max_force as f32
+            } else {
+                f32::MAX
+            };
+            data.set_motor_max_force(axis, max_force);
+        }
+    }
+
+    /// Sets position targets for the DOFs `indices` (all when `None`).
+    pub fn set_position_targets(
+        &mut self,
+        state: &mut PhysState,
+        targets: &[f64],
+        indices: Option<&[usize]>,
+    ) -> Result<()> {
+        let ix = resolve_indices(self, indices)?;
+        let t = values("position targets", targets, ix.len())?;
+        for (&i, &v) in ix.iter().zip(t) {
+            self.drives[i].target_position = v;
+        }
+        self.apply_drives(state);
+        Ok(())
+    }
+
+    /// Sets velocity targets for the DOFs `indices` (all when `None`).
+    pub fn set_velocity_targets(
+        &mut self,
+        state: &mut PhysState,
+        targets: &[f64],
+        indices: Option<&[usize]>,
+    ) -> Result<()> {
+        let ix = resolve_indices(self, indices)?;
+        let t = values("velocity targets", targets, ix.len())?;
+        for (&i, &v) in ix.iter().zip(t) {
+            self.drives[i].target_velocity = v;
+        }
+        self.apply_drives(state);
+        Ok(())
+    }
+
+    /// Sets the efforts (N·m or N) applied every step to the DOFs
+    /// `indices` (all when `None`), on top of the drives.
+    pub fn set_efforts(&mut self, efforts: &[f64], indices: Option<&[usize]>) -> Result<()> {
+        let ix = resolve_indices(self, indices)?;
+        let e = values("efforts", efforts, ix.len())?;
+        for (&i, &v) in ix.iter().zip(e) {
+            self.efforts[i] = v;
+        }
+        Ok(())
+    }
+
+    /// Sets drive gains and force limits for the DOFs `indices` (all when
+    /// `None`). Gains must be >= 0, force limits > 0 (inf: unlimited).
+    pub fn set_drive_gains(
+        &mut self,
+        state: &mut PhysState,
+        stiffness: &[f64],
+        damping: &[f64],
+        max_force: Option<&[f64]>,
+        indices: Option<&[usize]>,
+    ) -> Result<()> {
+        let ix = resolve_indices(self, indices)?;
+        values("stiffness", stiffness, ix.len())?;
+        values("damping", damping, ix.len())?;
+        if let Some(m) = max_force {
+            if m.len() != ix.len() {
+                return Err(SimError::Shape {
+                    what: "max_force".into(),
+                    expected: format!("{} values", ix.len()),
+                    got: format!("{} values", m.len()),
+                });
+            }
+            if let Some(v) = m.iter().find(|v| v.is_nan() || **v <= 0.0) {
+                return Err(SimError::InvalidArgument(format!(
+                    "max_force must be > 0 (inf: unlimited), got {v}"
+                )));
+            }
+        }
+        if let Some(v) = stiffness.iter().chain(damping).find(|v| **v < 0.0) {
+            return Err(SimError::InvalidArgument(format!(
+                "drive stiffness and damping must be >= 0, got {v}"
+            )));
+        }
+        for (k, &i) in ix.iter().enumerate() {
+            let d = &mut self.drives[i];
+            d.stiffness = stiffness[k];
+            d.damping = damping[k];
+            if let Some(m) = max_force {
+                d.max_force = m[k];
+            }
+        }
+        self.apply_drives(state);
+        Ok(())
+    }
+}

@@ -1,0 +1,521 @@
+//! The world: time step, gravity, solver settings, a ground plane, rigid
+//! objects and robots; stepping, reset and state access.
+
+use std::collections::HashMap;
+use std::sync::Arc;
+
+use ferrobot_collision::AllowedCollisions;
+use ferrobot_model::RobotModel;
+use nalgebra::{Isometry3, Vector3};
+use rapier3d::prelude::{
+    ColliderBuilder, ColliderHandle, FrictionModel, IntegrationParameters, PhysicsPipeline,
+    RigidBodyBuilder, RigidBodyHandle, SharedShape,
+};
+
+use crate::convert::{from_pose, from_vec, pose_is_finite, to_pose, to_vec};
+use crate::error::{Result, SimError, check_finite};
+use crate::hooks::{LinkFilter, user_data};
+use crate::objects::{ObjectDesc, collider_for};
+use crate::robot::{Robot, RobotOptions};
+use crate::state::PhysState;
+
+/// Settings of a world.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WorldConfig {
+    /// Time step (s).
+    pub dt: f64,
+    /// Gravity (m/s², world frame; z is up).
+    pub gravity: Vector3<f64>,
+    /// Solver iterations per step.
+    pub solver_iterations: usize,
+    /// Whether the world has a ground plane at z = 0.
+    pub ground: bool,
+    /// Friction coefficient of the ground.
+    pub ground_friction: f64,
+    /// Natural frequency (Hz) of the contact springs between moving bodies
+    /// (twice this against fixed bodies); higher is stiffer.
+    pub contact_frequency: f64,
+    /// Penetration depth (m) the solver tolerates before pushing bodies apart.
+    pub allowed_penetration: f64,
+}
+
+impl Default for WorldConfig {
+    fn default() -> Self {
+        Self {
+            dt: 1.0 / 240.0,
+            gravity: Vector3::new(0.0, 0.0, -9.81),
+            solver_iterations: 4,
+            ground: true,
+            ground_friction: 0.8,
+            contact_frequency: CONTACT_FREQUENCY,
+            allowed_penetration: ALLOWED_PENETRATION,
+        }
+    }
+}
+
+/// Default contact natural frequency (Hz); Rapier's own default is 30 Hz,
+/// sized for large piles, too soft for fingers squeezing an object.
+pub const CONTACT_FREQUENCY: f64 = 100.0;
+/// Damping ratio of the contact springs.
+pub const CONTACT_DAMPING_RATIO: f32 = 1.0;
+/// Default allowed penetration (m); Rapier's own default is 5 mm at a
+/// length unit of 1 m, too much for grasping centimetre-sized objects.
+pub const ALLOWED_PENETRATION: f64 = 0.001;
+
+/// Segmentation id of "no object" (background).
+pub const SEG_NONE: u32 = 0;
+/// Segmentation id of the ground plane.
+pub const SEG_GROUND: u32 = 1;
+
+/// An object of the world.
+#[derive(Debug, Clone)]
+pub struct Object {
+    /// Its description as added.
+    pub desc: ObjectDesc,
+    /// Its body.
+    pub body: RigidBodyHandle,
+    /// Its collider.
+    pub collider: ColliderHandle,
+    /// Its segmentation id.
+    pub seg: u32,
+}
+
+/// A segmentation label: what an id in a segmentation image is.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SegLabel {
+    /// The id.
+    pub id: u32,
+    /// "ground", an object name, or "robot/link".
+    pub name: String,
+    /// The flat colour (0..1) used in RGB images.
+    pub color: [f32; 3],
+}
+
+#[derive(Clone)]
+struct Snapshot {
+    state: PhysState,
+    robots: Vec<Robot>,
+    time: f64,
+    steps: u64,
+}
+
+/// A physics world (Rapier): objects, robots, stepping and reset.
+pub struct World {
+    config: WorldConfig,
+    params: IntegrationParameters,
+    pipeline: PhysicsPipeline,
+    pub(crate) state: PhysState,
+    objects: Vec<Object>,
+    object_index: HashMap<String, usize>,
+    pub(crate) robots: Vec<Robot>,
+    filter: LinkFilter,
+    labels: Vec<SegLabel>,
+    initial: Option<Snapshot>,
+    time: f64,
+    steps: u64,
+}
+
+/// Largest speed (m/s) a body may reach before the simulation counts as
+/// diverged (Rapier clamps speeds at 400 m/s, so a runaway body ends there).
+pub const DIVERGENCE_SPEED: f32 = 300.0;
+/// Largest angular speed (rad/s) before the simulation counts as diverged.
+pub const DIVERGENCE_ANGULAR_SPEED: f32 = 1.0e4;
+/// Largest distance (m) from the origin before the simulation counts as diverged.
+pub const DIVERGENCE_DISTANCE: f32 = 1.0e4;
+
+fn default_color(id: u32) -> [f32; 3] {
+    // Distinct, reproducible colours (golden-angle hue walk).
+    let h = (id as f32 * 0.618_034) % 1.0;
+    let f = |n: f32| {
+        let k = (n + h * 6.0) % 6.0;
+        0.75 - 0.5 * (k.min(4.0 - k).clamp(0.0, 1.0))
+    };
+    [f(5.0), f(3.0), f(1.0)]
+}
+
+impl World {
+    /// A new world.
+    pub fn new(config: WorldConfig) -> Result<Self> {
+        if !(config.dt.is_finite() && config.dt > 0.0 && config.dt <= 0.1) {
+            return Err(SimError::InvalidArgument(format!(
+                "time step must be in (0, 0.1] s, got {}",
+                config.dt
+            )));
+        }
+        check_finite("gravity", config.gravity.as_slice())?;
+        if config.solver_iterations == 0 {
+            return Err(SimError::InvalidArgument(
+                "solver_iterations must be >= 1".into(),
+            ));
+        }
+        check_finite("ground friction", &[config.ground_friction])?;
+        if config.ground_friction < 0.0 {
+            return Err(SimError::InvalidArgument(format!(
+                "ground friction must be >= 0, got {}",
+                config.ground_friction
+            )));
+        }
+        let mut params = IntegrationParameters {
+            dt: config.dt as f32,
+            friction_model: FrictionModel::Coulomb,
+            ..IntegrationParameters::default()
+        };
+        for (n, v) in [
+            ("contact_frequency", config.contact_frequency),
+            ("allowed_penetration", config.allowed_penetration),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(SimError::InvalidArgument(format!(
+                    "{n} must be finite and > 0, got {v}"
+                )));
+            }
+        }
+        params.num_solver_iterations = config.solver_iterations;
+        params.contact_softness.natural_frequency = config.contact_frequency as f32;
+        params.static_contact_softness.natural_frequency = 2.0 * config.contact_frequency as f32;
+        params.normalized_allowed_linear_error = config.allowed_penetration as f32;
+        // Critically damped contacts and friction in the stabilisation pass:
+        // with Rapier's defaults (zeta = 10, friction only in the relax pass)
+        // a squeezed object creeps out of a gripper at ~1 cm/s.
+        params.contact_softness.damping_ratio = CONTACT_DAMPING_RATIO;
+        params.static_contact_softness.damping_ratio = CONTACT_DAMPING_RATIO;
+        params.friction_in_bias_pass = true;
+        let mut world = Self {
+            config,
+            params,
+            pipeline: PhysicsPipeline::new(),
+            state: PhysState::default(),
+            objects: Vec::new(),
+            object_index: HashMap::new(),
+            robots: Vec::new(),
+            filter: LinkFilter::default(),
+            labels: vec![SegLabel {
+                id: SEG_NONE,
+                name: "background".into(),
+                color: [0.0, 0.0, 0.0],
+            }],
+            initial: None,
+            time: 0.0,
+            steps: 0,
+        };
+        if world.config.ground {
+            let body = world.state.bodies.insert(RigidBodyBuilder::fixed());
+            let collider = ColliderBuilder::new(SharedShape::halfspace(rapier3d::math::Vector::Z))
+                .friction(world.config.ground_friction as f32)
+                .user_data(user_data(SEG_GROUND, None, 0));
+            world
+                .state
+                .colliders
+                .insert_with_parent(collider, body, &mut world.state.bodies);
+            world.labels.push(SegLabel {
+                id: SEG_GROUND,
+                name: "ground".into(),
+                color: [0.55, 0.55, 0.5],
+            });
+        }
+        Ok(world)
+    }
+
+    /// The settings.
+    pub fn config(&self) -> &WorldConfig {
+        &self.config
+    }
+
+    /// Simulated time since creation or the last reset (s).
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    /// Steps taken since creation or the last reset.
+    pub fn steps(&self) -> u64 {
+        self.steps
+    }
+
+    /// The physics state (read only).
+    pub fn state(&self) -> &PhysState {
+        &self.state
+    }
+
+    fn next_seg(&self) -> u32 {
+        self.labels.last().map_or(1, |l| l.id + 1)
+    }
+
+    fn check_name(&self, name: &str) -> Result<()> {
+        if self.object_index.contains_key(name) || self.robots.iter().any(|r| r.name == name) {
+            return Err(SimError::Duplicate(format!(
+                "the world has an object or robot named '{name}' already"
+            )));
+        }
+        Ok(())
+    }
+
+    /// Adds an object; returns its index.
+    pub fn add_object(&mut self, desc: ObjectDesc) -> Result<usize> {
+        desc.validate()?;
+        self.check_name(&desc.name)?;
+        let shape = desc
+            .shape
+            .to_shared_shape(&format!("object '{}'", desc.name))?;
+        let seg = self.next_seg();
+        let builder = if desc.is_static {
+            RigidBodyBuilder::fixed()
+        } else {
+            RigidBodyBuilder::dynamic()
+        };
+        let body = self.state.bodies.insert(builder.pose(to_pose(&desc.pose)));
+        let collider = collider_for(&desc, shape)?.user_data(user_data(seg, None, 0));
+        let collider =
+            self.state
+                .colliders
+                .insert_with_parent(collider, body, &mut self.state.bodies);
+        let c = desc.color;
+        self.labels.push(SegLabel {
+            id: seg,
+            name: desc.name.clone(),
+            color: [c[0] as f32, c[1] as f32, c[2] as f32],
+        });
+        self.object_index
+            .insert(desc.name.clone(), self.objects.len());
+        self.objects.push(Object {
+            desc,
+            body,
+            collider,
+            seg,
+        });
+        self.initial = None;
+        Ok(self.objects.len() - 1)
+    }
+
+    /// Adds a robot built from `model`; returns its index.
+    pub fn add_robot(&mut self, model: Arc<RobotModel>, options: &RobotOptions) -> Result<usize> {
+        self.check_name(&options.name)?;
+        if options.name.is_empty() {
+            return Err(SimError::InvalidArgument(
+                "robot name must not be empty".into(),
+            ));
+        }
+        check_finite("robot friction", &[options.friction])?;
+        if options.friction < 0.0 {
+            return Err(SimError::InvalidArgument(format!(
+                "robot friction must be >= 0, got {}",
+                options.friction
+            )));
+        }
+        let index = self.robots.len();
+        let seg_base = self.next_seg();
+        // Work on a copy so that a failure leaves the world untouched.
+        let mut state = self.state.clone();
+        let robot = Robot::build(&mut state, model.clone(), options, index, seg_base)?;
+        self.state = state;
+        for (l, link) in model.links().iter().enumerate() {
+            self.labels.push(SegLabel {
+                id: seg_base + l as u32,
+                name: format!("{}/{}", options.name, link.name),
+                color: default_color(seg_base + l as u32),
+            });
+        }
+        let acm = AllowedCollisions::from_model(&model);
+        for (a, b, _) in acm.pairs() {
+            self.filter.allowed.insert((index, a.min(b), a.max(b)));
+        }
+        self.robots.push(robot);
+        self.initial = None;
+        Ok(index)
+    }
+
+    /// Objects in the order they were added.
+    pub fn objects(&self) -> &[Object] {
+        &self.objects
+    }
+
+    /// Index of the object named `name`.
+    pub fn object_index(&self, name: &str) -> Result<usize> {
+        self.object_index.get(name).copied().ok_or_else(|| {
+            let mut names: Vec<&str> = self.objects.iter().map(|o| o.desc.name.as_str()).collect();
+            names.sort_unstable();
+            SimError::UnknownName(format!(
+                "no object named '{name}'; objects: [{}]",
+                names.join(", ")
+            ))
+        })
+    }
+
+    /// Robots in the order they were added.
+    pub fn robots(&self) -> &[Robot] {
+        &self.robots
+    }
+
+    /// Index of the robot named `name`.
+    pub fn robot_index(&self, name: &str) -> Result<usize> {
+        self.robots
+            .iter()
+            .position(|r| r.name == name)
+            .ok_or_else(|| SimError::UnknownName(format!("no robot named '{name}'")))
+    }
+
+    /// Runs `f` on robot `index` and the physics state.
+    pub fn with_robot<T>(
+        &mut self,
+        index: usize,
+        f: impl FnOnce(&mut Robot, &mut PhysState) -> Result<T>,
+    ) -> Result<T> {
+        let robot = self
+            .robots
+            .get_mut(index)
+            .ok_or_else(|| SimError::UnknownName(format!("no robot with index {index}")))?;
+        f(robot, &mut self.state)
+    }
+
+    /// Robot `index` (read only).
+    pub fn robot(&self, index: usize) -> Result<&Robot> {
+        self.robots
+            .get(index)
+            .ok_or_else(|| SimError::UnknownName(format!("no robot with index {index}")))
+    }
+
+    /// Segmentation labels: background, ground, objects, robot links.
+    pub fn labels(&self) -> &[SegLabel] {
+        &self.labels
+    }
+
+    /// World pose of object `index`.
+    pub fn object_pose(&self, index: usize) -> Isometry3<f64> {
+        from_pose(self.state.bodies[self.objects[index].body].position())
+    }
+
+    /// Teleports object `index` to `pose`.
+    pub fn set_object_pose(&mut self, index: usize, pose: &Isometry3<f64>) -> Result<()> {
+        if !pose_is_finite(pose) {
+            return Err(SimError::NonFinite(format!(
+                "object '{}': pose is not finite",
+                self.objects[index].desc.name
+            )));
+        }
+        self.state.bodies[self.objects[index].body].set_position(to_pose(pose), true);
+        Ok(())
+    }
+
+    /// Linear and angular velocity of object `index` (world frame).
+    pub fn object_velocity(&self, index: usize) -> (Vector3<f64>, Vector3<f64>) {
+        let b = &self.state.bodies[self.objects[index].body];
+        (from_vec(b.linvel()), from_vec(b.angvel()))
+    }
+
+    /// Sets the linear and angular velocity of object `index`.
+    pub fn set_object_velocity(
+        &mut self,
+        index: usize,
+        linear: &Vector3<f64>,
+        angular: &Vector3<f64>,
+    ) -> Result<()> {
+        check_finite("linear velocity", linear.as_slice())?;
+        check_finite("angular velocity", angular.as_slice())?;
+        let o = &self.objects[index];
+        if o.desc.is_static {
+            return Err(SimError::InvalidArgument(format!(
+                "object '{}' is static: it cannot have a velocity",
+                o.desc.name
+            )));
+        }
+        let b = &mut self.state.bodies[o.body];
+        b.set_linvel(to_vec(linear), true);
+        b.set_angvel(to_vec(angular), true);
+        Ok(())
+    }
+
+    /// Makes the current state the one `reset()` returns to.
+    pub fn mark_initial_state(&mut self) {
+        self.initial = Some(Snapshot {
+            state: self.state.clone(),
+            robots: self.robots.clone(),
+            time: self.time,
+            steps: self.steps,
+        });
+    }
+
+    /// Returns to the initial state: the state at the first step after the
+    /// last object or robot was added (or the last `mark_initial_state`).
+    /// Without any step yet, the current state is the initial state.
+    pub fn reset(&mut self) {
+        match &self.initial {
+            Some(s) => {
+                self.state = s.state.clone();
+                self.robots = s.robots.clone();
+                self.time = s.time;
+                self.steps = s.steps;
+                self.pipeline = PhysicsPipeline::new();
+            }
+            None => self.mark_initial_state(),
+        }
+    }
+
+    /// Advances the simulation by `n` steps. Fails with
+    /// [`SimError::Diverged`] (and leaves the diverged state for inspection)
+    /// when a body's pose or velocity becomes non-finite or runaway.
+    pub fn step(&mut self, n: usize) -> Result<()> {
+        if self.initial.is_none() {
+            self.mark_initial_state();
+        }
+        let gravity = to_vec(&self.config.gravity);
+        for _ in 0..n {
+            for r in &self.robots {
+                r.apply_efforts(&mut self.state);
+            }
+            let s = &mut self.state;
+            self.pipeline.step(
+                gravity,
+                &self.params,
+                &mut s.islands,
+                &mut s.broad_phase,
+                &mut s.narrow_phase,
+                &mut s.bodies,
+                &mut s.colliders,
+                &mut s.impulse_joints,
+                &mut s.multibody_joints,
+                &mut s.soft_bodies,
+                &mut s.ccd,
+                &self.filter,
+                &(),
+            );
+            self.steps += 1;
+            self.time += self.config.dt;
+            self.check_diverged()?;
+        }
+        Ok(())
+    }
+
+    fn check_diverged(&self) -> Result<()> {
+        for (_, b) in self.state.bodies.iter() {
+            if !b.is_dynamic() {
+                continue;
+            }
+            let p = b.position();
+            let ok = p.translation.is_finite()
+                && p.rotation.is_finite()
+                && b.linvel().is_finite()
+                && b.angvel().is_finite()
+                && b.linvel().length() < DIVERGENCE_SPEED
+                && b.angvel().length() < DIVERGENCE_ANGULAR_SPEED
+                && p.translation.length() < DIVERGENCE_DISTANCE;
+            if !ok {
+                let name = self.body_name(b.colliders().first().copied());
+                return Err(SimError::Diverged(format!(
+                    "simulation diverged at step {} (t = {:.4} s): body '{name}' has position {:?}, velocity {:?}; reduce the time step, raise solver iterations or check masses and gains",
+                    self.steps,
+                    self.time,
+                    p.translation,
+                    b.linvel()
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    fn body_name(&self, collider: Option<ColliderHandle>) -> String {
+        collider
+            .and_then(|c| self.state.colliders.get(c))
+            .map(|c| crate::hooks::seg_of(c.user_data))
+            .and_then(|id| self.labels.iter().find(|l| l.id == id))
+            .map_or_else(|| "?".into(), |l| l.name.clone())
+    }
+}

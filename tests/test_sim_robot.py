@@ -1,0 +1,412 @@
+"""Robots in the world: articulation against the model's FK and pybullet's,
+pendulum dynamics against analytic periods, drives, mimic fingers,
+grasping (bundled Panda and pybullet's panda.urdf), controllers, errors."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+from _sim_helpers import PANDA_Q0, ik, pose_at, straight_line
+from scipy.special import ellipk
+
+import ferrobot
+from conftest import PANDA_SRDF, PANDA_URDF, UR5_URDF, random_configurations
+from ferrobot import errors
+
+G = 9.81
+ARM = list(range(7))
+
+
+def pybullet_panda_path():
+    pybullet_data = pytest.importorskip("pybullet_data")
+    return os.path.join(pybullet_data.getDataPath(), "franka_panda", "panda.urdf")
+
+
+def pendulum_urdf(length=0.5, mass=1.0, radius=0.05, z=1.0):
+    i = 0.4 * mass * radius**2
+    return f"""<robot name="pendulum">
+  <link name="base"/>
+  <joint name="hinge" type="continuous">
+    <parent link="base"/><child link="bob"/>
+    <origin xyz="0 0 {z}"/><axis xyz="0 1 0"/>
+  </joint>
+  <link name="bob">
+    <inertial><origin xyz="0 0 {-length}"/><mass value="{mass}"/>
+      <inertia ixx="{i}" iyy="{i}" izz="{i}" ixy="0" ixz="0" iyz="0"/></inertial>
+    <collision><origin xyz="0 0 {-length}"/><geometry><sphere radius="{radius}"/></geometry></collision>
+  </link>
+</robot>"""
+
+
+def swing(theta0, length=0.5, mass=1.0, radius=0.05, dt=1 / 1000):
+    w = ferrobot.World(dt=dt, ground=False)
+    model = ferrobot.RobotModel.from_urdf_string(pendulum_urdf(length, mass, radius))
+    r = w.add_robot(model, gravity_compensation=False, q=[theta0])
+    r.set_drive_gains([0.0], [0.0])
+    qs = []
+    for _ in range(int(4.0 / dt)):
+        w.step()
+        qs.append(r.get_joint_positions()[0])
+    qs = np.array(qs)
+    # period from successive upward zero crossings (linear interpolation)
+    s = np.where((qs[:-1] < 0) & (qs[1:] >= 0))[0]
+    t = (s + qs[s] / (qs[s] - qs[s + 1]) + 1) * dt
+    return np.diff(t).mean(), qs
+
+
+def pivot_inertia(length, mass, radius):
+    return 0.4 * mass * radius**2 + mass * length**2
+
+
+def test_pendulum_small_amplitude_period():
+    length, mass, radius = 0.5, 1.0, 0.05
+    period, _ = swing(0.05, length, mass, radius)
+    expected = 2 * np.pi * np.sqrt(pivot_inertia(length, mass, radius) / (mass * G * length))
+    assert period == pytest.approx(expected, rel=2e-3)
+
+
+def test_pendulum_large_amplitude_period_and_energy():
+    length, mass, radius, theta0 = 0.5, 1.0, 0.05, 1.2
+    period, qs = swing(theta0, length, mass, radius)
+    # exact period of a physical pendulum: 4 sqrt(I / (m g L)) K(sin^2(theta0 / 2))
+    expected = 4 * np.sqrt(pivot_inertia(length, mass, radius) / (mass * G * length)) * ellipk(np.sin(theta0 / 2) ** 2)
+    assert period == pytest.approx(expected, rel=5e-3)
+    # amplitude (energy) is kept within 1%
+    assert np.abs(qs).max() == pytest.approx(theta0, rel=1e-2)
+
+
+def test_effort_gives_analytic_acceleration():
+    # no gravity, no drive: a torque tau gives alpha = tau / I about the hinge
+    w = ferrobot.World(ground=False, gravity=[0, 0, 0])
+    model = ferrobot.RobotModel.from_urdf_string(pendulum_urdf())
+    r = w.add_robot(model)
+    r.set_drive_gains([0.0], [0.0])
+    tau = 0.3
+    r.set_joint_efforts([tau])
+    n = 120
+    w.step(n)
+    alpha = tau / pivot_inertia(0.5, 1.0, 0.05)
+    assert r.get_joint_velocities()[0] == pytest.approx(alpha * n * w.dt, rel=1e-3)
+
+
+@pytest.fixture(scope="module")
+def pb_panda():
+    return ferrobot.RobotModel.from_urdf(pybullet_panda_path(), ee_link="panda_hand")
+
+
+@pytest.mark.parametrize("which", ["bundled", "mbm", "pybullet"])
+def test_teleport_link_poses_match_model_fk(which, pb_panda):
+    if which == "bundled":
+        model = ferrobot.robots.panda()
+    elif which == "mbm":
+        model = ferrobot.RobotModel.from_urdf(PANDA_URDF, srdf=PANDA_SRDF)
+    else:
+        model = pb_panda
+    base = np.eye(4)
+    base[:3, :3] = np.array([[0, -1, 0], [1, 0, 0], [0, 0, 1]])
+    base[:3, 3] = [0.2, -0.1, 0.3]
+    w = ferrobot.World()
+    r = w.add_robot(model, pose=base)
+    for q in random_configurations(model, 5, seed=3):
+        r.set_joint_positions(q)
+        assert r.get_joint_positions() == pytest.approx(q, abs=1e-5)
+        for link in model.link_names:
+            expected = base @ model.fk(q, link)
+            got = r.get_link_pose(link)
+            assert np.abs(got - expected).max() < 2e-5, link
+
+
+def test_link_poses_match_pybullet_fk(pb_panda):
+    pybullet = pytest.importorskip("pybullet")
+    cid = pybullet.connect(pybullet.DIRECT)
+    try:
+        body = pybullet.loadURDF(pybullet_panda_path(), useFixedBase=True, physicsClientId=cid)
+        names = {}
+        for j in range(pybullet.getNumJoints(body, physicsClientId=cid)):
+            info = pybullet.getJointInfo(body, j, physicsClientId=cid)
+            names[info[12].decode()] = (j, info[1].decode())
+        w = ferrobot.World()
+        r = w.add_robot(pb_panda)
+        for q in random_configurations(pb_panda, 4, seed=11):
+            r.set_joint_positions(q)
+            joint_q = dict(zip(pb_panda.dof_names, q, strict=True))
+            joint_q["panda_finger_joint2"] = joint_q["panda_finger_joint1"]  # mimic
+            for _link, (j, jname) in names.items():
+                if jname in joint_q:
+                    pybullet.resetJointState(body, j, joint_q[jname], physicsClientId=cid)
+            for link, (j, _) in names.items():
+                state = pybullet.getLinkState(body, j, computeForwardKinematics=True, physicsClientId=cid)
+                pos = np.array(state[4])
+                assert r.get_link_pose(link)[:3, 3] == pytest.approx(pos, abs=3e-5), link
+    finally:
+        pybullet.disconnect(cid)
+
+
+def test_holds_pose_without_gravity_compensation():
+    model = ferrobot.robots.panda()
+    w = ferrobot.World()
+    r = w.add_robot(model, gravity_compensation=False, q=PANDA_Q0)
+    r.set_joint_position_targets(PANDA_Q0)
+    w.step(480)
+    err = np.abs(r.get_joint_positions() - PANDA_Q0)
+    assert err[:7].max() < 0.01  # stiff default drives against gravity
+
+
+def test_position_and_velocity_targets():
+    model = ferrobot.robots.panda()
+    w = ferrobot.World()
+    r = w.add_robot(model, q=PANDA_Q0)
+    target = PANDA_Q0.copy()
+    target[[0, 3]] += [0.4, 0.3]
+    r.set_joint_position_targets(target[[0, 3]], joint_indices=[0, 3])
+    assert r.get_joint_position_targets() == pytest.approx(target)
+    w.step(480)
+    assert r.get_joint_positions() == pytest.approx(target, abs=2e-3)
+    # pure velocity drive on joint 1
+    r.set_drive_gains([0.0], [200.0], joint_indices=[0])
+    r.set_joint_velocity_targets([0.5], joint_indices=[0])
+    w.step(240)
+    assert r.get_joint_velocities()[0] == pytest.approx(0.5, abs=0.01)
+    k, d, f = r.get_drive_gains()
+    assert k[0] == 0 and d[0] == 200 and f[0] == 87
+
+
+def test_mimic_fingers_move_together():
+    model = ferrobot.robots.panda()
+    w = ferrobot.World()
+    r = w.add_robot(model, q=PANDA_Q0)
+    for opening in (0.01, 0.035):
+        r.set_joint_position_targets([opening], joint_indices=[7])
+        w.step(240)
+        hand = r.get_link_pose("panda_hand")
+        left = np.linalg.inv(hand) @ r.get_link_pose("panda_leftfinger")
+        right = np.linalg.inv(hand) @ r.get_link_pose("panda_rightfinger")
+        assert left[1, 3] == pytest.approx(opening, abs=5e-4)
+        assert right[1, 3] == pytest.approx(-opening, abs=5e-4)
+
+
+def test_set_world_pose_moves_everything():
+    model = ferrobot.robots.panda()
+    w = ferrobot.World()
+    r = w.add_robot(model, q=PANDA_Q0)
+    new = np.eye(4)
+    new[:3, 3] = [1.0, 2.0, 0.5]
+    r.set_world_pose(new)
+    assert r.get_world_pose() == pytest.approx(new)
+    assert r.get_link_pose("panda_hand") == pytest.approx(new @ model.fk(PANDA_Q0, "panda_hand"), abs=1e-5)
+    w.step(10)
+    assert r.get_joint_positions() == pytest.approx(PANDA_Q0, abs=1e-3)
+
+
+def grasp_and_carry(model, tcp, box_size, force):
+    """Grasp a 0.5 kg box on the ground, carry it 0.5 m along a straight line at
+    up to 1 m/s; returns the largest drift of the box relative to the hand (m)."""
+    qg = ik(model, PANDA_Q0, pose_at([0.5, 0, box_size / 2]), tcp)
+    w = ferrobot.World()
+    r = w.add_robot(model, name="panda", q=qg)
+    r.set_joint_position_targets(qg)
+    w.add_box("box", [box_size] * 3, [0.5, 0, box_size / 2, 1, 0, 0, 0], mass=0.5, friction=1.0)
+    w.step(30)
+    r.close_gripper(force=force)
+    w.step(120)
+
+    def rel():
+        return np.linalg.inv(r.get_link_pose("panda_hand")) @ w.get_object_pose("box")
+
+    rel0 = rel()
+    start = np.array([0.5, 0, box_size / 2])
+    direction = np.array([-0.2, 0.3, 0.375])
+    goal = start + 0.5 * direction / np.linalg.norm(direction)  # carried 0.5 m
+    dt = 1 / 240
+    qs = straight_line(model, qg, start, goal, tcp, peak_speed=1.0, dt=dt)
+    speeds = np.linalg.norm(np.diff([model.fk(np.r_[q, qg[7]], tcp)[:3, 3] for q in qs], axis=0), axis=1) / dt
+    assert 0.9 < speeds.max() <= 1.05
+    drift = 0.0
+    for k in range(0, len(qs) - 1, 10):
+        r.execute_trajectory(qs[k : k + 11], dt, joint_indices=ARM)
+        drift = max(drift, np.linalg.norm(rel()[:3, 3] - rel0[:3, 3]))
+    r.execute_trajectory(qs[-1:], dt, joint_indices=ARM, settle_time=0.5)
+    drift = max(drift, np.linalg.norm(rel()[:3, 3] - rel0[:3, 3]))
+    assert w.get_object_pose("box")[2, 3] > 0.25  # lifted with the hand
+    return drift
+
+
+def test_grasp_hold_bundled_panda():
+    assert grasp_and_carry(ferrobot.robots.panda(), "panda_hand_tcp", 0.05, force=40.0) < 0.005
+
+
+def test_grasp_hold_pybullet_panda(pb_panda):
+    assert grasp_and_carry(pb_panda, "panda_grasptarget", 0.04, force=40.0) < 0.005
+
+
+def test_gripper_open_close_and_custom_gripper():
+    model = ferrobot.robots.panda()
+    w = ferrobot.World()
+    r = w.add_robot(model, q=PANDA_Q0)
+    r.close_gripper()
+    w.step(240)
+    assert r.get_gripper_positions()[0] == pytest.approx(0.0, abs=1e-3)
+    r.open_gripper()
+    w.step(240)
+    assert r.get_gripper_positions()[0] == pytest.approx(0.04, abs=1e-3)
+    r.set_gripper(["panda_finger_joint1"], [0.03], [0.01])
+    r.open_gripper()
+    w.step(240)
+    assert r.get_gripper_positions()[0] == pytest.approx(0.03, abs=1e-3)
+    with pytest.raises(errors.UnknownNameError):
+        r.set_gripper(["nope"], [0.03], [0.0])
+    with pytest.raises(errors.InvalidArgumentError):
+        r.close_gripper(force=-1.0)
+
+
+def test_ur5_loads_and_holds(ur5):
+    w = ferrobot.World()
+    q = np.array([0.0, -1.2, 1.0, -1.4, -1.57, 0.0] + [0.0] * (ur5.num_dof - 6))
+    r = w.add_robot(ur5, q=q, name="ur5")
+    r.set_joint_position_targets(q)
+    w.step(240)
+    assert r.get_joint_positions()[:6] == pytest.approx(q[:6], abs=2e-3)
+    assert r.get_link_pose(ur5.ee_link) == pytest.approx(ur5.fk(r.get_joint_positions()), abs=1e-4)
+
+
+def test_trajectory_executor_reports_tracking():
+    model = ferrobot.robots.panda()
+    w = ferrobot.World()
+    r = w.add_robot(model, q=PANDA_Q0)
+    dt = 0.01
+    t = np.arange(0, 1.0 + 1e-9, dt)
+    q = PANDA_Q0[None, :7] + 0.15 * (1 - np.cos(2 * np.pi * t))[:, None] * np.ones(7)
+    rep = r.execute_trajectory(q, dt, joint_indices=ARM, settle_time=0.1)
+    n = len(rep["times"])
+    assert n == int(round(1.1 / w.dt))
+    assert rep["desired"].shape == (n, 7) and rep["actual"].shape == (n, 7)
+    # desired follows the samples; the robot tracks within a few mrad
+    assert rep["desired"][-1] == pytest.approx(q[-1], abs=1e-9)
+    assert rep["max_error"].max() < 0.01
+    assert rep["final_error"].max() < 2e-3
+    assert np.all(rep["rms_error"] <= rep["max_error"])
+    assert r.get_joint_positions()[:7] == pytest.approx(q[-1], abs=2e-3)
+
+
+def test_resolved_rate_reaches_pose():
+    model = ferrobot.robots.panda()
+    w = ferrobot.World()
+    r = w.add_robot(model, q=PANDA_Q0)
+    ctl = ferrobot.ResolvedRateController(model, link="panda_hand_tcp")
+    target = pose_at([0.45, 0.15, 0.3])
+    target_q = r.get_joint_positions()
+    for _ in range(int(3.0 / w.dt)):
+        q = r.get_joint_positions()
+        qd = ctl.compute(q, target)
+        target_q = target_q + qd * w.dt
+        r.set_joint_position_targets(target_q)
+        r.set_joint_velocity_targets(qd)
+        w.step()
+    reached = r.get_link_pose("panda_hand_tcp")
+    assert np.linalg.norm(reached[:3, 3] - target[:3, 3]) < 2e-3
+    assert np.allclose(reached[:3, :3], target[:3, :3], atol=5e-3)
+
+
+def test_pid_anti_windup_and_tracking():
+    pid = ferrobot.JointPID([10.0], 5.0, 1.0, integral_limit=1.0, output_limit=2.0)
+    # saturated: large error, the integral must not grow
+    for _ in range(100):
+        u = pid.update([0.0], [0.0], [10.0], 0.01)
+    assert u[0] == 2.0
+    assert pid.integral[0] == 0.0
+    pid.reset()
+    # unsaturated: integral accumulates e dt, clamped at the limit
+    for _ in range(50):
+        pid.update([0.0], [0.0], [0.1], 0.01)
+    assert pid.integral[0] == pytest.approx(0.05)
+    # effort control of the pendulum under gravity: the integral removes
+    # the steady-state error of a pure PD
+    w = ferrobot.World(ground=False, dt=1 / 500)
+    model = ferrobot.RobotModel.from_urdf_string(pendulum_urdf())
+    r = w.add_robot(model, gravity_compensation=False)
+    r.set_drive_gains([0.0], [0.0])
+    pid = ferrobot.JointPID([40.0], 40.0, 4.0, integral_limit=10.0, output_limit=20.0)
+    for _ in range(int(6.0 / w.dt)):
+        u = pid.update(r.get_joint_positions(), r.get_joint_velocities(), [0.5], w.dt)
+        r.set_joint_efforts(u)
+        w.step()
+    assert r.get_joint_positions()[0] == pytest.approx(0.5, abs=2e-3)
+    # holding torque equals gravity's m g L sin(theta)
+    assert u[0] == pytest.approx(1.0 * G * 0.5 * np.sin(0.5), rel=0.02)
+
+
+def test_divergence_from_absurd_effort():
+    w = ferrobot.World(ground=False)
+    model = ferrobot.RobotModel.from_urdf_string(pendulum_urdf())
+    r = w.add_robot(model)
+    r.set_drive_gains([0.0], [0.0])
+    r.set_joint_efforts([1e12])
+    with pytest.raises(errors.SimulationDiverged):
+        w.step(10)
+
+
+def test_robot_determinism_and_reset():
+    model = ferrobot.robots.panda()
+
+    def run():
+        w = ferrobot.World()
+        r = w.add_robot(model, q=PANDA_Q0)
+        w.add_box("box", [0.05, 0.05, 0.05], [0.5, 0, 0.025, 1, 0, 0, 0])
+        target = PANDA_Q0 + 0.2
+        r.set_joint_position_targets(target)
+        w.step(200)
+        return w, r, np.r_[r.get_joint_positions(), r.get_joint_velocities(), w.get_object_pose("box").ravel()]
+
+    w1, r1, s1 = run()
+    _, _, s2 = run()
+    assert np.array_equal(s1, s2)
+    w1.reset()
+    assert r1.get_joint_positions() == pytest.approx(PANDA_Q0, abs=1e-6)
+    w1.step(200)
+    s3 = np.r_[r1.get_joint_positions(), r1.get_joint_velocities(), w1.get_object_pose("box").ravel()]
+    assert np.array_equal(s1, s3)
+
+
+def test_robot_invalid_inputs(ur5):
+    model = ferrobot.robots.panda()
+    w = ferrobot.World()
+    r = w.add_robot(model, name="panda")
+    with pytest.raises(errors.UnknownNameError, match="joint index 9"):
+        r.set_joint_position_targets([0.0], joint_indices=[9])
+    with pytest.raises(errors.UnknownNameError):
+        r.set_joint_position_targets([0.0], joint_indices=[-1])
+    with pytest.raises(errors.ShapeError):
+        r.set_joint_positions([0.0, 1.0])
+    with pytest.raises(errors.ShapeError):
+        r.set_joint_position_targets([0.0, 1.0], joint_indices=[0])
+    with pytest.raises(errors.NonFiniteError):
+        r.set_joint_positions([np.nan] * 8)
+    with pytest.raises(errors.NonFiniteError):
+        r.set_joint_velocity_targets([np.inf] * 8)
+    with pytest.raises(errors.InvalidArgumentError, match="twice"):
+        r.set_joint_position_targets([0.0, 0.0], joint_indices=[1, 1])
+    with pytest.raises(errors.InvalidArgumentError, match=">= 0"):
+        r.set_drive_gains([-1.0] * 8, [0.0] * 8)
+    with pytest.raises(errors.InvalidArgumentError, match="max_force"):
+        r.set_drive_gains([1.0] * 8, [0.0] * 8, [0.0] * 8)
+    with pytest.raises(errors.NonFiniteError):
+        r.set_world_pose([np.nan, 0, 0, 1, 0, 0, 0])
+    with pytest.raises(errors.DuplicateNameError):
+        w.add_robot(model, name="panda")
+    with pytest.raises(errors.ShapeError):
+        w.add_robot(model, name="p2", q=[0.0])
+    r5 = w.add_robot(ur5, name="ur5", pose=[2, 0, 0, 1, 0, 0, 0])
+    if not any("finger" in n or "knuckle" in n for n in ur5.dof_names):
+        with pytest.raises(errors.InvalidArgumentError, match="no gripper"):
+            r5.close_gripper()
+    with pytest.raises(errors.InvalidArgumentError):
+        ferrobot.ResolvedRateController(model, damping=-1.0)
+    with pytest.raises(errors.UnknownNameError):
+        ferrobot.ResolvedRateController(model, link="nope")
+    with pytest.raises(errors.ShapeError):
+        ferrobot.JointPID([1.0, 2.0], [1.0], 0.0)
+    with pytest.raises(errors.InvalidArgumentError):
+        ferrobot.JointPID([1.0], [-1.0], 0.0)
+    assert UR5_URDF.exists()
