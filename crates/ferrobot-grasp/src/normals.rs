@@ -1,0 +1,178 @@
+//! Surface normals from kd-tree neighbourhoods, and the cloud that carries
+//! them through detection.
+
+use kiddo::{KdTree, SquaredEuclidean};
+use nalgebra::{Matrix3, Point3, SymmetricEigen, Vector3};
+use rayon::prelude::*;
+
+use crate::error::{GraspError, Result, positive};
+
+/// A point cloud with a kd-tree, unit normals oriented towards a viewpoint,
+/// the dominant tangent direction at each point and a label per point.
+#[derive(Debug, Clone)]
+pub struct SurfaceCloud {
+    /// The points.
+    pub points: Vec<Point3<f64>>,
+    /// Unit outward normals (facing the viewpoint).
+    pub normals: Vec<Vector3<f64>>,
+    /// Unit direction of largest spread of each neighbourhood (perpendicular
+    /// to the normal).
+    pub tangents: Vec<Vector3<f64>>,
+    /// A label per point (segmentation id; -1 when unknown).
+    pub labels: Vec<i32>,
+    /// The viewpoint the normals face (the camera position in this frame).
+    pub viewpoint: Point3<f64>,
+    tree: KdTree<f64, 3>,
+}
+
+impl SurfaceCloud {
+    /// Builds the kd-tree and estimates normals by principal component
+    /// analysis of the neighbours within `radius` (the 8 nearest points when
+    /// fewer than 3 lie within it). Normals are flipped to face `viewpoint`.
+    pub fn new(
+        points: Vec<Point3<f64>>,
+        labels: Vec<i32>,
+        radius: f64,
+        viewpoint: Point3<f64>,
+    ) -> Result<Self> {
+        positive("normal radius", radius)?;
+        if labels.len() != points.len() {
+            return Err(GraspError::Shape(format!(
+                "labels: {} labels for {} points",
+                labels.len(),
+                points.len()
+            )));
+        }
+        if let Some(i) = points
+            .iter()
+            .position(|p| !p.coords.iter().all(|c| c.is_finite()))
+        {
+            return Err(GraspError::NonFinite(format!(
+                "points: point {i} is not finite"
+            )));
+        }
+        let mut tree: KdTree<f64, 3> = KdTree::with_capacity(points.len().max(1));
+        for (i, p) in points.iter().enumerate() {
+            tree.add(&[p.x, p.y, p.z], i as u64);
+        }
+        let r2 = radius * radius;
+        let frames: Vec<(Vector3<f64>, Vector3<f64>)> = points
+            .par_iter()
+            .map(|p| {
+                let q = [p.x, p.y, p.z];
+                let mut nb: Vec<usize> = tree
+                    .within_unsorted::<SquaredEuclidean>(&q, r2)
+                    .into_iter()
+                    .map(|n| n.item as usize)
+                    .collect();
+                if nb.len() < 3 {
+                    nb = tree
+                        .nearest_n::<SquaredEuclidean>(&q, 8)
+                        .into_iter()
+                        .map(|n| n.item as usize)
+                        .collect();
+                }
+                local_frame(&points, &nb, p, &viewpoint)
+            })
+            .collect();
+        let (normals, tangents) = frames.into_iter().unzip();
+        Ok(Self {
+            points,
+            normals,
+            tangents,
+            labels,
+            viewpoint,
+            tree,
+        })
+    }
+
+    /// Number of points.
+    pub fn len(&self) -> usize {
+        self.points.len()
+    }
+
+    /// Whether the cloud has no points.
+    pub fn is_empty(&self) -> bool {
+        self.points.is_empty()
+    }
+
+    /// Indices of the points within `r` of `p`.
+    pub fn within(&self, p: &Point3<f64>, r: f64) -> Vec<usize> {
+        self.tree
+            .within_unsorted::<SquaredEuclidean>(&[p.x, p.y, p.z], r * r)
+            .into_iter()
+            .map(|n| n.item as usize)
+            .collect()
+    }
+}
+
+/// Normal (smallest-variance direction, facing `viewpoint`) and tangent
+/// (largest-variance direction) of the neighbourhood `nb` of `p`.
+fn local_frame(
+    points: &[Point3<f64>],
+    nb: &[usize],
+    p: &Point3<f64>,
+    viewpoint: &Point3<f64>,
+) -> (Vector3<f64>, Vector3<f64>) {
+    let to_view = viewpoint - p;
+    let fallback_n = if to_view.norm() > 1e-12 {
+        to_view.normalize()
+    } else {
+        Vector3::z()
+    };
+    if nb.len() < 3 {
+        return (fallback_n, any_perpendicular(&fallback_n));
+    }
+    let mean = nb.iter().map(|&i| points[i].coords).sum::<Vector3<f64>>() / nb.len() as f64;
+    let mut cov = Matrix3::zeros();
+    for &i in nb {
+        let d = points[i].coords - mean;
+        cov += d * d.transpose();
+    }
+    let eig = SymmetricEigen::new(cov);
+    let (mut lo, mut hi) = (0, 0);
+    for k in 1..3 {
+        if eig.eigenvalues[k] < eig.eigenvalues[lo] {
+            lo = k;
+        }
+        if eig.eigenvalues[k] > eig.eigenvalues[hi] {
+            hi = k;
+        }
+    }
+    if lo == hi {
+        return (fallback_n, any_perpendicular(&fallback_n));
+    }
+    let mut n: Vector3<f64> = eig.eigenvectors.column(lo).into_owned();
+    if n.dot(&to_view) < 0.0 {
+        n = -n;
+    }
+    let t = eig.eigenvectors.column(hi).into_owned();
+    let t = (t - n * n.dot(&t)).try_normalize(1e-12).unwrap_or_else(|| any_perpendicular(&n));
+    (n, t)
+}
+
+/// A unit vector perpendicular to the unit vector `n`.
+pub fn any_perpendicular(n: &Vector3<f64>) -> Vector3<f64> {
+    let a = if n.x.abs() < 0.9 { Vector3::x() } else { Vector3::y() };
+    n.cross(&a).normalize()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn plane_normals_face_the_viewpoint() {
+        let mut pts = Vec::new();
+        for i in 0..20 {
+            for j in 0..20 {
+                pts.push(Point3::new(i as f64 * 0.005, j as f64 * 0.005, 1.0));
+            }
+        }
+        let n = pts.len();
+        let c = SurfaceCloud::new(pts, vec![-1; n], 0.012, Point3::origin()).unwrap();
+        for v in &c.normals {
+            assert!((v - Vector3::new(0.0, 0.0, -1.0)).norm() < 1e-9);
+        }
+    }
+}
