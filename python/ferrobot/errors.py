@@ -20,6 +20,8 @@ __all__ = [
     "InternalError",
     "FileFormatError",
     "DuplicateNameError",
+    "ServiceError",
+    "RequestRejectedError",
 ]
 
 
@@ -72,3 +74,11 @@ class DuplicateNameError(FerrobotError, ValueError):
 
 class InternalError(FerrobotError, RuntimeError):
     """A bug inside ferrobot (a Rust panic caught at the boundary); please report it."""
+
+
+class ServiceError(FerrobotError):
+    """The grasp service could not answer: every server address failed (unreachable, timed out, 5xx)."""
+
+
+class RequestRejectedError(ServiceError, ValueError):
+    """The grasp service rejected the request (4xx); the message carries the server's reason."""

@@ -13,11 +13,12 @@
 //! plus clearance; the first depth whose opening fits and whose hand is free
 //! of points wins.
 
-use nalgebra::{Matrix3, Point3, Rotation3, Unit, Vector3};
+use nalgebra::{Matrix3, Point3, Vector3};
 
 use crate::grasp::Grasp;
 use crate::gripper::{GripperGeometry, Region};
 use crate::normals::SurfaceCloud;
+use crate::plane::Plane;
 use crate::quality::{estimate_contact, friction_needed, score};
 
 /// Contact normals further than this from the finger's direction belong to
@@ -41,33 +42,54 @@ pub struct SearchParams {
     pub friction: f64,
     /// Preferred approach direction (unit).
     pub approach_direction: Vector3<f64>,
+    /// A support plane whose far side is solid, if any.
+    pub plane: Option<Plane>,
 }
+
+/// How far (m) a hand corner may dip below the support plane (its points
+/// scatter by about this much).
+const PLANE_TOLERANCE: f64 = 0.002;
 
 /// All scored collision-free hands at `seed` (score > 0 only).
 pub fn hands_at_seed(cloud: &SurfaceCloud, seed: usize, sp: &SearchParams) -> Vec<Grasp> {
     let p = cloud.points[seed];
-    let a0 = -cloud.normals[seed];
-    let t0 = cloud.tangents[seed];
+    let a0 = -cloud.normal(seed);
+    let t0 = cloud.tangent(seed);
+    let b0 = a0.cross(&t0);
     let max_depth = sp.depths.iter().copied().fold(0.0, f64::max);
     let nb = cloud.within(&p, sp.gripper.reach(max_depth));
-    let a0u = Unit::new_unchecked(a0);
+    // Neighbours in the seed frame (a0, t0, b0), contiguous.
+    let seed_frame: Vec<(Vector3<f64>, usize)> = nb
+        .iter()
+        .map(|&i| {
+            let d = cloud.points[i] - p;
+            (Vector3::new(d.dot(&a0), d.dot(&t0), d.dot(&b0)), i)
+        })
+        .collect();
+    let half_h = sp.gripper.height / 2.0;
     let mut out = Vec::new();
     let mut local: Vec<(Vector3<f64>, usize)> = Vec::with_capacity(nb.len());
     for k in 0..sp.num_rotations {
+        // Closing axis y = t0 turned by phi about a0; z = a0 × y.
         let phi = k as f64 * std::f64::consts::PI / sp.num_rotations as f64;
-        let y = Rotation3::from_axis_angle(&a0u, phi) * t0;
+        let (s, c) = phi.sin_cos();
+        let y = t0 * c + b0 * s;
+        let z0 = b0 * c - t0 * s;
         for &tilt in &sp.approach_tilts {
-            let a = Rotation3::from_axis_angle(&Unit::new_unchecked(y), tilt) * a0;
-            let z = a.cross(&y);
-            let r = Matrix3::from_columns(&[a, y, z]);
-            let rt = r.transpose();
+            // Approach a0 turned by tilt about y: a = cos·a0 - sin·z0, z = sin·a0 + cos·z0.
+            let (st, ct) = tilt.sin_cos();
+            let a = a0 * ct - z0 * st;
+            let z = a0 * st + z0 * ct;
             local.clear();
-            for &i in &nb {
-                let q = rt * (cloud.points[i] - p);
-                if q.z.abs() <= sp.gripper.height / 2.0 {
-                    local.push((q, i));
+            for (q, i) in &seed_frame {
+                let qy = c * q.y + s * q.z;
+                let qz0 = -s * q.y + c * q.z;
+                let lz = st * q.x + ct * qz0;
+                if lz.abs() <= half_h {
+                    local.push((Vector3::new(ct * q.x - st * qz0, qy, lz), *i));
                 }
             }
+            let r = Matrix3::from_columns(&[a, y, z]);
             if let Some(g) = evaluate(cloud, &p, &r, &local, seed, sp) {
                 out.push(g);
             }
@@ -76,7 +98,8 @@ pub fn hands_at_seed(cloud: &SurfaceCloud, seed: usize, sp: &SearchParams) -> Ve
     out
 }
 
-/// The first (deepest) collision-free hand of orientation `r` at `p`.
+/// The first (deepest) collision-free hand of orientation `r` at `p`;
+/// `local` holds the points in the hand frame with |z| <= height / 2.
 fn evaluate(
     cloud: &SurfaceCloud,
     p: &Point3<f64>,
@@ -88,20 +111,31 @@ fn evaluate(
     let g = &sp.gripper;
     let pad = g.clearance + sp.voxel_size / 2.0;
     let gap_max = g.finger_width + 2.0 * g.clearance;
-    let mut ys: Vec<f64> = Vec::new();
+    // Points that can be in a finger slot at some depth, sorted by y once.
+    let (dmin, dmax) = sp
+        .depths
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &d| (a.min(d), b.max(d)));
+    let mut slot: Vec<(f64, f64)> = local
+        .iter()
+        .filter(|(q, _)| {
+            q.x >= dmin - g.finger_depth && q.x <= dmax && q.y.abs() <= g.max_width + g.finger_width
+        })
+        .map(|(q, _)| (q.x, q.y))
+        .collect();
+    slot.sort_unstable_by(|a, b| a.1.total_cmp(&b.1));
+    let mut ys: Vec<f64> = Vec::with_capacity(slot.len());
     for &depth in &sp.depths {
         let base = depth - g.finger_depth;
         ys.clear();
         ys.extend(
-            local
-                .iter()
-                .filter(|(q, _)| q.x >= base && q.x <= depth && q.y.abs() <= g.max_width + g.finger_width)
-                .map(|(q, _)| q.y),
+            slot.iter()
+                .filter(|(x, _)| *x >= base && *x <= depth)
+                .map(|(_, y)| *y),
         );
         if ys.is_empty() {
             continue;
         }
-        ys.sort_by(f64::total_cmp);
         let mut lo = ys
             .iter()
             .enumerate()
@@ -135,6 +169,21 @@ fn evaluate(
         if collision || closing == 0 {
             continue;
         }
+        if let Some(plane) = &sp.plane {
+            let below = g.boxes(depth, width, yc).iter().any(|(lo, hi)| {
+                (0..8).any(|k| {
+                    let c = Vector3::new(
+                        if k & 1 == 0 { lo.x } else { hi.x },
+                        if k & 2 == 0 { lo.y } else { hi.y },
+                        if k & 4 == 0 { lo.z } else { hi.z },
+                    );
+                    plane.distance(&(p + r * c)) < -PLANE_TOLERANCE
+                })
+            });
+            if below {
+                continue;
+            }
+        }
         return score_hand(cloud, p, r, local, seed, depth, width, yc, ymin, ymax, sp);
     }
     None
@@ -164,11 +213,11 @@ fn score_hand(
         }
         if q.y <= ymin + band {
             sides[0].0.push(*q);
-            sides[0].1.push(rt * cloud.normals[*i]);
+            sides[0].1.push(rt * cloud.normal(*i));
         }
         if q.y >= ymax - band {
             sides[1].0.push(*q);
-            sides[1].1.push(rt * cloud.normals[*i]);
+            sides[1].1.push(rt * cloud.normal(*i));
         }
     }
     let mut contacts = Vec::with_capacity(2);

@@ -13,6 +13,7 @@ use crate::grasp::GraspGroup;
 use crate::gripper::GripperGeometry;
 use crate::nms::nms;
 use crate::normals::SurfaceCloud;
+use crate::plane::find_support_plane;
 use crate::voxel::voxel_downsample;
 
 /// Options of [`detect`]. Frame-dependent options (`viewpoint`,
@@ -47,8 +48,13 @@ pub struct DetectOptions {
     pub nms_rotation: f64,
     /// Keep at most this many grasps after NMS (0: all).
     pub max_grasps: usize,
-    /// Seed of the random seed-point sampling.
+    /// Seed of the random seed-point and plane sampling.
     pub rng_seed: u64,
+    /// Find the dominant plane (a table) by RANSAC: hands may not dip
+    /// below it, and its points are not seeds (default true).
+    pub support_plane: bool,
+    /// Inlier distance of the support plane, metres (default 0.005).
+    pub plane_threshold: f64,
 }
 
 impl Default for DetectOptions {
@@ -68,6 +74,8 @@ impl Default for DetectOptions {
             nms_rotation: 30f64.to_radians(),
             max_grasps: 0,
             rng_seed: 0,
+            support_plane: true,
+            plane_threshold: 0.005,
         }
     }
 }
@@ -103,6 +111,7 @@ impl DetectOptions {
             }
         }
         positive("nms_translation", self.nms_translation)?;
+        positive("plane_threshold", self.plane_threshold)?;
         positive("nms_rotation", self.nms_rotation)?;
         if !self.viewpoint.coords.iter().all(|v| v.is_finite()) {
             return Err(GraspError::NonFinite("viewpoint must be finite".into()));
@@ -162,8 +171,25 @@ pub fn detect(
         .iter()
         .map(|&i| seedable.is_none_or(|s| s[i]))
         .collect();
+    let plane = if opts.support_plane {
+        find_support_plane(
+            &centroids,
+            opts.plane_threshold,
+            0.2,
+            200,
+            &opts.viewpoint,
+            opts.rng_seed,
+        )
+    } else {
+        None
+    };
     let cloud = SurfaceCloud::new(centroids, ds_labels, opts.normal_radius, opts.viewpoint)?;
-    let candidates: Vec<usize> = (0..cloud.len()).filter(|&i| ds_seedable[i]).collect();
+    let candidates: Vec<usize> = (0..cloud.len())
+        .filter(|&i| {
+            ds_seedable[i]
+                && plane.is_none_or(|pl| pl.distance(&cloud.points[i]) > opts.plane_threshold)
+        })
+        .collect();
     let seeds: Vec<usize> = if candidates.len() <= opts.num_seeds {
         candidates
     } else {
@@ -187,6 +213,7 @@ pub fn detect(
         voxel_size: opts.voxel_size,
         friction: opts.friction,
         approach_direction: opts.approach_direction.normalize(),
+        plane,
     };
     let grasps: Vec<_> = seeds
         .par_iter()

@@ -110,6 +110,30 @@ impl GripperGeometry {
             .any(|p| self.region(p, depth, width, yc) == Region::Collision)
     }
 
+    /// The hand's solid boxes as (min, max) corners in the gripper frame:
+    /// left finger, right finger, and palm with the approach corridor.
+    pub fn boxes(&self, depth: f64, width: f64, yc: f64) -> [(Vector3<f64>, Vector3<f64>); 3] {
+        let half = width / 2.0;
+        let outer = half + self.finger_width;
+        let hz = self.height / 2.0;
+        let base = depth - self.finger_depth;
+        let back = base - self.finger_width - self.approach_distance;
+        [
+            (
+                Vector3::new(base, yc - outer, -hz),
+                Vector3::new(depth, yc - half, hz),
+            ),
+            (
+                Vector3::new(base, yc + half, -hz),
+                Vector3::new(depth, yc + outer, hz),
+            ),
+            (
+                Vector3::new(back, yc - outer, -hz),
+                Vector3::new(base, yc + outer, hz),
+            ),
+        ]
+    }
+
     /// Radius of a ball around the grasp origin that holds the whole hand
     /// (at any opening and centring used by the search) for depths up to
     /// `max_depth`.

@@ -6,7 +6,8 @@
 //! hands are searched in the local frame of seed points over approach
 //! rotations ([`candidates`]), checked for collision with the gripper's
 //! geometry ([`gripper`]), scored by two-contact force closure at a friction
-//! coefficient, contact support and approach direction ([`quality`]), then
+//! coefficient, contact support and approach direction ([`quality`]) and
+//! kept above the support plane if one is found ([`plane`]), then
 //! thinned by non-maximum suppression ([`nms`]) and sorted into a
 //! [`grasp::GraspGroup`].
 //!
@@ -24,6 +25,7 @@ pub mod grasp;
 pub mod gripper;
 pub mod nms;
 pub mod normals;
+pub mod plane;
 pub mod quality;
 pub mod voxel;
 

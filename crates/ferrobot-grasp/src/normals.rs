@@ -3,32 +3,31 @@
 
 use kiddo::{KdTree, SquaredEuclidean};
 use nalgebra::{Matrix3, Point3, SymmetricEigen, Vector3};
-use rayon::prelude::*;
+use std::sync::OnceLock;
 
 use crate::error::{GraspError, Result, positive};
 
-/// A point cloud with a kd-tree, unit normals oriented towards a viewpoint,
-/// the dominant tangent direction at each point and a label per point.
-#[derive(Debug, Clone)]
+/// A point cloud with a kd-tree, a label per point, and unit normals
+/// oriented towards a viewpoint plus the dominant tangent direction at each
+/// point, estimated lazily (on first use, once per point; thread-safe) so
+/// that only the points detection touches pay for them.
+#[derive(Debug)]
 pub struct SurfaceCloud {
     /// The points.
     pub points: Vec<Point3<f64>>,
-    /// Unit outward normals (facing the viewpoint).
-    pub normals: Vec<Vector3<f64>>,
-    /// Unit direction of largest spread of each neighbourhood (perpendicular
-    /// to the normal).
-    pub tangents: Vec<Vector3<f64>>,
     /// A label per point (segmentation id; -1 when unknown).
     pub labels: Vec<i32>,
     /// The viewpoint the normals face (the camera position in this frame).
     pub viewpoint: Point3<f64>,
+    radius: f64,
+    frames: Vec<OnceLock<(Vector3<f64>, Vector3<f64>)>>,
     tree: KdTree<f64, 3>,
 }
 
 impl SurfaceCloud {
-    /// Builds the kd-tree and estimates normals by principal component
-    /// analysis of the neighbours within `radius` (the 8 nearest points when
-    /// fewer than 3 lie within it). Normals are flipped to face `viewpoint`.
+    /// Builds the kd-tree. Normals come from principal component analysis
+    /// of the neighbours within `radius` (the 8 nearest points when fewer
+    /// than 3 lie within it), flipped to face `viewpoint`.
     pub fn new(
         points: Vec<Point3<f64>>,
         labels: Vec<i32>,
@@ -55,35 +54,48 @@ impl SurfaceCloud {
         for (i, p) in points.iter().enumerate() {
             tree.add(&[p.x, p.y, p.z], i as u64);
         }
-        let r2 = radius * radius;
-        let frames: Vec<(Vector3<f64>, Vector3<f64>)> = points
-            .par_iter()
-            .map(|p| {
-                let q = [p.x, p.y, p.z];
-                let mut nb: Vec<usize> = tree
-                    .within_unsorted::<SquaredEuclidean>(&q, r2)
+        let frames = (0..points.len()).map(|_| OnceLock::new()).collect();
+        Ok(Self {
+            points,
+            labels,
+            viewpoint,
+            radius,
+            frames,
+            tree,
+        })
+    }
+
+    fn frame(&self, i: usize) -> &(Vector3<f64>, Vector3<f64>) {
+        self.frames[i].get_or_init(|| {
+            let p = &self.points[i];
+            let q = [p.x, p.y, p.z];
+            let mut nb: Vec<usize> = self
+                .tree
+                .within_unsorted::<SquaredEuclidean>(&q, self.radius * self.radius)
+                .into_iter()
+                .map(|n| n.item as usize)
+                .collect();
+            if nb.len() < 3 {
+                nb = self
+                    .tree
+                    .nearest_n::<SquaredEuclidean>(&q, 8)
                     .into_iter()
                     .map(|n| n.item as usize)
                     .collect();
-                if nb.len() < 3 {
-                    nb = tree
-                        .nearest_n::<SquaredEuclidean>(&q, 8)
-                        .into_iter()
-                        .map(|n| n.item as usize)
-                        .collect();
-                }
-                local_frame(&points, &nb, p, &viewpoint)
-            })
-            .collect();
-        let (normals, tangents) = frames.into_iter().unzip();
-        Ok(Self {
-            points,
-            normals,
-            tangents,
-            labels,
-            viewpoint,
-            tree,
+            }
+            local_frame(&self.points, &nb, p, &self.viewpoint)
         })
+    }
+
+    /// Unit outward normal of point `i` (facing the viewpoint).
+    pub fn normal(&self, i: usize) -> Vector3<f64> {
+        self.frame(i).0
+    }
+
+    /// Unit direction of largest spread of point `i`'s neighbourhood
+    /// (perpendicular to its normal).
+    pub fn tangent(&self, i: usize) -> Vector3<f64> {
+        self.frame(i).1
     }
 
     /// Number of points.
@@ -171,8 +183,8 @@ mod tests {
         }
         let n = pts.len();
         let c = SurfaceCloud::new(pts, vec![-1; n], 0.012, Point3::origin()).unwrap();
-        for v in &c.normals {
-            assert!((v - Vector3::new(0.0, 0.0, -1.0)).norm() < 1e-9);
+        for i in 0..c.len() {
+            assert!((c.normal(i) - Vector3::new(0.0, 0.0, -1.0)).norm() < 1e-9);
         }
     }
 }

@@ -6,6 +6,7 @@
 mod arrays;
 mod collision;
 mod errors;
+mod grasp;
 mod model;
 
 use pyo3::prelude::*;
@@ -33,6 +34,12 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<collision::PySphereModel>()?;
     m.add_class::<collision::PyCollisionChecker>()?;
     m.add_function(wrap_pyfunction!(bundled_robot, m)?)?;
+    m.add_function(wrap_pyfunction!(grasp::grasp_backproject, m)?)?;
+    m.add_function(wrap_pyfunction!(grasp::grasp_detect, m)?)?;
+    m.add_function(wrap_pyfunction!(grasp::grasp_detect_rgbd, m)?)?;
+    m.add_function(wrap_pyfunction!(grasp::grasp_nms, m)?)?;
+    m.add_function(wrap_pyfunction!(grasp::grasp_transform, m)?)?;
+    m.add_function(wrap_pyfunction!(grasp::grasp_camera_to_world, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }
