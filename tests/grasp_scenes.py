@@ -113,3 +113,50 @@ def default_scene():
     )
     cam = look_at(eye=(-0.35, -0.25, 0.55), target=(0.05, 0.03, 0.04))
     return scene, cam
+
+
+def inside(scene: Scene, p: np.ndarray, margin: float = 0.0) -> np.ndarray:
+    """Whether world points (N, 3) are inside an object shrunk by ``margin`` or below the table top."""
+    solid = p[:, 2] < -margin
+    for obj in scene.objects:
+        if isinstance(obj, Box):
+            half = np.array(obj.size) / 2.0 - margin
+            c = np.array([*obj.center_xy, obj.size[2] / 2.0])
+            q = (p - c) @ _yaw(obj.yaw)
+            solid |= np.all(np.abs(q) < half, axis=1)
+        else:
+            r = np.linalg.norm(p[:, :2] - np.array(obj.center_xy), axis=1)
+            solid |= (r < obj.radius - margin) & (p[:, 2] > margin) & (p[:, 2] < obj.height - margin)
+    return solid
+
+
+def object_volume(obj, step: float = 0.002) -> np.ndarray:
+    """Points filling an object (world frame) on a grid of ``step``."""
+    if isinstance(obj, Box):
+        half = np.array(obj.size) / 2.0
+        axes = [np.arange(-h + step / 2, h, step) for h in half]
+        g = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
+        return g @ _yaw(obj.yaw).T + np.array([*obj.center_xy, half[2]])
+    r = obj.radius
+    xs = np.arange(-r + step / 2, r, step)
+    zs = np.arange(step / 2, obj.height, step)
+    g = np.stack(np.meshgrid(xs, xs, zs, indexing="ij"), -1).reshape(-1, 3)
+    g = g[np.hypot(g[:, 0], g[:, 1]) < r]
+    return g + np.array([*obj.center_xy, 0.0])
+
+
+def hand_boxes(width, depth, height=0.02, finger_depth=0.05, finger_width=0.01, approach_distance=0.03):
+    """The hand's solid boxes (min, max) in the gripper frame, as documented in ferrobot.grasp."""
+    half, outer, hz = width / 2, width / 2 + finger_width, height / 2
+    base = depth - finger_depth
+    back = base - finger_width - approach_distance
+    return [
+        (np.array([base, -outer, -hz]), np.array([depth, -half, hz])),
+        (np.array([base, half, -hz]), np.array([depth, outer, hz])),
+        (np.array([back, -outer, -hz]), np.array([base, outer, hz])),
+    ]
+
+
+def sample_box(lo, hi, n=6) -> np.ndarray:
+    axes = [np.linspace(a, b, n) for a, b in zip(lo, hi, strict=True)]
+    return np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)

@@ -50,6 +50,12 @@ pub struct SearchParams {
 /// scatter by about this much).
 const PLANE_TOLERANCE: f64 = 0.002;
 
+/// How much the hand's solid parts are grown for collision: points are
+/// voxel centroids, up to about half a voxel and more from the surface.
+fn margin(sp: &SearchParams) -> f64 {
+    0.75 * sp.voxel_size
+}
+
 /// All scored collision-free hands at `seed` (score > 0 only).
 pub fn hands_at_seed(cloud: &SurfaceCloud, seed: usize, sp: &SearchParams) -> Vec<Grasp> {
     let p = cloud.points[seed];
@@ -66,7 +72,7 @@ pub fn hands_at_seed(cloud: &SurfaceCloud, seed: usize, sp: &SearchParams) -> Ve
             (Vector3::new(d.dot(&a0), d.dot(&t0), d.dot(&b0)), i)
         })
         .collect();
-    let half_h = sp.gripper.height / 2.0;
+    let half_h = sp.gripper.height / 2.0 + margin(sp);
     let mut out = Vec::new();
     let mut local: Vec<(Vector3<f64>, usize)> = Vec::with_capacity(nb.len());
     for k in 0..sp.num_rotations {
@@ -109,8 +115,9 @@ fn evaluate(
     sp: &SearchParams,
 ) -> Option<Grasp> {
     let g = &sp.gripper;
-    let pad = g.clearance + sp.voxel_size / 2.0;
-    let gap_max = g.finger_width + 2.0 * g.clearance;
+    let m = margin(sp);
+    let pad = g.clearance + m;
+    let gap_max = g.finger_width + 2.0 * pad;
     // Points that can be in a finger slot at some depth, sorted by y once.
     let (dmin, dmax) = sp
         .depths
@@ -119,7 +126,10 @@ fn evaluate(
     let mut slot: Vec<(f64, f64)> = local
         .iter()
         .filter(|(q, _)| {
-            q.x >= dmin - g.finger_depth && q.x <= dmax && q.y.abs() <= g.max_width + g.finger_width
+            q.x >= dmin - g.finger_depth
+                && q.x <= dmax
+                && q.z.abs() <= g.height / 2.0
+                && q.y.abs() <= g.max_width + g.finger_width
         })
         .map(|(q, _)| (q.x, q.y))
         .collect();
@@ -157,7 +167,7 @@ fn evaluate(
         let mut collision = false;
         let mut closing = 0usize;
         for (q, _) in local {
-            match g.region(q, depth, width, yc) {
+            match g.region(q, depth, width, yc, m) {
                 Region::Collision => {
                     collision = true;
                     break;
@@ -208,7 +218,7 @@ fn score_hand(
     let rt = r.transpose();
     let mut sides = [(Vec::new(), Vec::new()), (Vec::new(), Vec::new())];
     for (q, i) in local {
-        if g.region(q, depth, width, yc) != Region::Closing {
+        if *i >= cloud.num_observed() || g.region(q, depth, width, yc, margin(sp)) != Region::Closing {
             continue;
         }
         if q.y <= ymin + band {

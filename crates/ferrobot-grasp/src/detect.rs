@@ -27,7 +27,7 @@ pub struct DetectOptions {
     pub voxel_size: f64,
     /// Neighbourhood radius for normals, metres (default 0.015).
     pub normal_radius: f64,
-    /// Number of seed points sampled (default 400).
+    /// Number of seed points sampled (default 128).
     pub num_seeds: usize,
     /// Closing-axis rotations over a half turn (default 8).
     pub num_rotations: usize,
@@ -51,7 +51,9 @@ pub struct DetectOptions {
     /// Seed of the random seed-point and plane sampling.
     pub rng_seed: u64,
     /// Find the dominant plane (a table) by RANSAC: hands may not dip
-    /// below it, and its points are not seeds (default true).
+    /// below it, its points are not seeds, and the hidden volume under
+    /// every point above it counts as solid (objects rest on it without
+    /// hidden overhangs; see [`SurfaceCloud::extrude`]) (default true).
     pub support_plane: bool,
     /// Inlier distance of the support plane, metres (default 0.005).
     pub plane_threshold: f64,
@@ -63,7 +65,7 @@ impl Default for DetectOptions {
             gripper: GripperGeometry::default(),
             voxel_size: 0.005,
             normal_radius: 0.015,
-            num_seeds: 400,
+            num_seeds: 128,
             num_rotations: 8,
             approach_tilts: vec![0.0, -0.4, 0.4],
             depths: vec![0.04, 0.03, 0.02, 0.01],
@@ -183,8 +185,11 @@ pub fn detect(
     } else {
         None
     };
-    let cloud = SurfaceCloud::new(centroids, ds_labels, opts.normal_radius, opts.viewpoint)?;
-    let candidates: Vec<usize> = (0..cloud.len())
+    let mut cloud = SurfaceCloud::new(centroids, ds_labels, opts.normal_radius, opts.viewpoint)?;
+    if let Some(pl) = &plane {
+        cloud.extrude(pl, opts.plane_threshold, 2.0 * opts.voxel_size);
+    }
+    let candidates: Vec<usize> = (0..cloud.num_observed())
         .filter(|&i| {
             ds_seedable[i]
                 && plane.is_none_or(|pl| pl.distance(&cloud.points[i]) > opts.plane_threshold)

@@ -78,36 +78,34 @@ impl GripperGeometry {
 
     /// Classifies the point `p` (gripper frame of a hand at the origin whose
     /// fingers are centred on y = `yc`, open to `width`, fingertips at
-    /// x = `depth`).
-    pub fn region(&self, p: &Vector3<f64>, depth: f64, width: f64, yc: f64) -> Region {
-        if p.z.abs() > self.height / 2.0 {
-            return Region::Free;
-        }
+    /// x = `depth`), with the solid parts grown by `margin` on every side
+    /// (points stand for voxels; the closing region is not grown).
+    pub fn region(&self, p: &Vector3<f64>, depth: f64, width: f64, yc: f64, margin: f64) -> Region {
         let y = p.y - yc;
         let half = width / 2.0;
-        let outer = half + self.finger_width;
-        if p.x > depth || y.abs() > outer {
+        let base = depth - self.finger_depth;
+        if p.z.abs() <= self.height / 2.0 && p.x >= base + margin && p.x <= depth && y.abs() < half - margin {
+            return Region::Closing;
+        }
+        if p.z.abs() > self.height / 2.0 + margin
+            || p.x > depth + margin
+            || y.abs() > half + self.finger_width + margin
+            || p.x < base - self.finger_width - self.approach_distance - margin
+        {
             return Region::Free;
         }
-        let base = depth - self.finger_depth;
-        if p.x >= base {
-            return if y.abs() < half {
-                Region::Closing
-            } else {
-                Region::Collision
-            };
-        }
-        if p.x >= base - self.finger_width - self.approach_distance {
+        if p.x < base + margin || y.abs() >= half - margin {
             return Region::Collision;
         }
+        // Between the fingers but beyond the closing region's z extent.
         Region::Free
     }
 
-    /// Whether any of `points` (gripper frame) is inside the hand.
-    pub fn collides(&self, points: &[Vector3<f64>], depth: f64, width: f64, yc: f64) -> bool {
+    /// Whether any of `points` (gripper frame) is inside the hand grown by `margin`.
+    pub fn collides(&self, points: &[Vector3<f64>], depth: f64, width: f64, yc: f64, margin: f64) -> bool {
         points
             .iter()
-            .any(|p| self.region(p, depth, width, yc) == Region::Collision)
+            .any(|p| self.region(p, depth, width, yc, margin) == Region::Collision)
     }
 
     /// The hand's solid boxes as (min, max) corners in the gripper frame:
@@ -152,7 +150,7 @@ mod tests {
     #[test]
     fn regions() {
         let g = GripperGeometry::default();
-        let r = |x, y, z| g.region(&Vector3::new(x, y, z), 0.02, 0.06, 0.0);
+        let r = |x, y, z| g.region(&Vector3::new(x, y, z), 0.02, 0.06, 0.0, 0.0);
         assert_eq!(r(0.0, 0.0, 0.0), Region::Closing);
         assert_eq!(r(0.0, 0.035, 0.0), Region::Collision);
         assert_eq!(r(0.0, 0.045, 0.0), Region::Free);

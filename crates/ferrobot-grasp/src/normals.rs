@@ -6,22 +6,29 @@ use nalgebra::{Matrix3, Point3, SymmetricEigen, Vector3};
 use std::sync::OnceLock;
 
 use crate::error::{GraspError, Result, positive};
+use crate::plane::Plane;
 
 /// A point cloud with a kd-tree, a label per point, and unit normals
 /// oriented towards a viewpoint plus the dominant tangent direction at each
 /// point, estimated lazily (on first use, once per point; thread-safe) so
 /// that only the points detection touches pay for them.
+///
+/// The first [`SurfaceCloud::num_observed`] points are observed; the rest
+/// are hidden obstacle points added by [`SurfaceCloud::extrude`] (no
+/// normals; never seeds or contacts).
 #[derive(Debug)]
 pub struct SurfaceCloud {
-    /// The points.
+    /// The points: observed ones first, then hidden ones.
     pub points: Vec<Point3<f64>>,
     /// A label per point (segmentation id; -1 when unknown).
     pub labels: Vec<i32>,
     /// The viewpoint the normals face (the camera position in this frame).
     pub viewpoint: Point3<f64>,
     radius: f64,
+    num_observed: usize,
     frames: Vec<OnceLock<(Vector3<f64>, Vector3<f64>)>>,
     tree: KdTree<f64, 3>,
+    obstacles: Option<KdTree<f64, 3>>,
 }
 
 impl SurfaceCloud {
@@ -56,13 +63,50 @@ impl SurfaceCloud {
         }
         let frames = (0..points.len()).map(|_| OnceLock::new()).collect();
         Ok(Self {
+            num_observed: points.len(),
             points,
             labels,
             viewpoint,
             radius,
             frames,
             tree,
+            obstacles: None,
         })
+    }
+
+    /// Number of observed points (the rest are hidden obstacle points).
+    pub fn num_observed(&self) -> usize {
+        self.num_observed
+    }
+
+    /// Completes the hidden volume under what the camera saw, assuming
+    /// objects rest on `plane` without hidden overhangs: below every
+    /// observed point more than `threshold` above the plane, hidden obstacle
+    /// points are added every `step` down to the plane.
+    pub fn extrude(&mut self, plane: &Plane, threshold: f64, step: f64) {
+        let mut extra = Vec::new();
+        let mut extra_labels = Vec::new();
+        for (p, &l) in self.points[..self.num_observed].iter().zip(&self.labels) {
+            let h = plane.distance(p);
+            if h <= threshold {
+                continue;
+            }
+            let mut d = step;
+            while d < h {
+                extra.push(p - plane.normal * d);
+                extra_labels.push(l);
+                d += step;
+            }
+        }
+        let mut tree: KdTree<f64, 3> = KdTree::with_capacity(self.points.len() + extra.len());
+        self.points.truncate(self.num_observed);
+        self.labels.truncate(self.num_observed);
+        self.points.extend(extra);
+        self.labels.extend(extra_labels);
+        for (i, p) in self.points.iter().enumerate() {
+            tree.add(&[p.x, p.y, p.z], i as u64);
+        }
+        self.obstacles = Some(tree);
     }
 
     fn frame(&self, i: usize) -> &(Vector3<f64>, Vector3<f64>) {
@@ -87,7 +131,7 @@ impl SurfaceCloud {
         })
     }
 
-    /// Unit outward normal of point `i` (facing the viewpoint).
+    /// Unit outward normal of observed point `i` (facing the viewpoint).
     pub fn normal(&self, i: usize) -> Vector3<f64> {
         self.frame(i).0
     }
@@ -98,7 +142,7 @@ impl SurfaceCloud {
         self.frame(i).1
     }
 
-    /// Number of points.
+    /// Number of points (observed and hidden).
     pub fn len(&self) -> usize {
         self.points.len()
     }
@@ -108,9 +152,11 @@ impl SurfaceCloud {
         self.points.is_empty()
     }
 
-    /// Indices of the points within `r` of `p`.
+    /// Indices of the points (observed and hidden) within `r` of `p`.
     pub fn within(&self, p: &Point3<f64>, r: f64) -> Vec<usize> {
-        self.tree
+        self.obstacles
+            .as_ref()
+            .unwrap_or(&self.tree)
             .within_unsorted::<SquaredEuclidean>(&[p.x, p.y, p.z], r * r)
             .into_iter()
             .map(|n| n.item as usize)

@@ -14,7 +14,7 @@ __all__ = ["backproject", "detect", "detect_from_rgbd", "OPTIONS"]
 OPTIONS = {
     "voxel_size": 0.005,
     "normal_radius": 0.015,
-    "num_seeds": 400,
+    "num_seeds": 128,
     "num_rotations": 8,
     "approach_tilts": (0.0, -0.4, 0.4),
     "depths": (0.04, 0.03, 0.02, 0.01),
