@@ -19,11 +19,7 @@ use crate::grasp::Grasp;
 use crate::gripper::{GripperGeometry, Region};
 use crate::normals::SurfaceCloud;
 use crate::plane::Plane;
-use crate::quality::{estimate_contact, friction_needed, score};
-
-/// Contact normals further than this from the finger's direction belong to
-/// faces that do not face the finger (the touched face was not seen).
-const HIDDEN_FACE_ANGLE: f64 = 75.0 * std::f64::consts::PI / 180.0;
+use crate::quality::{contact_from_profile, friction_needed, score};
 
 /// Parameters of the hand search.
 #[derive(Debug, Clone)]
@@ -194,7 +190,7 @@ fn evaluate(
                 continue;
             }
         }
-        return score_hand(cloud, p, r, local, seed, depth, width, yc, ymin, ymax, sp);
+        return score_hand(cloud, p, r, local, seed, depth, width, yc, sp);
     }
     None
 }
@@ -209,37 +205,21 @@ fn score_hand(
     depth: f64,
     width: f64,
     yc: f64,
-    ymin: f64,
-    ymax: f64,
     sp: &SearchParams,
 ) -> Option<Grasp> {
     let g = &sp.gripper;
-    let band = sp.voxel_size.max(0.003);
-    let rt = r.transpose();
-    let mut sides = [(Vec::new(), Vec::new()), (Vec::new(), Vec::new())];
-    for (q, i) in local {
-        if *i >= cloud.num_observed() || g.region(q, depth, width, yc, margin(sp)) != Region::Closing {
-            continue;
-        }
-        if q.y <= ymin + band {
-            sides[0].0.push(*q);
-            sides[0].1.push(rt * cloud.normal(*i));
-        }
-        if q.y >= ymax - band {
-            sides[1].0.push(*q);
-            sides[1].1.push(rt * cloud.normal(*i));
+    let m = margin(sp);
+    let mut inside: Vec<Vector3<f64>> = Vec::new();
+    for (q, _) in local {
+        if g.region(q, depth, width, yc, m) == Region::Closing {
+            inside.push(*q);
         }
     }
-    let mut contacts = Vec::with_capacity(2);
-    for (k, (pts, ns)) in sides.iter().enumerate() {
-        let outward = if k == 0 { -Vector3::y() } else { Vector3::y() };
-        let centroid = pts.iter().sum::<Vector3<f64>>() / pts.len().max(1) as f64;
-        let world = p + r * centroid;
-        let view = rt * (world - cloud.viewpoint).try_normalize(1e-12).unwrap_or(Vector3::z());
-        contacts.push(estimate_contact(pts, ns, &outward, &view, HIDDEN_FACE_ANGLE)?);
-    }
-    let mu = friction_needed(&contacts[0], &contacts[1]);
-    let support = sides[0].0.len().min(sides[1].0.len()) as f64 / (g.height / sp.voxel_size).max(1.0);
+    let left = contact_from_profile(&inside, -1.0, sp.voxel_size)?;
+    let right = contact_from_profile(&inside, 1.0, sp.voxel_size)?;
+    let mu = friction_needed(&left, &right);
+    let full = (g.height / sp.voxel_size).max(1.0);
+    let support = left.cells.min(right.cells) as f64 / full;
     let approach = r.column(0).into_owned();
     let s = score(mu, sp.friction, support, approach.dot(&sp.approach_direction));
     if s <= 0.0 {

@@ -6,7 +6,11 @@
 //! between the contacts lies inside both friction cones (Nguyen's condition,
 //! the antipodal test of Dex-Net): angle(n1, c1 - c2) ≤ atan μ and
 //! angle(n2, c2 - c1) ≤ atan μ. The smallest such μ is
-//! tan(max of the two angles).
+//! tan(max of the two angles). Contact normals come from the profile of
+//! the object between the fingers ([`contact_from_profile`]), which covers
+//! faces the camera did not see once the hidden volume is completed.
+
+use std::collections::HashMap;
 
 use nalgebra::Vector3;
 
@@ -17,67 +21,68 @@ pub struct Contact {
     pub point: Vector3<f64>,
     /// Unit outward surface normal at the contact.
     pub normal: Vector3<f64>,
-    /// False when the contact face was not seen by the camera and its
-    /// normal is the silhouette estimate (see [`estimate_contact`]).
-    pub observed: bool,
+    /// Number of (x, z) cells of the finger face the surface reaches: the
+    /// contact's support.
+    pub cells: usize,
 }
 
-/// The contact of one finger from the band of cloud points nearest it.
+/// The contact of one finger from the profile of the object between the
+/// fingers (gripper frame; observed and hidden points alike).
 ///
-/// `outward` is the unit direction from the grasp centre towards this
-/// finger. When some band point's normal lies within `max_angle` of
-/// `outward`, the contact is the best aligned such point (an observed
-/// face). Otherwise the face touching the finger was hidden from the camera:
-/// at the edge of what is seen the surface is tangent to the viewing ray
-/// `view` (the silhouette condition), so the normal is estimated as
-/// perpendicular to `view` and to the band's edge direction, facing
-/// `outward`. Returns None for an empty band.
-pub fn estimate_contact(
-    band_points: &[Vector3<f64>],
-    band_normals: &[Vector3<f64>],
-    outward: &Vector3<f64>,
-    view: &Vector3<f64>,
-    max_angle: f64,
-) -> Option<Contact> {
-    let centroid = band_points.iter().sum::<Vector3<f64>>() / band_points.len().max(1) as f64;
-    let (best, cos) = band_normals
-        .iter()
-        .enumerate()
-        .map(|(i, n)| (i, n.dot(outward)))
-        .max_by(|a, b| a.1.total_cmp(&b.1))?;
-    if cos >= max_angle.cos() {
-        return Some(Contact {
-            point: band_points[best],
-            normal: band_normals[best],
-            observed: true,
-        });
-    }
-    // Edge direction: largest spread of the band points, else gripper z.
-    let mut edge = Vector3::z();
-    if band_points.len() >= 3 {
-        let mut cov = nalgebra::Matrix3::zeros();
-        for p in band_points {
-            let d = p - centroid;
-            cov += d * d.transpose();
-        }
-        let eig = nalgebra::SymmetricEigen::new(cov);
-        let k = eig.eigenvalues.imax();
-        if eig.eigenvalues[k] > 1e-8 {
-            edge = eig.eigenvectors.column(k).into_owned();
+/// `side` is -1 for the finger at -y, +1 for the one at +y. The points are
+/// binned into `cell`-sized (x, z) cells; in each cell the point nearest the
+/// finger (smallest y for side -1, largest for +1) is on the surface the
+/// finger meets. A plane y = a + b·x + c·z fitted to those points by least
+/// squares is the contact face: its normal, facing the finger, is the
+/// contact normal (b = c = 0: a face square to the closing axis). Directions
+/// without spread (fewer than two distinct cells) are not fitted. Returns
+/// None for no points.
+pub fn contact_from_profile(points: &[Vector3<f64>], side: f64, cell: f64) -> Option<Contact> {
+    let mut cells: HashMap<(i64, i64), Vector3<f64>> = HashMap::new();
+    for p in points {
+        let key = ((p.x / cell).floor() as i64, (p.z / cell).floor() as i64);
+        let e = cells.entry(key).or_insert(*p);
+        if side * p.y > side * e.y {
+            *e = *p;
         }
     }
-    let mut n = view.cross(&edge);
-    if n.norm() < 1e-6 {
-        n = view.cross(&Vector3::z());
+    let n = cells.len();
+    if n == 0 {
+        return None;
     }
-    let mut n = n.try_normalize(1e-9)?;
-    if n.dot(outward) < 0.0 {
-        n = -n;
+    let ext: Vec<Vector3<f64>> = cells.into_values().collect();
+    let mean = ext.iter().sum::<Vector3<f64>>() / n as f64;
+    let (mut sxx, mut szz, mut sxz, mut sxy, mut szy) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    for p in &ext {
+        let d = p - mean;
+        sxx += d.x * d.x;
+        szz += d.z * d.z;
+        sxz += d.x * d.z;
+        sxy += d.x * d.y;
+        szy += d.z * d.y;
     }
+    let spread = (cell * cell) / 4.0 * n as f64;
+    let fit_x = sxx > spread;
+    let fit_z = szz > spread;
+    let (b, c) = match (fit_x, fit_z) {
+        (true, true) => {
+            let det = sxx * szz - sxz * sxz;
+            if det.abs() > 1e-18 {
+                ((sxy * szz - szy * sxz) / det, (szy * sxx - sxy * sxz) / det)
+            } else {
+                (sxy / sxx, 0.0)
+            }
+        }
+        (true, false) => (sxy / sxx, 0.0),
+        (false, true) => (0.0, szy / szz),
+        (false, false) => (0.0, 0.0),
+    };
+    // Surface y - b·x - c·z = a; gradient (-b, 1, -c) points to +y.
+    let normal = Vector3::new(-b, 1.0, -c).normalize() * side;
     Some(Contact {
-        point: centroid,
-        normal: n,
-        observed: false,
+        point: mean,
+        normal,
+        cells: n,
     })
 }
 
@@ -119,7 +124,7 @@ mod tests {
         Contact {
             point: Vector3::from(p),
             normal: Vector3::from(n).normalize(),
-            observed: true,
+            cells: 1,
         }
     }
 
@@ -137,14 +142,22 @@ mod tests {
     }
 
     #[test]
-    fn hidden_face_is_tangent_to_the_view_ray() {
-        // Band of top-face points along z at y = 0.02; normals point up (-x).
-        let pts: Vec<_> = (0..5)
-            .map(|i| Vector3::new(0.0, 0.02, -0.01 + 0.005 * i as f64))
-            .collect();
-        let ns = vec![Vector3::new(-1.0, 0.0, 0.0); 5];
-        let ct = estimate_contact(&pts, &ns, &Vector3::y(), &Vector3::x(), 0.9).unwrap();
-        assert!(!ct.observed);
-        assert!((ct.normal - Vector3::y()).norm() < 1e-9);
+    fn profile_of_a_tilted_face() {
+        // Face at y = 0.02 + 0.5 x on the +y side, sampled on a grid, with
+        // interior points that must be ignored.
+        let mut pts = Vec::new();
+        for i in 0..8 {
+            for k in 0..4 {
+                let (x, z) = (0.005 * i as f64, -0.0075 + 0.005 * k as f64);
+                pts.push(Vector3::new(x, 0.02 + 0.5 * x, z));
+                pts.push(Vector3::new(x, 0.0, z));
+            }
+        }
+        let ct = contact_from_profile(&pts, 1.0, 0.005).unwrap();
+        let want = Vector3::new(-0.5, 1.0, 0.0).normalize();
+        assert!((ct.normal - want).norm() < 1e-9);
+        assert_eq!(ct.cells, 32);
+        let left = contact_from_profile(&pts, -1.0, 0.005).unwrap();
+        assert!((left.normal - Vector3::new(0.0, -1.0, 0.0)).norm() < 1e-9);
     }
 }
