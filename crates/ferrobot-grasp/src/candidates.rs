@@ -46,6 +46,9 @@ pub struct SearchParams {
 /// scatter by about this much).
 const PLANE_TOLERANCE: f64 = 0.002;
 
+/// Fewest (x, z) cells of a finger pad the object must reach.
+const MIN_CONTACT_CELLS: usize = 4;
+
 /// How much the hand's solid parts are grown for collision: points are
 /// voxel centroids, up to about half a voxel and more from the surface.
 fn margin(sp: &SearchParams) -> f64 {
@@ -217,6 +220,10 @@ fn score_hand(
     }
     let left = contact_from_profile(&inside, -1.0, sp.voxel_size)?;
     let right = contact_from_profile(&inside, 1.0, sp.voxel_size)?;
+    // Enough of each finger pad must touch the object (not a tip).
+    if left.cells.min(right.cells) < MIN_CONTACT_CELLS {
+        return None;
+    }
     let mu = friction_needed(&left, &right);
     let full = (g.height / sp.voxel_size).max(1.0);
     let support = left.cells.min(right.cells) as f64 / full;

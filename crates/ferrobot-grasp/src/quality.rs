@@ -24,6 +24,9 @@ pub struct Contact {
     /// Number of (x, z) cells of the finger face the surface reaches: the
     /// contact's support.
     pub cells: usize,
+    /// Root-mean-square distance of the profile from the fitted face: large
+    /// for an edge, a corner or a strongly curved contact.
+    pub residual: f64,
 }
 
 /// The contact of one finger from the profile of the object between the
@@ -79,10 +82,21 @@ pub fn contact_from_profile(points: &[Vector3<f64>], side: f64, cell: f64) -> Op
     };
     // Surface y - b·x - c·z = a; gradient (-b, 1, -c) points to +y.
     let normal = Vector3::new(-b, 1.0, -c).normalize() * side;
+    let residual = (ext
+        .iter()
+        .map(|p| {
+            let d = p - mean;
+            (d.y - b * d.x - c * d.z).powi(2)
+        })
+        .sum::<f64>()
+        / n as f64)
+        .sqrt()
+        / (1.0 + b * b + c * c).sqrt();
     Some(Contact {
         point: mean,
         normal,
         cells: n,
+        residual,
     })
 }
 
@@ -125,6 +139,7 @@ mod tests {
             point: Vector3::from(p),
             normal: Vector3::from(n).normalize(),
             cells: 1,
+            residual: 0.0,
         }
     }
 
@@ -157,6 +172,7 @@ mod tests {
         let want = Vector3::new(-0.5, 1.0, 0.0).normalize();
         assert!((ct.normal - want).norm() < 1e-9);
         assert_eq!(ct.cells, 32);
+        assert!(ct.residual < 1e-12);
         let left = contact_from_profile(&pts, -1.0, 0.005).unwrap();
         assert!((left.normal - Vector3::new(0.0, -1.0, 0.0)).norm() < 1e-9);
     }
