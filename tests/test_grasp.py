@@ -4,8 +4,22 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from grasp_scenes import CX, CY, FX, FY, Box, Cylinder, Scene, default_scene, hand_boxes, inside, look_at, render
-from grasp_scenes import object_volume, sample_box
+from grasp_scenes import (
+    CX,
+    CY,
+    FX,
+    FY,
+    Box,
+    Cylinder,
+    Scene,
+    default_scene,
+    hand_boxes,
+    inside,
+    look_at,
+    object_volume,
+    render,
+    sample_box,
+)
 from scipy.spatial.transform import Rotation
 
 import ferrobot.grasp as fg
@@ -224,7 +238,9 @@ def test_group_indexing_sorting_nms_and_dicts(detected):
     assert len(gg[[0, 2]]) == 2
     shuffled = gg[np.random.default_rng(0).permutation(len(gg))]
     np.testing.assert_array_equal(shuffled.sort_by_score().scores, gg.scores)
-    np.testing.assert_array_equal(fg.GraspGroup(gg.grasp_group_array).sort_by_score(reverse=True).scores, gg.scores[::-1])
+    np.testing.assert_array_equal(
+        fg.GraspGroup(gg.grasp_group_array).sort_by_score(reverse=True).scores, gg.scores[::-1]
+    )
     assert len(gg.nms()) == len(gg)  # detection output is already suppressed
     twice = fg.GraspGroup(gg.grasp_group_array).add(gg)
     assert len(twice.nms()) == len(gg)
