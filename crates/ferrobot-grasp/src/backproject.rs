@@ -162,7 +162,10 @@ mod tests {
         let p = b.points[2]; // v = 1, u = 1, z = 2
         assert!((p - Point3::new(0.0, 0.5 / 200.0 * 2.0, 2.0)).norm() < 1e-12);
         let w = Workspace([-1.0, 1.0, -1.0, 1.0, 0.0, 1.5]);
-        assert_eq!(backproject(&depth, 2, 2, &k, Some(&w)).unwrap().pixels, vec![1, 2]);
+        assert_eq!(
+            backproject(&depth, 2, 2, &k, Some(&w)).unwrap().pixels,
+            vec![1, 2]
+        );
         assert!(matches!(
             backproject(&[f64::NAN], 1, 1, &k, None),
             Err(GraspError::NonFinite(_))

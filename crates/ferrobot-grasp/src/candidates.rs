@@ -121,7 +121,9 @@ fn evaluate(
     let (dmin, dmax) = sp
         .depths
         .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &d| (a.min(d), b.max(d)));
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &d| {
+            (a.min(d), b.max(d))
+        });
     let mut slot: Vec<(f64, f64)> = local
         .iter()
         .filter(|(q, _)| {
@@ -228,7 +230,12 @@ fn score_hand(
     let full = (g.height / sp.voxel_size).max(1.0);
     let support = left.cells.min(right.cells) as f64 / full;
     let approach = r.column(0).into_owned();
-    let s = score(mu, sp.friction, support, approach.dot(&sp.approach_direction));
+    let s = score(
+        mu,
+        sp.friction,
+        support,
+        approach.dot(&sp.approach_direction),
+    );
     if s <= 0.0 {
         return None;
     }

@@ -90,7 +90,9 @@ impl DetectOptions {
         positive("normal_radius", self.normal_radius)?;
         positive("friction", self.friction)?;
         if self.num_rotations == 0 {
-            return Err(GraspError::InvalidArgument("num_rotations must be >= 1".into()));
+            return Err(GraspError::InvalidArgument(
+                "num_rotations must be >= 1".into(),
+            ));
         }
         if self.approach_tilts.is_empty() || self.depths.is_empty() {
             return Err(GraspError::InvalidArgument(
@@ -165,10 +167,7 @@ pub fn detect(
         return Ok(GraspGroup::default());
     }
     let (centroids, first) = voxel_downsample(points, opts.voxel_size)?;
-    let ds_labels: Vec<i32> = first
-        .iter()
-        .map(|&i| labels.map_or(-1, |l| l[i]))
-        .collect();
+    let ds_labels: Vec<i32> = first.iter().map(|&i| labels.map_or(-1, |l| l[i])).collect();
     let ds_seedable: Vec<bool> = first
         .iter()
         .map(|&i| seedable.is_none_or(|s| s[i]))
@@ -199,10 +198,11 @@ pub fn detect(
         candidates
     } else {
         let mut rng = StdRng::seed_from_u64(opts.rng_seed);
-        let mut picked: Vec<usize> = rand::seq::index::sample(&mut rng, candidates.len(), opts.num_seeds)
-            .into_iter()
-            .map(|k| candidates[k])
-            .collect();
+        let mut picked: Vec<usize> =
+            rand::seq::index::sample(&mut rng, candidates.len(), opts.num_seeds)
+                .into_iter()
+                .map(|k| candidates[k])
+                .collect();
         picked.sort_unstable();
         picked
     };

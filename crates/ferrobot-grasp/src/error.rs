@@ -20,7 +20,9 @@ pub type Result<T, E = GraspError> = std::result::Result<T, E>;
 /// Checks that `v` is finite and strictly positive.
 pub(crate) fn positive(what: &str, v: f64) -> Result<f64> {
     if !v.is_finite() {
-        return Err(GraspError::NonFinite(format!("{what} must be finite, got {v}")));
+        return Err(GraspError::NonFinite(format!(
+            "{what} must be finite, got {v}"
+        )));
     }
     if v <= 0.0 {
         return Err(GraspError::InvalidArgument(format!(

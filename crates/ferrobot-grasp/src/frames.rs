@@ -47,7 +47,10 @@ impl CameraConvention {
 
 /// The transform taking OpenCV-optical camera coordinates to world
 /// coordinates, given the camera's pose in the world in `convention`.
-pub fn camera_to_world(camera_pose: &Isometry3<f64>, convention: CameraConvention) -> Isometry3<f64> {
+pub fn camera_to_world(
+    camera_pose: &Isometry3<f64>,
+    convention: CameraConvention,
+) -> Isometry3<f64> {
     let r = UnitQuaternion::from_rotation_matrix(&convention.from_opencv());
     camera_pose * Isometry3::from_parts(nalgebra::Translation3::identity(), r)
 }
@@ -77,7 +80,8 @@ mod tests {
     fn camera_looking_down_at_the_origin() {
         // OpenGL camera 1 m above the origin looking down (-z_gl = -z_world):
         // identity orientation. A point 1 m in front (OpenCV z = 1) is the origin.
-        let pose = Isometry3::from_parts(Translation3::new(0.0, 0.0, 1.0), UnitQuaternion::identity());
+        let pose =
+            Isometry3::from_parts(Translation3::new(0.0, 0.0, 1.0), UnitQuaternion::identity());
         let t = camera_to_world(&pose, CameraConvention::OpenGl);
         assert!((t * Point3::new(0.0, 0.0, 1.0) - Point3::origin()).norm() < 1e-12);
         // OpenCV x right is world x; y down is world -y.

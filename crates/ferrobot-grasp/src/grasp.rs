@@ -102,7 +102,7 @@ impl GraspGroup {
 
     /// A group from row-major `(n, 17)` values.
     pub fn from_array(values: &[f64]) -> Result<Self> {
-        if values.len() % GRASP_COLUMNS != 0 {
+        if !values.len().is_multiple_of(GRASP_COLUMNS) {
             return Err(GraspError::Shape(format!(
                 "grasp array: {} values is not a multiple of {GRASP_COLUMNS}",
                 values.len()

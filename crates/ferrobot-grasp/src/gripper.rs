@@ -84,7 +84,11 @@ impl GripperGeometry {
         let y = p.y - yc;
         let half = width / 2.0;
         let base = depth - self.finger_depth;
-        if p.z.abs() <= self.height / 2.0 && p.x >= base + margin && p.x <= depth && y.abs() < half - margin {
+        if p.z.abs() <= self.height / 2.0
+            && p.x >= base + margin
+            && p.x <= depth
+            && y.abs() < half - margin
+        {
             return Region::Closing;
         }
         if p.z.abs() > self.height / 2.0 + margin
@@ -102,7 +106,14 @@ impl GripperGeometry {
     }
 
     /// Whether any of `points` (gripper frame) is inside the hand grown by `margin`.
-    pub fn collides(&self, points: &[Vector3<f64>], depth: f64, width: f64, yc: f64, margin: f64) -> bool {
+    pub fn collides(
+        &self,
+        points: &[Vector3<f64>],
+        depth: f64,
+        width: f64,
+        yc: f64,
+        margin: f64,
+    ) -> bool {
         points
             .iter()
             .any(|p| self.region(p, depth, width, yc, margin) == Region::Collision)

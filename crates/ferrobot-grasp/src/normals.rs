@@ -205,13 +205,19 @@ fn local_frame(
         n = -n;
     }
     let t = eig.eigenvectors.column(hi).into_owned();
-    let t = (t - n * n.dot(&t)).try_normalize(1e-12).unwrap_or_else(|| any_perpendicular(&n));
+    let t = (t - n * n.dot(&t))
+        .try_normalize(1e-12)
+        .unwrap_or_else(|| any_perpendicular(&n));
     (n, t)
 }
 
 /// A unit vector perpendicular to the unit vector `n`.
 pub fn any_perpendicular(n: &Vector3<f64>) -> Vector3<f64> {
-    let a = if n.x.abs() < 0.9 { Vector3::x() } else { Vector3::y() };
+    let a = if n.x.abs() < 0.9 {
+        Vector3::x()
+    } else {
+        Vector3::y()
+    };
     n.cross(&a).normalize()
 }
 

@@ -123,7 +123,7 @@ pub fn friction_needed(a: &Contact, b: &Contact) -> f64 {
 ///
 /// score = (1 - mu_needed / mu) · (0.5 + 0.25 · support + 0.25 · (1 + approach_cos) / 2).
 pub fn score(mu_needed: f64, mu: f64, support: f64, approach_cos: f64) -> f64 {
-    if !(mu_needed <= mu) {
+    if mu_needed.is_nan() || mu_needed > mu {
         return 0.0;
     }
     let fc = 1.0 - mu_needed / mu;

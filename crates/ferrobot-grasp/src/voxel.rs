@@ -11,7 +11,10 @@ use crate::error::{Result, positive};
 /// each, the index of the first input point that fell in the voxel (so
 /// per-point attributes such as labels can follow). Output order is the
 /// order in which voxels are first met, so the result is deterministic.
-pub fn voxel_downsample(points: &[Point3<f64>], size: f64) -> Result<(Vec<Point3<f64>>, Vec<usize>)> {
+pub fn voxel_downsample(
+    points: &[Point3<f64>],
+    size: f64,
+) -> Result<(Vec<Point3<f64>>, Vec<usize>)> {
     positive("voxel size", size)?;
     let inv = 1.0 / size;
     let mut index: HashMap<(i64, i64, i64), usize> = HashMap::with_capacity(points.len() / 4 + 1);

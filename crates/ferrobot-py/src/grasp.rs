@@ -136,6 +136,9 @@ fn group(obj: &Bound<'_, PyAny>) -> PyResult<GraspGroup> {
     GraspGroup::from_array(a.data()).map_err(grasp_err)
 }
 
+/// Back-projected points (N, 3) and their flat pixel indices (N,).
+type PointsAndPixels<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray1<i64>>);
+
 /// Back-projects a depth image: returns (points (N, 3), flat pixel indices (N,)).
 #[pyfunction]
 #[pyo3(signature = (depth, fx, fy, cx, cy, scale, workspace=None))]
@@ -149,7 +152,7 @@ pub fn grasp_backproject<'py>(
     cy: f64,
     scale: f64,
     workspace: Option<&Bound<'py, PyAny>>,
-) -> PyResult<(Bound<'py, PyArray2<f64>>, Bound<'py, PyArray1<i64>>)> {
+) -> PyResult<PointsAndPixels<'py>> {
     guard(|| {
         let k = intrinsics(fx, fy, cx, cy, scale)?;
         let ws = self::workspace(workspace)?;
@@ -233,7 +236,18 @@ pub fn grasp_detect_rgbd<'py>(
         };
         let data = d.data();
         let g = py
-            .detach(|| detect_rgbd(data, h, w, &k, mask.as_deref(), object_id, ws.as_ref(), &opts))
+            .detach(|| {
+                detect_rgbd(
+                    data,
+                    h,
+                    w,
+                    &k,
+                    mask.as_deref(),
+                    object_id,
+                    ws.as_ref(),
+                    &opts,
+                )
+            })
             .map_err(grasp_err)?;
         to_py(py, &g)
     })
@@ -249,12 +263,19 @@ pub fn grasp_nms<'py>(
     rotation: f64,
 ) -> PyResult<Bound<'py, PyArray1<i64>>> {
     guard(|| {
-        for (what, v) in [("translation threshold", translation), ("rotation threshold", rotation)] {
+        for (what, v) in [
+            ("translation threshold", translation),
+            ("rotation threshold", rotation),
+        ] {
             if !v.is_finite() {
-                return Err(NonFiniteError::new_err(format!("{what} must be finite, got {v}")));
+                return Err(NonFiniteError::new_err(format!(
+                    "{what} must be finite, got {v}"
+                )));
             }
             if v < 0.0 {
-                return Err(InvalidArgumentError::new_err(format!("{what} must be >= 0, got {v}")));
+                return Err(InvalidArgumentError::new_err(format!(
+                    "{what} must be >= 0, got {v}"
+                )));
             }
         }
         let g = group(grasps)?;
