@@ -42,9 +42,8 @@ pub struct SearchParams {
     pub plane: Option<Plane>,
 }
 
-/// How far (m) a hand corner may dip below the support plane (its points
-/// scatter by about this much).
-const PLANE_TOLERANCE: f64 = 0.002;
+/// How far (m) a hand corner may dip below the support plane.
+const PLANE_TOLERANCE: f64 = 0.001;
 
 /// Fewest (x, z) cells of a finger pad the object must reach.
 const MIN_CONTACT_CELLS: usize = 4;

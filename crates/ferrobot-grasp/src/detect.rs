@@ -186,7 +186,12 @@ pub fn detect(
     };
     let mut cloud = SurfaceCloud::new(centroids, ds_labels, opts.normal_radius, opts.viewpoint)?;
     if let Some(pl) = &plane {
-        cloud.extrude(pl, opts.plane_threshold, 2.0 * opts.voxel_size);
+        cloud.extrude(
+            pl,
+            opts.plane_threshold,
+            opts.voxel_size,
+            2.0 * opts.voxel_size,
+        );
     }
     let candidates: Vec<usize> = (0..cloud.num_observed())
         .filter(|&i| {

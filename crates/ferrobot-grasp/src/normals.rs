@@ -3,6 +3,7 @@
 
 use kiddo::{KdTree, SquaredEuclidean};
 use nalgebra::{Matrix3, Point3, SymmetricEigen, Vector3};
+use std::collections::HashMap;
 use std::sync::OnceLock;
 
 use crate::error::{GraspError, Result, positive};
@@ -80,21 +81,40 @@ impl SurfaceCloud {
     }
 
     /// Completes the hidden volume under what the camera saw, assuming
-    /// objects rest on `plane` without hidden overhangs: below every
-    /// observed point more than `threshold` above the plane, hidden obstacle
-    /// points are added every `step` down to the plane.
-    pub fn extrude(&mut self, plane: &Plane, threshold: f64, step: f64) {
-        let mut extra = Vec::new();
-        let mut extra_labels = Vec::new();
-        for (p, &l) in self.points[..self.num_observed].iter().zip(&self.labels) {
+    /// objects rest on `plane` without hidden overhangs: the plane is cut
+    /// into square cells of side `cell`, and below the highest observed
+    /// point of each cell (if more than `threshold` above the plane) hidden
+    /// obstacle points are added every `step` down to the plane. Points
+    /// within `threshold` of the plane stop being obstacles
+    /// ([`Self::within`] no longer returns them): the plane stands for them.
+    pub fn extrude(&mut self, plane: &Plane, threshold: f64, cell: f64, step: f64) {
+        let e1 = crate::normals::any_perpendicular(&plane.normal);
+        let e2 = plane.normal.cross(&e1);
+        let mut top: HashMap<(i64, i64), (usize, f64)> = HashMap::new();
+        for (i, p) in self.points[..self.num_observed].iter().enumerate() {
             let h = plane.distance(p);
             if h <= threshold {
                 continue;
             }
+            let key = (
+                (e1.dot(&p.coords) / cell).floor() as i64,
+                (e2.dot(&p.coords) / cell).floor() as i64,
+            );
+            let e = top.entry(key).or_insert((i, h));
+            if h > e.1 {
+                *e = (i, h);
+            }
+        }
+        let mut tops: Vec<(usize, f64)> = top.into_values().collect();
+        tops.sort_unstable_by_key(|t| t.0);
+        let mut extra = Vec::new();
+        let mut extra_labels = Vec::new();
+        for (i, h) in tops {
+            let p = self.points[i];
             let mut d = step;
             while d < h {
                 extra.push(p - plane.normal * d);
-                extra_labels.push(l);
+                extra_labels.push(self.labels[i]);
                 d += step;
             }
         }
@@ -104,7 +124,9 @@ impl SurfaceCloud {
         self.points.extend(extra);
         self.labels.extend(extra_labels);
         for (i, p) in self.points.iter().enumerate() {
-            tree.add(&[p.x, p.y, p.z], i as u64);
+            if i >= self.num_observed || plane.distance(p) > threshold {
+                tree.add(&[p.x, p.y, p.z], i as u64);
+            }
         }
         self.obstacles = Some(tree);
     }
