@@ -10,8 +10,6 @@
 //! the object between the fingers ([`contact_from_profile`]), which covers
 //! faces the camera did not see once the hidden volume is completed.
 
-use std::collections::HashMap;
-
 use nalgebra::Vector3;
 
 /// A contact between a finger and the surface, in the gripper frame.
@@ -35,25 +33,42 @@ pub struct Contact {
 /// `side` is -1 for the finger at -y, +1 for the one at +y. The points are
 /// binned into `cell`-sized (x, z) cells; in each cell the point nearest the
 /// finger (smallest y for side -1, largest for +1) is on the surface the
-/// finger meets. A plane y = a + b·x + c·z fitted to those points by least
+/// finger meets (cells are laid from the points' smallest x and z). A plane y = a + b·x + c·z fitted to those points by least
 /// squares is the contact face: its normal, facing the finger, is the
 /// contact normal (b = c = 0: a face square to the closing axis). Directions
 /// without spread (fewer than two distinct cells) are not fitted. Returns
 /// None for no points.
 pub fn contact_from_profile(points: &[Vector3<f64>], side: f64, cell: f64) -> Option<Contact> {
-    let mut cells: HashMap<(i64, i64), Vector3<f64>> = HashMap::new();
-    for p in points {
-        let key = ((p.x / cell).floor() as i64, (p.z / cell).floor() as i64);
-        let e = cells.entry(key).or_insert(*p);
-        if side * p.y > side * e.y {
-            *e = *p;
-        }
-    }
-    let n = cells.len();
-    if n == 0 {
+    if points.is_empty() {
         return None;
     }
-    let ext: Vec<Vector3<f64>> = cells.into_values().collect();
+    // A dense grid over the points' (x, z) bounds: one slot per cell.
+    let (mut x0, mut z0, mut x1, mut z1) = (
+        f64::INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::NEG_INFINITY,
+    );
+    for p in points {
+        x0 = x0.min(p.x);
+        x1 = x1.max(p.x);
+        z0 = z0.min(p.z);
+        z1 = z1.max(p.z);
+    }
+    let nx = ((x1 - x0) / cell).floor() as usize + 1;
+    let nz = ((z1 - z0) / cell).floor() as usize + 1;
+    let mut grid: Vec<Option<Vector3<f64>>> = vec![None; nx * nz];
+    for p in points {
+        let ix = (((p.x - x0) / cell).floor() as usize).min(nx - 1);
+        let iz = (((p.z - z0) / cell).floor() as usize).min(nz - 1);
+        let slot = &mut grid[ix * nz + iz];
+        match slot {
+            Some(e) if side * p.y <= side * e.y => {}
+            _ => *slot = Some(*p),
+        }
+    }
+    let ext: Vec<Vector3<f64>> = grid.into_iter().flatten().collect();
+    let n = ext.len();
     let mean = ext.iter().sum::<Vector3<f64>>() / n as f64;
     let (mut sxx, mut szz, mut sxz, mut sxy, mut szy) = (0.0, 0.0, 0.0, 0.0, 0.0);
     for p in &ext {
