@@ -552,3 +552,49 @@ class Planner:
         goal_solutions: int = 4,
         coarse_factor: float = 4.0,
     ) -> PlanResult: ...
+
+# --- grasp detection (used through ferrobot.grasp) ---
+
+I64 = npt.NDArray[np.int64]
+
+def grasp_backproject(
+    depth: ArrayLike,
+    fx: float,
+    fy: float,
+    cx: float,
+    cy: float,
+    scale: float,
+    workspace: ArrayLike | None = None,
+) -> tuple[F64, I64]:
+    """Back-projected points (N, 3) (OpenCV camera frame) and their flat pixel indices (N,)."""
+
+def grasp_detect(
+    points: ArrayLike,
+    labels: npt.NDArray[np.int32] | None = None,
+    seedable: npt.NDArray[np.bool_] | None = None,
+    options: dict[str, Any] | None = None,
+) -> F64:
+    """Grasps (M, 17) detected in a point cloud (N, 3), best first."""
+
+def grasp_detect_rgbd(
+    depth: ArrayLike,
+    fx: float,
+    fy: float,
+    cx: float,
+    cy: float,
+    scale: float,
+    mask: npt.NDArray[np.int32] | None = None,
+    object_id: int | None = None,
+    workspace: ArrayLike | None = None,
+    options: dict[str, Any] | None = None,
+) -> F64:
+    """Grasps (M, 17) detected in a depth image (H, W), best first, camera frame."""
+
+def grasp_nms(grasps: ArrayLike, translation: float = 0.03, rotation: float = ...) -> I64:
+    """Indices of the grasps (N, 17) kept by non-maximum suppression, best first."""
+
+def grasp_transform(grasps: ArrayLike, pose: ArrayLike) -> F64:
+    """Grasps (N, 17) moved by a pose (4x4 or [x, y, z, qw, qx, qy, qz])."""
+
+def grasp_camera_to_world(camera_pose: ArrayLike, convention: str = "opencv") -> F64:
+    """4x4 transform from OpenCV-optical camera coordinates to the world."""

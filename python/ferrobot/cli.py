@@ -73,6 +73,40 @@ def cmd_robot(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_serve_grasp(args: argparse.Namespace) -> int:
+    try:
+        import uvicorn
+    except ImportError:
+        print("ferrobot: error: serve-grasp needs the 'serve' extra: pip install 'ferrobot[serve]'", file=sys.stderr)
+        return 1
+    import os
+
+    from .grasp.server import _ENV_MAX_BODY
+
+    if args.workers < 1:
+        print("ferrobot: error: --workers must be >= 1", file=sys.stderr)
+        return 2
+    if args.max_body_mb <= 0:
+        print("ferrobot: error: --max-body-mb must be > 0", file=sys.stderr)
+        return 2
+    # Worker processes build the app from the environment (uvicorn imports the factory by name).
+    os.environ[_ENV_MAX_BODY] = str(int(args.max_body_mb * 1024 * 1024))
+    print(
+        f"ferrobot grasp service on http://{args.host}:{args.port} ({args.workers} worker(s)); "
+        "POST /process (JSON), POST /process_npz (binary), GET /health",
+        flush=True,
+    )
+    uvicorn.run(
+        "ferrobot.grasp.server:create_app",
+        factory=True,
+        host=args.host,
+        port=args.port,
+        workers=args.workers,
+        log_level=args.log_level,
+    )
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="ferrobot", description=__doc__)
     parser.add_argument("--version", action="store_true", help="print the version and exit")
@@ -84,6 +118,13 @@ def main(argv: list[str] | None = None) -> int:
     p_robot.add_argument("--state", default="ready", help="named state for the FK example")
     p_robot.add_argument("--batch", type=int, default=1_000_000, help="batch size for FK timing")
     p_robot.set_defaults(func=cmd_robot)
+    p_serve = sub.add_parser("serve-grasp", help="serve grasp detection over HTTP (FastAPI + uvicorn)")
+    p_serve.add_argument("--host", default="127.0.0.1", help="address to bind (default 127.0.0.1)")
+    p_serve.add_argument("--port", type=int, default=5001, help="port (default 5001)")
+    p_serve.add_argument("--workers", type=int, default=1, help="worker processes (default 1)")
+    p_serve.add_argument("--max-body-mb", type=float, default=64.0, help="request size limit in MiB (default 64)")
+    p_serve.add_argument("--log-level", default="info", choices=["critical", "error", "warning", "info", "debug"])
+    p_serve.set_defaults(func=cmd_serve_grasp)
     args = parser.parse_args(argv)
     if args.version:
         from . import __version__

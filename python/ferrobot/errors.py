@@ -21,6 +21,8 @@ __all__ = [
     "FileFormatError",
     "DuplicateNameError",
     "SimulationDiverged",
+    "ServiceError",
+    "RequestRejectedError",
 ]
 
 
@@ -77,3 +79,11 @@ class InternalError(FerrobotError, RuntimeError):
 
 class SimulationDiverged(FerrobotError, RuntimeError):
     """A simulation blew up (non-finite or runaway body states); the message names the body, step and time."""
+
+
+class ServiceError(FerrobotError):
+    """The grasp service could not answer: every server address failed (unreachable, timed out, 5xx)."""
+
+
+class RequestRejectedError(ServiceError, ValueError):
+    """The grasp service rejected the request (4xx); the message carries the server's reason."""

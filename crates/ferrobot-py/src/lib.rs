@@ -6,6 +6,7 @@
 mod arrays;
 mod collision;
 mod errors;
+mod grasp;
 mod model;
 mod planning;
 mod sim;
@@ -48,6 +49,12 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sim::opengl_to_opencv, m)?)?;
     m.add_function(wrap_pyfunction!(sim::look_at, m)?)?;
     m.add_function(wrap_pyfunction!(bundled_robot, m)?)?;
+    m.add_function(wrap_pyfunction!(grasp::grasp_backproject, m)?)?;
+    m.add_function(wrap_pyfunction!(grasp::grasp_detect, m)?)?;
+    m.add_function(wrap_pyfunction!(grasp::grasp_detect_rgbd, m)?)?;
+    m.add_function(wrap_pyfunction!(grasp::grasp_nms, m)?)?;
+    m.add_function(wrap_pyfunction!(grasp::grasp_transform, m)?)?;
+    m.add_function(wrap_pyfunction!(grasp::grasp_camera_to_world, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

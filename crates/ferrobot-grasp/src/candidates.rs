@@ -1,0 +1,250 @@
+//! Candidate hands: a search in the local frame of a seed point over
+//! approach rotations, with a finger-slot search and deepening (GPD's
+//! scheme), each hand checked for collision and scored.
+//!
+//! At a seed with outward normal n and dominant tangent t, the approach
+//! starts as -n; the closing axis is t turned about the approach by
+//! k·π/`num_rotations` (k = 0..num_rotations; y and -y give the same hand),
+//! and the approach is tilted about the closing axis by each of
+//! `approach_tilts`. For each orientation the fingertip depths are tried
+//! deepest first: the points in the finger slot form a connected interval
+//! along y around the seed (gaps narrower than a finger plus clearance join
+//! it); the fingers are centred on that interval and opened to its extent
+//! plus clearance; the first depth whose opening fits and whose hand is free
+//! of points wins.
+
+use nalgebra::{Matrix3, Point3, Vector3};
+
+use crate::grasp::Grasp;
+use crate::gripper::{GripperGeometry, Region};
+use crate::normals::SurfaceCloud;
+use crate::plane::Plane;
+use crate::quality::{contact_from_profile, friction_needed, score};
+
+/// Parameters of the hand search.
+#[derive(Debug, Clone)]
+pub struct SearchParams {
+    /// Gripper geometry.
+    pub gripper: GripperGeometry,
+    /// Fingertip depths beyond the seed to try, metres.
+    pub depths: Vec<f64>,
+    /// Number of closing-axis rotations about the approach over a half turn.
+    pub num_rotations: usize,
+    /// Tilts of the approach about the closing axis, radians.
+    pub approach_tilts: Vec<f64>,
+    /// Voxel size of the cloud (points are voxel centroids).
+    pub voxel_size: f64,
+    /// Friction coefficient of the fingers.
+    pub friction: f64,
+    /// Preferred approach direction (unit).
+    pub approach_direction: Vector3<f64>,
+    /// A support plane whose far side is solid, if any.
+    pub plane: Option<Plane>,
+}
+
+/// How far (m) a hand corner may dip below the support plane.
+const PLANE_TOLERANCE: f64 = 0.001;
+
+/// Fewest (x, z) cells of a finger pad the object must reach.
+const MIN_CONTACT_CELLS: usize = 4;
+
+/// How much the hand's solid parts are grown for collision: points are
+/// voxel centroids, up to about half a voxel and more from the surface.
+fn margin(sp: &SearchParams) -> f64 {
+    0.75 * sp.voxel_size
+}
+
+/// All scored collision-free hands at `seed` (score > 0 only).
+pub fn hands_at_seed(cloud: &SurfaceCloud, seed: usize, sp: &SearchParams) -> Vec<Grasp> {
+    let p = cloud.points[seed];
+    let a0 = -cloud.normal(seed);
+    let t0 = cloud.tangent(seed);
+    let b0 = a0.cross(&t0);
+    let max_depth = sp.depths.iter().copied().fold(0.0, f64::max);
+    let nb = cloud.within(&p, sp.gripper.reach(max_depth));
+    // Neighbours in the seed frame (a0, t0, b0), contiguous.
+    let seed_frame: Vec<(Vector3<f64>, usize)> = nb
+        .iter()
+        .map(|&i| {
+            let d = cloud.points[i] - p;
+            (Vector3::new(d.dot(&a0), d.dot(&t0), d.dot(&b0)), i)
+        })
+        .collect();
+    let half_h = sp.gripper.height / 2.0 + margin(sp);
+    let mut out = Vec::new();
+    let mut local: Vec<(Vector3<f64>, usize)> = Vec::with_capacity(nb.len());
+    for k in 0..sp.num_rotations {
+        // Closing axis y = t0 turned by phi about a0; z = a0 × y.
+        let phi = k as f64 * std::f64::consts::PI / sp.num_rotations as f64;
+        let (s, c) = phi.sin_cos();
+        let y = t0 * c + b0 * s;
+        let z0 = b0 * c - t0 * s;
+        for &tilt in &sp.approach_tilts {
+            // Approach a0 turned by tilt about y: a = cos·a0 - sin·z0, z = sin·a0 + cos·z0.
+            let (st, ct) = tilt.sin_cos();
+            let a = a0 * ct - z0 * st;
+            let z = a0 * st + z0 * ct;
+            local.clear();
+            for (q, i) in &seed_frame {
+                let qy = c * q.y + s * q.z;
+                let qz0 = -s * q.y + c * q.z;
+                let lz = st * q.x + ct * qz0;
+                if lz.abs() <= half_h {
+                    local.push((Vector3::new(ct * q.x - st * qz0, qy, lz), *i));
+                }
+            }
+            let r = Matrix3::from_columns(&[a, y, z]);
+            if let Some(g) = evaluate(cloud, &p, &r, &local, seed, sp) {
+                out.push(g);
+            }
+        }
+    }
+    out
+}
+
+/// The first (deepest) collision-free hand of orientation `r` at `p`;
+/// `local` holds the points in the hand frame with |z| <= height / 2.
+fn evaluate(
+    cloud: &SurfaceCloud,
+    p: &Point3<f64>,
+    r: &Matrix3<f64>,
+    local: &[(Vector3<f64>, usize)],
+    seed: usize,
+    sp: &SearchParams,
+) -> Option<Grasp> {
+    let g = &sp.gripper;
+    let m = margin(sp);
+    let pad = g.clearance + m;
+    let gap_max = g.finger_width + 2.0 * pad;
+    // Points that can be in a finger slot at some depth, sorted by y once.
+    let (dmin, dmax) = sp
+        .depths
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &d| {
+            (a.min(d), b.max(d))
+        });
+    let mut slot: Vec<(f64, f64)> = local
+        .iter()
+        .filter(|(q, _)| {
+            q.x >= dmin - g.finger_depth
+                && q.x <= dmax
+                && q.z.abs() <= g.height / 2.0
+                && q.y.abs() <= g.max_width + g.finger_width
+        })
+        .map(|(q, _)| (q.x, q.y))
+        .collect();
+    slot.sort_unstable_by(|a, b| a.1.total_cmp(&b.1));
+    let mut ys: Vec<f64> = Vec::with_capacity(slot.len());
+    for &depth in &sp.depths {
+        let base = depth - g.finger_depth;
+        ys.clear();
+        ys.extend(
+            slot.iter()
+                .filter(|(x, _)| *x >= base && *x <= depth)
+                .map(|(_, y)| *y),
+        );
+        if ys.is_empty() {
+            continue;
+        }
+        let mut lo = ys
+            .iter()
+            .enumerate()
+            .min_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
+            .map(|(i, _)| i)?;
+        let mut hi = lo;
+        while lo > 0 && ys[lo] - ys[lo - 1] < gap_max {
+            lo -= 1;
+        }
+        while hi + 1 < ys.len() && ys[hi + 1] - ys[hi] < gap_max {
+            hi += 1;
+        }
+        let (ymin, ymax) = (ys[lo], ys[hi]);
+        let width = ymax - ymin + 2.0 * pad;
+        if width > g.max_width {
+            continue;
+        }
+        let yc = (ymin + ymax) / 2.0;
+        let mut collision = false;
+        let mut closing = 0usize;
+        for (q, _) in local {
+            match g.region(q, depth, width, yc, m) {
+                Region::Collision => {
+                    collision = true;
+                    break;
+                }
+                Region::Closing => closing += 1,
+                Region::Free => {}
+            }
+        }
+        if collision || closing == 0 {
+            continue;
+        }
+        if let Some(plane) = &sp.plane {
+            let below = g.boxes(depth, width, yc).iter().any(|(lo, hi)| {
+                (0..8).any(|k| {
+                    let c = Vector3::new(
+                        if k & 1 == 0 { lo.x } else { hi.x },
+                        if k & 2 == 0 { lo.y } else { hi.y },
+                        if k & 4 == 0 { lo.z } else { hi.z },
+                    );
+                    plane.distance(&(p + r * c)) < -PLANE_TOLERANCE
+                })
+            });
+            if below {
+                continue;
+            }
+        }
+        return score_hand(cloud, p, r, local, seed, depth, width, yc, sp);
+    }
+    None
+}
+
+#[allow(clippy::too_many_arguments)]
+fn score_hand(
+    cloud: &SurfaceCloud,
+    p: &Point3<f64>,
+    r: &Matrix3<f64>,
+    local: &[(Vector3<f64>, usize)],
+    seed: usize,
+    depth: f64,
+    width: f64,
+    yc: f64,
+    sp: &SearchParams,
+) -> Option<Grasp> {
+    let g = &sp.gripper;
+    let m = margin(sp);
+    let mut inside: Vec<Vector3<f64>> = Vec::new();
+    for (q, _) in local {
+        if g.region(q, depth, width, yc, m) == Region::Closing {
+            inside.push(*q);
+        }
+    }
+    let left = contact_from_profile(&inside, -1.0, sp.voxel_size)?;
+    let right = contact_from_profile(&inside, 1.0, sp.voxel_size)?;
+    // Enough of each finger pad must touch the object (not a tip).
+    if left.cells.min(right.cells) < MIN_CONTACT_CELLS {
+        return None;
+    }
+    let mu = friction_needed(&left, &right);
+    let full = (g.height / sp.voxel_size).max(1.0);
+    let support = left.cells.min(right.cells) as f64 / full;
+    let approach = r.column(0).into_owned();
+    let s = score(
+        mu,
+        sp.friction,
+        support,
+        approach.dot(&sp.approach_direction),
+    );
+    if s <= 0.0 {
+        return None;
+    }
+    Some(Grasp {
+        score: s,
+        width,
+        height: g.height,
+        depth,
+        rotation: *r,
+        translation: (p + r * Vector3::new(0.0, yc, 0.0)).coords,
+        object_id: cloud.labels[seed],
+    })
+}

@@ -1,0 +1,285 @@
+//! The detection pipeline: cloud -> voxels -> normals -> hands -> scores ->
+//! non-maximum suppression -> sorted grasp group.
+
+use nalgebra::{Point3, Vector3};
+use rand::SeedableRng;
+use rand::rngs::StdRng;
+use rayon::prelude::*;
+
+use crate::backproject::{Intrinsics, Workspace, backproject};
+use crate::candidates::{SearchParams, hands_at_seed};
+use crate::error::{GraspError, Result, positive};
+use crate::grasp::GraspGroup;
+use crate::gripper::GripperGeometry;
+use crate::nms::nms;
+use crate::normals::SurfaceCloud;
+use crate::plane::find_support_plane;
+use crate::voxel::voxel_downsample;
+
+/// Options of [`detect`]. Frame-dependent options (`viewpoint`,
+/// `approach_direction`) are in the cloud's frame; the defaults suit a cloud
+/// in the camera's OpenCV frame.
+#[derive(Debug, Clone)]
+pub struct DetectOptions {
+    /// Gripper geometry (default: Panda hand).
+    pub gripper: GripperGeometry,
+    /// Voxel size for downsampling, metres (default 0.005).
+    pub voxel_size: f64,
+    /// Neighbourhood radius for normals, metres (default 0.015).
+    pub normal_radius: f64,
+    /// Number of seed points sampled (default 128).
+    pub num_seeds: usize,
+    /// Closing-axis rotations over a half turn (default 8).
+    pub num_rotations: usize,
+    /// Approach tilts about the closing axis, radians (default 0, ±0.4).
+    pub approach_tilts: Vec<f64>,
+    /// Fingertip depths beyond the surface to try, metres (default
+    /// 0.01–0.04 in steps of 0.01, as GraspNet).
+    pub depths: Vec<f64>,
+    /// Friction coefficient the grasp must close at (default 1.0).
+    pub friction: f64,
+    /// Camera position, for orienting normals (default: origin).
+    pub viewpoint: Point3<f64>,
+    /// Preferred approach direction (default +z: along the camera's view).
+    pub approach_direction: Vector3<f64>,
+    /// NMS translation threshold, metres (default 0.03).
+    pub nms_translation: f64,
+    /// NMS rotation threshold, radians (default 30°).
+    pub nms_rotation: f64,
+    /// Keep at most this many grasps after NMS (0: all).
+    pub max_grasps: usize,
+    /// Seed of the random seed-point and plane sampling.
+    pub rng_seed: u64,
+    /// Find the dominant plane (a table) by RANSAC: hands may not dip
+    /// below it, its points are not seeds, and the hidden volume under
+    /// every point above it counts as solid (objects rest on it without
+    /// hidden overhangs; see [`SurfaceCloud::extrude`]) (default true).
+    pub support_plane: bool,
+    /// Inlier distance of the support plane, metres (default 0.005).
+    pub plane_threshold: f64,
+}
+
+impl Default for DetectOptions {
+    fn default() -> Self {
+        Self {
+            gripper: GripperGeometry::default(),
+            voxel_size: 0.005,
+            normal_radius: 0.015,
+            num_seeds: 128,
+            num_rotations: 8,
+            approach_tilts: vec![0.0, -0.4, 0.4],
+            depths: vec![0.04, 0.03, 0.02, 0.01],
+            friction: 1.0,
+            viewpoint: Point3::origin(),
+            approach_direction: Vector3::z(),
+            nms_translation: 0.03,
+            nms_rotation: 30f64.to_radians(),
+            max_grasps: 0,
+            rng_seed: 0,
+            support_plane: true,
+            plane_threshold: 0.005,
+        }
+    }
+}
+
+impl DetectOptions {
+    /// Checks every option.
+    pub fn validate(&self) -> Result<()> {
+        self.gripper.validate()?;
+        positive("voxel_size", self.voxel_size)?;
+        positive("normal_radius", self.normal_radius)?;
+        positive("friction", self.friction)?;
+        if self.num_rotations == 0 {
+            return Err(GraspError::InvalidArgument(
+                "num_rotations must be >= 1".into(),
+            ));
+        }
+        if self.approach_tilts.is_empty() || self.depths.is_empty() {
+            return Err(GraspError::InvalidArgument(
+                "approach_tilts and depths must not be empty".into(),
+            ));
+        }
+        for &t in &self.approach_tilts {
+            if !(t.is_finite() && t.abs() < std::f64::consts::FRAC_PI_2) {
+                return Err(GraspError::InvalidArgument(format!(
+                    "approach tilt {t} must be finite and within (-pi/2, pi/2)"
+                )));
+            }
+        }
+        for &d in &self.depths {
+            if !(d.is_finite() && d >= 0.0 && d < self.gripper.finger_depth) {
+                return Err(GraspError::InvalidArgument(format!(
+                    "depth {d} must be within [0, finger_depth = {})",
+                    self.gripper.finger_depth
+                )));
+            }
+        }
+        positive("nms_translation", self.nms_translation)?;
+        positive("plane_threshold", self.plane_threshold)?;
+        positive("nms_rotation", self.nms_rotation)?;
+        if !self.viewpoint.coords.iter().all(|v| v.is_finite()) {
+            return Err(GraspError::NonFinite("viewpoint must be finite".into()));
+        }
+        if !(self.approach_direction.iter().all(|v| v.is_finite())
+            && self.approach_direction.norm() > 1e-9)
+        {
+            return Err(GraspError::InvalidArgument(
+                "approach_direction must be a finite non-zero vector".into(),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Detects grasps in `points`. All points are obstacles for the gripper;
+/// seeds are drawn from the points whose `seedable` flag is set (all when
+/// None). `labels` gives each point's object id (-1 when None); a grasp
+/// takes its seed's label. An empty cloud gives an empty group.
+pub fn detect(
+    points: &[Point3<f64>],
+    labels: Option<&[i32]>,
+    seedable: Option<&[bool]>,
+    opts: &DetectOptions,
+) -> Result<GraspGroup> {
+    opts.validate()?;
+    for (what, len) in [
+        ("labels", labels.map(|l| l.len())),
+        ("seed mask", seedable.map(|s| s.len())),
+    ] {
+        if let Some(len) = len
+            && len != points.len()
+        {
+            return Err(GraspError::Shape(format!(
+                "{what}: {len} values for {} points",
+                points.len()
+            )));
+        }
+    }
+    if let Some(i) = points
+        .iter()
+        .position(|p| !p.coords.iter().all(|c| c.is_finite()))
+    {
+        return Err(GraspError::NonFinite(format!(
+            "points: point {i} is not finite"
+        )));
+    }
+    if points.is_empty() {
+        return Ok(GraspGroup::default());
+    }
+    let (centroids, first) = voxel_downsample(points, opts.voxel_size)?;
+    let ds_labels: Vec<i32> = first.iter().map(|&i| labels.map_or(-1, |l| l[i])).collect();
+    let ds_seedable: Vec<bool> = first
+        .iter()
+        .map(|&i| seedable.is_none_or(|s| s[i]))
+        .collect();
+    let plane = if opts.support_plane {
+        find_support_plane(
+            &centroids,
+            opts.plane_threshold,
+            0.2,
+            200,
+            &opts.viewpoint,
+            opts.rng_seed,
+        )
+    } else {
+        None
+    };
+    let mut cloud = SurfaceCloud::new(centroids, ds_labels, opts.normal_radius, opts.viewpoint)?;
+    if let Some(pl) = &plane {
+        cloud.extrude(
+            pl,
+            opts.plane_threshold,
+            opts.voxel_size,
+            2.0 * opts.voxel_size,
+        );
+    }
+    let candidates: Vec<usize> = (0..cloud.num_observed())
+        .filter(|&i| {
+            ds_seedable[i]
+                && plane.is_none_or(|pl| pl.distance(&cloud.points[i]) > opts.plane_threshold)
+        })
+        .collect();
+    let seeds: Vec<usize> = if candidates.len() <= opts.num_seeds {
+        candidates
+    } else {
+        let mut rng = StdRng::seed_from_u64(opts.rng_seed);
+        let mut picked: Vec<usize> =
+            rand::seq::index::sample(&mut rng, candidates.len(), opts.num_seeds)
+                .into_iter()
+                .map(|k| candidates[k])
+                .collect();
+        picked.sort_unstable();
+        picked
+    };
+    let params = SearchParams {
+        gripper: opts.gripper,
+        depths: {
+            let mut d = opts.depths.clone();
+            d.sort_by(|a, b| b.total_cmp(a));
+            d
+        },
+        num_rotations: opts.num_rotations,
+        approach_tilts: opts.approach_tilts.clone(),
+        voxel_size: opts.voxel_size,
+        friction: opts.friction,
+        approach_direction: opts.approach_direction.normalize(),
+        plane,
+    };
+    let grasps: Vec<_> = seeds
+        .par_iter()
+        .flat_map_iter(|&s| hands_at_seed(&cloud, s, &params))
+        .collect();
+    let kept = nms(&grasps, opts.nms_translation, opts.nms_rotation);
+    let mut group = GraspGroup {
+        grasps: kept.into_iter().map(|i| grasps[i]).collect(),
+    };
+    group.sort_by_score();
+    if opts.max_grasps > 0 {
+        group.grasps.truncate(opts.max_grasps);
+    }
+    Ok(group)
+}
+
+/// Detects grasps in a depth image: back-projects it (see
+/// [`backproject`]), crops to `workspace`, and seeds on the masked pixels.
+/// `mask` (one label per pixel, row-major) marks objects with non-zero
+/// labels, which become the grasps' object ids; with `object_id` only that
+/// label is seeded. Without a mask every point is seeded and ids are -1.
+/// All back-projected points are obstacles.
+#[allow(clippy::too_many_arguments)]
+pub fn detect_rgbd(
+    depth: &[f64],
+    height: usize,
+    width: usize,
+    intrinsics: &Intrinsics,
+    mask: Option<&[i32]>,
+    object_id: Option<i32>,
+    workspace: Option<&Workspace>,
+    opts: &DetectOptions,
+) -> Result<GraspGroup> {
+    if let Some(m) = mask
+        && m.len() != height * width
+    {
+        return Err(GraspError::Shape(format!(
+            "mask: {} values for a {height}x{width} depth image",
+            m.len()
+        )));
+    }
+    if object_id.is_some() && mask.is_none() {
+        return Err(GraspError::InvalidArgument(
+            "object_id needs a segmentation mask".into(),
+        ));
+    }
+    let bp = backproject(depth, height, width, intrinsics, workspace)?;
+    match mask {
+        None => detect(&bp.points, None, None, opts),
+        Some(m) => {
+            let labels: Vec<i32> = bp.pixels.iter().map(|&i| m[i]).collect();
+            let seedable: Vec<bool> = labels
+                .iter()
+                .map(|&l| l != 0 && object_id.is_none_or(|o| o == l))
+                .collect();
+            detect(&bp.points, Some(&labels), Some(&seedable), opts)
+        }
+    }
+}

@@ -1,0 +1,174 @@
+//! The parallel-jaw gripper's geometry and its collision test against a
+//! cloud, in the gripper frame (x approach, y closing, z = x × y; origin at
+//! the grasp translation, fingertips at x = depth).
+//!
+//! Each finger is a box x ∈ [depth - finger_depth, depth],
+//! y ∈ [w/2, w/2 + finger_width] (and mirrored), |z| ≤ height/2; the palm is a
+//! box of thickness `finger_width` behind the fingers spanning both; the
+//! approach corridor is the palm's cross-section swept `approach_distance`
+//! further back (the hand must get there). The closing region is the space
+//! between the fingers.
+
+use nalgebra::Vector3;
+
+use crate::error::{Result, positive};
+
+/// Dimensions of a parallel-jaw gripper, in metres. The defaults describe
+/// the Franka Panda hand.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GripperGeometry {
+    /// Largest opening between the fingers' inner faces (Panda: 0.08).
+    pub max_width: f64,
+    /// Length of the fingers along the approach direction.
+    pub finger_depth: f64,
+    /// Thickness of each finger along the closing direction.
+    pub finger_width: f64,
+    /// Size of the fingers along z (perpendicular to approach and closing).
+    pub height: f64,
+    /// How far behind the palm the hand's path must be free.
+    pub approach_distance: f64,
+    /// Free space kept between the object and each finger when open.
+    pub clearance: f64,
+}
+
+impl Default for GripperGeometry {
+    fn default() -> Self {
+        Self {
+            max_width: 0.08,
+            finger_depth: 0.05,
+            finger_width: 0.01,
+            height: 0.02,
+            approach_distance: 0.03,
+            clearance: 0.005,
+        }
+    }
+}
+
+/// Where a point lies relative to a placed hand.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Region {
+    /// Outside the hand and its closing region.
+    Free,
+    /// Between the fingers.
+    Closing,
+    /// Inside a finger, the palm or the approach corridor.
+    Collision,
+}
+
+impl GripperGeometry {
+    /// Checks every dimension is positive and finite (clearance and approach
+    /// distance may be 0).
+    pub fn validate(&self) -> Result<()> {
+        positive("gripper max_width", self.max_width)?;
+        positive("gripper finger_depth", self.finger_depth)?;
+        positive("gripper finger_width", self.finger_width)?;
+        positive("gripper height", self.height)?;
+        for (what, v) in [
+            ("gripper approach_distance", self.approach_distance),
+            ("gripper clearance", self.clearance),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(crate::GraspError::InvalidArgument(format!(
+                    "{what} must be finite and >= 0, got {v}"
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    /// Classifies the point `p` (gripper frame of a hand at the origin whose
+    /// fingers are centred on y = `yc`, open to `width`, fingertips at
+    /// x = `depth`), with the solid parts grown by `margin` on every side
+    /// (points stand for voxels; the closing region is not grown).
+    pub fn region(&self, p: &Vector3<f64>, depth: f64, width: f64, yc: f64, margin: f64) -> Region {
+        let y = p.y - yc;
+        let half = width / 2.0;
+        let base = depth - self.finger_depth;
+        if p.z.abs() <= self.height / 2.0
+            && p.x >= base + margin
+            && p.x <= depth
+            && y.abs() < half - margin
+        {
+            return Region::Closing;
+        }
+        if p.z.abs() > self.height / 2.0 + margin
+            || p.x > depth + margin
+            || y.abs() > half + self.finger_width + margin
+            || p.x < base - self.finger_width - self.approach_distance - margin
+        {
+            return Region::Free;
+        }
+        if p.x < base + margin || y.abs() >= half - margin {
+            return Region::Collision;
+        }
+        // Between the fingers but beyond the closing region's z extent.
+        Region::Free
+    }
+
+    /// Whether any of `points` (gripper frame) is inside the hand grown by `margin`.
+    pub fn collides(
+        &self,
+        points: &[Vector3<f64>],
+        depth: f64,
+        width: f64,
+        yc: f64,
+        margin: f64,
+    ) -> bool {
+        points
+            .iter()
+            .any(|p| self.region(p, depth, width, yc, margin) == Region::Collision)
+    }
+
+    /// The hand's solid boxes as (min, max) corners in the gripper frame:
+    /// left finger, right finger, and palm with the approach corridor.
+    pub fn boxes(&self, depth: f64, width: f64, yc: f64) -> [(Vector3<f64>, Vector3<f64>); 3] {
+        let half = width / 2.0;
+        let outer = half + self.finger_width;
+        let hz = self.height / 2.0;
+        let base = depth - self.finger_depth;
+        let back = base - self.finger_width - self.approach_distance;
+        [
+            (
+                Vector3::new(base, yc - outer, -hz),
+                Vector3::new(depth, yc - half, hz),
+            ),
+            (
+                Vector3::new(base, yc + half, -hz),
+                Vector3::new(depth, yc + outer, hz),
+            ),
+            (
+                Vector3::new(back, yc - outer, -hz),
+                Vector3::new(base, yc + outer, hz),
+            ),
+        ]
+    }
+
+    /// Radius of a ball around the grasp origin that holds the whole hand
+    /// (at any opening and centring used by the search) for depths up to
+    /// `max_depth`.
+    pub fn reach(&self, max_depth: f64) -> f64 {
+        let back = self.finger_depth + self.finger_width + self.approach_distance;
+        let x = max_depth.abs().max(back);
+        let y = self.max_width + self.finger_width;
+        (x * x + y * y + self.height * self.height / 4.0).sqrt()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn regions() {
+        let g = GripperGeometry::default();
+        let r = |x, y, z| g.region(&Vector3::new(x, y, z), 0.02, 0.06, 0.0, 0.0);
+        assert_eq!(r(0.0, 0.0, 0.0), Region::Closing);
+        assert_eq!(r(0.0, 0.035, 0.0), Region::Collision);
+        assert_eq!(r(0.0, 0.045, 0.0), Region::Free);
+        assert_eq!(r(0.03, 0.0, 0.0), Region::Free);
+        assert_eq!(r(-0.035, 0.0, 0.0), Region::Collision); // palm
+        assert_eq!(r(-0.07, 0.0, 0.0), Region::Collision); // corridor
+        assert_eq!(r(-0.1, 0.0, 0.0), Region::Free);
+        assert_eq!(r(0.0, 0.0, 0.011), Region::Free);
+    }
+}

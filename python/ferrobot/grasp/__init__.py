@@ -1,0 +1,37 @@
+"""Analytic 6-DoF parallel-jaw grasps from RGB-D frames or point clouds (Rust crate ``ferrobot-grasp``).
+
+No learned weights: a cloud is voxel-downsampled, given normals, searched for collision-free hands in the
+local frame of seed points over approach rotations, scored by two-contact force closure at a friction
+coefficient, contact support and approach direction, then thinned by non-maximum suppression (0.03 m, 30°).
+
+Output is a :class:`GraspGroup` in graspnetAPI's layout and gripper frame (x approach, y closing); use
+:meth:`GraspGroup.to_panda_hand` for the Panda hand's frame (approach along its z).
+
+    gg = ferrobot.grasp.detect_from_rgbd(depth, fx, fy, cx, cy, scale=1000.0, workspace=lims)
+    gg = gg.nms().sort_by_score()
+    poses = gg.to_panda_hand()
+
+The HTTP service (``ferrobot serve-grasp``) is :mod:`ferrobot.grasp.server`; its client is
+:class:`ferrobot.grasp.client.GraspClient`.
+"""
+
+from __future__ import annotations
+
+from ._detect import OPTIONS, backproject, detect, detect_from_rgbd
+from ._group import GRASP_COLUMNS, GRASP_TO_PANDA_HAND, PANDA_TCP_OFFSET, Grasp, GraspGroup
+from .frames import camera_to_world, transform_points, world_to_base
+
+__all__ = [
+    "GRASP_COLUMNS",
+    "GRASP_TO_PANDA_HAND",
+    "OPTIONS",
+    "PANDA_TCP_OFFSET",
+    "Grasp",
+    "GraspGroup",
+    "backproject",
+    "camera_to_world",
+    "detect",
+    "detect_from_rgbd",
+    "transform_points",
+    "world_to_base",
+]

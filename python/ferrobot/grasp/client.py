@@ -1,0 +1,162 @@
+"""``GraspClient``: calls one or several grasp servers, spreading requests, with timeouts, retries and failover."""
+
+from __future__ import annotations
+
+import io
+import itertools
+import threading
+import time
+from collections.abc import Sequence
+
+import numpy as np
+
+from ..errors import RequestRejectedError, ServiceError
+from ._group import GraspGroup
+
+__all__ = ["GraspClient"]
+
+
+class GraspClient:
+    """A client of ``ferrobot serve-grasp`` (or any server speaking its ``/process`` protocol).
+
+    Requests go round-robin over ``addresses`` (``"http://host:port"``). A request that fails on one address
+    (connection refused, timeout, 5xx) is sent to the next; an address that failed is skipped for
+    ``cooldown`` seconds unless every address has failed. After ``retries`` full rounds (waiting ``backoff``
+    seconds, doubling) a :class:`ferrobot.errors.ServiceError` is raised listing each address's error.
+    A 4xx answer is the request's fault and raises :class:`ferrobot.errors.RequestRejectedError` at once.
+    Thread-safe.
+    """
+
+    def __init__(
+        self,
+        addresses: str | Sequence[str],
+        *,
+        timeout: float = 10.0,
+        retries: int = 1,
+        backoff: float = 0.05,
+        cooldown: float = 5.0,
+        binary: bool = True,
+    ):
+        import httpx
+
+        if isinstance(addresses, str):
+            addresses = [addresses]
+        self.addresses = [a.rstrip("/") for a in addresses]
+        if not self.addresses:
+            raise ValueError("GraspClient needs at least one server address")
+        if timeout <= 0 or retries < 0 or backoff < 0 or cooldown < 0:
+            raise ValueError("timeout must be > 0; retries, backoff and cooldown >= 0")
+        self.retries, self.backoff, self.cooldown, self.binary = retries, backoff, cooldown, binary
+        self._http = httpx.Client(timeout=timeout)
+        self._rr = itertools.count()
+        self._dead: dict[str, float] = {}
+        self._lock = threading.Lock()
+
+    def close(self) -> None:
+        self._http.close()
+
+    def __enter__(self) -> GraspClient:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def _order(self) -> list[str]:
+        with self._lock:
+            start = next(self._rr) % len(self.addresses)
+            now = time.monotonic()
+            ring = self.addresses[start:] + self.addresses[:start]
+            alive = [a for a in ring if self._dead.get(a, 0.0) <= now]
+            return alive + [a for a in ring if a not in alive]
+
+    def _mark(self, address: str, ok: bool) -> None:
+        with self._lock:
+            if ok:
+                self._dead.pop(address, None)
+            else:
+                self._dead[address] = time.monotonic() + self.cooldown
+
+    def _request(self, method: str, path: str, **kwargs):
+        import httpx
+
+        errors: dict[str, str] = {}
+        delay = self.backoff
+        for attempt in range(self.retries + 1):
+            for address in self._order():
+                try:
+                    r = self._http.request(method, address + path, **kwargs)
+                except httpx.HTTPError as e:
+                    errors[address] = f"{type(e).__name__}: {e}"
+                    self._mark(address, False)
+                    continue
+                if r.status_code >= 500:
+                    errors[address] = f"HTTP {r.status_code}: {r.text[:200]}"
+                    self._mark(address, False)
+                    continue
+                self._mark(address, True)
+                if r.status_code >= 400:
+                    try:
+                        detail = r.json().get("detail", r.text)
+                    except ValueError:
+                        detail = r.text
+                    raise RequestRejectedError(f"{address}{path} rejected the request (HTTP {r.status_code}): {detail}")
+                return r
+            if attempt < self.retries:
+                time.sleep(delay)
+                delay *= 2
+        listing = "; ".join(f"{a}: {e}" for a, e in errors.items())
+        raise ServiceError(f"no grasp server answered {path} after {self.retries + 1} round(s): {listing}")
+
+    def health(self) -> dict:
+        """``/health`` of the first server that answers."""
+        return self._request("GET", "/health").json()
+
+    def process(
+        self,
+        depths,
+        fx: float,
+        fy: float,
+        cx: float,
+        cy: float,
+        scale: float = 1000.0,
+        *,
+        colors=None,
+        mask=None,
+        object_id: int | None = None,
+        lims=None,
+        max_grasps: int | None = None,
+        binary: bool | None = None,
+    ) -> GraspGroup:
+        """Grasps for one RGB-D frame (camera frame), best first. ``binary`` (default: the client's) sends an
+        ``.npz`` to ``/process_npz`` (uint16 depth stays uint16); otherwise JSON to ``/process``."""
+        binary = self.binary if binary is None else binary
+        depths = np.asarray(depths)
+        if binary:
+            arrays = {"depths": depths, "fx": fx, "fy": fy, "cx": cx, "cy": cy, "scale": scale}
+            for name, v in (("colors", colors), ("mask", mask), ("lims", lims)):
+                if v is not None:
+                    arrays[name] = np.asarray(v)
+            if object_id is not None:
+                arrays["object_id"] = object_id
+            if max_grasps is not None:
+                arrays["max_grasps"] = max_grasps
+            buf = io.BytesIO()
+            np.savez(buf, **arrays)
+            r = self._request(
+                "POST", "/process_npz", content=buf.getvalue(), headers={"content-type": "application/octet-stream"}
+            )
+            with np.load(io.BytesIO(r.content), allow_pickle=False) as z:
+                return GraspGroup(z["grasps"].astype(np.float64))
+        body = {"depths": depths.tolist(), "fx": fx, "fy": fy, "cx": cx, "cy": cy, "scale": scale}
+        if colors is not None:
+            body["colors"] = np.asarray(colors).tolist()
+        if mask is not None:
+            body["mask"] = np.asarray(mask).tolist()
+        if lims is not None:
+            body["lims"] = np.asarray(lims, dtype=float).tolist()
+        if object_id is not None:
+            body["object_id"] = int(object_id)
+        if max_grasps is not None:
+            body["max_grasps"] = int(max_grasps)
+        r = self._request("POST", "/process", json=body)
+        return GraspGroup.from_dicts(r.json()["grasp_groups"])
