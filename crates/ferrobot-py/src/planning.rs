@@ -27,7 +27,7 @@ pub fn planning_err(e: PlanningError) -> PyErr {
 }
 
 fn rows<'py>(py: Python<'py>, data: Vec<f64>, cols: usize) -> Bound<'py, PyArray2<f64>> {
-    let n = if cols == 0 { 0 } else { data.len() / cols };
+    let n = data.len().checked_div(cols).unwrap_or(0);
     Array2::from_shape_vec((n, cols), data)
         .expect("rows x cols")
         .into_pyarray(py)
