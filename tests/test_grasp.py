@@ -357,6 +357,7 @@ def test_panda_hand_frame():
     tcp = H[:3, 3] + fg.PANDA_TCP_OFFSET * H[:3, 2]
     np.testing.assert_allclose(tcp, rows[0, 13:16] + 0.03 * R[:, 0], atol=1e-12)
     np.testing.assert_allclose(gg[0].to_panda_hand(), H, atol=1e-12)
+    np.testing.assert_allclose(fg.to_panda_hand(gg)[0], H, atol=1e-12)
 
 
 # --- errors ------------------------------------------------------------------------------------
