@@ -278,6 +278,24 @@ def test_nms_against_a_reference():
     np.testing.assert_array_equal(kept.grasp_group_array, rows[ref])
 
 
+def test_gripper_lines_outline_the_modelled_hand(detected):
+    gg, _ = detected
+    sub = gg[:3]
+    lines = sub.gripper_lines()
+    assert lines.shape == (3, 36, 2, 3)
+    for g, segs in zip(sub, lines, strict=True):
+        local = (segs.reshape(-1, 3) - g.translation) @ g.rotation_matrix
+        want = np.concatenate([[lo, hi] for lo, hi in hand_boxes(g.width, g.depth)])
+        np.testing.assert_allclose(local.min(0), want.min(0), atol=1e-12)
+        np.testing.assert_allclose(local.max(0), want.max(0), atol=1e-12)
+        lengths = np.linalg.norm(segs[:, 1] - segs[:, 0], axis=1)
+        finger = [0.01] * 4 + [0.02] * 4 + [0.05] * 4  # thickness, height, length
+        np.testing.assert_allclose(np.sort(lengths[:12]), finger, atol=1e-12)
+        np.testing.assert_allclose(np.sort(lengths[12:24]), finger, atol=1e-12)
+        palm = sorted([0.02] * 4 + [0.04] * 4 + [g.width + 0.02] * 4)  # height, depth, span
+        np.testing.assert_allclose(np.sort(lengths[24:]), palm, atol=1e-12)
+
+
 # --- frames ------------------------------------------------------------------------------------
 
 
@@ -339,6 +357,7 @@ def test_panda_hand_frame():
     tcp = H[:3, 3] + fg.PANDA_TCP_OFFSET * H[:3, 2]
     np.testing.assert_allclose(tcp, rows[0, 13:16] + 0.03 * R[:, 0], atol=1e-12)
     np.testing.assert_allclose(gg[0].to_panda_hand(), H, atol=1e-12)
+    np.testing.assert_allclose(fg.to_panda_hand(gg)[0], H, atol=1e-12)
 
 
 # --- errors ------------------------------------------------------------------------------------

@@ -8,10 +8,11 @@
 //! and the approach is tilted about the closing axis by each of
 //! `approach_tilts`. For each orientation the fingertip depths are tried
 //! deepest first: the points in the finger slot form a connected interval
-//! along y around the seed (gaps narrower than a finger plus clearance join
-//! it); the fingers are centred on that interval and opened to its extent
-//! plus clearance; the first depth whose opening fits and whose hand is free
-//! of points wins.
+//! along y around the seed (binned at half the width of a finger plus its
+//! clearance on both sides: a run of occupied bins is one interval); the
+//! fingers are centred on that interval and opened to its extent plus
+//! clearance; the first depth whose opening fits and whose hand (grown by a
+//! voxel margin) is free of points and above the support plane wins.
 
 use nalgebra::{Matrix3, Point3, Vector3};
 
@@ -116,49 +117,55 @@ fn evaluate(
     let m = margin(sp);
     let pad = g.clearance + m;
     let gap_max = g.finger_width + 2.0 * pad;
-    // Points that can be in a finger slot at some depth, sorted by y once.
+    // Points that can be in a finger slot at some depth.
     let (dmin, dmax) = sp
         .depths
         .iter()
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &d| {
             (a.min(d), b.max(d))
         });
-    let mut slot: Vec<(f64, f64)> = local
+    let reach_y = g.max_width + g.finger_width;
+    let slot: Vec<(f64, f64)> = local
         .iter()
         .filter(|(q, _)| {
             q.x >= dmin - g.finger_depth
                 && q.x <= dmax
                 && q.z.abs() <= g.height / 2.0
-                && q.y.abs() <= g.max_width + g.finger_width
+                && q.y.abs() <= reach_y
         })
         .map(|(q, _)| (q.x, q.y))
         .collect();
-    slot.sort_unstable_by(|a, b| a.1.total_cmp(&b.1));
-    let mut ys: Vec<f64> = Vec::with_capacity(slot.len());
+    // The object's interval along y around the seed (y = 0): bins of half
+    // the largest gap a finger cannot use; a run of occupied bins is one
+    // object (an empty bin is a gap a finger may use: collision decides).
+    let bin = gap_max / 2.0;
+    let nbins = (2.0 * reach_y / bin).ceil() as usize + 1;
+    let mut lo_y = vec![f64::INFINITY; nbins];
+    let mut hi_y = vec![f64::NEG_INFINITY; nbins];
+    let index = |y: f64| (((y + reach_y) / bin).floor() as usize).min(nbins - 1);
+    let centre = index(0.0);
     for &depth in &sp.depths {
         let base = depth - g.finger_depth;
-        ys.clear();
-        ys.extend(
-            slot.iter()
-                .filter(|(x, _)| *x >= base && *x <= depth)
-                .map(|(_, y)| *y),
-        );
-        if ys.is_empty() {
+        lo_y.fill(f64::INFINITY);
+        hi_y.fill(f64::NEG_INFINITY);
+        for &(x, y) in &slot {
+            if x >= base && x <= depth {
+                let k = index(y);
+                lo_y[k] = lo_y[k].min(y);
+                hi_y[k] = hi_y[k].max(y);
+            }
+        }
+        if lo_y[centre] > hi_y[centre] {
             continue;
         }
-        let mut lo = ys
-            .iter()
-            .enumerate()
-            .min_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
-            .map(|(i, _)| i)?;
-        let mut hi = lo;
-        while lo > 0 && ys[lo] - ys[lo - 1] < gap_max {
+        let (mut lo, mut hi) = (centre, centre);
+        while lo > 0 && lo_y[lo - 1] <= hi_y[lo - 1] {
             lo -= 1;
         }
-        while hi + 1 < ys.len() && ys[hi + 1] - ys[hi] < gap_max {
+        while hi + 1 < nbins && lo_y[hi + 1] <= hi_y[hi + 1] {
             hi += 1;
         }
-        let (ymin, ymax) = (ys[lo], ys[hi]);
+        let (ymin, ymax) = (lo_y[lo], hi_y[hi]);
         let width = ymax - ymin + 2.0 * pad;
         if width > g.max_width {
             continue;

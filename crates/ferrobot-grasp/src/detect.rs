@@ -2,8 +2,6 @@
 //! non-maximum suppression -> sorted grasp group.
 
 use nalgebra::{Point3, Vector3};
-use rand::SeedableRng;
-use rand::rngs::StdRng;
 use rayon::prelude::*;
 
 use crate::backproject::{Intrinsics, Workspace, backproject};
@@ -14,6 +12,7 @@ use crate::gripper::GripperGeometry;
 use crate::nms::nms;
 use crate::normals::SurfaceCloud;
 use crate::plane::find_support_plane;
+use crate::seeds::spread_seeds;
 use crate::voxel::voxel_downsample;
 
 /// Options of [`detect`]. Frame-dependent options (`viewpoint`,
@@ -29,6 +28,9 @@ pub struct DetectOptions {
     pub normal_radius: f64,
     /// Number of seed points sampled (default 128).
     pub num_seeds: usize,
+    /// Seeds are kept at least this far apart while possible, metres
+    /// (default 0: a plain random sample).
+    pub seed_spacing: f64,
     /// Closing-axis rotations over a half turn (default 8).
     pub num_rotations: usize,
     /// Approach tilts about the closing axis, radians (default 0, ±0.4).
@@ -66,6 +68,7 @@ impl Default for DetectOptions {
             voxel_size: 0.005,
             normal_radius: 0.015,
             num_seeds: 128,
+            seed_spacing: 0.0,
             num_rotations: 8,
             approach_tilts: vec![0.0, -0.4, 0.4],
             depths: vec![0.04, 0.03, 0.02, 0.01],
@@ -116,6 +119,12 @@ impl DetectOptions {
         }
         positive("nms_translation", self.nms_translation)?;
         positive("plane_threshold", self.plane_threshold)?;
+        if !(self.seed_spacing.is_finite() && self.seed_spacing >= 0.0) {
+            return Err(GraspError::InvalidArgument(format!(
+                "seed_spacing must be finite and >= 0, got {}",
+                self.seed_spacing
+            )));
+        }
         positive("nms_rotation", self.nms_rotation)?;
         if !self.viewpoint.coords.iter().all(|v| v.is_finite()) {
             return Err(GraspError::NonFinite("viewpoint must be finite".into()));
@@ -199,18 +208,13 @@ pub fn detect(
                 && plane.is_none_or(|pl| pl.distance(&cloud.points[i]) > opts.plane_threshold)
         })
         .collect();
-    let seeds: Vec<usize> = if candidates.len() <= opts.num_seeds {
-        candidates
-    } else {
-        let mut rng = StdRng::seed_from_u64(opts.rng_seed);
-        let mut picked: Vec<usize> =
-            rand::seq::index::sample(&mut rng, candidates.len(), opts.num_seeds)
-                .into_iter()
-                .map(|k| candidates[k])
-                .collect();
-        picked.sort_unstable();
-        picked
-    };
+    let seeds = spread_seeds(
+        &cloud.points,
+        &candidates,
+        opts.num_seeds,
+        opts.seed_spacing,
+        opts.rng_seed,
+    );
     let params = SearchParams {
         gripper: opts.gripper,
         depths: {

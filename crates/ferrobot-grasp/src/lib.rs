@@ -27,6 +27,7 @@ pub mod nms;
 pub mod normals;
 pub mod plane;
 pub mod quality;
+pub mod seeds;
 pub mod voxel;
 
 pub use backproject::{Intrinsics, Workspace, backproject};

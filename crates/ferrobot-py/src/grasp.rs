@@ -58,6 +58,7 @@ fn options(opts: Option<&Bound<'_, PyDict>>) -> PyResult<DetectOptions> {
             "voxel_size" => o.voxel_size = f(&v)?,
             "normal_radius" => o.normal_radius = f(&v)?,
             "num_seeds" => o.num_seeds = n(&v)?,
+            "seed_spacing" => o.seed_spacing = f(&v)?,
             "num_rotations" => o.num_rotations = n(&v)?,
             "approach_tilts" => o.approach_tilts = list(&v)?,
             "depths" => o.depths = list(&v)?,

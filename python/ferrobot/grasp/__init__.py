@@ -21,6 +21,15 @@ from ._detect import OPTIONS, backproject, detect, detect_from_rgbd
 from ._group import GRASP_COLUMNS, GRASP_TO_PANDA_HAND, PANDA_TCP_OFFSET, Grasp, GraspGroup
 from .frames import camera_to_world, transform_points, world_to_base
 
+
+def to_panda_hand(grasps: GraspGroup | Grasp, tcp_offset: float = PANDA_TCP_OFFSET):
+    """Poses of the Panda's ``panda_hand`` frame for grasps: (N, 4, 4) for a group, (4, 4) for one grasp.
+
+    See :meth:`GraspGroup.to_panda_hand` (hand z = approach, hand y = closing axis, TCP at the fingertips).
+    """
+    return grasps.to_panda_hand(tcp_offset)
+
+
 __all__ = [
     "GRASP_COLUMNS",
     "GRASP_TO_PANDA_HAND",
@@ -32,6 +41,7 @@ __all__ = [
     "camera_to_world",
     "detect",
     "detect_from_rgbd",
+    "to_panda_hand",
     "transform_points",
     "world_to_base",
 ]

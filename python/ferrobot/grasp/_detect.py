@@ -15,6 +15,7 @@ OPTIONS = {
     "voxel_size": 0.005,
     "normal_radius": 0.015,
     "num_seeds": 128,
+    "seed_spacing": 0.0,
     "num_rotations": 8,
     "approach_tilts": (0.0, -0.4, 0.4),
     "depths": (0.04, 0.03, 0.02, 0.01),

@@ -178,6 +178,39 @@ class GraspGroup:
         """
         return _panda_poses(self.rotation_matrices, self.translations, self.depths, tcp_offset)
 
+    def gripper_lines(
+        self, finger_depth: float = 0.05, finger_width: float = 0.01, approach_distance: float = 0.03
+    ) -> np.ndarray:
+        """(N, 36, 2, 3) line segments outlining each hand, for drawing (e.g. matplotlib's ``Line3DCollection``).
+
+        The 12 edges of each of the hand's three boxes (left finger, right finger, palm with the approach
+        corridor), as the detector models them: fingers ``finger_depth`` long ending ``depth`` beyond the
+        translation, ``finger_width`` thick, ``height`` tall; the palm ``finger_width`` thick behind them and
+        the corridor ``approach_distance`` further back. Defaults match the detector's defaults.
+        """
+        n = len(self)
+        w, h, d = self.widths, self.heights, self.depths
+        half, outer, hz = w / 2, w / 2 + finger_width, h / 2
+        base = d - finger_depth
+        back = base - finger_width - approach_distance
+        boxes = [
+            ((base, -outer, -hz), (d, -half, hz)),
+            ((base, half, -hz), (d, outer, hz)),
+            ((back, -outer, -hz), (base, outer, hz)),
+        ]
+        edges = [(a, b) for a in range(8) for b in range(a + 1, 8) if bin(a ^ b).count("1") == 1]
+        out = np.zeros((n, 36, 2, 3))
+        R, t = self.rotation_matrices, self.translations
+        for k, (lo, hi) in enumerate(boxes):
+            lo = np.stack(lo, -1)
+            hi = np.stack(hi, -1)
+            corners = np.stack([np.where([(c >> i) & 1 for i in range(3)], hi, lo) for c in range(8)], 1)
+            world = np.einsum("nij,ncj->nci", R, corners) + t[:, None, :]
+            for e, (a, b) in enumerate(edges):
+                out[:, 12 * k + e, 0] = world[:, a]
+                out[:, 12 * k + e, 1] = world[:, b]
+        return out
+
     def to_dicts(self) -> list[dict]:
         """AnyGrasp-server style dicts: ``translation``, ``rotation_matrix``, ``depth``, ``width``, ``score``,
         ``height``, ``object_id``."""

@@ -30,7 +30,7 @@ from fastapi.responses import JSONResponse, Response
 from starlette.concurrency import run_in_threadpool
 
 from .. import __version__
-from ..errors import FerrobotError
+from ..errors import FerrobotError, InternalError
 from ._detect import OPTIONS, detect_from_rgbd
 
 __all__ = ["create_app", "DEFAULT_MAX_BODY_BYTES"]
@@ -164,6 +164,8 @@ def _run(data: dict):
             workspace=None if lims is None else np.asarray(lims, dtype=np.float64).tolist(),
             **options,
         )
+    except InternalError:
+        raise  # a bug, not the client's fault: 500
     except FerrobotError as e:
         raise _BadRequest(400, f"{type(e).__name__}: {e}") from None
     except (ValueError, TypeError) as e:
