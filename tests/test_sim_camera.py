@@ -96,8 +96,8 @@ def test_cylinder_and_rotated_box_depth():
     # its front face at a constant depth
     w = ferrobot.World(ground=False)
     w.add_cylinder("cyl", 0.1, 0.4, [-0.3, 0, 2.0, 1, 0, 0, 0], static_=True)
+    w.add_box("box", [0.2, 0.2, 0.2], [0.3, 0, 2.0, np.cos(0.15), 0, 0, np.sin(0.15)], static_=True)  # 0.3 rad
     c, s_ = np.cos(0.3), np.sin(0.3)
-    w.add_box("box", [0.2, 0.2, 0.2], [0.3, 0, 2.0, c, 0, 0, s_], static_=True)
     cam = ferrobot.Camera(w, 120, 60, 100.0)
     out = cam.render(rgb=False)
     labels = {v: k for k, v in w.segmentation_labels.items()}
