@@ -13,7 +13,7 @@ use rapier3d::parry::query::Ray;
 use rapier3d::prelude::SharedShape;
 use rayon::prelude::*;
 
-use crate::convert::{from_pose, pose_is_finite, to_pose};
+use crate::convert::{pose_is_finite, to_pose};
 use crate::error::{Result, SimError};
 use crate::hooks::seg_of;
 use crate::world::World;
@@ -575,7 +575,6 @@ impl World {
                 .enumerate()
                 .for_each(|(v, (d, s))| render_row(v, d, s, &mut []));
         }
-        let _ = from_pose;
         Ok(Frame {
             width: w,
             height: h,
