@@ -90,6 +90,37 @@ def test_capsule_depth_along_the_centre_row():
     assert np.all(np.isinf(row[~finite]))
 
 
+def test_cylinder_and_rotated_box_depth():
+    # a cylinder whose axis points at the camera shows its cap: a disc of
+    # radius r at depth D - L / 2; a box rotated about the optical axis shows
+    # its front face at a constant depth
+    w = ferrobot.World(ground=False)
+    w.add_cylinder("cyl", 0.1, 0.4, [-0.3, 0, 2.0, 1, 0, 0, 0], static_=True)
+    w.add_box("box", [0.2, 0.2, 0.2], [0.3, 0, 2.0, np.cos(0.15), 0, 0, np.sin(0.15)], static_=True)  # 0.3 rad
+    c, s_ = np.cos(0.3), np.sin(0.3)
+    cam = ferrobot.Camera(w, 120, 60, 100.0)
+    out = cam.render(rgb=False)
+    labels = {v: k for k, v in w.segmentation_labels.items()}
+    d = rays(cam)
+    zc = 2.0 - 0.2
+    r2 = (d[..., 0] * zc + 0.3) ** 2 + (d[..., 1] * zc) ** 2
+    inside = r2 < (0.1 - 0.003) ** 2
+    outside_cap = r2 > (0.1 + 0.003) ** 2
+    assert inside.sum() > 40
+    assert np.allclose(out["depth"][inside], zc, atol=1e-5)
+    assert np.all(out["segmentation"][inside] == labels["cyl"])
+    # beyond the cap only the side (farther than the cap plane) can be seen
+    side = outside_cap & (out["segmentation"] == labels["cyl"])
+    assert np.all(out["depth"][side] > zc)
+    # pixels whose ray meets the plane z = 1.9 inside the rotated square see the front face
+    px, py = d[..., 0] * 1.9 - 0.3, d[..., 1] * 1.9
+    lx, ly = c * px + s_ * py, -s_ * px + c * py
+    face = (np.abs(lx) < 0.1 - 0.003) & (np.abs(ly) < 0.1 - 0.003)
+    assert face.sum() > 40
+    assert np.all(out["segmentation"][face] == labels["box"])
+    assert np.allclose(out["depth"][face], 1.9, atol=1e-5)
+
+
 def test_box_face_depth_and_occlusion():
     w = ferrobot.World(ground=False)
     w.add_box("back", [2.0, 2.0, 0.1], [0, 0, 2.05, 1, 0, 0, 0], static_=True)

@@ -242,3 +242,13 @@ def test_invalid_inputs():
     w.add_box("fixed", [0.1, 0.1, 0.1], static_=True)
     with pytest.raises(errors.InvalidArgumentError, match="static"):
         w.set_object_velocity("fixed", [1, 0, 0])
+
+
+@pytest.mark.parametrize(("boxes", "friction_in_stabilization"), [(4, True), (6, False)])
+def test_stack_stays_standing(boxes, friction_in_stabilization):
+    w = ferrobot.World(friction_in_stabilization=friction_in_stabilization)
+    for i in range(boxes):
+        w.add_box(f"b{i}", [0.05] * 3, [0, 0, 0.025 + 0.05 * i, 1, 0, 0, 0], mass=0.2)
+    w.step(int(10 / w.dt))
+    top = w.get_object_pose(f"b{boxes - 1}")[:3, 3]
+    assert np.linalg.norm(top - [0, 0, 0.025 + 0.05 * (boxes - 1)]) < 3e-3

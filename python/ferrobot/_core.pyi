@@ -192,7 +192,10 @@ class World:
         *,
         contact_frequency: float = 100.0,
         allowed_penetration: float = 0.001,
-    ) -> None: ...
+        contact_damping_ratio: float = 1.0,
+        friction_in_stabilization: bool = True,
+    ) -> None:
+        """``friction_in_stabilization=True`` holds grasped objects to < 0.5 mm but topples stacks of 6+ boxes."""
     @property
     def dt(self) -> float: ...
     @property

@@ -136,7 +136,7 @@ impl PyWorld {
     /// A new world: time step `dt` (s), `gravity` (m/s², z up),
     /// `solver_iterations`, a ground plane at z = 0 when `ground`.
     #[new]
-    #[pyo3(signature = (dt=1.0/240.0, gravity=None, solver_iterations=4, ground=true, ground_friction=0.8, *, contact_frequency=ferrobot_sim::world::CONTACT_FREQUENCY, allowed_penetration=ferrobot_sim::world::ALLOWED_PENETRATION))]
+    #[pyo3(signature = (dt=1.0/240.0, gravity=None, solver_iterations=4, ground=true, ground_friction=0.8, *, contact_frequency=ferrobot_sim::world::CONTACT_FREQUENCY, allowed_penetration=ferrobot_sim::world::ALLOWED_PENETRATION, contact_damping_ratio=ferrobot_sim::world::CONTACT_DAMPING_RATIO, friction_in_stabilization=true))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         dt: f64,
@@ -146,6 +146,8 @@ impl PyWorld {
         ground_friction: f64,
         contact_frequency: f64,
         allowed_penetration: f64,
+        contact_damping_ratio: f64,
+        friction_in_stabilization: bool,
     ) -> PyResult<Self> {
         guard(|| {
             let gravity = match gravity {
@@ -160,6 +162,8 @@ impl PyWorld {
                 ground_friction,
                 contact_frequency,
                 allowed_penetration,
+                contact_damping_ratio,
+                friction_in_stabilization,
             })
             .map_err(sim_err)?;
             Ok(Self {

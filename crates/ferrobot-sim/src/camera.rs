@@ -7,12 +7,13 @@
 //! (pixel centres at integer coordinates, as in OpenCV).
 
 use nalgebra::Isometry3;
+use rapier3d::glamx::Mat3;
 use rapier3d::math::{Pose, Vector};
 use rapier3d::parry::query::Ray;
 use rapier3d::prelude::SharedShape;
 use rayon::prelude::*;
 
-use crate::convert::{from_pose, pose_is_finite, to_pose};
+use crate::convert::{pose_is_finite, to_pose};
 use crate::error::{Result, SimError};
 use crate::hooks::seg_of;
 use crate::world::World;
@@ -163,9 +164,121 @@ struct Item {
     /// Half-space: outward normal and offset in the camera frame
     /// (points x with n.x <= d are inside).
     plane: Option<(Vector, f32)>,
-    /// Capsule: segment end points in the camera frame and radius (cast
-    /// analytically; parry casts capsules through GJK, ten times slower).
-    capsule: Option<(Vector, Vector, f32)>,
+    /// Analytic ray cast for common primitives (parry casts capsules and
+    /// cylinders through GJK, ten times slower, and every cast through
+    /// dynamic dispatch and a pose inversion).
+    fast: Fast,
+}
+
+/// A primitive placed in the camera frame for analytic ray casts.
+#[derive(Clone, Copy)]
+enum Fast {
+    /// Use parry.
+    None,
+    /// Capsule: segment end points and radius.
+    Capsule(Vector, Vector, f32),
+    /// Sphere: centre and radius.
+    Ball(Vector, f32),
+    /// Box: camera-to-local rotation, camera origin in the local frame, half extents.
+    Cuboid(Mat3, Vector, Vector),
+    /// Cylinder along local y: camera-to-local rotation, camera origin in
+    /// the local frame, half height, radius.
+    Cylinder(Mat3, Vector, f32, f32),
+}
+
+impl Fast {
+    fn of(shape: &dyn rapier3d::parry::shape::Shape, pose: &Pose) -> Self {
+        let to_local = Mat3::from_quat(pose.rotation.inverse());
+        let origin = to_local * -pose.translation;
+        if let Some(c) = shape.as_capsule() {
+            Self::Capsule(
+                pose.transform_point(c.segment.a),
+                pose.transform_point(c.segment.b),
+                c.radius,
+            )
+        } else if let Some(b) = shape.as_ball() {
+            Self::Ball(pose.translation, b.radius)
+        } else if let Some(c) = shape.as_cuboid() {
+            Self::Cuboid(to_local, origin, c.half_extents)
+        } else if let Some(c) = shape.as_cylinder() {
+            Self::Cylinder(to_local, origin, c.half_height, c.radius)
+        } else {
+            Self::None
+        }
+    }
+
+    /// `Some(Some((t, normal)))` for a hit, `Some(None)` for a miss, `None`
+    /// when the shape has no analytic cast.
+    #[inline]
+    fn cast(&self, dir: Vector) -> Option<Option<(f32, Vector)>> {
+        Some(match *self {
+            Self::None => return None,
+            Self::Capsule(pa, pb, r) => ray_capsule(dir, pa, pb, r),
+            Self::Ball(c, r) => {
+                let len = dir.length();
+                let rd = dir / len;
+                ray_sphere(rd, c, r).map(|t| (t / len, (rd * t - c).normalize_or_zero()))
+            }
+            Self::Cuboid(rot, o, he) => {
+                let d = rot * dir;
+                let inv = Vector::ONE / d;
+                let t1 = (-he - o) * inv;
+                let t2 = (he - o) * inv;
+                let tmin_v = t1.min(t2);
+                let tmin = tmin_v.max_element();
+                let tmax = t1.max(t2).min_element();
+                if tmin > tmax || tmin <= 0.0 {
+                    None
+                } else {
+                    let axis = if tmin == tmin_v.x {
+                        0
+                    } else if tmin == tmin_v.y {
+                        1
+                    } else {
+                        2
+                    };
+                    let mut n = Vector::ZERO;
+                    n[axis] = -d[axis].signum();
+                    Some((tmin, rot.transpose() * n))
+                }
+            }
+            Self::Cylinder(rot, o, hh, r) => {
+                ray_cylinder(rot * dir, o, hh, r).map(|(t, n)| (t, rot.transpose() * n))
+            }
+        })
+    }
+}
+
+/// First hit of `o + t d` (local frame) with a capped cylinder along y;
+/// `None` when missed or when `o` is inside.
+fn ray_cylinder(d: Vector, o: Vector, hh: f32, r: f32) -> Option<(f32, Vector)> {
+    if o.x * o.x + o.z * o.z <= r * r && o.y.abs() <= hh {
+        return None;
+    }
+    let mut best: Option<(f32, Vector)> = None;
+    let a = d.x * d.x + d.z * d.z;
+    if a > 1e-12 {
+        let b = o.x * d.x + o.z * d.z;
+        let c = o.x * o.x + o.z * o.z - r * r;
+        let h = b * b - a * c;
+        if h >= 0.0 {
+            let t = (-b - h.sqrt()) / a;
+            let y = o.y + t * d.y;
+            if t > 0.0 && y.abs() <= hh {
+                best = Some((t, Vector::new(o.x + t * d.x, 0.0, o.z + t * d.z) / r));
+            }
+        }
+    }
+    if d.y != 0.0 {
+        let cap = if d.y > 0.0 { -hh } else { hh };
+        let t = (cap - o.y) / d.y;
+        let x = o.x + t * d.x;
+        let z = o.z + t * d.z;
+        if t > 0.0 && x * x + z * z <= r * r && best.is_none_or(|(tb, _)| t < tb) {
+            best = Some((t, Vector::new(0.0, cap.signum(), 0.0)));
+        }
+    }
+    best
 }
 
 /// First intersection `t` (in units of `dir`, origin at the camera) of the
@@ -282,64 +395,71 @@ impl World {
                 _ => *c.position(),
             };
             let pose = world_cam * world_pose;
+            let seg = seg_of(c.user_data);
             let shape = c.shared_shape().clone();
-            if let Some(h) = shape.as_halfspace() {
-                let n = pose.rotation * h.normal;
+            if let Some(hs) = shape.as_halfspace() {
+                let n = pose.rotation * hs.normal;
                 let d = n.dot(pose.translation);
                 items.push(Item {
                     shape,
                     pose,
-                    seg: seg_of(c.user_data),
+                    seg,
                     rect: full,
                     mins: Vector::splat(f32::NEG_INFINITY),
                     maxs: Vector::splat(f32::INFINITY),
                     plane: Some((n, d)),
-                    capsule: None,
+                    fast: Fast::None,
                 });
                 continue;
             }
-            let aabb = shape.compute_aabb(&pose);
-            let rect = if aabb.maxs.z <= near || aabb.mins.z >= far {
-                None
-            } else if aabb.mins.z <= near {
-                Some(full)
-            } else {
-                let (mut u0, mut u1, mut v0, mut v1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
-                for corner in aabb.vertices() {
-                    let z = corner.z as f64;
-                    let u = intr.fx * corner.x as f64 / z + intr.cx;
-                    let v = intr.fy * corner.y as f64 / z + intr.cy;
-                    u0 = u0.min(u);
-                    u1 = u1.max(u);
-                    v0 = v0.min(v);
-                    v1 = v1.max(v);
-                }
-                let r = (
-                    (u0.floor() as i64).max(0),
-                    (u1.ceil() as i64).min(w as i64 - 1),
-                    (v0.floor() as i64).max(0),
-                    (v1.ceil() as i64).min(h as i64 - 1),
-                );
-                (r.0 <= r.1 && r.2 <= r.3).then_some(r)
+            // Compounds (cylinders along z, convex decompositions) become
+            // one item per part: tighter bounds, analytic casts.
+            let parts: Vec<(Pose, SharedShape)> = match shape.as_compound() {
+                Some(comp) => comp
+                    .shapes()
+                    .iter()
+                    .map(|(p, s)| (pose * *p, s.clone()))
+                    .collect(),
+                None => vec![(pose, shape)],
             };
-            if let Some(rect) = rect {
-                let capsule = shape.as_capsule().map(|c| {
-                    (
-                        pose.transform_point(c.segment.a),
-                        pose.transform_point(c.segment.b),
-                        c.radius,
-                    )
-                });
-                items.push(Item {
-                    shape,
-                    pose,
-                    seg: seg_of(c.user_data),
-                    rect,
-                    mins: aabb.mins,
-                    maxs: aabb.maxs,
-                    plane: None,
-                    capsule,
-                });
+            for (pose, shape) in parts {
+                let aabb = shape.compute_aabb(&pose);
+                let rect = if aabb.maxs.z <= near || aabb.mins.z >= far {
+                    None
+                } else if aabb.mins.z <= near {
+                    Some(full)
+                } else {
+                    let (mut u0, mut u1, mut v0, mut v1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+                    for corner in aabb.vertices() {
+                        let z = corner.z as f64;
+                        let u = intr.fx * corner.x as f64 / z + intr.cx;
+                        let v = intr.fy * corner.y as f64 / z + intr.cy;
+                        u0 = u0.min(u);
+                        u1 = u1.max(u);
+                        v0 = v0.min(v);
+                        v1 = v1.max(v);
+                    }
+                    let r = (
+                        (u0.floor() as i64).max(0),
+                        (u1.ceil() as i64).min(w as i64 - 1),
+                        (v0.floor() as i64).max(0),
+                        (v1.ceil() as i64).min(h as i64 - 1),
+                    );
+                    (r.0 <= r.1 && r.2 <= r.3).then_some(r)
+                };
+                if let Some(rect) = rect {
+                    let fast = Fast::of(shape.as_ref(), &pose);
+                    items.push(Item {
+                        shape,
+                        pose,
+                        seg,
+                        rect,
+                        mins: aabb.mins,
+                        maxs: aabb.maxs,
+                        plane: None,
+                        fast,
+                    });
+                }
             }
         }
         // Half-spaces first (analytic), then bodies front to back so that a
@@ -406,8 +526,8 @@ impl World {
                     if ui < it.rect.0 || ui > it.rect.1 || !slab(inv, it.mins, it.maxs, best) {
                         continue;
                     }
-                    let t = match it.capsule {
-                        Some((pa, pb, r)) => ray_capsule(dir, pa, pb, r).map(|(t, _)| t),
+                    let t = match it.fast.cast(dir) {
+                        Some(hit) => hit.map(|(t, _)| t),
                         None => it.shape.cast_ray(&it.pose, &ray, best, true),
                     };
                     if let Some(t) = t
@@ -422,9 +542,9 @@ impl World {
                     drow[u] = best;
                     srow[u] = it.seg;
                     if !crow.is_empty() {
-                        let normal = match (it.plane, it.capsule) {
+                        let normal = match (it.plane, it.fast.cast(dir)) {
                             (Some((n, _)), _) => Some(n),
-                            (_, Some((pa, pb, r))) => ray_capsule(dir, pa, pb, r).map(|(_, n)| n),
+                            (_, Some(hit)) => hit.map(|(_, n)| n),
                             _ => it
                                 .shape
                                 .cast_ray_and_get_normal(&it.pose, &ray, best * 1.001 + 1e-4, true)
@@ -455,7 +575,6 @@ impl World {
                 .enumerate()
                 .for_each(|(v, (d, s))| render_row(v, d, s, &mut []));
         }
-        let _ = from_pose;
         Ok(Frame {
             width: w,
             height: h,

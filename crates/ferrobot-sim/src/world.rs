@@ -37,6 +37,14 @@ pub struct WorldConfig {
     pub contact_frequency: f64,
     /// Penetration depth (m) the solver tolerates before pushing bodies apart.
     pub allowed_penetration: f64,
+    /// Damping ratio of the contact springs (Rapier's own default is 10).
+    pub contact_damping_ratio: f64,
+    /// Whether friction also acts while penetrations are corrected (the
+    /// stabilisation pass). On (default): a grasped box drifts < 0.5 mm
+    /// instead of 2-5 mm, but stacks taller than about 5 boxes slowly
+    /// topple (measured: 4 boxes hold for 10 s, 6 fall); turn it off for
+    /// tall stacks.
+    pub friction_in_stabilization: bool,
 }
 
 impl Default for WorldConfig {
@@ -49,6 +57,8 @@ impl Default for WorldConfig {
             ground_friction: 0.8,
             contact_frequency: CONTACT_FREQUENCY,
             allowed_penetration: ALLOWED_PENETRATION,
+            contact_damping_ratio: CONTACT_DAMPING_RATIO,
+            friction_in_stabilization: true,
         }
     }
 }
@@ -57,7 +67,7 @@ impl Default for WorldConfig {
 /// sized for large piles, too soft for fingers squeezing an object.
 pub const CONTACT_FREQUENCY: f64 = 100.0;
 /// Damping ratio of the contact springs.
-pub const CONTACT_DAMPING_RATIO: f32 = 1.0;
+pub const CONTACT_DAMPING_RATIO: f64 = 1.0;
 /// Default allowed penetration (m); Rapier's own default is 5 mm at a
 /// length unit of 1 m, too much for grasping centimetre-sized objects.
 pub const ALLOWED_PENETRATION: f64 = 0.001;
@@ -163,6 +173,7 @@ impl World {
         for (n, v) in [
             ("contact_frequency", config.contact_frequency),
             ("allowed_penetration", config.allowed_penetration),
+            ("contact_damping_ratio", config.contact_damping_ratio),
         ] {
             if !(v.is_finite() && v > 0.0) {
                 return Err(SimError::InvalidArgument(format!(
@@ -177,9 +188,9 @@ impl World {
         // Critically damped contacts and friction in the stabilisation pass:
         // with Rapier's defaults (zeta = 10, friction only in the relax pass)
         // a squeezed object creeps out of a gripper at ~1 cm/s.
-        params.contact_softness.damping_ratio = CONTACT_DAMPING_RATIO;
-        params.static_contact_softness.damping_ratio = CONTACT_DAMPING_RATIO;
-        params.friction_in_bias_pass = true;
+        params.contact_softness.damping_ratio = config.contact_damping_ratio as f32;
+        params.static_contact_softness.damping_ratio = config.contact_damping_ratio as f32;
+        params.friction_in_bias_pass = config.friction_in_stabilization;
         let mut world = Self {
             config,
             params,
