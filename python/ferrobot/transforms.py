@@ -19,6 +19,7 @@ __all__ = [
     "quat_xyzw_to_wxyz",
     "world_to_base",
     "base_to_world",
+    "as_matrix",
 ]
 
 
@@ -104,19 +105,15 @@ def quat_xyzw_to_wxyz(q) -> np.ndarray:
     return np.concatenate([q[..., 3:], q[..., :3]], axis=-1)
 
 
-def _as_matrix(pose, name: str) -> tuple[np.ndarray, bool]:
+def as_matrix(pose, name: str) -> tuple[np.ndarray, bool]:
     """4x4 matrices (..., 4, 4) from 7-vectors or matrices; True if given as 7-vectors."""
     a = np.asarray(pose, dtype=np.float64)
+    if not np.all(np.isfinite(a)):
+        raise NonFiniteError(f"{name}: non-finite value")
     if a.shape[-1:] == (7,):
         return pose_to_matrix(a), True
     if a.shape[-2:] == (4, 4):
-        if not np.all(np.isfinite(a)):
-            from .errors import NonFiniteError
-
-            raise NonFiniteError(f"{name}: non-finite value")
         return a, False
-    from .errors import ShapeError
-
     raise ShapeError(f"{name}: expected (..., 7) [x, y, z, qw, qx, qy, qz] or (..., 4, 4), got {a.shape}")
 
 
@@ -128,15 +125,15 @@ def world_to_base(pose_world, base_pose_world) -> np.ndarray:
     matrices, batched over leading dimensions; the result has the form of
     ``pose_world``.
     """
-    p, as7 = _as_matrix(pose_world, "pose_world")
-    b, _ = _as_matrix(base_pose_world, "base_pose_world")
+    p, as7 = as_matrix(pose_world, "pose_world")
+    b, _ = as_matrix(base_pose_world, "base_pose_world")
     out = np.linalg.inv(b) @ p
     return matrix_to_pose(out) if as7 else out
 
 
 def base_to_world(pose_base, base_pose_world) -> np.ndarray:
     """Poses given in the robot base frame, expressed in the world frame (inverse of :func:`world_to_base`)."""
-    p, as7 = _as_matrix(pose_base, "pose_base")
-    b, _ = _as_matrix(base_pose_world, "base_pose_world")
+    p, as7 = as_matrix(pose_base, "pose_base")
+    b, _ = as_matrix(base_pose_world, "base_pose_world")
     out = b @ p
     return matrix_to_pose(out) if as7 else out

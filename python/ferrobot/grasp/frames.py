@@ -11,22 +11,20 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import transforms
 from .._core import grasp_camera_to_world
-from ..errors import NonFiniteError, ShapeError
-from ..transforms import pose_to_matrix
+from ..errors import ShapeError
+from ..transforms import as_matrix
 
 __all__ = ["camera_to_world", "world_to_base", "transform_points"]
 
 
 def _matrix(pose, name: str) -> np.ndarray:
-    p = np.asarray(pose, dtype=np.float64)
-    if p.shape == (7,):
-        return pose_to_matrix(p)
-    if p.shape != (4, 4):
-        raise ShapeError(f"{name}: expected a 4x4 matrix or [x, y, z, qw, qx, qy, qz], got shape {p.shape}")
-    if not np.all(np.isfinite(p)):
-        raise NonFiniteError(f"{name}: contains NaN or infinite values")
-    return p
+    """One 4x4 matrix from a 4x4 matrix or a 7-vector (checked by ferrobot.transforms)."""
+    m, _ = as_matrix(pose, name)
+    if m.shape != (4, 4):
+        raise ShapeError(f"{name}: expected a 4x4 matrix or [x, y, z, qw, qx, qy, qz], got shape {np.shape(pose)}")
+    return m
 
 
 def camera_to_world(camera_pose, convention: str = "opencv") -> np.ndarray:
@@ -36,11 +34,7 @@ def camera_to_world(camera_pose, convention: str = "opencv") -> np.ndarray:
 
 def world_to_base(base_pose) -> np.ndarray:
     """4x4 transform from world coordinates to the robot base frame, given the base's world pose."""
-    m = _matrix(base_pose, "base_pose")
-    out = np.eye(4)
-    out[:3, :3] = m[:3, :3].T
-    out[:3, 3] = -m[:3, :3].T @ m[:3, 3]
-    return out
+    return transforms.world_to_base(np.eye(4), _matrix(base_pose, "base_pose"))
 
 
 def transform_points(points, transform) -> np.ndarray:
