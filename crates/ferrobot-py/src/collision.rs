@@ -119,6 +119,30 @@ impl PyCollisionWorld {
         Self::default()
     }
 
+    /// The obstacles of a simulated `World` at their current poses, in the
+    /// frame of `base_pose` (a robot base's pose in the simulation; identity
+    /// by default); the ground plane becomes a slab named "ground"; objects
+    /// whose name contains one of the `ignore` substrings are left out.
+    #[staticmethod]
+    #[pyo3(signature = (world, ignore=None, base_pose=None))]
+    fn from_sim(
+        world: &Bound<'_, PyAny>,
+        ignore: Option<&Bound<'_, PyAny>>,
+        base_pose: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
+        guard(|| {
+            if world.cast::<crate::sim::PyWorld>().is_err() {
+                return Err(crate::errors::InvalidArgumentError::new_err(
+                    "world: expected a simulated ferrobot.World",
+                ));
+            }
+            let ignore = crate::scene::ignore_list(ignore)?;
+            Ok(Self {
+                inner: crate::scene::world_from_any(world, ignore, base_pose, &[])?,
+            })
+        })
+    }
+
     /// Reads a MoveIt planning-scene YAML file (quaternions x, y, z, w in that format).
     #[staticmethod]
     fn from_moveit_scene(path: std::path::PathBuf) -> PyResult<Self> {

@@ -9,6 +9,7 @@ mod errors;
 mod grasp;
 mod model;
 mod planning;
+mod scene;
 mod sim;
 
 use pyo3::prelude::*;

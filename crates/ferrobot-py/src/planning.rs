@@ -400,6 +400,21 @@ impl PyPlanner {
             .map_err(planning_err)
     }
 
+    /// A full configuration (`dof_names` order) from a configuration in
+    /// any accepted order (locked joints at their locked values).
+    fn full_config(
+        &self,
+        q: &Bound<'_, PyAny>,
+        joint_names: Option<Vec<String>>,
+    ) -> PyResult<Vec<f64>> {
+        let order = self.order(joint_names)?;
+        let (active, full) = self.config(q, "q", order.as_ref())?;
+        Ok(match full {
+            Some(f) => f,
+            None => self.inner.space().expand(&active),
+        })
+    }
+
     /// Reads a configuration: in `order` if given; else a full vector in
     /// `dof_names` order (which also sets the locked joints) or the planned
     /// joints in `joint_names` order. Returns (active, full if given).
@@ -571,9 +586,109 @@ impl PyPlanner {
         })
     }
 
-    /// Replaces the planner's world (robot base frame; a copy is taken).
-    fn update_world(&mut self, world: &PyCollisionWorld) {
-        self.inner.update_world(world.inner.clone());
+    /// Replaces the planner's world. `world` is a `CollisionWorld` (robot
+    /// base frame; a copy is taken) or a simulated `World`, whose objects
+    /// are taken at their current poses and expressed in the frame of
+    /// `base_pose` (the robot base's pose in the simulation; identity by
+    /// default), with its ground plane as a slab named "ground". Objects
+    /// whose name contains one of the `ignore` substrings are left out, and
+    /// so are objects attached to the robot (by name).
+    #[pyo3(signature = (world, ignore=None, base_pose=None))]
+    fn update_world(
+        &mut self,
+        world: &Bound<'_, PyAny>,
+        ignore: Option<&Bound<'_, PyAny>>,
+        base_pose: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<()> {
+        guard(|| {
+            let ignore = crate::scene::ignore_list(ignore)?;
+            let attached: Vec<String> = self
+                .inner
+                .checker()
+                .attached()
+                .iter()
+                .map(|a| a.name.clone())
+                .collect();
+            let w = crate::scene::world_from_any(world, ignore, base_pose, &attached)?;
+            self.inner.update_world(w);
+            Ok(())
+        })
+    }
+
+    /// Attaches world object `name` to `link` (default: the planner's
+    /// end-effector link) at configuration `q`, keeping its pose relative to
+    /// the link: it leaves the world, is covered by spheres and moves with
+    /// the link (a grasped object). `touch_links` may touch it (default:
+    /// `link` and every link below it, e.g. the fingers).
+    #[pyo3(signature = (name, q, link=None, touch_links=None, joint_names=None))]
+    fn attach_world_object(
+        &mut self,
+        name: &str,
+        q: &Bound<'_, PyAny>,
+        link: Option<&str>,
+        touch_links: Option<Vec<String>>,
+        joint_names: Option<Vec<String>>,
+    ) -> PyResult<()> {
+        guard(|| {
+            let full = self.full_config(q, joint_names)?;
+            let model = self.inner.model().clone();
+            let li = match link {
+                Some(l) => model.link(l).map_err(model_err)?,
+                None => self.inner.ik_link(),
+            };
+            let touch = match touch_links {
+                Some(t) => t,
+                None => model
+                    .links()
+                    .iter()
+                    .enumerate()
+                    .filter(|(i, _)| {
+                        *i == li
+                            || model
+                                .path_to(*i)
+                                .iter()
+                                .any(|&j| model.joints()[j].parent == li)
+                    })
+                    .map(|(_, l)| l.name.clone())
+                    .collect(),
+            };
+            let touch: Vec<&str> = touch.iter().map(String::as_str).collect();
+            let link_name = model.links()[li].name.clone();
+            self.inner
+                .checker_mut()
+                .attach_world_object(name, &link_name, &full, &touch)
+                .map_err(collision_err)
+        })
+    }
+
+    /// Detaches `name`; with `q` it returns to the world at its pose at `q`,
+    /// without it is dropped.
+    #[pyo3(signature = (name, q=None, joint_names=None))]
+    fn detach(
+        &mut self,
+        name: &str,
+        q: Option<&Bound<'_, PyAny>>,
+        joint_names: Option<Vec<String>>,
+    ) -> PyResult<()> {
+        guard(|| {
+            let full = q.map(|q| self.full_config(q, joint_names)).transpose()?;
+            self.inner
+                .checker_mut()
+                .detach(name, full.as_deref())
+                .map(|_| ())
+                .map_err(collision_err)
+        })
+    }
+
+    /// Names of the objects attached to the robot.
+    #[getter]
+    fn attached(&self) -> Vec<String> {
+        self.inner
+            .checker()
+            .attached()
+            .iter()
+            .map(|a| a.name.clone())
+            .collect()
     }
 
     /// A copy of the planner's world.

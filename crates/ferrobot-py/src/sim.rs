@@ -36,13 +36,13 @@ pub fn sim_err(e: SimError) -> PyErr {
     }
 }
 
-type Shared = Arc<Mutex<World>>;
+pub(crate) type Shared = Arc<Mutex<World>>;
 /// Two 3-vectors (linear, angular).
 type VecPair<'py> = (Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>);
 /// Points (N, 3) and their flat pixel indices (N,).
 type PointsAndPixels<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray1<i64>>);
 
-fn lock(w: &Shared) -> PyResult<MutexGuard<'_, World>> {
+pub(crate) fn lock(w: &Shared) -> PyResult<MutexGuard<'_, World>> {
     w.lock()
         .map_err(|_| InternalError::new_err("the world's lock is poisoned by an earlier panic"))
 }
@@ -118,6 +118,11 @@ fn object_desc(
 }
 
 impl PyWorld {
+    /// The shared world (for bindings that read it, such as scene sync).
+    pub(crate) fn shared(&self) -> Shared {
+        self.inner.clone()
+    }
+
     fn add(&self, desc: ObjectDesc) -> PyResult<String> {
         guard(|| {
             let name = desc.name.clone();
