@@ -1,0 +1,26 @@
+"""Pick-and-place end to end: scenes, the episode workflow, reports and batch runs (``ferrobot demo``).
+
+    from ferrobot.pipeline import PickPlace, random_scene
+    result = PickPlace().run(random_scene(seed=0))
+    print(result.success, result.failed_stage, result.reason)
+"""
+
+from __future__ import annotations
+
+from .pick_place import STAGES, EpisodeResult, PickPlace, PickPlaceConfig, StageFailure, StageResult
+from .scene import HOME, TABLE_TOP, ObjectSpec, SceneSpec, build_world, random_scene
+
+__all__ = [
+    "HOME",
+    "STAGES",
+    "TABLE_TOP",
+    "EpisodeResult",
+    "ObjectSpec",
+    "PickPlace",
+    "PickPlaceConfig",
+    "SceneSpec",
+    "StageFailure",
+    "StageResult",
+    "build_world",
+    "random_scene",
+]

@@ -1,0 +1,557 @@
+"""Pick-and-place from a camera frame to an object placed: the seed workflow as one API.
+
+The steps people write around Isaac Sim + cuRobo + AnyGrasp, each a method of :class:`PickPlace`:
+
+1. ``perceive``: the camera renders RGB-D and segmentation.
+2. ``detect``: grasps on the target's pixels (``ferrobot.grasp.detect_from_rgbd``), camera -> world -> base.
+3. ``select``: collision-free IK goal sets; keep the best-scored grasp whose pre-grasp (8 cm back along the
+   approach) and grasp poses have IK solutions free of collision (the target and the table are ignored
+   for the grasp pose, where the fingers must touch them).
+4. ``plan/execute`` pre-grasp, approach, close the gripper, lift (the target attached to the planner's robot),
+   move above the place location, lower, open, retreat, each a time-parametrised trajectory executed by the
+   simulated robot's joint drives.
+5. ``verify``: the object rests at the place location.
+
+Every stage's outcome and time land in an :class:`EpisodeResult`; a failure names its stage and reason
+(no traceback). The planner's world is synced from the simulation before each motion, with ignore lists
+(cuRobo's pattern).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .. import _core, grasp, robots, transforms
+from .scene import HOME, REGION, ROBOT_MOUNT, TABLE_TOP, SceneSpec, build_world
+
+__all__ = ["PickPlace", "PickPlaceConfig", "EpisodeResult", "StageResult", "StageFailure", "STAGES"]
+
+#: The stages of an episode, in order.
+STAGES = (
+    "scene",
+    "perceive",
+    "detect",
+    "select",
+    "pregrasp",
+    "approach",
+    "grasp",
+    "lift",
+    "transport",
+    "lower",
+    "release",
+    "retreat",
+    "verify",
+)
+
+
+class StageFailure(Exception):
+    """A stage could not do its job: ``stage`` and ``reason`` say which and why."""
+
+    def __init__(self, stage: str, reason: str):
+        super().__init__(f"{stage}: {reason}")
+        self.stage = stage
+        self.reason = reason
+
+
+@dataclass
+class PickPlaceConfig:
+    """Settings of the pick-and-place workflow (SI units)."""
+
+    #: Distance of the pre-grasp pose back along the approach (m).
+    pregrasp_distance: float = 0.08
+    #: Height of the lift above the grasp, and of the carry above the place location (m).
+    lift_height: float = 0.12
+    #: Distance of the retreat back along the approach after releasing (m).
+    retreat_distance: float = 0.10
+    #: Largest angle (rad) between a grasp's approach and straight down that is tried.
+    max_approach_angle: float = math.radians(60.0)
+    #: Length scale (m) of the ranking's penalty for grasps away from the target's centroid.
+    centre_scale: float = 0.02
+    #: How many of the best-ranked grasps are tried for reachability.
+    max_candidates: int = 24
+    #: Height (m) above resting on the table at which the object is released.
+    place_clearance: float = 0.008
+    #: Squeezing force per finger (N).
+    grip_force: float = 40.0
+    #: Placed successfully if the object's centre is this close to the place location in x, y (m).
+    place_tolerance: float = 0.03
+    #: Velocity scale of planned trajectories (1 = the robot's limits).
+    velocity_scale: float = 0.5
+    #: Acceleration scale of planned trajectories.
+    acceleration_scale: float = 0.5
+    #: Planning time limit per motion (s).
+    plan_time_limit: float = 1.0
+    #: Grasp detection options (see ``ferrobot.grasp.OPTIONS``). Table-top picking approaches from above:
+    #: hands are searched with the approach along each seed's normal (no tilted variants).
+    detect_options: dict = field(default_factory=lambda: {"approach_tilts": (0.0,)})
+    #: Measured joint positions beyond a joint limit by at most this much (rad) are moved onto the limit
+    #: before planning (drives settle a hair past a limit); larger violations fail the stage.
+    limit_tolerance: float = 1e-3
+
+
+@dataclass
+class StageResult:
+    name: str
+    ok: bool
+    time_s: float
+    detail: dict = field(default_factory=dict)
+    reason: str = ""
+
+
+@dataclass
+class EpisodeResult:
+    """Outcome of one episode: success, the failing stage and reason if any, per-stage results."""
+
+    seed: int
+    success: bool = False
+    failed_stage: str | None = None
+    reason: str = ""
+    stages: list[StageResult] = field(default_factory=list)
+    wall_time_s: float = 0.0
+    sim_time_s: float = 0.0
+    place_error_m: float | None = None
+    target: str = ""
+
+    def to_dict(self) -> dict:
+        return {
+            "seed": self.seed,
+            "success": self.success,
+            "failed_stage": self.failed_stage,
+            "reason": self.reason,
+            "target": self.target,
+            "wall_time_s": self.wall_time_s,
+            "sim_time_s": self.sim_time_s,
+            "place_error_m": self.place_error_m,
+            "stages": [
+                {"name": s.name, "ok": s.ok, "time_s": s.time_s, "reason": s.reason, **s.detail} for s in self.stages
+            ],
+        }
+
+
+class Recorder:
+    """Collects what the robot did (joint positions per physics step, labelled by stage) and, when a
+    ``frame_camera`` is given, RGB frames every ``frame_every`` steps for an animation."""
+
+    def __init__(self, world, robot, frame_camera=None, frame_every: int = 16):
+        self.world, self.robot = world, robot
+        self.camera = frame_camera
+        self.every = frame_every
+        self.times: list[float] = []
+        self.q: list[np.ndarray] = []
+        self.desired: list[np.ndarray] = []
+        self.stage: list[str] = []
+        self.frames: list[tuple[float, str, np.ndarray]] = []
+        self._since_frame = frame_every
+
+    def _frame(self, stage: str) -> None:
+        if self.camera is not None and self._since_frame >= self.every:
+            self.frames.append((self.world.time, stage, self.camera.render(rgb=True)["rgb"]))
+            self._since_frame = 0
+
+    def snapshot(self, stage: str) -> None:
+        self._since_frame = self.every
+        self._frame(stage)
+
+    def execute(self, positions: np.ndarray, velocities: np.ndarray, joint_indices: list[int], stage: str):
+        """Runs (N, k) position targets through the drives, one per physics step."""
+        dt = self.world.dt
+        chunk = self.every if self.camera is not None else len(positions)
+        errs = []
+        for s in range(0, len(positions), chunk):
+            rep = self.robot.execute_trajectory(
+                positions[s : s + chunk], dt, velocities=velocities[s : s + chunk], joint_indices=joint_indices
+            )
+            self._log(rep, joint_indices, stage)
+            errs.append(rep["max_error"])
+            self._since_frame += len(positions[s : s + chunk])
+            self._frame(stage)
+        return float(np.max(errs)) if errs else 0.0
+
+    def wait(self, seconds: float, stage: str) -> None:
+        """Steps the world for ``seconds`` holding the current targets."""
+        steps = max(1, int(round(seconds / self.world.dt)))
+        chunk = self.every if self.camera is not None else steps
+        done = 0
+        while done < steps:
+            n = min(chunk, steps - done)
+            self.world.step(n)
+            done += n
+            self.times.append(self.world.time)
+            self.q.append(self.robot.get_joint_positions())
+            self.desired.append(self.robot.get_joint_position_targets())
+            self.stage.append(stage)
+            self._since_frame += n
+            self._frame(stage)
+
+    def _log(self, rep: dict, joint_indices: list[int], stage: str) -> None:
+        times = rep["times"]
+        if len(times) == 0:
+            return
+        end = self.world.time
+        full = self.robot.get_joint_positions()
+        target = self.robot.get_joint_position_targets()
+        for k in range(len(times)):
+            row, des = full.copy(), target.copy()
+            row[joint_indices] = rep["actual"][k]
+            des[joint_indices] = rep["desired"][k]
+            self.times.append(end - (times[-1] - times[k]))
+            self.q.append(row)
+            self.desired.append(des)
+            self.stage.append(stage)
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        return {
+            "times": np.asarray(self.times),
+            "positions": np.asarray(self.q).reshape(len(self.q), -1),
+            "desired": np.asarray(self.desired).reshape(len(self.desired), -1),
+            "stage": np.asarray(self.stage),
+        }
+
+
+def _translate(pose: np.ndarray, offset) -> np.ndarray:
+    out = np.array(pose, dtype=float)
+    out[..., :3, 3] += offset
+    return out
+
+
+def _along_z(pose: np.ndarray, distance: float) -> np.ndarray:
+    """``pose`` moved ``distance`` along its own z axis (the Panda hand's approach)."""
+    out = np.array(pose, dtype=float)
+    out[..., :3, 3] += distance * out[..., :3, 2]
+    return out
+
+
+class PickPlace:
+    """Runs pick-and-place episodes of the bundled Panda on table-top scenes.
+
+    One instance keeps the robot model and planner across episodes (``run(spec)`` per scene)::
+
+        pp = PickPlace()
+        result = pp.run(ferrobot.pipeline.random_scene(seed=0))
+        print(result.success, result.failed_stage, result.reason)
+    """
+
+    def __init__(self, config: PickPlaceConfig | None = None, model=None):
+        self.config = config or PickPlaceConfig()
+        self.model = robots.panda() if model is None else model
+        self.planner = _core.Planner(self.model)
+        self.arm = list(self.planner.joint_names)
+        idx = [self.model.dof_names.index(n) for n in self.arm]
+        self.lower, self.upper = self.model.lower_limits[idx], self.model.upper_limits[idx]
+
+    # -- helpers ---------------------------------------------------------------------------------------------
+
+    def _sync(self, ignore: list[str]) -> None:
+        """Planner world := the simulation's objects (base frame), without ``ignore`` and attached objects."""
+        self.planner.update_world(self.world, ignore=[ROBOT_MOUNT, *ignore], base_pose=self.base)
+
+    def _q(self) -> np.ndarray:
+        """The simulated arm's joint positions in planner order; positions a hair past a joint limit (at most
+        ``limit_tolerance``) are put on the limit, larger violations are left for the planner to report."""
+        q = self.robot.get_joint_positions()[self.arm_idx]
+        lo, hi = self.lower, self.upper
+        tol = self.config.limit_tolerance
+        near = ((q < lo) & (q >= lo - tol)) | ((q > hi) & (q <= hi + tol))
+        return np.where(near, np.clip(q, lo, hi), q)
+
+    def _ik(self, poses: np.ndarray, seeds: np.ndarray | None, collision_free: bool):
+        return self.planner.ik_batch(poses, seeds, collision_free=collision_free, num_seeds=64)
+
+    def _move(self, stage: str, goal_q: np.ndarray, ignore: list[str]) -> dict:
+        """Plans from the current state to ``goal_q`` in the synced world and executes it."""
+        self._sync(ignore)
+        start = self._q()
+        t0 = time.perf_counter()
+        res = self.planner.plan(
+            start,
+            goal_q=goal_q,
+            time_limit=self.config.plan_time_limit,
+            velocity_scale=self.config.velocity_scale,
+            acceleration_scale=self.config.acceleration_scale,
+            seed=self.spec.seed,
+        )
+        plan_s = time.perf_counter() - t0
+        if not res.success:
+            raise StageFailure(stage, f"planning failed ({res.status}): {res.message}")
+        traj = res.interpolated(self.world.dt)
+        err = self.rec.execute(traj.positions, traj.velocities, self.arm_idx, stage)
+        self.rec.wait(0.1, stage)
+        return {"plan_ms": 1e3 * plan_s, "duration_s": float(res.duration), "tracking_error_rad": err}
+
+    def _hand_world(self) -> np.ndarray:
+        return self.robot.get_link_pose("panda_hand")
+
+    # -- the stages -------------------------------------------------------------------------------------------
+
+    def perceive(self) -> dict:
+        self.frame = self.camera.render(rgb=True)
+        labels = self.world.segmentation_labels
+        self.target_id = next(i for i, n in labels.items() if n == self.spec.target)
+        visible = int(np.count_nonzero(self.frame["segmentation"] == self.target_id))
+        if visible < 50:
+            raise StageFailure("perceive", f"target '{self.spec.target}' covers only {visible} pixels in the camera")
+        return {"target_pixels": visible}
+
+    def detect(self) -> dict:
+        """Grasps on the target, sought in the world frame: the depth image is back-projected, moved to the
+        world by the camera pose, cropped to the table's workspace, and searched with the approach
+        preferred straight down; every other point is an obstacle for the hand."""
+        depth = np.where(np.isfinite(self.frame["depth"]), self.frame["depth"], 0.0)
+        k = self.camera.intrinsic_matrix
+        cam = self.camera.get_world_pose()
+        points, pixels = grasp.backproject(depth, k[0, 0], k[1, 1], k[0, 2], k[1, 2], 1.0)
+        points = grasp.transform_points(points, cam)
+        labels = self.frame["segmentation"][pixels[:, 0], pixels[:, 1]].astype(np.int64)
+        opts = {
+            "approach_direction": (0.0, 0.0, -1.0),
+            "viewpoint": tuple(cam[:3, 3]),
+            **self.config.detect_options,
+        }
+        gg = grasp.detect(
+            points, labels=labels, seed_mask=labels == self.target_id, workspace=self.workspace, **opts
+        )
+        if len(gg) == 0:
+            raise StageFailure("detect", "no grasp found on the target")
+        self.grasps_world = gg
+        # Centre estimate of an upright object on the table: the centroid of its top surface (the points
+        # within 5 mm of its highest), which the side faces seen by the camera do not bias.
+        tp = points[labels == self.target_id]
+        self.target_centroid = tp[tp[:, 2] > tp[:, 2].max() - 0.005].mean(axis=0)
+        self.grasps_camera = gg.transform(np.linalg.inv(cam))
+        return {"points": int(len(points)), "grasps": len(gg), "best_score": float(gg.scores[0])}
+
+    def select(self) -> dict:
+        cfg = self.config
+        gw = self.grasps_world
+        approach = gw.rotation_matrices[:, :, 0]
+        angle = np.arccos(np.clip(-approach[:, 2], -1.0, 1.0))
+        # Rank: detector score, discounted for grasps far from the target's visible centroid (off-centre
+        # grasps twist the object in the fingers) and for tilted approaches (which push it sideways).
+        centre = gw.translations + 0.5 * gw.depths[:, None] * approach
+        off = np.linalg.norm((centre - self.target_centroid)[:, :2], axis=1)
+        rank = gw.scores * np.exp(-((off / cfg.centre_scale) ** 2)) * np.cos(angle)
+        order = [i for i in np.argsort(-rank) if angle[i] <= cfg.max_approach_angle][: cfg.max_candidates]
+        if not order:
+            raise StageFailure("select", f"no grasp approaches within {math.degrees(cfg.max_approach_angle):.0f} deg of vertical")
+        hands_world = gw.to_panda_hand()[order]
+        to_base = transforms.world_to_base(np.eye(4), self.base)
+        hands = np.einsum("ij,njk->nik", to_base, hands_world)
+        pre = _along_z(hands, -cfg.pregrasp_distance)
+        # Pre-grasp: free of collision with everything, target included.
+        self._sync([])
+        ik_pre = self._ik(pre, None, collision_free=True)
+        # Grasp: the fingers touch the target and come close to the table: both ignored.
+        self._sync([self.spec.target, "table"])
+        ok = np.asarray(ik_pre.success)
+        tried = 0
+        for j in np.flatnonzero(ok):
+            tried += 1
+            ik_g = self.planner.ik(hands[j], ik_pre.q[j], collision_free=True, num_seeds=8)
+            if not ik_g.success or np.max(np.abs(ik_g.q - ik_pre.q[j])) > 1.0:
+                continue
+            res = self.planner.plan(ik_pre.q[j], goal_q=ik_g.q, trajectory=False, time_limit=0.2)
+            if not res.success:
+                continue
+            self.choice = order[j]
+            self.q_pre, self.q_grasp = ik_pre.q[j], ik_g.q
+            self.hand_grasp = hands[j]
+            g = gw[order[j]]
+            return {
+                "candidates": len(order),
+                "reachable_pregrasps": int(ok.sum()),
+                "tried": tried,
+                "grasp_index": int(order[j]),
+                "score": g.score,
+                "rank": float(rank[order[j]]),
+                "off_centre_mm": 1e3 * float(off[order[j]]),
+                "width": g.width,
+                "approach_angle_deg": math.degrees(angle[order[j]]),
+            }
+        raise StageFailure(
+            "select",
+            f"none of {len(order)} grasps reachable: {int(ok.sum())} pre-grasps had collision-free IK, "
+            f"{tried} grasp poses tried",
+        )
+
+    def pick(self) -> None:
+        cfg = self.config
+        self._stage("pregrasp", lambda: self._move("pregrasp", self.q_pre, []))
+        self._stage("approach", lambda: self._move("approach", self.q_grasp, [self.spec.target, "table"]))
+
+        def close():
+            self.robot.close_gripper(force=cfg.grip_force)
+            self.rec.wait(0.3, "grasp")
+            width = float(np.sum(self.robot.get_gripper_positions()))
+            if width < 0.004:
+                raise StageFailure("grasp", f"the fingers closed on nothing (opening {1e3 * width:.1f} mm)")
+            self._sync([])  # the target must be in the world to be attached
+            self.planner.attach_world_object(self.spec.target, self._q())
+            return {"opening_mm": 1e3 * width}
+
+        self._stage("grasp", close)
+
+        def lift():
+            up = _translate(self.hand_grasp, [0.0, 0.0, cfg.lift_height])
+            self.q_lift = self._ik_near(up, self._q(), "lift")
+            out = self._move("lift", self.q_lift, ["table"])
+            self._check_held("lift")
+            return out
+
+        self._stage("lift", lift)
+
+    def _place_poses(self) -> list[np.ndarray]:
+        """Hand poses (base frame) that put the object at the place location: the grasp pose turned about
+        the vertical through the object's perceived centre by 0, 180, 90 or -90 degrees (a parallel gripper
+        can hold a box or a cylinder either way), then moved over the place location."""
+        to_base = transforms.world_to_base(np.eye(4), self.base)
+        c_world = np.array([*self.target_centroid[:2], TABLE_TOP, 1.0])
+        p_world = np.array([*self.spec.place_xy, TABLE_TOP, 1.0])
+        c, p = (to_base @ c_world)[:3], (to_base @ p_world)[:3]
+        up = to_base[:3, :3] @ np.array([0.0, 0.0, 1.0])
+        out = []
+        for psi in (0.0, math.pi, math.pi / 2, -math.pi / 2):
+            k = np.array([[0, -up[2], up[1]], [up[2], 0, -up[0]], [-up[1], up[0], 0]])
+            rot = np.eye(3) + math.sin(psi) * k + (1 - math.cos(psi)) * (k @ k)
+            m = np.eye(4)
+            m[:3, :3] = rot
+            m[:3, 3] = p - rot @ c + self.config.place_clearance * up
+            out.append(m @ self.hand_grasp)
+        return out
+
+    def place(self) -> None:
+        cfg = self.config
+
+        def transport():
+            for k, hand in enumerate(self._place_poses()):
+                above = _translate(hand, [0.0, 0.0, cfg.lift_height])
+                self._sync([])
+                res = self.planner.ik(above, self.q_lift, num_seeds=32, collision_free=True)
+                if not res.success:
+                    continue
+                self._sync(["table"])
+                low = self.planner.ik(hand, res.q, num_seeds=8, collision_free=True)
+                if not low.success:
+                    continue
+                self.place_hand, self.q_place = hand, low.q
+                out = self._move("transport", res.q, [])
+                self._check_held("transport")
+                return {**out, "turn_deg": [0, 180, 90, -90][k]}
+            raise StageFailure("transport", "no hand turn has collision-free IK above and at the place location")
+
+        self._stage("transport", transport)
+
+        def lower():
+            return self._move("lower", self.q_place, ["table"])
+
+        self._stage("lower", lower)
+
+        def release():
+            self.robot.open_gripper()
+            self.rec.wait(0.3, "release")
+            self.planner.detach(self.spec.target)
+            return {}
+
+        self._stage("release", release)
+
+        def retreat():
+            hand = transforms.world_to_base(self._hand_world(), self.base)
+            back = _along_z(hand, -cfg.retreat_distance)
+            q = self._ik_near(back, self._q(), "retreat")
+            return self._move("retreat", q, [self.spec.target, "table"])
+
+        self._stage("retreat", retreat)
+
+    def verify(self) -> dict:
+        self.rec.wait(0.3, "verify")
+        pose = self.world.get_object_pose(self.spec.target)
+        err = float(np.hypot(pose[0, 3] - self.spec.place_xy[0], pose[1, 3] - self.spec.place_xy[1]))
+        spec = self.spec.object(self.spec.target)
+        rest_z = TABLE_TOP + spec.height / 2
+        lin, _ = self.world.get_object_velocity(self.spec.target)
+        self.result.place_error_m = err
+        detail = {"place_error_mm": 1e3 * err, "height_error_mm": 1e3 * (pose[2, 3] - rest_z),
+                  "speed_mm_s": 1e3 * float(np.linalg.norm(lin))}
+        if err > self.config.place_tolerance:
+            raise StageFailure("verify", f"object rests {1e3 * err:.0f} mm from the place location")
+        if abs(pose[2, 3] - rest_z) > 0.01 and spec.kind != "sphere":
+            raise StageFailure("verify", f"object is not resting upright on the table (centre {pose[2, 3]:.3f} m)")
+        return detail
+
+    # -- helpers used by stages -----------------------------------------------------------------------------
+
+    def _ik_near(self, pose_base: np.ndarray, seed: np.ndarray, stage: str, collision_free: bool = False):
+        res = self.planner.ik(pose_base, seed, num_seeds=32, collision_free=collision_free)
+        if not res.success:
+            raise StageFailure(stage, "no IK solution for the hand pose "
+                               f"{np.round(pose_base[:3, 3], 3).tolist()} (base frame)")
+        return res.q
+
+    def _check_held(self, stage: str) -> None:
+        obj = self.world.get_object_pose(self.spec.target)[:3, 3]
+        tcp = self.robot.get_link_pose("panda_hand_tcp")[:3, 3]
+        d = float(np.linalg.norm(obj - tcp))
+        if d > 0.08:
+            raise StageFailure(stage, f"the object slipped out of the hand ({1e3 * d:.0f} mm from the fingers)")
+
+    def _stage(self, name: str, fn) -> None:
+        t0 = time.perf_counter()
+        try:
+            detail = fn() or {}
+        except StageFailure as f:
+            self.result.stages.append(StageResult(name, False, time.perf_counter() - t0, reason=f.reason))
+            raise
+        except Exception as e:  # a library error inside a stage is that stage's failure
+            reason = f"{type(e).__name__}: {e}"
+            self.result.stages.append(StageResult(name, False, time.perf_counter() - t0, reason=reason))
+            raise StageFailure(name, reason) from e
+        self.result.stages.append(StageResult(name, True, time.perf_counter() - t0, detail))
+
+    # -- one episode ------------------------------------------------------------------------------------------
+
+    def run(self, spec: SceneSpec, record_frames: bool = False, frame_every: int = 16) -> EpisodeResult:
+        """Runs one episode on ``spec``. With ``record_frames``, a second camera records RGB frames for an
+        animation (``self.recorder.frames``). Never raises for a failed stage: see the result."""
+        self.spec = spec
+        self.result = EpisodeResult(seed=spec.seed, target=spec.target)
+        t0 = time.perf_counter()
+        try:
+            def scene():
+                self.world, self.robot, self.camera = build_world(spec, self.model)
+                self.base = self.robot.get_world_pose()
+                (x0, x1), (y0, y1) = REGION
+                self.workspace = [x0 - 0.15, x1 + 0.15, y0 - 0.15, y1 + 0.15, TABLE_TOP - 0.02, TABLE_TOP + 0.3]
+                self.arm_idx = [self.robot.dof_names.index(n) for n in self.arm]
+                self.planner.update_world(_core.CollisionWorld())
+                for name in list(self.planner.attached):
+                    self.planner.detach(name)
+                cam = None
+                if record_frames:
+                    view = _core.look_at([1.25, -0.95, 1.3], [0.35, 0.0, TABLE_TOP + 0.1])
+                    cam = _core.Camera(self.world, 400, 300, 330.0, 330.0, 199.5, 149.5, view)
+                self.rec = Recorder(self.world, self.robot, cam, frame_every)
+                self.rec.snapshot("scene")
+                return {"objects": len(spec.objects)}
+
+            self._stage("scene", scene)
+            self._stage("perceive", self.perceive)
+            self._stage("detect", self.detect)
+            self._stage("select", self.select)
+            self.pick()
+            self.place()
+            self._stage("verify", self.verify)
+            self.result.success = True
+        except StageFailure as f:
+            self.result.failed_stage = f.stage
+            self.result.reason = f.reason
+        self.result.wall_time_s = time.perf_counter() - t0
+        self.result.sim_time_s = float(self.world.time) if hasattr(self, "world") else 0.0
+        return self.result
+
+
+def home_configuration() -> np.ndarray:
+    """The home configuration used by the scenes (Franka's ``ready`` pose, fingers open)."""
+    return HOME.copy()

@@ -1,0 +1,180 @@
+"""Table-top scenes for pick-and-place: the bundled Panda on a pedestal before a table with objects.
+
+A :class:`SceneSpec` is plain data (objects with shapes and poses, the target, the place location, the
+camera) drawn at random from a seed by :func:`random_scene`; :func:`build_world` turns it into a
+simulated :class:`ferrobot.World` with the robot and a camera. World frame: z up, the table's front edge
+along y; the robot's base sits on a pedestal at the table's height, so base and world frames differ by a
+translation (every pose handed to the planner goes through :func:`ferrobot.transforms.world_to_base`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .. import _core, robots
+from ..errors import InvalidArgumentError
+
+__all__ = ["ObjectSpec", "SceneSpec", "random_scene", "build_world", "TABLE_TOP", "HOME"]
+
+#: Height (m) of the table's top face.
+TABLE_TOP = 0.40
+#: Table size (m): depth along x, width along y, height.
+TABLE_SIZE = (0.70, 1.10, TABLE_TOP)
+#: Table centre (x, y) in the world.
+TABLE_XY = (0.60, 0.0)
+#: Pose of the robot base in the world: on a pedestal whose top is level with the table.
+BASE_POSE = np.array([0.0, 0.0, TABLE_TOP, 1.0, 0.0, 0.0, 0.0])
+#: Home configuration of the arm (Franka's "ready" pose) with the fingers open.
+HOME = np.array([0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785, 0.04])
+#: Region (world x, y) where objects and place locations are drawn.
+REGION = ((0.38, 0.68), (-0.28, 0.28))
+#: Name of the robot's mount (the pedestal under its base): the planner leaves it out of its world, since
+#: the base link rests on it.
+ROBOT_MOUNT = "pedestal"
+#: Smallest gap (m) between objects' footprints (and the place location's).
+GAP = 0.06
+
+KINDS = ("box", "cylinder", "sphere")
+COLORS = [
+    (0.85, 0.25, 0.20),
+    (0.20, 0.55, 0.85),
+    (0.95, 0.75, 0.15),
+    (0.35, 0.75, 0.35),
+    (0.65, 0.35, 0.80),
+    (0.95, 0.50, 0.15),
+]
+
+
+@dataclass
+class ObjectSpec:
+    """One object: ``kind`` box (``size`` = edge lengths), cylinder (``size`` = radius, length) or sphere
+    (``size`` = radius); ``pose`` [x, y, z, qw, qx, qy, qz] in the world."""
+
+    name: str
+    kind: str
+    size: tuple[float, ...]
+    pose: list[float]
+    mass: float = 0.15
+    friction: float = 0.9
+    color: tuple[float, float, float] = (0.6, 0.6, 0.6)
+
+    @property
+    def height(self) -> float:
+        """Height (m) of the resting object."""
+        if self.kind == "box":
+            return self.size[2]
+        if self.kind == "cylinder":
+            return self.size[1]
+        return 2 * self.size[0]
+
+    @property
+    def footprint(self) -> float:
+        """Radius (m) of a circle around the object's footprint."""
+        if self.kind == "box":
+            return 0.5 * math.hypot(self.size[0], self.size[1])
+        return self.size[0]
+
+
+@dataclass
+class SceneSpec:
+    """Everything that defines an episode's scene, as plain data (JSON-serialisable via :meth:`to_dict`)."""
+
+    seed: int
+    objects: list[ObjectSpec]
+    target: str
+    place_xy: tuple[float, float]
+    camera_eye: tuple[float, float, float] = (1.15, 0.0, 1.15)
+    camera_target: tuple[float, float, float] = (0.52, 0.0, TABLE_TOP)
+    camera_size: tuple[int, int] = (640, 480)
+    camera_f: float = 525.0
+    base_pose: list[float] = field(default_factory=lambda: BASE_POSE.tolist())
+
+    def object(self, name: str) -> ObjectSpec:
+        for o in self.objects:
+            if o.name == name:
+                return o
+        raise InvalidArgumentError(f"scene has no object named '{name}'; objects: {[o.name for o in self.objects]}")
+
+    def to_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+
+def _object(rng: np.random.Generator, name: str, kind: str, color) -> ObjectSpec:
+    if kind == "box":
+        # Graspable across its shorter horizontal side (the hand opens to 8 cm).
+        a = rng.uniform(0.035, 0.055)
+        b = rng.uniform(0.035, 0.07)
+        size = (a, b, rng.uniform(0.04, 0.09))
+    elif kind == "cylinder":
+        size = (rng.uniform(0.02, 0.03), rng.uniform(0.06, 0.11))
+    else:
+        size = (rng.uniform(0.025, 0.032),)
+    return ObjectSpec(name=name, kind=kind, size=size, pose=[0, 0, 0, 1, 0, 0, 0], color=color)
+
+
+def random_scene(seed: int, num_objects: int | None = None) -> SceneSpec:
+    """A random table-top scene: 3-5 objects (boxes, cylinders, spheres) with random sizes, positions and
+    yaw, one of them the target, and a free place location on the table. Deterministic in ``seed``."""
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(3, 6)) if num_objects is None else int(num_objects)
+    if not 1 <= n <= 6:
+        raise InvalidArgumentError(f"num_objects: expected 1 to 6, got {n}")
+    (x0, x1), (y0, y1) = REGION
+    objects: list[ObjectSpec] = []
+    taken: list[tuple[float, float, float]] = []  # (x, y, radius)
+
+    def free_spot(radius: float) -> tuple[float, float] | None:
+        for _ in range(200):
+            x, y = rng.uniform(x0, x1), rng.uniform(y0, y1)
+            if all(math.hypot(x - a, y - b) > radius + r + GAP for a, b, r in taken):
+                return x, y
+        return None
+
+    kinds = list(rng.choice(KINDS, size=n, p=[0.45, 0.4, 0.15]))
+    for i, kind in enumerate(kinds):
+        o = _object(rng, f"{kind}_{i}", str(kind), COLORS[i % len(COLORS)])
+        spot = free_spot(o.footprint)
+        if spot is None:
+            continue
+        yaw = rng.uniform(-math.pi, math.pi) if kind == "box" else 0.0
+        o.pose = [spot[0], spot[1], TABLE_TOP + o.height / 2, math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)]
+        objects.append(o)
+        taken.append((spot[0], spot[1], o.footprint))
+    target = objects[int(rng.integers(len(objects)))]
+    place = free_spot(target.footprint + 0.02)
+    if place is None:  # crowded: retry with another draw
+        return random_scene(seed + 100_003, num_objects)
+    return SceneSpec(seed=seed, objects=objects, target=target.name, place_xy=(float(place[0]), float(place[1])))
+
+
+def build_world(spec: SceneSpec, model=None):
+    """The simulated world of ``spec``: (world, robot, camera). The robot is at ``HOME`` with open fingers;
+    objects settle for 0.25 s before the world's initial state is marked."""
+    model = robots.panda() if model is None else model
+    world = _core.World()
+    tx, ty = TABLE_XY
+    world.add_box("table", TABLE_SIZE, [tx, ty, TABLE_TOP / 2, 1, 0, 0, 0], static_=True, color=(0.55, 0.42, 0.30))
+    world.add_box(ROBOT_MOUNT, (0.3, 0.3, TABLE_TOP), [0.0, 0.0, TABLE_TOP / 2, 1, 0, 0, 0], static_=True,
+                  color=(0.3, 0.3, 0.32))
+    for o in spec.objects:
+        common = dict(mass=o.mass, friction=o.friction, color=o.color)
+        if o.kind == "box":
+            world.add_box(o.name, o.size, o.pose, **common)
+        elif o.kind == "cylinder":
+            world.add_cylinder(o.name, o.size[0], o.size[1], o.pose, **common)
+        elif o.kind == "sphere":
+            world.add_sphere(o.name, o.size[0], o.pose, **common)
+        else:
+            raise InvalidArgumentError(f"object '{o.name}': unknown kind '{o.kind}' (box, cylinder, sphere)")
+    robot = world.add_robot(model, spec.base_pose, name="panda", q=HOME)
+    robot.set_joint_position_targets(HOME)
+    w, h = spec.camera_size
+    pose = _core.look_at(spec.camera_eye, spec.camera_target)
+    camera = _core.Camera(world, w, h, spec.camera_f, spec.camera_f, (w - 1) / 2, (h - 1) / 2, pose)
+    world.step(60)
+    world.mark_initial_state()
+    return world, robot, camera
