@@ -107,6 +107,45 @@ def cmd_serve_grasp(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_demo(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from .pipeline import PickPlace, PickPlaceConfig, random_scene
+    from .pipeline.batch import run_batch
+    from .pipeline.report import format_report, write_episode
+
+    if args.episodes < 1:
+        print("ferrobot: error: --episodes must be >= 1", file=sys.stderr)
+        return 2
+    if args.objects is not None and not 1 <= args.objects <= 6:
+        print("ferrobot: error: --objects must be between 1 and 6", file=sys.stderr)
+        return 2
+    out = Path(args.out)
+    config = PickPlaceConfig()
+    if args.episodes > 1:
+        print(f"ferrobot demo: {args.episodes} pick-and-place episodes, seeds {args.seed}..{args.seed + args.episodes - 1}")
+        s = run_batch(args.episodes, seed=args.seed, out=out, config=config, num_objects=args.objects,
+                      progress=not args.quiet)
+        print(
+            f"{s['successes']}/{s['episodes']} succeeded ({100 * s['success_rate']:.1f}%), "
+            f"{s['episodes_per_second']:.2f} episodes/s ({s['episodes_per_hour']:.0f}/h) on this machine"
+        )
+        if s["failures_by_stage"]:
+            print("failures by stage: " + ", ".join(f"{k} {v}" for k, v in s["failures_by_stage"].items()))
+        print(f"wrote {out / 'episodes.jsonl'} and {out / 'summary.json'}")
+        return 0
+    pp = PickPlace(config)
+    spec = random_scene(args.seed, args.objects)
+    objs = ", ".join(f"{o.name}" for o in spec.objects)
+    print(f"ferrobot demo: bundled Panda before a table with {len(spec.objects)} objects ({objs}); "
+          f"pick '{spec.target}' and place it at ({spec.place_xy[0]:.3f}, {spec.place_xy[1]:.3f})")
+    result = pp.run(spec, record_frames=not args.no_animation)
+    print(format_report(result))
+    paths = write_episode(out, pp, result)
+    print("wrote " + ", ".join(str(p) for p in paths.values()))
+    return 0 if result.success else 1
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="ferrobot", description=__doc__)
     parser.add_argument("--version", action="store_true", help="print the version and exit")
@@ -118,6 +157,16 @@ def main(argv: list[str] | None = None) -> int:
     p_robot.add_argument("--state", default="ready", help="named state for the FK example")
     p_robot.add_argument("--batch", type=int, default=1_000_000, help="batch size for FK timing")
     p_robot.set_defaults(func=cmd_robot)
+    p_demo = sub.add_parser(
+        "demo", help="pick-and-place end to end in simulation: camera, grasp detection, planning, execution"
+    )
+    p_demo.add_argument("--episodes", type=int, default=1, help="number of episodes (> 1: a batch run)")
+    p_demo.add_argument("--seed", type=int, default=0, help="scene seed (batch: seeds seed, seed + 1, ...)")
+    p_demo.add_argument("--out", default="ferrobot-demo", help="output folder (default ./ferrobot-demo)")
+    p_demo.add_argument("--objects", type=int, default=None, help="objects on the table (default 3-5 at random)")
+    p_demo.add_argument("--no-animation", action="store_true", help="single episode: skip the animation")
+    p_demo.add_argument("--quiet", action="store_true", help="batch: no progress bar")
+    p_demo.set_defaults(func=cmd_demo)
     p_serve = sub.add_parser("serve-grasp", help="serve grasp detection over HTTP (FastAPI + uvicorn)")
     p_serve.add_argument("--host", default="127.0.0.1", help="address to bind (default 127.0.0.1)")
     p_serve.add_argument("--port", type=int, default=5001, help="port (default 5001)")

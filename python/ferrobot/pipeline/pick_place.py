@@ -530,7 +530,7 @@ class PickPlace:
                     self.planner.detach(name)
                 cam = None
                 if record_frames:
-                    view = _core.look_at([1.25, -0.95, 1.3], [0.35, 0.0, TABLE_TOP + 0.1])
+                    view = _core.look_at([1.05, -0.85, 1.05], [0.42, 0.0, TABLE_TOP + 0.08])
                     cam = _core.Camera(self.world, 400, 300, 330.0, 330.0, 199.5, 149.5, view)
                 self.rec = Recorder(self.world, self.robot, cam, frame_every)
                 self.rec.snapshot("scene")

@@ -1,0 +1,91 @@
+"""What an episode leaves behind: a printed report, and a folder with ``report.json``, the executed
+trajectory (``trajectory.npz``), the camera view with the grasps drawn (``grasp.png``) and an animation
+(``animation.html``, a self-contained flip-book)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from .images import draw_segments, project, write_flipbook, write_png
+from .pick_place import EpisodeResult, PickPlace
+
+__all__ = ["format_report", "write_episode", "grasp_image"]
+
+
+def format_report(result: EpisodeResult) -> str:
+    """A short human-readable table: each stage's time and outcome."""
+    lines = [f"episode seed {result.seed}: target '{result.target}'"]
+    for s in result.stages:
+        mark = "ok  " if s.ok else "FAIL"
+        extra = s.reason if not s.ok else ", ".join(f"{k}={_fmt(v)}" for k, v in list(s.detail.items())[:4])
+        lines.append(f"  {mark} {s.name:<10} {1e3 * s.time_s:8.1f} ms  {extra}")
+    if result.success:
+        lines.append(
+            f"SUCCESS: placed {1e3 * result.place_error_m:.1f} mm from the place location; "
+            f"{result.sim_time_s:.2f} s simulated in {result.wall_time_s:.2f} s wall"
+        )
+    else:
+        lines.append(f"FAILED at {result.failed_stage}: {result.reason}")
+    return "\n".join(lines)
+
+
+def _fmt(v) -> str:
+    if isinstance(v, float):
+        return f"{v:.3g}"
+    return str(v)
+
+
+def grasp_image(pp: PickPlace, top: int = 8) -> np.ndarray | None:
+    """The perception camera's RGB frame with the best ``top`` detected grasps (yellow) and the chosen one
+    (green, thick) drawn on it; None before detection."""
+    if not hasattr(pp, "grasps_world") or not hasattr(pp, "frame"):
+        return None
+    img = pp.frame["rgb"].copy()
+    cam, k = pp.camera.get_world_pose(), pp.camera.intrinsic_matrix
+    gw = pp.grasps_world
+    lines = gw.gripper_lines()
+    chosen = getattr(pp, "choice", None)
+    for i in range(min(top, len(gw))):
+        if i == chosen:
+            continue
+        uv, front = project(lines[i], cam, k)
+        draw_segments(img, uv[front.all(axis=1)], (250, 220, 40), 1)
+    if chosen is not None:
+        uv, front = project(lines[chosen], cam, k)
+        draw_segments(img, uv[front.all(axis=1)], (40, 230, 60), 3)
+    return img
+
+
+def write_episode(out: Path, pp: PickPlace, result: EpisodeResult) -> dict[str, Path]:
+    """Writes the episode's folder; returns the paths written."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    paths = {}
+    report = {"result": result.to_dict(), "scene": pp.spec.to_dict()}
+    if hasattr(pp, "choice"):
+        g = pp.grasps_world[pp.choice]
+        report["grasp"] = {
+            "score": g.score,
+            "width": g.width,
+            "depth": g.depth,
+            "translation_world": g.translation.tolist(),
+            "rotation_world": g.rotation_matrix.tolist(),
+            "hand_pose_base": pp.hand_grasp.tolist(),
+        }
+    paths["report"] = out / "report.json"
+    paths["report"].write_text(json.dumps(report, indent=2))
+    if hasattr(pp, "rec") and pp.rec.q:
+        arrays = pp.rec.arrays()
+        paths["trajectory"] = out / "trajectory.npz"
+        np.savez_compressed(paths["trajectory"], joint_names=np.array(pp.robot.dof_names), **arrays)
+    img = grasp_image(pp)
+    if img is not None:
+        paths["grasp_png"] = write_png(out / "grasp.png", img)
+    if hasattr(pp, "rec") and pp.rec.frames:
+        title = f"ferrobot pick-and-place, seed {result.seed}: " + ("success" if result.success else
+                                                                  f"failed at {result.failed_stage}")
+        paths["animation"] = write_flipbook(out / "animation.html", pp.rec.frames, title)
+    return paths
