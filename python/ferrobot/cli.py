@@ -123,9 +123,13 @@ def cmd_demo(args: argparse.Namespace) -> int:
     out = Path(args.out)
     config = PickPlaceConfig()
     if args.episodes > 1:
-        print(f"ferrobot demo: {args.episodes} pick-and-place episodes, seeds {args.seed}..{args.seed + args.episodes - 1}")
-        s = run_batch(args.episodes, seed=args.seed, out=out, config=config, num_objects=args.objects,
-                      progress=not args.quiet)
+        print(
+            f"ferrobot demo: {args.episodes} pick-and-place episodes, "
+            f"seeds {args.seed}..{args.seed + args.episodes - 1}"
+        )
+        s = run_batch(
+            args.episodes, seed=args.seed, out=out, config=config, num_objects=args.objects, progress=not args.quiet
+        )
         print(
             f"{s['successes']}/{s['episodes']} succeeded ({100 * s['success_rate']:.1f}%), "
             f"{s['episodes_per_second']:.2f} episodes/s ({s['episodes_per_hour']:.0f}/h) on this machine"
@@ -137,8 +141,10 @@ def cmd_demo(args: argparse.Namespace) -> int:
     pp = PickPlace(config)
     spec = random_scene(args.seed, args.objects)
     objs = ", ".join(f"{o.name}" for o in spec.objects)
-    print(f"ferrobot demo: bundled Panda before a table with {len(spec.objects)} objects ({objs}); "
-          f"pick '{spec.target}' and place it at ({spec.place_xy[0]:.3f}, {spec.place_xy[1]:.3f})")
+    print(
+        f"ferrobot demo: bundled Panda before a table with {len(spec.objects)} objects ({objs}); "
+        f"pick '{spec.target}' and place it at ({spec.place_xy[0]:.3f}, {spec.place_xy[1]:.3f})"
+    )
     result = pp.run(spec, record_frames=not args.no_animation)
     print(format_report(result))
     paths = write_episode(out, pp, result)

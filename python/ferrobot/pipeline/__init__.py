@@ -1,8 +1,8 @@
 """Pick-and-place end to end: scenes, the episode workflow, reports and batch runs (``ferrobot demo``).
 
-    from ferrobot.pipeline import PickPlace, random_scene
-    result = PickPlace().run(random_scene(seed=0))
-    print(result.success, result.failed_stage, result.reason)
+from ferrobot.pipeline import PickPlace, random_scene
+result = PickPlace().run(random_scene(seed=0))
+print(result.success, result.failed_stage, result.reason)
 """
 
 from __future__ import annotations

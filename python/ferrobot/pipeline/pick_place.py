@@ -311,9 +311,7 @@ class PickPlace:
             "viewpoint": tuple(cam[:3, 3]),
             **self.config.detect_options,
         }
-        gg = grasp.detect(
-            points, labels=labels, seed_mask=labels == self.target_id, workspace=self.workspace, **opts
-        )
+        gg = grasp.detect(points, labels=labels, seed_mask=labels == self.target_id, workspace=self.workspace, **opts)
         if len(gg) == 0:
             raise StageFailure("detect", "no grasp found on the target")
         self.grasps_world = gg
@@ -336,7 +334,9 @@ class PickPlace:
         rank = gw.scores * np.exp(-((off / cfg.centre_scale) ** 2)) * np.cos(angle)
         order = [i for i in np.argsort(-rank) if angle[i] <= cfg.max_approach_angle][: cfg.max_candidates]
         if not order:
-            raise StageFailure("select", f"no grasp approaches within {math.degrees(cfg.max_approach_angle):.0f} deg of vertical")
+            raise StageFailure(
+                "select", f"no grasp approaches within {math.degrees(cfg.max_approach_angle):.0f} deg of vertical"
+            )
         hands_world = gw.to_panda_hand()[order]
         to_base = transforms.world_to_base(np.eye(4), self.base)
         hands = np.einsum("ij,njk->nik", to_base, hands_world)
@@ -473,8 +473,11 @@ class PickPlace:
         rest_z = TABLE_TOP + spec.height / 2
         lin, _ = self.world.get_object_velocity(self.spec.target)
         self.result.place_error_m = err
-        detail = {"place_error_mm": 1e3 * err, "height_error_mm": 1e3 * (pose[2, 3] - rest_z),
-                  "speed_mm_s": 1e3 * float(np.linalg.norm(lin))}
+        detail = {
+            "place_error_mm": 1e3 * err,
+            "height_error_mm": 1e3 * (pose[2, 3] - rest_z),
+            "speed_mm_s": 1e3 * float(np.linalg.norm(lin)),
+        }
         if err > self.config.place_tolerance:
             raise StageFailure("verify", f"object rests {1e3 * err:.0f} mm from the place location")
         if abs(pose[2, 3] - rest_z) > 0.01 and spec.kind != "sphere":
@@ -486,8 +489,9 @@ class PickPlace:
     def _ik_near(self, pose_base: np.ndarray, seed: np.ndarray, stage: str, collision_free: bool = False):
         res = self.planner.ik(pose_base, seed, num_seeds=32, collision_free=collision_free)
         if not res.success:
-            raise StageFailure(stage, "no IK solution for the hand pose "
-                               f"{np.round(pose_base[:3, 3], 3).tolist()} (base frame)")
+            raise StageFailure(
+                stage, f"no IK solution for the hand pose {np.round(pose_base[:3, 3], 3).tolist()} (base frame)"
+            )
         return res.q
 
     def _check_held(self, stage: str) -> None:
@@ -519,6 +523,7 @@ class PickPlace:
         self.result = EpisodeResult(seed=spec.seed, target=spec.target)
         t0 = time.perf_counter()
         try:
+
             def scene():
                 self.world, self.robot, self.camera = build_world(spec, self.model)
                 self.base = self.robot.get_world_pose()

@@ -85,7 +85,8 @@ def write_episode(out: Path, pp: PickPlace, result: EpisodeResult) -> dict[str, 
     if img is not None:
         paths["grasp_png"] = write_png(out / "grasp.png", img)
     if hasattr(pp, "rec") and pp.rec.frames:
-        title = f"ferrobot pick-and-place, seed {result.seed}: " + ("success" if result.success else
-                                                                  f"failed at {result.failed_stage}")
+        title = f"ferrobot pick-and-place, seed {result.seed}: " + (
+            "success" if result.success else f"failed at {result.failed_stage}"
+        )
         paths["animation"] = write_flipbook(out / "animation.html", pp.rec.frames, title)
     return paths
