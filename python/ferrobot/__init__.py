@@ -11,7 +11,7 @@ Conventions (everywhere in the public API):
 
 from __future__ import annotations
 
-from . import errors, robots
+from . import errors, grasp, pipeline, robots, transforms
 from ._core import (
     Camera,
     CollisionChecker,
@@ -52,6 +52,9 @@ __all__ = [
     "opencv_to_opengl",
     "opengl_to_opencv",
     "errors",
+    "grasp",
+    "pipeline",
+    "transforms",
     "robots",
     "__version__",
 ]
