@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .. import _core, grasp, robots, transforms
-from .scene import HOME, REGION, ROBOT_MOUNT, TABLE_TOP, SceneSpec, build_world
+from .scene import HOME, ROBOT_MOUNT, TABLE_SIZE, TABLE_TOP, TABLE_XY, SceneSpec, build_world
 
 __all__ = ["PickPlace", "PickPlaceConfig", "EpisodeResult", "StageResult", "StageFailure", "STAGES"]
 
@@ -313,7 +313,10 @@ class PickPlace:
         }
         gg = grasp.detect(points, labels=labels, seed_mask=labels == self.target_id, workspace=self.workspace, **opts)
         if len(gg) == 0:
-            raise StageFailure("detect", "no grasp found on the target")
+            w = np.asarray(self.workspace)
+            inside = np.all((points >= w[0::2]) & (points <= w[1::2]), axis=1)
+            n = int(np.count_nonzero(inside & (labels == self.target_id)))
+            raise StageFailure("detect", f"no grasp found on the target ({n} of its points in the workspace)")
         self.grasps_world = gg
         # Centre estimate of an upright object on the table: the centroid of its top surface (the points
         # within 5 mm of its highest), which the side faces seen by the camera do not bias.
@@ -527,8 +530,9 @@ class PickPlace:
             def scene():
                 self.world, self.robot, self.camera = build_world(spec, self.model)
                 self.base = self.robot.get_world_pose()
-                (x0, x1), (y0, y1) = REGION
-                self.workspace = [x0 - 0.15, x1 + 0.15, y0 - 0.15, y1 + 0.15, TABLE_TOP - 0.02, TABLE_TOP + 0.3]
+                # Grasp workspace: the table top and 30 cm above it.
+                (tx, ty), (sx, sy, _) = TABLE_XY, TABLE_SIZE
+                self.workspace = [tx - sx / 2, tx + sx / 2, ty - sy / 2, ty + sy / 2, TABLE_TOP - 0.02, TABLE_TOP + 0.3]
                 self.arm_idx = [self.robot.dof_names.index(n) for n in self.arm]
                 self.planner.update_world(_core.CollisionWorld())
                 for name in list(self.planner.attached):
