@@ -35,8 +35,7 @@ def move_to(q_goal, ignore=()):
     sync(ignore)
     result = planner.plan(robot.get_joint_positions()[arm], goal_q=q_goal, velocity_scale=0.5, acceleration_scale=0.5)
     assert result.success, result.message
-    traj = result.interpolated(world.dt)
-    report = robot.execute_trajectory(traj.positions, world.dt, velocities=traj.velocities, joint_indices=arm)
+    report = robot.execute(result)  # joints matched by name, sampled at the world's time step
     world.step(24)
     print(
         f"  {result.status}: {result.duration:.2f} s trajectory, max tracking error {report['max_error'].max():.4f} rad"

@@ -169,9 +169,12 @@ def test_joint_reordering(bundled_panda, panda_planner):
     assert r.success and r.joint_names == order
     np.testing.assert_allclose(r.path[:, 2:], ref.path[:, perm])
     np.testing.assert_allclose(r.interpolated(0.01).positions[:, 2:], ref.interpolated(0.01).positions[:, perm])
-    # The locked finger and its mimic follow the planner's locked value.
-    locked = panda_planner.locked_positions[bundled_panda.dof_names.index("panda_finger_joint1")]
-    np.testing.assert_allclose(r.path[:, :2], locked)
+    # The finger the planner does not move keeps the start's value for this plan (its mimic follows);
+    # the planner's own locked value is unchanged.
+    np.testing.assert_allclose(r.path[:, :2], 0.04)
+    np.testing.assert_allclose(r.interpolated(0.01).positions[:, :2], 0.04)
+    finger = bundled_panda.dof_names.index("panda_finger_joint1")
+    assert panda_planner.locked_positions[finger] == bundled_panda.neutral_configuration()[finger]
     # IK in the same order.
     ik = panda_planner.ik(bundled_panda.fk(np.r_[q1, 0.0]), seed=sim_start, joint_names=order)
     assert ik.success and ik.q.shape == (9,)

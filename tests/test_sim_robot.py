@@ -290,6 +290,40 @@ def test_trajectory_executor_reports_tracking():
     assert r.get_joint_positions()[:7] == pytest.approx(q[-1], abs=2e-3)
 
 
+def test_execute_a_plan_matches_joints_by_name():
+    model = ferrobot.robots.panda()
+    w = ferrobot.World()
+    r = w.add_robot(model, q=PANDA_Q0)
+    r.set_joint_position_targets(PANDA_Q0)
+    planner = ferrobot.Planner(model)
+    goal = PANDA_Q0[:7] + np.array([0.3, -0.2, 0.2, 0.3, -0.2, 0.2, 0.3])
+    # The planner's output in another order, with the mimic finger joint in it: Robot.execute maps by name.
+    names = ["panda_finger_joint2", *reversed(planner.joint_names), "panda_finger_joint1"]
+    start = [0.04, *PANDA_Q0[:7][::-1], 0.04]
+    res = planner.plan(start, goal_q=[0.04, *goal[::-1], 0.04], joint_names=names)
+    assert res.success
+    traj = res.interpolated(0.01)
+    rep = r.execute(traj, settle_time=0.2)
+    assert rep["desired"].shape[1] == 8  # 7 arm joints + finger_joint1; the mimic finger is skipped
+    assert r.get_joint_positions()[:7] == pytest.approx(goal, abs=2e-3)
+    assert r.get_joint_positions()[7] == pytest.approx(0.04, abs=1e-3)
+    assert rep["max_error"].max() < 0.02
+    # A PlanResult directly: sampled at the world's time step.
+    back = planner.plan(goal, goal_q=PANDA_Q0[:7])
+    rep = r.execute(back, settle_time=0.2)
+    assert (
+        len(rep["times"]) == int(round((back.duration + 0.2) / w.dt))
+        or abs(len(rep["times"]) - (back.duration + 0.2) / w.dt) <= 2
+    )
+    assert r.get_joint_positions()[:7] == pytest.approx(PANDA_Q0[:7], abs=2e-3)
+    with pytest.raises(errors.InvalidArgumentError, match="JointTrajectory"):
+        r.execute(np.zeros((3, 7)))
+    ur5_like = ferrobot.Planner(ferrobot.RobotModel.from_urdf(UR5_URDF))
+    other = ur5_like.plan(np.zeros(6), goal_q=np.full(6, 0.1))
+    with pytest.raises(errors.UnknownNameError, match="not a joint of robot"):
+        r.execute(other.interpolated(0.01))
+
+
 def test_resolved_rate_reaches_pose():
     model = ferrobot.robots.panda()
     w = ferrobot.World()

@@ -340,6 +340,8 @@ class Robot:
         settle_time: float = 0.0,
     ) -> dict[str, F64]:
         """Keys: times, desired, actual, max_error, rms_error, final_error."""
+    def execute(self, trajectory: JointTrajectory | PlanResult, settle_time: float = 0.0) -> dict[str, F64]:
+        """Runs a planned motion (joints matched by name; a PlanResult is sampled at the world's dt)."""
 
 class Camera:
     """Pinhole camera (OpenCV frame: x right, y down, z forward) fixed to the world or a robot link."""

@@ -103,6 +103,19 @@ impl JointOrder {
         Ok(self.active_at.iter().map(|&i| values[i]).collect())
     }
 
+    /// The model DOFs that `values` (in this order) hold for joints the
+    /// planner does not move, as (dof index, value) pairs.
+    pub fn locked_values(&self, values: &[f64]) -> Vec<(usize, f64)> {
+        self.slots
+            .iter()
+            .zip(values)
+            .filter_map(|(s, &v)| match *s {
+                Slot::Locked(d) => Some((d, v)),
+                _ => None,
+            })
+            .collect()
+    }
+
     /// Values in this order for the active configuration `q`, the locked
     /// values taken from `space`.
     pub fn from_active(&self, space: &ActiveSpace, q: &[f64]) -> Vec<f64> {

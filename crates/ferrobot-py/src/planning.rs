@@ -72,6 +72,15 @@ impl Output {
 }
 
 /// A trajectory sampled at a fixed time step.
+/// A trajectory's samples, for bindings that run it (`Robot.execute`):
+/// joint names, time step, positions and velocities (rows of `names.len()`).
+pub(crate) struct TrajectorySamples<'a> {
+    pub names: &'a [String],
+    pub dt: f64,
+    pub positions: &'a [f64],
+    pub velocities: &'a [f64],
+}
+
 #[pyclass(name = "JointTrajectory", module = "ferrobot", frozen)]
 pub struct PyJointTrajectory {
     #[pyo3(get)]
@@ -83,6 +92,18 @@ pub struct PyJointTrajectory {
     velocities: Vec<f64>,
     accelerations: Vec<f64>,
     width: usize,
+}
+
+impl PyJointTrajectory {
+    /// Its samples.
+    pub(crate) fn samples(&self) -> TrajectorySamples<'_> {
+        TrajectorySamples {
+            names: &self.joint_names,
+            dt: self.dt,
+            positions: &self.positions,
+            velocities: &self.velocities,
+        }
+    }
 }
 
 #[pymethods]
@@ -226,7 +247,7 @@ impl PyPlanResult {
     /// The trajectory sampled every `dt` seconds (the last sample at its
     /// end): positions, velocities and accelerations.
     #[pyo3(signature = (dt=0.01))]
-    fn interpolated(&self, dt: f64) -> PyResult<PyJointTrajectory> {
+    pub(crate) fn interpolated(&self, dt: f64) -> PyResult<PyJointTrajectory> {
         if !(dt.is_finite() && dt > 0.0) {
             return Err(InvalidArgumentError::new_err(format!(
                 "dt must be a positive number of seconds, got {dt}"
@@ -415,7 +436,8 @@ impl PyPlanner {
         })
     }
 
-    /// Reads a configuration: in `order` if given; else a full vector in
+    /// Reads a configuration: in `order` if given (its entries for joints
+    /// the planner does not move set those joints); else a full vector in
     /// `dof_names` order (which also sets the locked joints) or the planned
     /// joints in `joint_names` order. Returns (active, full if given).
     fn config(
@@ -429,7 +451,18 @@ impl PyPlanner {
         let space = self.inner.space();
         let n = self.inner.model().num_dof();
         if let Some(o) = order {
-            return Ok((o.to_active(what, v).map_err(planning_err)?, None));
+            let active = o.to_active(what, v).map_err(planning_err)?;
+            // Values for joints the planner does not move (a simulator's
+            // fingers) set them, as a full vector does, where they differ.
+            let locked = o.locked_values(v);
+            if locked.iter().any(|&(d, x)| x != space.locked[d]) {
+                let mut full = space.expand(&active);
+                for (d, x) in locked {
+                    full[d] = x;
+                }
+                return Ok((active, Some(full)));
+            }
+            return Ok((active, None));
         }
         if v.len() == space.len() {
             Ok((v.to_vec(), None))

@@ -21,6 +21,7 @@ use crate::errors::{
     SimulationDiverged, UnknownNameError, guard, model_err,
 };
 use crate::model::PyRobotModel;
+use crate::planning::{PyJointTrajectory, PyPlanResult};
 
 /// Converts a simulation error to the matching Python exception.
 pub fn sim_err(e: SimError) -> PyErr {
@@ -813,6 +814,89 @@ impl PyRobot {
         let v = velocities
             .map(|v| read_array(v, "velocities", 2, &[k]).map(|a| a.data().to_vec()))
             .transpose()?;
+        self.run_trajectory(py, p, v, dt, ix, settle_time)
+    }
+
+    /// Executes a planned motion: a `JointTrajectory` (from
+    /// `PlanResult.interpolated(dt)`) or a successful `PlanResult` (sampled
+    /// at the world's time step), through the joint drives as
+    /// `execute_trajectory` does. Joints are matched by name, so the
+    /// planner's joint order needs no glue; mimic joints in the trajectory
+    /// are skipped (the physics makes them follow their drivers); a name the
+    /// robot does not have raises `UnknownNameError`. Returns the tracking
+    /// report of `execute_trajectory`.
+    #[pyo3(signature = (trajectory, settle_time=0.0))]
+    fn execute<'py>(
+        &self,
+        py: Python<'py>,
+        trajectory: &Bound<'py, PyAny>,
+        settle_time: f64,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let owned;
+        let traj = if let Ok(t) = trajectory.cast::<PyJointTrajectory>() {
+            t.get()
+        } else if let Ok(r) = trajectory.cast::<PyPlanResult>() {
+            let dt = lock(&self.world)?.config().dt;
+            owned = r.borrow().interpolated(dt)?;
+            &owned
+        } else {
+            return Err(InvalidArgumentError::new_err(format!(
+                "trajectory: expected a ferrobot.JointTrajectory or a ferrobot.PlanResult, got {}",
+                trajectory
+                    .get_type()
+                    .name()
+                    .map(|n| n.to_string())
+                    .unwrap_or_default()
+            )));
+        };
+        let s = traj.samples();
+        let width = s.names.len();
+        let mut cols = Vec::new();
+        let mut ix = Vec::new();
+        for (c, name) in s.names.iter().enumerate() {
+            match self.model.dof(name) {
+                Ok(d) => {
+                    cols.push(c);
+                    ix.push(d);
+                }
+                Err(_) => {
+                    let mimic = self
+                        .model
+                        .joint(name)
+                        .is_ok_and(|j| self.model.joints()[j].mimic.is_some());
+                    if !mimic {
+                        return Err(UnknownNameError::new_err(format!(
+                            "trajectory joint '{name}' is not a joint of robot '{}' (dof_names: {:?})",
+                            self.model.name(),
+                            self.model.dof_names()
+                        )));
+                    }
+                }
+            }
+        }
+        let pick = |src: &[f64]| -> Vec<f64> {
+            src.chunks_exact(width.max(1))
+                .flat_map(|row| cols.iter().map(move |&c| row[c]))
+                .collect()
+        };
+        let (p, v) = (pick(s.positions), pick(s.velocities));
+        let dt = s.dt;
+        self.run_trajectory(py, p, Some(v), dt, Some(ix), settle_time)
+    }
+}
+
+impl PyRobot {
+    /// Runs positions (rows of the `ix` joints) through the drives and
+    /// returns the tracking report as a dict.
+    fn run_trajectory<'py>(
+        &self,
+        py: Python<'py>,
+        p: Vec<f64>,
+        v: Option<Vec<f64>>,
+        dt: f64,
+        ix: Option<Vec<usize>>,
+        settle_time: f64,
+    ) -> PyResult<Bound<'py, PyDict>> {
         let world = self.world.clone();
         let index = self.index;
         let rep = guard(|| {
