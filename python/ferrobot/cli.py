@@ -117,6 +117,13 @@ def cmd_demo(args: argparse.Namespace) -> int:
     if args.episodes < 1:
         print("ferrobot: error: --episodes must be >= 1", file=sys.stderr)
         return 2
+    if args.workers is None:
+        import os
+
+        args.workers = os.cpu_count() or 1
+    if args.workers < 1:
+        print("ferrobot: error: --workers must be >= 1", file=sys.stderr)
+        return 2
     if args.objects is not None and not 1 <= args.objects <= 6:
         print("ferrobot: error: --objects must be between 1 and 6", file=sys.stderr)
         return 2
@@ -128,7 +135,13 @@ def cmd_demo(args: argparse.Namespace) -> int:
             f"seeds {args.seed}..{args.seed + args.episodes - 1}"
         )
         s = run_batch(
-            args.episodes, seed=args.seed, out=out, config=config, num_objects=args.objects, progress=not args.quiet
+            args.episodes,
+            workers=args.workers,
+            seed=args.seed,
+            out=out,
+            config=config,
+            num_objects=args.objects,
+            progress=not args.quiet,
         )
         print(
             f"{s['successes']}/{s['episodes']} succeeded ({100 * s['success_rate']:.1f}%), "
@@ -172,6 +185,9 @@ def main(argv: list[str] | None = None) -> int:
     p_demo.add_argument("--objects", type=int, default=None, help="objects on the table (default 3-5 at random)")
     p_demo.add_argument("--no-animation", action="store_true", help="single episode: skip the animation")
     p_demo.add_argument("--quiet", action="store_true", help="batch: no progress bar")
+    p_demo.add_argument(
+        "--workers", type=int, default=None, help="batch: episodes run in this many processes (default: one per core)"
+    )
     p_demo.set_defaults(func=cmd_demo)
     p_serve = sub.add_parser("serve-grasp", help="serve grasp detection over HTTP (FastAPI + uvicorn)")
     p_serve.add_argument("--host", default="127.0.0.1", help="address to bind (default 127.0.0.1)")

@@ -6,11 +6,14 @@ from __future__ import annotations
 
 import collections
 import json
+import multiprocessing
+import os
 import statistics
 import sys
 import time
 from pathlib import Path
 
+from ..errors import InvalidArgumentError
 from .pick_place import STAGES, PickPlace, PickPlaceConfig
 from .scene import random_scene
 
@@ -71,6 +74,28 @@ def summarize(records: list[dict], wall_time_s: float) -> dict:
     }
 
 
+_WORKER: dict = {}
+
+
+def _worker_init(config: PickPlaceConfig | None, threads: int) -> None:
+    # Each worker process gets its share of the cores for the Rust thread pools (set before first use).
+    os.environ.setdefault("RAYON_NUM_THREADS", str(threads))
+    _WORKER["pp"] = PickPlace(config)
+
+
+def _worker_run(job: tuple[int, int, int | None]) -> dict:
+    i, seed, num_objects = job
+    return _episode(_WORKER["pp"], i, seed, num_objects)
+
+
+def _episode(pp: PickPlace, i: int, seed: int, num_objects: int | None) -> dict:
+    spec = random_scene(seed, num_objects)
+    rec = pp.run(spec).to_dict()
+    rec["episode"] = i
+    rec["objects"] = [o.kind for o in spec.objects]
+    return rec
+
+
 def run_batch(
     episodes: int,
     seed: int = 0,
@@ -78,11 +103,14 @@ def run_batch(
     config: PickPlaceConfig | None = None,
     num_objects: int | None = None,
     progress: bool = True,
+    workers: int = 1,
 ) -> dict:
     """Runs ``episodes`` episodes on random scenes seeded ``seed, seed + 1, ...``; writes
-    ``out/episodes.jsonl`` (one JSON object per episode, written as it finishes) and ``out/summary.json``
-    when ``out`` is given; returns the summary."""
-    pp = PickPlace(config)
+    ``out/episodes.jsonl`` (one JSON object per episode, in episode order, written as they finish) and
+    ``out/summary.json`` when ``out`` is given; returns the summary. ``workers`` > 1 runs episodes in that
+    many processes (each episode depends only on its seed, so the records are the same)."""
+    if workers < 1:
+        raise InvalidArgumentError(f"workers: expected >= 1, got {workers}")
     bar = Progress(episodes) if progress else None
     records = []
     jsonl = None
@@ -90,24 +118,33 @@ def run_batch(
         out = Path(out)
         out.mkdir(parents=True, exist_ok=True)
         jsonl = (out / "episodes.jsonl").open("w")
+    jobs = [(i, seed + i, num_objects) for i in range(episodes)]
     t0 = time.perf_counter()
+    pool = None
     try:
-        for i in range(episodes):
-            spec = random_scene(seed + i, num_objects)
-            rec = pp.run(spec).to_dict()
-            rec["episode"] = i
-            rec["objects"] = [o.kind for o in spec.objects]
+        if workers == 1:
+            pp = PickPlace(config)
+            results = (_episode(pp, *job) for job in jobs)
+        else:
+            threads = max(1, (os.cpu_count() or 1) // workers)
+            ctx = multiprocessing.get_context("spawn")  # no fork of a process whose Rust threads run
+            pool = ctx.Pool(workers, initializer=_worker_init, initargs=(config, threads))
+            results = pool.imap(_worker_run, jobs)
+        for rec in results:
             records.append(rec)
             if jsonl is not None:
                 jsonl.write(json.dumps(rec) + "\n")
                 jsonl.flush()
             if bar is not None:
-                bar.update(i + 1, sum(r["success"] for r in records))
+                bar.update(len(records), sum(r["success"] for r in records))
     finally:
+        if pool is not None:
+            pool.terminate()
         if jsonl is not None:
             jsonl.close()
     summary = summarize(records, time.perf_counter() - t0)
     summary["seed"] = seed
+    summary["workers"] = workers
     if out is not None:
         (out / "summary.json").write_text(json.dumps(summary, indent=2))
     return summary
