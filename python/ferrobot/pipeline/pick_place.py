@@ -522,6 +522,9 @@ class PickPlace:
     def run(self, spec: SceneSpec, record_frames: bool = False, frame_every: int = 16) -> EpisodeResult:
         """Runs one episode on ``spec``. With ``record_frames``, a second camera records RGB frames for an
         animation (``self.recorder.frames``). Never raises for a failed stage: see the result."""
+        # Nothing of the previous episode may leak into this one's report.
+        for name in ("world", "robot", "camera", "rec", "frame", "grasps_world", "grasps_camera", "choice"):
+            self.__dict__.pop(name, None)
         self.spec = spec
         self.result = EpisodeResult(seed=spec.seed, target=spec.target)
         t0 = time.perf_counter()
