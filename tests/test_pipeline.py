@@ -148,7 +148,20 @@ def test_demo_writes_its_folder(tmp_path, capsys):
     assert green.sum() > 50  # the chosen grasp is drawn
 
     page = (out / "animation.html").read_text()
-    assert page.count("data:image/png;base64,") > 20
+    frames = page.count("data:image/png;base64,")
+    assert frames > 20
+
+    # The 3D viewer's data: one robot state per animation frame, every sphere of the robot, every object.
+    viewer = (out / "viewer.html").read_text()
+    data = json.loads(viewer.split("const D = ", 1)[1].split(";\n", 1)[0])
+    assert len(data["frames"]) == frames
+    n_spheres = len(data["radii"])
+    assert n_spheres > 20 and all(len(f["spheres"]) == n_spheres for f in data["frames"])
+    names = {o["name"] for o in data["objects"]}
+    assert {"table", report["scene"]["target"]} <= names
+    assert all(set(f["objects"]) == names for f in data["frames"])
+    # The robot's spheres move with the robot: the last frame's differ from the first's.
+    assert np.abs(np.subtract(data["frames"][0]["spheres"], data["frames"][-1]["spheres"])).max() > 0.05
 
 
 def test_png_round_trip():

@@ -513,6 +513,9 @@ class Planner:
     @property
     def attached(self) -> list[str]: ...
     @property
+    def sphere_model(self) -> SphereModel:
+        """The robot's spheres used by this planner (``report`` empty)."""
+    @property
     def world(self) -> CollisionWorld: ...
     def in_collision(self, q: npt.ArrayLike, joint_names: list[str] | None = None) -> bool: ...
     def ik(

@@ -713,6 +713,18 @@ impl PyPlanner {
         })
     }
 
+    /// The robot's sphere model used by this planner (automatic unless one
+    /// was given); its `report` is empty.
+    #[getter]
+    fn sphere_model(&self) -> PySphereModel {
+        let c = self.inner.checker();
+        PySphereModel {
+            model: c.model().clone(),
+            inner: c.spheres().clone(),
+            report: Vec::new(),
+        }
+    }
+
     /// Names of the objects attached to the robot.
     #[getter]
     fn attached(&self) -> Vec<String> {

@@ -145,11 +145,20 @@ class Recorder:
         self.desired: list[np.ndarray] = []
         self.stage: list[str] = []
         self.frames: list[tuple[float, str, np.ndarray]] = []
+        self.states: list[dict] = []  # robot and object states at the frames, for the 3D viewer
         self._since_frame = frame_every
 
     def _frame(self, stage: str) -> None:
         if self.camera is not None and self._since_frame >= self.every:
             self.frames.append((self.world.time, stage, self.camera.render(rgb=True)["rgb"]))
+            self.states.append(
+                {
+                    "t": self.world.time,
+                    "stage": stage,
+                    "q": self.robot.get_joint_positions(),
+                    "objects": {n: self.world.get_object_pose(n) for n in self.world.object_names},
+                }
+            )
             self._since_frame = 0
 
     def snapshot(self, stage: str) -> None:
@@ -281,6 +290,15 @@ class PickPlace:
         err = self.rec.execute(traj.positions, traj.velocities, self.arm_idx, stage)
         self.rec.wait(0.1, stage)
         return {"plan_ms": 1e3 * plan_s, "duration_s": float(res.duration), "tracking_error_rad": err}
+
+    def scene_shapes(self) -> list[tuple[str, str, tuple, tuple]]:
+        """(name, kind, size, colour) of every object of the scene, table and robot mount included."""
+        out = [
+            ("table", "box", TABLE_SIZE, (0.55, 0.42, 0.30)),
+            (ROBOT_MOUNT, "box", (0.3, 0.3, TABLE_TOP), (0.3, 0.3, 0.32)),
+        ]
+        out += [(o.name, o.kind, tuple(o.size), o.color) for o in self.spec.objects]
+        return out
 
     def _hand_world(self) -> np.ndarray:
         return self.robot.get_link_pose("panda_hand")
@@ -519,7 +537,7 @@ class PickPlace:
 
     # -- one episode ------------------------------------------------------------------------------------------
 
-    def run(self, spec: SceneSpec, record_frames: bool = False, frame_every: int = 16) -> EpisodeResult:
+    def run(self, spec: SceneSpec, record_frames: bool = False, frame_every: int = 20) -> EpisodeResult:
         """Runs one episode on ``spec``. With ``record_frames``, a second camera records RGB frames for an
         animation (``self.recorder.frames``). Never raises for a failed stage: see the result."""
         # Nothing of the previous episode may leak into this one's report.

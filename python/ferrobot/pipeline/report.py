@@ -1,6 +1,6 @@
 """What an episode leaves behind: a printed report, and a folder with ``report.json``, the executed
 trajectory (``trajectory.npz``), the camera view with the grasps drawn (``grasp.png``) and an animation
-(``animation.html``, a self-contained flip-book)."""
+(``animation.html``, a self-contained flip-book) and an interactive 3D view (``viewer.html``)."""
 
 from __future__ import annotations
 
@@ -11,6 +11,7 @@ import numpy as np
 
 from .images import draw_segments, project, write_flipbook, write_png
 from .pick_place import EpisodeResult, PickPlace
+from .viewer import viewer_data, write_viewer
 
 __all__ = ["format_report", "write_episode", "grasp_image"]
 
@@ -89,4 +90,5 @@ def write_episode(out: Path, pp: PickPlace, result: EpisodeResult) -> dict[str, 
             "success" if result.success else f"failed at {result.failed_stage}"
         )
         paths["animation"] = write_flipbook(out / "animation.html", pp.rec.frames, title)
+        paths["viewer"] = write_viewer(out / "viewer.html", viewer_data(pp), title)
     return paths
