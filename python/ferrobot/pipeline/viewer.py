@@ -14,6 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .scene import ROBOT_MOUNT
+
 __all__ = ["viewer_data", "write_viewer"]
 
 
@@ -47,7 +49,8 @@ def viewer_data(pp) -> dict:
         )
     objects = []
     for name, kind, size, color in pp.scene_shapes():
-        objects.append({"name": name, "kind": kind, "size": _round(size), "color": list(color)})
+        base_layer = name in ("table", ROBOT_MOUNT)
+        objects.append({"name": name, "kind": kind, "size": _round(size), "color": list(color), "base": base_layer})
     grasp = None
     if getattr(pp, "choice", None) is not None:
         grasp = _round(pp.grasps_world[pp.choice : pp.choice + 1].gripper_lines()[0])
