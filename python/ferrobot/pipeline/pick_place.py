@@ -457,7 +457,7 @@ class PickPlace:
                 low = self.planner.ik(hand, res.q, num_seeds=8, collision_free=True)
                 if not low.success:
                     continue
-                self.place_hand, self.q_place = hand, low.q
+                self.place_hand, self.q_place, self.q_above = hand, low.q, res.q
                 out = self._move("transport", res.q, [])
                 self._check_held("transport")
                 return {**out, "turn_deg": [0, 180, 90, -90][k]}
@@ -481,8 +481,11 @@ class PickPlace:
         def retreat():
             hand = transforms.world_to_base(self._hand_world(), self.base)
             back = _along_z(hand, -cfg.retreat_distance)
-            q = self._ik_near(back, self._q(), "retreat")
-            return self._move("retreat", q, [self.spec.target, "table"])
+            res = self.planner.ik(back, self._q(), num_seeds=32)
+            # Back along the approach; where that is out of reach, up to the pose the object was
+            # carried in (its IK is known).
+            q, how = (res.q, "back along the approach") if res.success else (self.q_above, "up to the carry pose")
+            return {**self._move("retreat", q, [self.spec.target, "table"]), "retreat": how}
 
         self._stage("retreat", retreat)
 
