@@ -165,14 +165,15 @@ def main() -> None:
             "mujoco_version": mujoco.__version__,
             "mujoco_integrator": "implicitfast",
             "mujoco_solver": "Newton (default), pyramidal cones (default)",
-            "ferrobot_robot_extra_substeps": 4,
+            "ferrobot_robot_extra_substeps": "4 while the robot touches something or nears a joint limit, else 0",
             "load_average_start": load,
             "cpus": os.cpu_count(),
         }
     }
     print(
         f"Settings: dt = 1/{round(1 / s.dt)} s, gravity {s.gravity} m/s^2, {s.solver_iterations} solver iterations "
-        f"(ferrobot: world substeps, robot bodies +4; MuJoCo: iterations={s.solver_iterations}, Newton, implicitfast), "
+        f"(ferrobot: world substeps, +4 for the robot while it touches something or nears a limit; "
+        f"MuJoCo: iterations={s.solver_iterations}, Newton, implicitfast), "
         f"drives kp {s.stiffness:g} kd {s.damping:g} clamped to URDF efforts, robot gravity-compensated; "
         f"MuJoCo {mujoco.__version__}; load average {load[0]:.2f} on {os.cpu_count()} CPUs"
     )

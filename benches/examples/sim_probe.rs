@@ -1,4 +1,5 @@
-//! Steps the Panda (alone, or with the table scene) for profiling:
+//! Steps the Panda (alone, or beside a table with two resting objects it does
+//! not touch) for profiling:
 //! `cargo run --release -p ferrobot-benches --example sim_probe -- [alone|table] [steps]`
 
 use std::sync::Arc;
@@ -39,7 +40,7 @@ fn main() {
             ObjectShape::Box {
                 half_extents: Vector3::new(0.025, 0.025, 0.025),
             },
-            Isometry3::translation(0.5, 0.0, 0.425),
+            Isometry3::translation(0.55, 0.2, 0.425),
             false,
         );
         add(
