@@ -10,7 +10,9 @@ static table, at 240 Hz with 4 solver iterations, in ferrobot and, in the same
 run and interleaved with it, in MuJoCo on the same scene written as MJCF by
 ``benches/mjcf_scene.py`` from the same ``RobotModel`` (link masses, inertias,
 collision primitives, joint limits, mimic coupling, allowed-collision pairs)
-and the same object list. Both simulators: dt 1/240 s, gravity -9.81, robot
+and the same object list. Rapier puts resting bodies to sleep, so MuJoCo runs
+with sleeping enabled for the ratio (and with its defaults, everything awake,
+as a second figure); the robot never sleeps in either. Both simulators: dt 1/240 s, gravity -9.81, robot
 links gravity-compensated, PD drives kp 1e4 / kd 1e2 clamped to the URDF
 efforts, the same friction coefficients. Target: ferrobot at least as fast as
 MuJoCo (ratio >= 1.0). Medians over the repeats, wall time and CPU time
@@ -83,27 +85,33 @@ def table_scene(model, q):
 
 def compare_with_mujoco(model, settings: Settings, q: np.ndarray, steps: int, repeats: int) -> dict:
     """Steps/s of ferrobot and MuJoCo on one scene, interleaved repeat by repeat,
-    the robot holding ``q``."""
+    the robot holding ``q``. MuJoCo twice: with sleeping enabled (as Rapier, which
+    puts resting bodies to sleep; the robot never sleeps in either) and with its
+    defaults (everything awake). ``ratio`` is against the former, the same work."""
     import mujoco
 
     w, r = build_ferrobot(model, settings, q)
     m, d, _ = build_mujoco(model, settings, q)
-    w.step(240)  # settle both (1 s), untimed
+    ms, ds, _ = build_mujoco(model, settings, q)
+    ms.opt.enableflags |= mujoco.mjtEnableBit.mjENBL_SLEEP
+    w.step(240)  # settle (1 s), untimed
     mujoco.mj_step(m, d, nstep=240)
-    fr, mj = [], []
+    mujoco.mj_step(ms, ds, nstep=240)
+    runs: dict[str, list] = {"ferrobot": [], "mujoco": [], "mujoco_default": []}
     for _ in range(repeats):
-        fr.append(timed(lambda: w.step(steps)))
-        mj.append(timed(lambda: mujoco.mj_step(m, d, nstep=steps)))
+        runs["ferrobot"].append(timed(lambda: w.step(steps)))
+        runs["mujoco"].append(timed(lambda: mujoco.mj_step(ms, ds, nstep=steps)))
+        runs["mujoco_default"].append(timed(lambda: mujoco.mj_step(m, d, nstep=steps)))
     out = {}
-    for key, runs in (("ferrobot", fr), ("mujoco", mj)):
-        wall = statistics.median(t for t, _ in runs)
-        cpu = statistics.median(c for _, c in runs)
-        out[f"{key}_steps_per_s"] = steps / wall
-        out[f"{key}_cpu_steps_per_s"] = steps / cpu
+    for key, rs in runs.items():
+        out[f"{key}_steps_per_s"] = steps / statistics.median(t for t, _ in rs)
+        out[f"{key}_cpu_steps_per_s"] = steps / statistics.median(c for _, c in rs)
     out["ratio"] = out["ferrobot_steps_per_s"] / out["mujoco_steps_per_s"]
     out["ratio_cpu"] = out["ferrobot_cpu_steps_per_s"] / out["mujoco_cpu_steps_per_s"]
+    out["ratio_mujoco_default"] = out["ferrobot_steps_per_s"] / out["mujoco_default_steps_per_s"]
+    out["ratio_cpu_mujoco_default"] = out["ferrobot_cpu_steps_per_s"] / out["mujoco_default_cpu_steps_per_s"]
     # What each simulated: joint error to the held pose, object drift since the start.
-    qm = np.array([d.joint(n).qpos[0] for n in model.dof_names])
+    qm = np.array([ds.joint(n).qpos[0] for n in model.dof_names])
     out["ferrobot_joint_error_rad"] = float(np.abs(r.get_joint_positions() - q)[:7].max())
     out["mujoco_joint_error_rad"] = float(np.abs(qm - q)[:7].max())
     dyn = [o for o in settings.objects if not o.static]
@@ -111,8 +119,9 @@ def compare_with_mujoco(model, settings: Settings, q: np.ndarray, steps: int, re
         out["ferrobot_object_drift_m"] = max(
             float(np.linalg.norm(w.get_object_pose(o.name)[:3, 3] - o.pose[:3])) for o in dyn
         )
-        out["mujoco_object_drift_m"] = max(float(np.linalg.norm(d.body(o.name).xpos - o.pose[:3])) for o in dyn)
-        out["mujoco_contacts"] = int(d.ncon)
+        out["mujoco_object_drift_m"] = max(float(np.linalg.norm(ds.body(o.name).xpos - o.pose[:3])) for o in dyn)
+        out["mujoco_default_object_drift_m"] = max(float(np.linalg.norm(d.body(o.name).xpos - o.pose[:3])) for o in dyn)
+        out["mujoco_default_contacts"] = int(d.ncon)
     out["simulated_s"] = w.time
     return out
 
@@ -165,6 +174,7 @@ def main() -> None:
             "mujoco_version": mujoco.__version__,
             "mujoco_integrator": "implicitfast",
             "mujoco_solver": "Newton (default), pyramidal cones (default)",
+            "mujoco_sleep": "enabled for 'mujoco_*' figures (Rapier sleeps resting bodies), off for 'mujoco_default_*'",
             "ferrobot_robot_extra_substeps": "4 while the robot touches something or nears a joint limit, else 0",
             "load_average_start": load,
             "cpus": os.cpu_count(),
@@ -189,15 +199,17 @@ def main() -> None:
         out[key] = res
         print(
             f"{label}: ferrobot {res['ferrobot_steps_per_s']:,.0f} steps/s "
-            f"({res['ferrobot_cpu_steps_per_s']:,.0f} per CPU s), MuJoCo {res['mujoco_steps_per_s']:,.0f} steps/s "
-            f"({res['mujoco_cpu_steps_per_s']:,.0f} per CPU s): ratio {res['ratio']:.2f} wall, "
-            f"{res['ratio_cpu']:.2f} CPU (target >= 1.0)"
+            f"({res['ferrobot_cpu_steps_per_s']:,.0f} per CPU s); MuJoCo with sleeping (as Rapier) "
+            f"{res['mujoco_steps_per_s']:,.0f} ({res['mujoco_cpu_steps_per_s']:,.0f}): ratio {res['ratio']:.2f} wall, "
+            f"{res['ratio_cpu']:.2f} CPU (target >= 1.0); MuJoCo defaults {res['mujoco_default_steps_per_s']:,.0f} "
+            f"({res['mujoco_default_cpu_steps_per_s']:,.0f}): ratio {res['ratio_cpu_mujoco_default']:.2f} CPU"
         )
         drift = ""
         if "ferrobot_object_drift_m" in res:
             drift = (
                 f", largest object drift {1e3 * res['ferrobot_object_drift_m']:.2f} mm vs "
-                f"{1e3 * res['mujoco_object_drift_m']:.2f} mm ({res['mujoco_contacts']} MuJoCo contacts)"
+                f"{1e3 * res['mujoco_object_drift_m']:.2f} mm (MuJoCo defaults "
+                f"{1e3 * res['mujoco_default_object_drift_m']:.2f} mm, {res['mujoco_default_contacts']} contacts)"
             )
         print(
             f"  after {res['simulated_s']:.0f} s simulated: joint error {res['ferrobot_joint_error_rad']:.1e} rad "
