@@ -639,6 +639,12 @@ impl Robot {
         self.solver_iterations
     }
 
+    /// The extra solver substeps the last step used (0 while the robot
+    /// touched nothing and no joint neared a limit).
+    pub fn active_solver_iterations(&self) -> usize {
+        self.applied_iterations
+    }
+
     /// Switches the extra substeps on while the robot touches something or
     /// a joint may reach one of its limits within the next step (Rapier
     /// enforces a limit once crossed, so an impact overshoots by about the
