@@ -252,3 +252,28 @@ def test_stack_stays_standing(boxes, friction_in_stabilization):
     w.step(int(10 / w.dt))
     top = w.get_object_pose(f"b{boxes - 1}")[:3, 3]
     assert np.linalg.norm(top - [0, 0, 0.025 + 0.05 * (boxes - 1)]) < 3e-3
+
+
+def test_objects_rest_on_a_table_for_10000_steps():
+    # A static table with a box, a standing cylinder, a sphere and a lying capsule:
+    # after settling, 10,000 steps (42 s) move none of them by more than 1 mm.
+    top = 0.4
+    c = np.cos(np.pi / 4)
+    w = ferrobot.World()
+    w.add_box("table", [0.8, 1.2, top], [0.6, 0, top / 2, 1, 0, 0, 0], static_=True, friction=0.8)
+    w.add_box("box", [0.05] * 3, [0.5, 0, top + 0.025, 1, 0, 0, 0], mass=0.5, friction=1.0)
+    w.add_cylinder("can", 0.03, 0.12, [0.6, 0.25, top + 0.06, 1, 0, 0, 0], mass=0.3)
+    w.add_sphere("ball", 0.04, [0.7, -0.25, top + 0.04, 1, 0, 0, 0], mass=0.2)
+    w.add_capsule("bar", 0.02, 0.1, [0.75, 0.1, top + 0.02, c, 0, c, 0], mass=0.2)
+    names = ["box", "can", "ball", "bar"]
+    w.step(240)
+    settled = {n: w.get_object_pose(n) for n in names}
+    for n, h in (("box", 0.025), ("can", 0.06), ("ball", 0.04), ("bar", 0.02)):
+        assert settled[n][2, 3] == pytest.approx(top + h, abs=1.5e-3)
+    w.step(10_000)
+    for n in names:
+        p = w.get_object_pose(n)
+        assert np.linalg.norm(p[:3, 3] - settled[n][:3, 3]) < 1e-3, n
+        assert np.abs(p[:3, :3] - settled[n][:3, :3]).max() < 1e-3, n  # no tipping or rolling
+        v, om = w.get_object_velocity(n)
+        assert np.linalg.norm(v) < 1e-3 and np.linalg.norm(om) < 1e-2, n

@@ -721,7 +721,8 @@ impl PyRobot {
         self.with(|r, s| r.set_drive_gains(s, &k, &d, m.as_deref(), ix.as_deref()))
     }
 
-    /// Extra solver iterations for the robot's bodies.
+    /// Extra solver substeps for the robot's bodies, used while the robot
+    /// touches something (grasps hold better; a free robot does not need them).
     fn set_solver_iterations(&self, n: usize) -> PyResult<()> {
         self.with(|r, s| {
             r.set_solver_iterations(s, n);

@@ -117,3 +117,48 @@ fn bad_inputs_are_errors() {
     let e = w.with_robot(r, |rb, s| rb.set_joint_positions(s, &[f64::NAN; 8]));
     assert!(matches!(e, Err(SimError::NonFinite(_))));
 }
+
+/// The robot's extra substeps are used only while it touches something other
+/// than itself or a joint nears a limit its drive pushes towards.
+#[test]
+fn extra_substeps_only_while_touching_or_near_a_limit() {
+    const Q: [f64; 8] = [0.0, -0.3, 0.0, -2.2, 0.0, 2.0, 0.785, 0.04];
+    let model = Arc::new(ferrobot_model::robots::panda().unwrap());
+    let mut opts = RobotOptions::new("panda");
+    opts.q = Some(Q.to_vec());
+    // Free in the air (the open fingers rest at their upper limit, held there).
+    let mut w = world(false);
+    let r = w.add_robot(model.clone(), &opts).unwrap();
+    w.with_robot(r, |robot, s| robot.set_position_targets(s, &Q, None))
+        .unwrap();
+    w.step(20).unwrap();
+    assert_eq!(w.robot(r).unwrap().active_solver_iterations(), 0);
+    // Driven beyond joint 4's upper limit (-0.0698 rad): on once it gets near.
+    let mut beyond = Q;
+    beyond[3] = 0.3;
+    w.with_robot(r, |robot, s| robot.set_position_targets(s, &beyond, None))
+        .unwrap();
+    w.step(240).unwrap();
+    assert_eq!(w.robot(r).unwrap().active_solver_iterations(), 4);
+    // Back to the free pose: off again.
+    w.with_robot(r, |robot, s| robot.set_position_targets(s, &Q, None))
+        .unwrap();
+    w.step(240).unwrap();
+    assert_eq!(w.robot(r).unwrap().active_solver_iterations(), 0);
+    // A box between the fingers (hand at about (0.48, 0, 0.41)): on.
+    let mut w = world(false);
+    let r = w.add_robot(model, &opts).unwrap();
+    w.with_robot(r, |robot, s| robot.set_position_targets(s, &Q, None))
+        .unwrap();
+    let mut d = ObjectDesc::new(
+        "box",
+        ObjectShape::Box {
+            half_extents: Vector3::new(0.02, 0.02, 0.02),
+        },
+        Isometry3::translation(0.484, 0.0, 0.42),
+    );
+    d.is_static = true;
+    w.add_object(d).unwrap();
+    w.step(5).unwrap();
+    assert_eq!(w.robot(r).unwrap().active_solver_iterations(), 4);
+}
