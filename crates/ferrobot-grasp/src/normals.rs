@@ -3,7 +3,6 @@
 
 use kiddo::{KdTree, SquaredEuclidean};
 use nalgebra::{Matrix3, Point3, SymmetricEigen, Vector3};
-use std::collections::HashMap;
 use std::sync::OnceLock;
 
 use crate::error::{GraspError, Result, positive};
@@ -90,7 +89,7 @@ impl SurfaceCloud {
     pub fn extrude(&mut self, plane: &Plane, threshold: f64, cell: f64, step: f64) {
         let e1 = crate::normals::any_perpendicular(&plane.normal);
         let e2 = plane.normal.cross(&e1);
-        let mut top: HashMap<(i64, i64), (usize, f64)> = HashMap::new();
+        let mut top: crate::voxel::GridMap<(i64, i64), (usize, f64)> = Default::default();
         for (i, p) in self.points[..self.num_observed].iter().enumerate() {
             let h = plane.distance(p);
             if h <= threshold {
