@@ -1,6 +1,7 @@
 """Top-1 grasp success in simulation, judged by ferrobot's physics and replayed in PyBullet.
 
     python benches/grasp_eval.py [--objects PATH] [--n N] [--json FILE] [--seed S] [--no-pybullet]
+                                 [--camera-approach] [--option KEY=JSON ...]
 
 PATH is a folder searched (recursively) for object URDFs (the first collision mesh of the first link,
 with its scale, origin, mass and lateral friction) or bare meshes (OBJ, STL; 0.1 kg, friction 1).
@@ -14,14 +15,17 @@ Per object, in a fresh ``ferrobot.World`` (240 Hz):
   (the Panda hand opens 8 cm), and the JSON counts the scaled objects; it is dropped with a random yaw
   onto a 60 x 60 cm table (top at z = 0.4 m) and settles for 1 s;
 - one 640 x 480 camera (fx = fy = 525) 0.6 m away, looking down at 50 degrees, renders depth and
-  segmentation; ``detect_from_rgbd`` runs with default options and the object's mask; the top grasp
-  is taken (no grasp: failure in both judges);
+  segmentation; ``detect_from_rgbd`` runs with default options, the object's mask and, as the
+  preferred approach direction, the world's -z in the camera frame (``--camera-approach``: the
+  camera's view, the detector's default); the top grasp is taken (no grasp: failure in both judges);
+  the Panda hand pose comes from ``to_panda_hand`` with the TCP at the fingertips of the simulated
+  finger meshes (0.112 m);
 - a **floating Panda hand** executes it: the Panda hand and finger collision meshes of
   ``pybullet_data/franka_panda`` on three prismatic joints along the hand's own axes (a URDF written
   here, loaded as a ferrobot robot whose base is placed at the pre-grasp pose; joint drives move it),
   so the hand is a driven body with real contacts; fingers are two independent prismatic joints.
   Sequence: pre-grasp 5 cm back along the approach, approach (0.5 s), close with 20 N per finger
-  (0.5 s), lift 10 cm (1 s), hold 2 s;
+  (0.5 s), lift 10 cm (1 s), hold 2 s; the slides are stiff PD drives (1e5 N/m, 600 N s/m, 500 N);
 - success: the object rose at least 8 cm with the hand and the fingers did not close on nothing
   (opening > 2 mm), i.e. the object is still between the fingers.
 
@@ -67,11 +71,8 @@ OPEN = 0.04
 SETTLE_S, APPROACH_S, CLOSE_S, LIFT_S, HOLD_S = 1.0, 0.5, 0.5, 1.0, 2.0
 MIN_RISE = 0.08
 MIN_OPENING = 0.002
-DEBUG = False
-TOP_DOWN = True
 # fingertip centre of pybullet_data's Panda finger meshes: joint at 0.0584 m + 0.0538 m finger
 TCP_OFFSET = 0.0584 + 0.0538
-SPEC_POINTS = None
 
 HAND_URDF = """<?xml version="1.0"?>
 <robot name="floating_panda_hand">
@@ -387,6 +388,7 @@ def judge_ferrobot(scene: Scene, hand_model, base: np.ndarray, steps) -> dict:
     p0 = w.get_object_pose("object")[:3, 3]
     z0 = p0[2]
     closing = False
+    k_close = -1
     diag = {}
     for k, (target, force) in enumerate(steps):
         robot.set_joint_position_targets(target[:3], joint_indices=[0, 1, 2])
@@ -394,13 +396,6 @@ def judge_ferrobot(scene: Scene, hand_model, base: np.ndarray, steps) -> dict:
             q = robot.get_joint_positions()
             diag["approach_error"] = float(PREGRASP - q[2])
             diag["pushed"] = float(np.linalg.norm(w.get_object_pose("object")[:3, 3] - p0))
-            if DEBUG:
-                rel = np.linalg.inv(robot.get_link_pose("panda_hand")) @ w.get_object_pose("object")
-                pts = SPEC_POINTS @ rel[:3, :3].T + rel[:3, 3]
-                band = pts[np.abs(pts[:, 0]) < 0.0105]
-                if len(band):
-                    diag["band_z"] = [round(float(band[:, 2].min()), 4), round(float(band[:, 2].max()), 4)]
-                    diag["band_y"] = [round(float(band[:, 1].min()), 4), round(float(band[:, 1].max()), 4)]
             robot.close_gripper(force=force)
             closing = True
             k_close = k
@@ -491,8 +486,20 @@ def hand_files(tmp: Path) -> tuple[str, ferrobot.RobotModel]:
     return str(path), ferrobot.RobotModel.from_urdf(path, ee_link="panda_hand")
 
 
-def evaluate(paths: list[Path], seed: int = 0, use_pybullet: bool = True, progress: bool = True) -> dict:
-    """Runs the evaluation on object files; returns the result dictionary (see the module doc)."""
+def evaluate(
+    paths: list[Path],
+    seed: int = 0,
+    use_pybullet: bool = True,
+    progress: bool = True,
+    top_down: bool = True,
+    options: dict | None = None,
+) -> dict:
+    """Runs the evaluation on object files; returns the result dictionary (see the module doc).
+
+    ``top_down``: pass the world's -z (in the camera frame) as the detector's preferred approach
+    direction, as one would for objects on a table; otherwise the detector's default (the camera's
+    view direction). ``options``: extra detection options (``ferrobot.grasp.OPTIONS``).
+    """
     rng = random.Random(seed)
     records = []
     det_wall, det_cpu = [], []
@@ -511,7 +518,10 @@ def evaluate(paths: list[Path], seed: int = 0, use_pybullet: bool = True, progre
                 rec.update(scale_factor=spec.scale_factor, extents=spec.extents)
                 scene = Scene(spec, rng)
                 down_cam = scene.cam_pose[:3, :3].T @ np.array([0.0, 0.0, -1.0])
-                gg, wall, cpu = scene.detect(**({"approach_direction": tuple(down_cam)} if TOP_DOWN else {}))
+                opts = dict(options or {})
+                if top_down:
+                    opts["approach_direction"] = tuple(down_cam)
+                gg, wall, cpu = scene.detect(**opts)
                 det_wall.append(wall)
                 det_cpu.append(cpu)
                 rec.update(detect_ms=wall * 1e3, detect_cpu_ms=cpu * 1e3, num_grasps=len(gg))
@@ -560,6 +570,8 @@ def evaluate(paths: list[Path], seed: int = 0, use_pybullet: bool = True, progre
         "median_detection_cpu_ms": statistics.median(det_cpu) * 1e3 if det_cpu else None,
         "frame": [WIDTH, HEIGHT],
         "cores": os.cpu_count(),
+        "top_down": top_down,
+        "detect_options": options or {},
         "load_average": load_avg(),
         "objects": records,
     }
@@ -575,7 +587,17 @@ def main() -> int:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--json", type=Path, default=None)
     ap.add_argument("--no-pybullet", action="store_true")
+    ap.add_argument(
+        "--camera-approach",
+        action="store_true",
+        help="prefer approaching along the camera's view (the detector's default) instead of top-down",
+    )
+    ap.add_argument("--option", action="append", default=[], metavar="KEY=VALUE", help="a detection option (JSON)")
     args = ap.parse_args()
+    options = {}
+    for kv in args.option:
+        key, _, value = kv.partition("=")
+        options[key] = json.loads(value)
     paths = find_objects(args.objects) if args.objects else default_object_paths()
     if not paths:
         raise SystemExit("no objects (URDF, OBJ, STL) found")
@@ -583,7 +605,9 @@ def main() -> int:
         paths = sorted(random.Random(args.seed).sample(paths, args.n))
     print(f"{len(paths)} objects, cores {os.cpu_count()}, load {load_avg()}")
     t0 = time.perf_counter()
-    res = evaluate(paths, seed=args.seed, use_pybullet=not args.no_pybullet)
+    res = evaluate(
+        paths, seed=args.seed, use_pybullet=not args.no_pybullet, top_down=not args.camera_approach, options=options
+    )
     print(f"objects {res['num_objects']} (skipped {res['num_skipped']}, scaled to fit the hand {res['num_scaled']})")
     for judge, rate in res["success_rate"].items():
         print(f"top-1 success, {judge:8s}: {rate * 100:.1f}%")
