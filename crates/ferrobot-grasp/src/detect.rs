@@ -242,6 +242,7 @@ pub fn detect(
             opts.plane_threshold,
             opts.voxel_size,
             2.0 * opts.voxel_size,
+            Some((lo, hi)),
         );
     }
     let seeds = spread_seeds(
