@@ -1,8 +1,13 @@
-//! Back-projection of a depth image to a point cloud, and workspace limits.
+//! Back-projection of a depth image to a point cloud (through the shared
+//! pinhole model of `ferrobot-camera`), with the grasp detector's input
+//! checks and workspace limits.
 
+use ferrobot_camera::{CameraError, Pinhole};
 use nalgebra::Point3;
 
 use crate::error::{GraspError, Result, positive};
+
+pub use ferrobot_camera::BackProjected;
 
 /// Pinhole intrinsics of a depth camera (OpenCV convention: x right, y down,
 /// z forward) and the depth scale (raw depth units per metre, e.g. 1000 for
@@ -35,6 +40,26 @@ impl Intrinsics {
             }
         }
         Ok(())
+    }
+
+    /// The pinhole part (focal lengths and principal point).
+    pub fn pinhole(&self) -> Pinhole {
+        Pinhole {
+            fx: self.fx,
+            fy: self.fy,
+            cx: self.cx,
+            cy: self.cy,
+        }
+    }
+}
+
+impl From<CameraError> for GraspError {
+    fn from(e: CameraError) -> Self {
+        match e {
+            CameraError::InvalidArgument(m) => GraspError::InvalidArgument(m),
+            CameraError::NonFinite(m) => GraspError::NonFinite(m),
+            CameraError::Shape(m) => GraspError::Shape(m),
+        }
     }
 }
 
@@ -72,21 +97,14 @@ impl Workspace {
     }
 }
 
-/// The points back-projected from a depth image.
-#[derive(Debug, Clone, Default)]
-pub struct BackProjected {
-    /// Points in the camera frame (OpenCV convention).
-    pub points: Vec<Point3<f64>>,
-    /// For each point, the flat pixel index `v * width + u` it came from.
-    pub pixels: Vec<usize>,
-}
-
 /// Back-projects a `height` x `width` depth image (row-major) through
 /// `intrinsics`: z = depth / scale, x = (u - cx) / fx · z,
 /// y = (v - cy) / fy · z, for pixel column u and row v.
 ///
 /// A depth of 0 means "no reading" and the pixel is skipped; NaN, infinite
 /// or negative depths are errors. Points outside `workspace` are dropped.
+/// The arithmetic is [`ferrobot_camera::backproject`], shared with the
+/// simulator's cameras.
 pub fn backproject(
     depth: &[f64],
     height: usize,
@@ -120,27 +138,16 @@ pub fn backproject(
             i % width.max(1)
         )));
     }
-    let Intrinsics {
-        fx,
-        fy,
-        cx,
-        cy,
-        scale,
-    } = *intrinsics;
-    let mut out = BackProjected::default();
-    for (i, &d) in depth.iter().enumerate() {
-        if d == 0.0 {
-            continue;
-        }
-        let (v, u) = ((i / width) as f64, (i % width) as f64);
-        let z = d / scale;
-        let p = Point3::new((u - cx) / fx * z, (v - cy) / fy * z, z);
-        if workspace.is_none_or(|w| w.contains(&p)) {
-            out.points.push(p);
-            out.pixels.push(i);
-        }
+    if depth.is_empty() {
+        return Ok(BackProjected::default());
     }
-    Ok(out)
+    Ok(ferrobot_camera::backproject(
+        depth,
+        width,
+        &intrinsics.pinhole(),
+        intrinsics.scale,
+        |p| workspace.is_none_or(|w| w.contains(p)),
+    )?)
 }
 
 #[cfg(test)]

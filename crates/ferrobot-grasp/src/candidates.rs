@@ -74,6 +74,7 @@ pub fn hands_at_seed(cloud: &SurfaceCloud, seed: usize, sp: &SearchParams) -> Ve
     let half_h = sp.gripper.height / 2.0 + margin(sp);
     let mut out = Vec::new();
     let mut local: Vec<(Vector3<f64>, usize)> = Vec::with_capacity(nb.len());
+    let mut slot: Vec<(f64, f64)> = Vec::with_capacity(nb.len());
     for k in 0..sp.num_rotations {
         // Closing axis y = t0 turned by phi about a0; z = a0 × y.
         let phi = k as f64 * std::f64::consts::PI / sp.num_rotations as f64;
@@ -95,7 +96,7 @@ pub fn hands_at_seed(cloud: &SurfaceCloud, seed: usize, sp: &SearchParams) -> Ve
                 }
             }
             let r = Matrix3::from_columns(&[a, y, z]);
-            if let Some(g) = evaluate(cloud, &p, &r, &local, seed, sp) {
+            if let Some(g) = evaluate(cloud, &p, &r, &local, &mut slot, seed, sp) {
                 out.push(g);
             }
         }
@@ -105,11 +106,14 @@ pub fn hands_at_seed(cloud: &SurfaceCloud, seed: usize, sp: &SearchParams) -> Ve
 
 /// The first (deepest) collision-free hand of orientation `r` at `p`;
 /// `local` holds the points in the hand frame with |z| <= height / 2.
+/// `slot` is scratch space reused across hands.
+#[allow(clippy::too_many_arguments)]
 fn evaluate(
     cloud: &SurfaceCloud,
     p: &Point3<f64>,
     r: &Matrix3<f64>,
     local: &[(Vector3<f64>, usize)],
+    slot: &mut Vec<(f64, f64)>,
     seed: usize,
     sp: &SearchParams,
 ) -> Option<Grasp> {
@@ -125,16 +129,18 @@ fn evaluate(
             (a.min(d), b.max(d))
         });
     let reach_y = g.max_width + g.finger_width;
-    let slot: Vec<(f64, f64)> = local
-        .iter()
-        .filter(|(q, _)| {
-            q.x >= dmin - g.finger_depth
-                && q.x <= dmax
-                && q.z.abs() <= g.height / 2.0
-                && q.y.abs() <= reach_y
-        })
-        .map(|(q, _)| (q.x, q.y))
-        .collect();
+    slot.clear();
+    slot.extend(
+        local
+            .iter()
+            .filter(|(q, _)| {
+                q.x >= dmin - g.finger_depth
+                    && q.x <= dmax
+                    && q.z.abs() <= g.height / 2.0
+                    && q.y.abs() <= reach_y
+            })
+            .map(|(q, _)| (q.x, q.y)),
+    );
     // The object's interval along y around the seed (y = 0): bins of half
     // the largest gap a finger cannot use; a run of occupied bins is one
     // object (an empty bin is a gap a finger may use: collision decides).
@@ -148,7 +154,7 @@ fn evaluate(
         let base = depth - g.finger_depth;
         lo_y.fill(f64::INFINITY);
         hi_y.fill(f64::NEG_INFINITY);
-        for &(x, y) in &slot {
+        for &(x, y) in slot.iter() {
             if x >= base && x <= depth {
                 let k = index(y);
                 lo_y[k] = lo_y[k].min(y);

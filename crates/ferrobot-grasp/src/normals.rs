@@ -3,7 +3,6 @@
 
 use kiddo::{KdTree, SquaredEuclidean};
 use nalgebra::{Matrix3, Point3, SymmetricEigen, Vector3};
-use std::collections::HashMap;
 use std::sync::OnceLock;
 
 use crate::error::{GraspError, Result, positive};
@@ -87,10 +86,19 @@ impl SurfaceCloud {
     /// obstacle points are added every `step` down to the plane. Points
     /// within `threshold` of the plane stop being obstacles
     /// ([`Self::within`] no longer returns them): the plane stands for them.
-    pub fn extrude(&mut self, plane: &Plane, threshold: f64, cell: f64, step: f64) {
+    /// With `clip` (a box `[lo, hi]` in the cloud's frame), only hidden
+    /// points inside it are added (detection clips to the seeds' reach).
+    pub fn extrude(
+        &mut self,
+        plane: &Plane,
+        threshold: f64,
+        cell: f64,
+        step: f64,
+        clip: Option<(Vector3<f64>, Vector3<f64>)>,
+    ) {
         let e1 = crate::normals::any_perpendicular(&plane.normal);
         let e2 = plane.normal.cross(&e1);
-        let mut top: HashMap<(i64, i64), (usize, f64)> = HashMap::new();
+        let mut top: crate::voxel::GridMap<(i64, i64), (usize, f64)> = Default::default();
         for (i, p) in self.points[..self.num_observed].iter().enumerate() {
             let h = plane.distance(p);
             if h <= threshold {
@@ -113,9 +121,15 @@ impl SurfaceCloud {
             let p = self.points[i];
             let mut d = step;
             while d < h {
-                extra.push(p - plane.normal * d);
-                extra_labels.push(self.labels[i]);
+                let q = p - plane.normal * d;
                 d += step;
+                if let Some((lo, hi)) = &clip
+                    && !(0..3).all(|k| q[k] >= lo[k] && q[k] <= hi[k])
+                {
+                    continue;
+                }
+                extra.push(q);
+                extra_labels.push(self.labels[i]);
             }
         }
         let mut tree: KdTree<f64, 3> = KdTree::with_capacity(self.points.len() + extra.len());

@@ -52,7 +52,7 @@ pub fn look_at(
 
 /// Back-projects a depth image (row-major, metres along the optical axis)
 /// to camera-frame (OpenCV) points, one per valid pixel (finite depth > 0),
-/// with the flat pixel index of each.
+/// with the flat pixel index of each (the shared [`ferrobot_camera::backproject`]).
 pub fn depth_to_points(depth: &[f32], intr: &Intrinsics) -> Result<(Vec<[f64; 3]>, Vec<usize>)> {
     intr.validate()?;
     if depth.len() != intr.width * intr.height {
@@ -62,16 +62,14 @@ pub fn depth_to_points(depth: &[f32], intr: &Intrinsics) -> Result<(Vec<[f64; 3]
             got: format!("{} values", depth.len()),
         });
     }
-    let mut pts = Vec::new();
-    let mut idx = Vec::new();
-    for (i, &d) in depth.iter().enumerate() {
-        if !(d.is_finite() && d > 0.0) {
-            continue;
-        }
-        let (u, v) = ((i % intr.width) as f64, (i / intr.width) as f64);
-        let z = d as f64;
-        pts.push([(u - intr.cx) / intr.fx * z, (v - intr.cy) / intr.fy * z, z]);
-        idx.push(i);
-    }
-    Ok((pts, idx))
+    let pinhole = ferrobot_camera::Pinhole {
+        fx: intr.fx,
+        fy: intr.fy,
+        cx: intr.cx,
+        cy: intr.cy,
+    };
+    let bp = ferrobot_camera::backproject(depth, intr.width, &pinhole, 1.0, |_| true)
+        .map_err(|e| SimError::InvalidArgument(e.to_string()))?;
+    let pts = bp.points.iter().map(|p| [p.x, p.y, p.z]).collect();
+    Ok((pts, bp.pixels))
 }
