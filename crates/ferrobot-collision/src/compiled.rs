@@ -130,14 +130,31 @@ fn z_to(axis: &Vector3<f64>) -> UnitQuaternion<f64> {
 }
 
 impl CompiledRobot {
+    /// The exact geometry of every link of `model` (see [`crate::exact`]),
+    /// posed in its lane frame, for [`CompiledRobot::new`]. Building it
+    /// takes convex hulls: do it once per model.
+    pub fn exact_bodies(model: &RobotModel) -> Vec<Option<crate::exact::ExactBody>> {
+        let kin = Self::new(model, &[], &[], &[], |_, _| false);
+        model
+            .links()
+            .iter()
+            .zip(&kin.link_frames)
+            .map(|(link, (_, corr))| crate::exact::ExactBody::of_link(link, corr))
+            .collect()
+    }
+
     /// Compiles the kinematics of `model` and attaches `spheres` (per link,
     /// link frame) plus extra bodies `(link, name, spheres in link frame)`.
-    /// `pairs` lists the body pairs to check for self-collision, as a
-    /// predicate over (link or attached name) identities.
+    /// `exact` holds the exact geometry per link from
+    /// [`CompiledRobot::exact_bodies`] (empty: spheres alone decide
+    /// self-collision). `pairs` lists the body pairs to check for
+    /// self-collision, as a predicate over (link or attached name)
+    /// identities.
     pub fn new(
         model: &RobotModel,
         link_spheres: &[Vec<Sphere>],
         attached: &[(usize, String, Vec<Sphere>)],
+        exact: &[Option<crate::exact::ExactBody>],
         check_pair: impl Fn(&Body, &Body) -> bool,
     ) -> Self {
         let n = model.links().len();
@@ -200,7 +217,7 @@ impl CompiledRobot {
             link_frames,
         };
         for (l, spheres) in link_spheres.iter().enumerate() {
-            robot.push_body(l, None, spheres, Some(&model.links()[l]));
+            robot.push_body(l, None, spheres, exact.get(l).cloned().flatten());
         }
         for (l, name, spheres) in attached {
             robot.push_body(*l, Some(name.clone()), spheres, None);
@@ -220,7 +237,7 @@ impl CompiledRobot {
         link: usize,
         attached: Option<String>,
         spheres: &[Sphere],
-        geometry: Option<&ferrobot_model::Link>,
+        exact: Option<crate::exact::ExactBody>,
     ) {
         if spheres.is_empty() {
             return;
@@ -237,8 +254,7 @@ impl CompiledRobot {
                 .push([s.center.x as f32, s.center.y as f32, s.center.z as f32]);
             self.radii.push(s.radius as f32);
         }
-        self.exact
-            .push(geometry.and_then(|g| crate::exact::ExactBody::of_link(g, &corr)));
+        self.exact.push(exact);
         let first_pack = self.packs.len();
         let count = in_frame.len();
         for chunk in 0..count.div_ceil(8) {

@@ -164,7 +164,6 @@ pub fn check<L: Lanes>(
     }
     for bi in (0..robot.bodies.len()).rev() {
         let body = &robot.bodies[bi];
-        let frame = scratch.frames[body.frame];
         let bc = scratch.bounds[bi];
         if body.frame == 0 && skip_static {
             continue;
@@ -190,9 +189,7 @@ pub fn check<L: Lanes>(
                 let oi = ci * 8 + bits.trailing_zeros() as usize;
                 bits &= bits - 1;
                 let obs = &world.obstacles[oi];
-                self::world_pair(
-                    robot, body, bi, &frame, &bc, obs, m, active, &mut hit, scratch,
-                );
+                self::world_pair(robot, body, bi, &bc, obs, m, active, &mut hit, scratch);
                 if hit & active == active {
                     return hit & active;
                 }
@@ -208,9 +205,8 @@ pub fn check<L: Lanes>(
         if near == 0 {
             continue;
         }
-        let (fa, fb) = (scratch.frames[ba.frame], scratch.frames[bb.frame]);
-        ensure_centers(robot, a, &fa, scratch);
-        ensure_centers(robot, b, &fb, scratch);
+        ensure_centers(robot, a, scratch);
+        ensure_centers(robot, b, scratch);
         let mut spheres_hit = 0u32;
         for i in ba.first..ba.first + ba.count {
             // Each sphere of `a` against the bounding sphere of `b` first.
@@ -233,7 +229,8 @@ pub fn check<L: Lanes>(
         // Spheres overlap: the links' exact geometry decides.
         hit |= match (&robot.exact[a], &robot.exact[b]) {
             (Some(ea), Some(eb)) if spheres_hit != 0 => {
-                crate::exact::confirm(ea, eb, &fa, &fb, spheres_hit, margin)
+                let (fa, fb) = (&scratch.frames[ba.frame], &scratch.frames[bb.frame]);
+                crate::exact::confirm(ea, eb, fa, fb, spheres_hit, margin)
             }
             _ => spheres_hit,
         };
@@ -254,7 +251,6 @@ fn world_pair<L: Lanes>(
     robot: &CompiledRobot,
     body: &crate::compiled::Body,
     bi: usize,
-    frame: &LaneFrame<L>,
     bc: &[L; 3],
     obs: &crate::compiled::Obstacle,
     m: L,
@@ -275,7 +271,7 @@ fn world_pair<L: Lanes>(
     if near == 0 {
         return;
     }
-    ensure_centers(robot, bi, frame, scratch);
+    ensure_centers(robot, bi, scratch);
     for k in body.first..body.first + body.count {
         let c = scratch.centers[k];
         let r = L::splat(robot.radii[k]) + m;
@@ -292,16 +288,12 @@ fn world_pair<L: Lanes>(
 }
 
 #[inline(always)]
-fn ensure_centers<L: Lanes>(
-    robot: &CompiledRobot,
-    body: usize,
-    frame: &LaneFrame<L>,
-    scratch: &mut Scratch<L>,
-) {
+fn ensure_centers<L: Lanes>(robot: &CompiledRobot, body: usize, scratch: &mut Scratch<L>) {
     if scratch.done[body] {
         return;
     }
     let b = &robot.bodies[body];
+    let frame = &scratch.frames[b.frame];
     for k in b.first..b.first + b.count {
         scratch.centers[k] = apply(frame, &robot.centers[k]);
     }
