@@ -181,7 +181,17 @@ pub fn check<L: Lanes>(
                 let reach = (f32x8::splat(body.bound.1) + chunk[3]) + f32x8::splat(margin);
                 (dx * dx + dy * dy + dz * dz).lt_mask(reach * reach)
             } else {
-                0xff
+                // Eight lanes: the sphere the body sweeps over all
+                // configurations against eight obstacle bounds (obstacles
+                // out of the arm's reach from this body never get tested).
+                let (c, r) = body.sweep;
+                let (dx, dy, dz) = (
+                    f32x8::splat(c[0]) - chunk[0],
+                    f32x8::splat(c[1]) - chunk[1],
+                    f32x8::splat(c[2]) - chunk[2],
+                );
+                let reach = (f32x8::splat(r) + chunk[3]) + f32x8::splat(margin);
+                (dx * dx + dy * dy + dz * dz).lt_mask(reach * reach)
             };
             let valid = (world.obstacles.len() - ci * 8).min(8);
             let mut bits = candidates & ((1u32 << valid) - 1);
