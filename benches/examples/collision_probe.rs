@@ -2,20 +2,23 @@
 //! `cargo build --release -p ferrobot-benches --example collision_probe`
 //! then `valgrind --tool=callgrind target/release/examples/collision_probe MODE` with MODE one of
 //! `none` (setup only), `single`, `batch`, `motion`, `fk`; `single-spheres` and `batch-spheres`
-//! decide self-collision by spheres alone (no exact stage), for reference.
+//! decide self-collision by spheres alone (no exact stage), for reference; a `-noworld`
+//! suffix (e.g. `single-noworld`, `single-spheres-noworld`) empties the world (self-collision only).
 
 use ferrobot_benches::{mbm_checker, random_configurations};
 
 fn main() {
     let arg = std::env::args().nth(1).unwrap_or_else(|| "single".into());
     let mut checker = mbm_checker("table_pick_panda/scene0001.yaml");
-    let mode = match arg.strip_suffix("-spheres") {
-        Some(m) => {
-            checker.set_exact_self_collision(false);
-            m.to_string()
-        }
-        None => arg.clone(),
-    };
+    let mut mode = arg.clone();
+    if let Some(m) = mode.strip_suffix("-noworld") {
+        checker.set_world(ferrobot_collision::CollisionWorld::new());
+        mode = m.to_string();
+    }
+    if let Some(m) = mode.strip_suffix("-spheres") {
+        checker.set_exact_self_collision(false);
+        mode = m.to_string();
+    }
     let n = 20_000;
     let qs = random_configurations(checker.model(), n, 0);
     let hits = match mode.as_str() {
