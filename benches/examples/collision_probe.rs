@@ -1,6 +1,6 @@
 //! A fixed workload for instruction counting (`valgrind --tool=callgrind`):
 //! `cargo build --release -p ferrobot-benches --example collision_probe`
-//! then `valgrind --tool=callgrind target/release/examples/collision_probe MODE` with MODE one of
+//! then `valgrind --tool=callgrind target/release/examples/collision_probe MODE [SCENE]` with MODE one of
 //! `none` (setup only), `single`, `batch`, `motion`, `fk`; `single-spheres` and `batch-spheres`
 //! decide self-collision by spheres alone (no exact stage), for reference; a `-noworld`
 //! suffix (e.g. `single-noworld`, `single-spheres-noworld`) empties the world (self-collision only).
@@ -9,7 +9,11 @@ use ferrobot_benches::{mbm_checker, random_configurations};
 
 fn main() {
     let arg = std::env::args().nth(1).unwrap_or_else(|| "single".into());
-    let mut checker = mbm_checker("table_pick_panda/scene0001.yaml");
+    // Optional second argument: the scene below `bench/mbm` (default table_pick scene0001).
+    let scene = std::env::args()
+        .nth(2)
+        .unwrap_or_else(|| "table_pick_panda/scene0001.yaml".into());
+    let mut checker = mbm_checker(&scene);
     let mut mode = arg.clone();
     if let Some(m) = mode.strip_suffix("-noworld") {
         checker.set_world(ferrobot_collision::CollisionWorld::new());

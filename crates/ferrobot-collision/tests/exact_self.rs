@@ -183,6 +183,17 @@ fn contacts_agree_with_in_collision() {
         hits > 100 && free > 100 && sphere_only_self > 10,
         "{hits} {free} {sphere_only_self}"
     );
+    // Elbow fully bent: the hand comes back onto link 1, a real contact
+    // that the explanation names.
+    let folded = [0.0, 0.0, 0.0, -3.0, 0.0, 0.5, 0.0];
+    assert!(checker.in_collision(&folded).unwrap());
+    let contacts = checker.contacts(&folded).unwrap();
+    assert!(
+        contacts
+            .iter()
+            .any(|c| c.self_collision && c.body == "panda_link1" && c.other == "panda_hand"),
+        "{contacts:?}"
+    );
 }
 
 #[test]
