@@ -1,12 +1,28 @@
 //! A fixed workload for instruction counting (`valgrind --tool=callgrind`):
 //! `cargo build --release -p ferrobot-benches --example collision_probe`
-//! then `valgrind --tool=callgrind target/release/examples/collision_probe [single|batch|motion]`.
+//! then `valgrind --tool=callgrind target/release/examples/collision_probe MODE [SCENE]` with MODE one of
+//! `none` (setup only), `single`, `batch`, `motion`, `fk`; `single-spheres` and `batch-spheres`
+//! decide self-collision by spheres alone (no exact stage), for reference; a `-noworld`
+//! suffix (e.g. `single-noworld`, `single-spheres-noworld`) empties the world (self-collision only).
 
 use ferrobot_benches::{mbm_checker, random_configurations};
 
 fn main() {
-    let mode = std::env::args().nth(1).unwrap_or_else(|| "single".into());
-    let checker = mbm_checker("table_pick_panda/scene0001.yaml");
+    let arg = std::env::args().nth(1).unwrap_or_else(|| "single".into());
+    // Optional second argument: the scene below `bench/mbm` (default table_pick scene0001).
+    let scene = std::env::args()
+        .nth(2)
+        .unwrap_or_else(|| "table_pick_panda/scene0001.yaml".into());
+    let mut checker = mbm_checker(&scene);
+    let mut mode = arg.clone();
+    if let Some(m) = mode.strip_suffix("-noworld") {
+        checker.set_world(ferrobot_collision::CollisionWorld::new());
+        mode = m.to_string();
+    }
+    if let Some(m) = mode.strip_suffix("-spheres") {
+        checker.set_exact_self_collision(false);
+        mode = m.to_string();
+    }
     let n = 20_000;
     let qs = random_configurations(checker.model(), n, 0);
     let hits = match mode.as_str() {
@@ -44,7 +60,7 @@ fn main() {
     };
     let (r, w) = checker.compiled();
     println!(
-        "{mode}: {hits} of {n} collide; {} bodies, {} spheres, {} self pairs, {} obstacles",
+        "{arg}: {hits} of {n} collide; {} bodies, {} spheres, {} self pairs, {} obstacles",
         r.bodies.len(),
         r.centers.len(),
         r.pairs.len(),

@@ -94,6 +94,8 @@ pub struct CollisionChecker {
     static_hit: bool,
     id: u64,
     exact_self: bool,
+    /// Exact geometry per link (built once; empty when disabled).
+    exact_links: Arc<Vec<Option<crate::exact::ExactBody>>>,
 }
 
 impl CollisionChecker {
@@ -114,7 +116,8 @@ impl CollisionChecker {
         }
         let compiled_world = CompiledWorld::new(&world);
         let mut checker = Self {
-            robot: CompiledRobot::new(&model, &[], &[], |_, _| false),
+            robot: CompiledRobot::new(&model, &[], &[], &[], |_, _| false),
+            exact_links: Arc::new(CompiledRobot::exact_bodies(&model)),
             model,
             spheres,
             acm,
@@ -138,24 +141,29 @@ impl CollisionChecker {
             .collect();
         let acm = &self.acm;
         let atts = &self.attached;
-        self.robot =
-            CompiledRobot::new(&self.model, &self.spheres.links, &attached, |a, b| {
-                match (&a.attached, &b.attached) {
-                    (None, None) => !acm.is_allowed(a.link, b.link),
-                    (Some(_), Some(_)) => true,
-                    (Some(name), None) | (None, Some(name)) => {
-                        let att = atts
-                            .iter()
-                            .find(|x| &x.name == name)
-                            .expect("attached body");
-                        let other = if a.attached.is_some() { b.link } else { a.link };
-                        other != att.link && !att.touch_links.contains(&other)
-                    }
+        let exact: &[Option<crate::exact::ExactBody>] = if self.exact_self {
+            &self.exact_links
+        } else {
+            &[]
+        };
+        self.robot = CompiledRobot::new(
+            &self.model,
+            &self.spheres.links,
+            &attached,
+            exact,
+            |a, b| match (&a.attached, &b.attached) {
+                (None, None) => !acm.is_allowed(a.link, b.link),
+                (Some(_), Some(_)) => true,
+                (Some(name), None) | (None, Some(name)) => {
+                    let att = atts
+                        .iter()
+                        .find(|x| &x.name == name)
+                        .expect("attached body");
+                    let other = if a.attached.is_some() { b.link } else { a.link };
+                    other != att.link && !att.touch_links.contains(&other)
                 }
-            });
-        if !self.exact_self {
-            self.robot.exact.iter_mut().for_each(|e| *e = None);
-        }
+            },
+        );
         self.id = NEXT_ID.fetch_add(1, Ordering::Relaxed);
         self.update_static();
     }

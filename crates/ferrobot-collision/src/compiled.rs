@@ -83,6 +83,10 @@ pub struct Body {
     pub first_pack: usize,
     /// Number of packs.
     pub pack_count: usize,
+    /// A sphere (base frame: centre, radius) that holds the bounding sphere
+    /// in every configuration (infinite radius below a prismatic joint):
+    /// obstacles outside it can never touch the body.
+    pub sweep: ([f32; 3], f32),
 }
 
 /// Eight spheres of one body side by side (structure of arrays), for the
@@ -120,6 +124,11 @@ pub struct CompiledRobot {
     /// For each model link: its lane frame and the constant transform from
     /// that frame to the link frame (`link = frame * correction`).
     pub link_frames: Vec<(usize, Isometry3<f64>)>,
+    /// For each lane frame: a point fixed in the base frame, a distance the
+    /// frame's origin never exceeds from it, and the frame's rotation when
+    /// that is `K Rz(q)` with constant `K` (frames turning about a joint
+    /// fixed to the base), for [`Body::sweep`].
+    frame_reach: Vec<(Vector3<f64>, f64, Option<Rotation3<f64>>)>,
 }
 
 /// A rotation taking z to `axis`.
@@ -130,14 +139,31 @@ fn z_to(axis: &Vector3<f64>) -> UnitQuaternion<f64> {
 }
 
 impl CompiledRobot {
+    /// The exact geometry of every link of `model` (see [`crate::exact`]),
+    /// posed in its lane frame, for [`CompiledRobot::new`]. Building it
+    /// takes convex hulls: do it once per model.
+    pub fn exact_bodies(model: &RobotModel) -> Vec<Option<crate::exact::ExactBody>> {
+        let kin = Self::new(model, &[], &[], &[], |_, _| false);
+        model
+            .links()
+            .iter()
+            .zip(&kin.link_frames)
+            .map(|(link, (_, corr))| crate::exact::ExactBody::of_link(link, corr))
+            .collect()
+    }
+
     /// Compiles the kinematics of `model` and attaches `spheres` (per link,
     /// link frame) plus extra bodies `(link, name, spheres in link frame)`.
-    /// `pairs` lists the body pairs to check for self-collision, as a
-    /// predicate over (link or attached name) identities.
+    /// `exact` holds the exact geometry per link from
+    /// [`CompiledRobot::exact_bodies`] (empty: spheres alone decide
+    /// self-collision). `pairs` lists the body pairs to check for
+    /// self-collision, as a predicate over (link or attached name)
+    /// identities.
     pub fn new(
         model: &RobotModel,
         link_spheres: &[Vec<Sphere>],
         attached: &[(usize, String, Vec<Sphere>)],
+        exact: &[Option<crate::exact::ExactBody>],
         check_pair: impl Fn(&Body, &Body) -> bool,
     ) -> Self {
         let n = model.links().len();
@@ -154,6 +180,8 @@ impl CompiledRobot {
         };
         link_frames[0] = (0, root_in_base);
         let mut steps = Vec::new();
+        // Frame 0 is the base: fixed, identity rotation.
+        let mut frame_reach = vec![(Vector3::zeros(), 0.0, Some(Rotation3::identity()))];
         for joint in model.joints() {
             let (pframe, pcorr) = link_frames[joint.parent];
             let through = pcorr * joint.origin;
@@ -164,6 +192,26 @@ impl CompiledRobot {
                 (kind, coupling) => {
                     let a = z_to(&joint.axis);
                     let k = through * a;
+                    // Where the new frame's origin can go: a frame of
+                    // constant rotation places it exactly; one turning about
+                    // z fixes the z part of the offset; otherwise the
+                    // offset's length adds to the parent's reach.
+                    let t = k.translation.vector;
+                    let (anchor, reach, rot) = &frame_reach[pframe];
+                    let (anchor, reach) = match rot {
+                        Some(r) if *reach == 0.0 && pframe == 0 => (anchor + r * t, 0.0),
+                        Some(r) if *reach == 0.0 => {
+                            (anchor + r * Vector3::new(0.0, 0.0, t.z), t.x.hypot(t.y))
+                        }
+                        _ => (*anchor, reach + t.norm()),
+                    };
+                    let reach = if kind == JointKind::Prismatic {
+                        f64::INFINITY
+                    } else {
+                        reach
+                    };
+                    let turn = (pframe == 0).then(|| k.rotation.to_rotation_matrix());
+                    frame_reach.push((anchor, reach, turn));
                     let (dof, gain, offset) = match coupling {
                         JointCoupling::Dof(d) => (d, 1.0, 0.0),
                         JointCoupling::Mimic {
@@ -198,9 +246,10 @@ impl CompiledRobot {
             exact: Vec::new(),
             pairs: Vec::new(),
             link_frames,
+            frame_reach,
         };
         for (l, spheres) in link_spheres.iter().enumerate() {
-            robot.push_body(l, None, spheres, Some(&model.links()[l]));
+            robot.push_body(l, None, spheres, exact.get(l).cloned().flatten());
         }
         for (l, name, spheres) in attached {
             robot.push_body(*l, Some(name.clone()), spheres, None);
@@ -220,7 +269,7 @@ impl CompiledRobot {
         link: usize,
         attached: Option<String>,
         spheres: &[Sphere],
-        geometry: Option<&ferrobot_model::Link>,
+        exact: Option<crate::exact::ExactBody>,
     ) {
         if spheres.is_empty() {
             return;
@@ -237,8 +286,7 @@ impl CompiledRobot {
                 .push([s.center.x as f32, s.center.y as f32, s.center.z as f32]);
             self.radii.push(s.radius as f32);
         }
-        self.exact
-            .push(geometry.and_then(|g| crate::exact::ExactBody::of_link(g, &corr)));
+        self.exact.push(exact);
         let first_pack = self.packs.len();
         let count = in_frame.len();
         for chunk in 0..count.div_ceil(8) {
@@ -251,7 +299,25 @@ impl CompiledRobot {
             };
             self.packs.push(pack);
         }
+        let sweep = {
+            let (anchor, reach, rot) = &self.frame_reach[frame];
+            let c = b.center.coords;
+            let (anchor, reach) = match rot {
+                Some(r) if *reach == 0.0 && frame == 0 => (anchor + r * c, 0.0),
+                Some(r) if *reach == 0.0 => {
+                    (anchor + r * Vector3::new(0.0, 0.0, c.z), c.x.hypot(c.y))
+                }
+                _ => (*anchor, reach + c.norm()),
+            };
+            // Padded for the f32 lane arithmetic.
+            let radius = (reach + b.radius) * (1.0 + 1e-5) + 1e-4;
+            (
+                [anchor.x as f32, anchor.y as f32, anchor.z as f32],
+                radius as f32,
+            )
+        };
         self.bodies.push(Body {
+            sweep,
             link,
             attached,
             frame,
@@ -434,5 +500,56 @@ impl CompiledWorld {
             revision: world.revision(),
             names: Arc::new(world.objects().iter().map(|o| o.name.clone()).collect()),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kernel::{Scratch, apply, forward};
+
+    /// Every body's bounding sphere stays inside its sweep sphere, for
+    /// configurations within and far beyond the joint limits.
+    #[test]
+    fn sweep_holds_the_bounding_sphere() {
+        let model = ferrobot_model::robots::panda().unwrap();
+        let spheres: Vec<Vec<Sphere>> = (0..model.links().len())
+            .map(|l| {
+                vec![Sphere::new(
+                    Point3::new(0.05, -0.02, 0.1 + 0.01 * l as f64),
+                    0.04,
+                )]
+            })
+            .collect();
+        let robot = CompiledRobot::new(&model, &spheres, &[], &[], |_, _| false);
+        let mut scratch = Scratch::<f32>::new(&robot);
+        let (mut finite, mut worst) = (0, f32::INFINITY);
+        for k in 0..2000 {
+            // Prismatic joints may run anywhere: bodies below them sweep
+            // an infinite sphere.
+            let q: Vec<f32> = (0..model.num_dof())
+                .map(|d| ((k * 7 + d * 13) % 97) as f32 / 97.0 * 12.0 - 6.0)
+                .collect();
+            forward(&robot, &q, &mut scratch);
+            for b in &robot.bodies {
+                let c = apply(&scratch.frames()[b.frame], &b.bound.0);
+                let (s, r) = b.sweep;
+                let d =
+                    ((c[0] - s[0]).powi(2) + (c[1] - s[1]).powi(2) + (c[2] - s[2]).powi(2)).sqrt();
+                assert!(
+                    d + b.bound.1 <= r,
+                    "body of link {}: {d} + {} > {r}",
+                    b.link,
+                    b.bound.1
+                );
+                if r.is_finite() {
+                    finite += 1;
+                    worst = worst.min(r - d - b.bound.1);
+                }
+            }
+        }
+        assert!(finite > 10_000, "{finite}");
+        // Tight somewhere: the slack of the closest approach is small.
+        assert!(worst < 0.05, "{worst}");
     }
 }

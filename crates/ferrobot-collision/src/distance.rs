@@ -6,6 +6,8 @@ use nalgebra::{Point3, Vector3};
 
 use crate::checker::{CollisionChecker, Contact};
 use crate::error::Result;
+use crate::exact::confirm;
+use crate::kernel::{Scratch, forward};
 use crate::sphere::Sphere;
 
 /// The result of [`CollisionChecker::distance`].
@@ -165,6 +167,12 @@ impl CollisionChecker {
 
     /// Every colliding (body, object) and (body, body) pair at `q` with the
     /// deepest penetration, deepest first: the explanation of a collision.
+    /// Depths are those of the sphere model. A robot pair whose spheres
+    /// overlap is listed only when the checker reports it too, i.e. when
+    /// the links' exact geometry confirms the contact (see
+    /// [`crate::exact`]); so the list is empty when
+    /// [`CollisionChecker::in_collision`] is false and not empty when it is
+    /// true (up to `f32` rounding for contacts that exactly touch).
     pub fn contacts(&self, q: &[f64]) -> Result<Vec<Contact>> {
         self.model.check_configuration("q", q)?;
         let placed = self.placed(q)?;
@@ -196,16 +204,35 @@ impl CollisionChecker {
                 }
             }
         }
+        // Self-collisions as the checker decides them: spheres overlap, and
+        // where both links have exact geometry, that geometry confirms it
+        // (on the same f32 lane frames as the kernel).
+        let q32: Vec<f32> = q.iter().map(|&v| v as f32).collect();
+        let mut lanes = Scratch::<f32>::new(&self.robot);
+        forward(&self.robot, &q32, &mut lanes);
         for &(a, b) in &self.robot.pairs {
+            let mut deepest = f64::NEG_INFINITY;
             for sa in placed.iter().filter(|s| s.body == a) {
                 for sb in placed.iter().filter(|s| s.body == b) {
                     let depth =
                         sa.radius + sb.radius + self.margin - (sa.center - sb.center).norm();
-                    if depth > 0.0 {
-                        record(self.body_name(a), self.body_name(b), true, depth);
-                    }
+                    deepest = deepest.max(depth);
                 }
             }
+            if deepest <= 0.0 {
+                continue;
+            }
+            if let (Some(ea), Some(eb)) = (&self.robot.exact[a], &self.robot.exact[b]) {
+                let frames = lanes.frames();
+                let (fa, fb) = (
+                    &frames[self.robot.bodies[a].frame],
+                    &frames[self.robot.bodies[b].frame],
+                );
+                if confirm(ea, eb, fa, fb, 1, self.margin as f32) == 0 {
+                    continue;
+                }
+            }
+            record(self.body_name(a), self.body_name(b), true, deepest);
         }
         found.sort_by(|a, b| b.depth.total_cmp(&a.depth));
         Ok(found)

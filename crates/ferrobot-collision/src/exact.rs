@@ -6,44 +6,299 @@
 //! have overlapping spheres while their geometry is apart. Self-collision
 //! is therefore decided in two stages: spheres first (fast, never missing a
 //! contact of the covered geometry), then, for the lanes where two robot
-//! links' spheres overlap, the links' collision geometry itself with parry:
-//! primitives exactly, meshes as their convex hulls (which contain them, so
-//! the second stage cannot miss a contact either). World collisions stay
-//! sphere-only. Attached objects have no exact shape: spheres decide.
+//! links' spheres overlap, the links' collision geometry itself: primitives
+//! exactly, meshes as their convex hulls (which contain them, so the second
+//! stage cannot miss a contact either). World collisions stay sphere-only.
+//! Attached objects have no exact shape: spheres decide.
+//!
+//! The second stage is cheap because most lanes never reach GJK:
+//!
+//! 1. Each part carries an oriented bounding box (in its lane frame, padded
+//!    for `f32` rounding). For every pair of parts the separating-axis test
+//!    of the two boxes runs on all lanes at once; disjoint boxes mean
+//!    disjoint parts, so those lanes are free without further work.
+//! 2. Each part also carries a few spheres inscribed in it (shrunk for
+//!    rounding). Where an inscribed sphere of one part overlaps one of the
+//!    other, the parts certainly touch: those lanes collide without GJK.
+//! 3. The remaining lanes run parry's GJK on the pair. The relative pose of
+//!    the two parts is built from the lane frames' rotation matrices in
+//!    `f32` (no `f64` isometries), and convex hulls answer support queries
+//!    with an eight-wide scan of their vertices.
+//!
+//! Every step only uses the lane's own `f32` values, so the scalar and the
+//! eight-lane kernels answer identically.
+
+use std::sync::Arc;
 
 use ferrobot_model::{Link, Shape};
-use nalgebra::{Isometry3, Point3, Rotation3, UnitQuaternion};
-use parry3d::math::{Pose, Rot3, Vector};
-use parry3d::query::{distance, intersection_test};
-use parry3d::shape::{Ball, Capsule, ConvexPolyhedron, Cuboid, Cylinder, SharedShape};
+use nalgebra::{Isometry3, Matrix3, Point3, SymmetricEigen, UnitQuaternion, Vector3};
+use parry3d::math::{Mat3, Pose, Rot3, Vector};
+use parry3d::query::details::{
+    distance_support_map_support_map, intersection_test_support_map_support_map,
+};
+use parry3d::shape::{Ball, Capsule, Cuboid, Cylinder, SupportMap};
 
+use crate::compiled::Frame32;
 use crate::kernel::LaneFrame;
 use crate::lanes::Lanes;
+use wide::f32x8;
 
-/// The collision geometry of one link: parts with their poses in the
-/// body's lane frame.
+/// Padding (m) added to every box half extent, far above the `f32`
+/// rounding of the lane arithmetic at robot scale (about 1e-7 m).
+const BOX_PAD: f64 = 1e-5;
+/// Added to the absolute rotation entries of the separating-axis test, so
+/// nearly parallel edges never produce a false separating axis.
+const AXIS_EPS: f32 = 1e-5;
+
+/// A convex hull: its vertices eight at a time (structure of arrays) for
+/// support queries, and its face planes.
+#[derive(Debug)]
+struct Hull {
+    /// Vertices x, y, z, eight per pack (the last vertex repeats).
+    packs: Vec<[f32x8; 3]>,
+    /// Face planes `(n, d)`, outward unit `n`: inside is `n . p <= d`.
+    planes: Vec<(Vector3<f64>, f64)>,
+    /// Vertices.
+    points: Vec<Vector>,
+}
+
+impl Hull {
+    fn new(pts: &[Vector]) -> Option<Self> {
+        let (raw, tris) = parry3d::transformation::try_convex_hull(pts).ok()?;
+        if tris.len() < 4 {
+            return None;
+        }
+        // The vertices the triangles use.
+        let mut used = vec![false; raw.len()];
+        tris.iter().flatten().for_each(|&v| used[v as usize] = true);
+        let points: Vec<Vector> = raw
+            .iter()
+            .zip(&used)
+            .filter_map(|(p, &u)| u.then_some(*p))
+            .collect();
+        let p64 = |p: &Vector| Vector3::new(p.x as f64, p.y as f64, p.z as f64);
+        let inside = points.iter().fold(Vector3::zeros(), |a, p| a + p64(p)) / points.len() as f64;
+        let planes = tris
+            .iter()
+            .filter_map(|t| {
+                let [a, b, c] = t.map(|v| p64(&raw[v as usize]));
+                let n = (b - a).cross(&(c - a)).try_normalize(1e-12)?;
+                let n = if n.dot(&(inside - a)) > 0.0 { -n } else { n };
+                Some((n, n.dot(&a)))
+            })
+            .collect();
+        let packs = points
+            .chunks(8)
+            .map(|c| {
+                let get = |k: usize, axis: usize| c[k.min(c.len() - 1)][axis];
+                [0, 1, 2].map(|axis| f32x8::new(std::array::from_fn(|k| get(k, axis))))
+            })
+            .collect();
+        Some(Self {
+            packs,
+            planes,
+            points,
+        })
+    }
+
+    /// The vertex furthest along `dir` (the first one on ties).
+    #[inline]
+    fn support(&self, dir: Vector) -> Vector {
+        let d = [dir.x, dir.y, dir.z].map(f32x8::splat);
+        let mut best = f32x8::splat(f32::NEG_INFINITY);
+        let mut at = f32x8::splat(0.0);
+        let mut index = f32x8::new([0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0]);
+        for p in &self.packs {
+            let v = p[0] * d[0] + p[1] * d[1] + p[2] * d[2];
+            let better = best.simd_lt(v);
+            best = better.select(v, best);
+            at = better.select(index, at);
+            index += f32x8::splat(8.0);
+        }
+        let (best, at) = (best.to_array(), at.to_array());
+        let mut k = 0;
+        for i in 1..8 {
+            if best[i] > best[k] || (best[i] == best[k] && at[i] < at[k]) {
+                k = i;
+            }
+        }
+        self.points[at[k] as usize]
+    }
+}
+
+/// A convex part shape.
+#[derive(Debug, Clone)]
+enum Convex {
+    Ball(Ball),
+    Cuboid(Cuboid),
+    Cylinder(Cylinder),
+    Capsule(Capsule),
+    Hull(Arc<Hull>),
+}
+
+impl Convex {
+    /// How deep local point `p` lies inside the shape (negative outside,
+    /// a lower bound of the distance to the surface for hulls).
+    fn depth(&self, p: &Vector3<f64>) -> f64 {
+        match self {
+            Convex::Ball(b) => b.radius as f64 - p.norm(),
+            Convex::Cuboid(c) => (0..3)
+                .map(|i| c.half_extents[i] as f64 - p[i].abs())
+                .fold(f64::INFINITY, f64::min),
+            Convex::Cylinder(c) => {
+                (c.radius as f64 - p.x.hypot(p.z)).min(c.half_height as f64 - p.y.abs())
+            }
+            Convex::Capsule(c) => {
+                let (a, b) = (c.segment.a, c.segment.b);
+                let a = Vector3::new(a.x as f64, a.y as f64, a.z as f64);
+                let ab = Vector3::new(b.x as f64, b.y as f64, b.z as f64) - a;
+                let t = ((p - a).dot(&ab) / ab.norm_squared().max(1e-30)).clamp(0.0, 1.0);
+                c.radius as f64 - (p - a - ab * t).norm()
+            }
+            Convex::Hull(h) => h
+                .planes
+                .iter()
+                .map(|(n, d)| d - n.dot(p))
+                .fold(f64::INFINITY, f64::min),
+        }
+    }
+}
+
+impl SupportMap for Convex {
+    #[inline]
+    fn local_support_point(&self, dir: Vector) -> Vector {
+        match self {
+            Convex::Ball(s) => s.local_support_point(dir),
+            Convex::Cuboid(s) => s.local_support_point(dir),
+            Convex::Cylinder(s) => s.local_support_point(dir),
+            Convex::Capsule(s) => s.local_support_point(dir),
+            Convex::Hull(h) => h.support(dir),
+        }
+    }
+}
+
+/// An oriented box in the lane frame.
+#[derive(Debug, Clone, Copy)]
+struct Obb {
+    /// Centre.
+    c: [f32; 3],
+    /// Unit axes, one per row.
+    u: [f32; 9],
+    /// Half extents (padded).
+    h: [f32; 3],
+}
+
+impl Obb {
+    /// The box with axes `axes` (columns, in the lane frame) that holds
+    /// `points` (lane frame).
+    fn fit(points: &[Point3<f64>], axes: &Matrix3<f64>) -> (Self, f64) {
+        let mut lo = Vector3::repeat(f64::INFINITY);
+        let mut hi = Vector3::repeat(f64::NEG_INFINITY);
+        for p in points {
+            let l = axes.transpose() * p.coords;
+            lo = lo.inf(&l);
+            hi = hi.sup(&l);
+        }
+        let c = axes * ((lo + hi) / 2.0);
+        let h = (hi - lo) / 2.0;
+        (Self::new(c, axes, &h), h.x * h.y * h.z)
+    }
+
+    fn new(c: Vector3<f64>, axes: &Matrix3<f64>, h: &Vector3<f64>) -> Self {
+        let mut u = [0.0f32; 9];
+        for k in 0..3 {
+            for r in 0..3 {
+                u[k * 3 + r] = axes[(r, k)] as f32;
+            }
+        }
+        Self {
+            c: [c.x as f32, c.y as f32, c.z as f32],
+            u,
+            h: h.map(|v| (v * (1.0 + 1e-6) + BOX_PAD) as f32).into(),
+        }
+    }
+}
+
+/// One convex part of a link: pose in the lane frame, bounding box, shape.
+#[derive(Debug, Clone)]
+struct Part {
+    pose: Frame32,
+    obb: Obb,
+    shape: Convex,
+    /// Spheres inside the shape (lane frame: centre, radius): two parts
+    /// whose inner spheres overlap certainly touch, without GJK.
+    inner: Vec<([f32; 3], f32)>,
+}
+
+/// At most this many inner spheres per part.
+const INNER: usize = 6;
+
+impl Part {
+    fn new(pose: Isometry3<f64>, obb: Obb, shape: Convex) -> Self {
+        let mut part = Self {
+            pose: Frame32::from_iso(&pose),
+            obb,
+            shape,
+            inner: Vec::new(),
+        };
+        // Candidates on a grid over the box, largest inscribed first, kept
+        // when not mostly inside one already kept.
+        let n = 9;
+        let mut cands: Vec<(Vector3<f64>, f64)> = Vec::new();
+        let axes = |k: usize| {
+            Vector3::new(
+                obb.u[k * 3] as f64,
+                obb.u[k * 3 + 1] as f64,
+                obb.u[k * 3 + 2] as f64,
+            )
+        };
+        let c0 = Vector3::new(obb.c[0] as f64, obb.c[1] as f64, obb.c[2] as f64);
+        for i in 0..n {
+            for j in 0..n {
+                for k in 0..n {
+                    let f = |x: usize, h: f32| (2.0 * x as f64 / (n - 1) as f64 - 1.0) * h as f64;
+                    let p = c0
+                        + axes(0) * f(i, obb.h[0])
+                        + axes(1) * f(j, obb.h[1])
+                        + axes(2) * f(k, obb.h[2]);
+                    let local = pose.inverse_transform_point(&Point3::from(p));
+                    // Shrunk for f32 rounding: inner spheres must be inside.
+                    let r = part.shape.depth(&local.coords) - BOX_PAD;
+                    if r > 0.0 {
+                        cands.push((p, r));
+                    }
+                }
+            }
+        }
+        cands.sort_by(|a, b| b.1.total_cmp(&a.1));
+        let mut kept: Vec<(Vector3<f64>, f64)> = Vec::new();
+        for (p, r) in cands {
+            if kept.len() == INNER || kept.first().is_some_and(|k| r < 0.3 * k.1) {
+                break;
+            }
+            if kept.iter().all(|(q, s)| (p - q).norm() > 0.7 * s.max(r)) {
+                kept.push((p, r));
+            }
+        }
+        part.inner = kept
+            .into_iter()
+            .map(|(p, r)| ([p.x as f32, p.y as f32, p.z as f32], r as f32))
+            .collect();
+        part
+    }
+}
+
+/// The collision geometry of one link: convex parts posed in the body's
+/// lane frame.
 #[derive(Clone)]
 pub struct ExactBody {
-    parts: Vec<(Isometry3<f64>, SharedShape)>,
+    parts: Arc<[Part]>,
 }
 
 impl std::fmt::Debug for ExactBody {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(f, "ExactBody({} parts)", self.parts.len())
     }
-}
-
-fn vector(p: &Point3<f64>) -> Vector {
-    Vector::new(p.x as f32, p.y as f32, p.z as f32)
-}
-
-fn pose(iso: &Isometry3<f64>) -> Pose {
-    let t = iso.translation.vector;
-    let q = iso.rotation.coords; // x, y, z, w
-    Pose::from_parts(
-        Vector::new(t.x as f32, t.y as f32, t.z as f32),
-        Rot3::from_xyzw(q[0] as f32, q[1] as f32, q[2] as f32, q[3] as f32),
-    )
 }
 
 impl ExactBody {
@@ -54,54 +309,228 @@ impl ExactBody {
         let mut parts = Vec::new();
         for g in &link.collisions {
             let at = corr * g.origin;
-            let shape = match &g.shape {
-                Shape::Box { half_extents: h } => {
-                    SharedShape::new(Cuboid::new(Vector::new(h.x as f32, h.y as f32, h.z as f32)))
-                }
-                Shape::Sphere { radius } => SharedShape::new(Ball::new(*radius as f32)),
+            let rot = at.rotation.to_rotation_matrix().into_inner();
+            let centre = at.translation.vector;
+            let part = match &g.shape {
+                Shape::Box { half_extents: h } => Part::new(
+                    at,
+                    Obb::new(centre, &rot, h),
+                    Convex::Cuboid(Cuboid::new(Vector::new(h.x as f32, h.y as f32, h.z as f32))),
+                ),
+                Shape::Sphere { radius } => Part::new(
+                    at,
+                    Obb::new(centre, &rot, &Vector3::repeat(*radius)),
+                    Convex::Ball(Ball::new(*radius as f32)),
+                ),
                 Shape::Cylinder { radius, length } => {
                     // parry's cylinders run along y, URDF's along z.
                     let turn = UnitQuaternion::from_axis_angle(
-                        &nalgebra::Vector3::x_axis(),
+                        &Vector3::x_axis(),
                         std::f64::consts::FRAC_PI_2,
                     );
-                    parts.push((
+                    Part::new(
                         at * turn,
-                        SharedShape::new(Cylinder::new((*length / 2.0) as f32, *radius as f32)),
-                    ));
-                    continue;
+                        Obb::new(centre, &rot, &Vector3::new(*radius, *radius, length / 2.0)),
+                        Convex::Cylinder(Cylinder::new((*length / 2.0) as f32, *radius as f32)),
+                    )
                 }
-                Shape::Capsule { radius, length } => SharedShape::new(Capsule::new(
-                    Vector::new(0.0, 0.0, (-length / 2.0) as f32),
-                    Vector::new(0.0, 0.0, (length / 2.0) as f32),
-                    *radius as f32,
-                )),
+                Shape::Capsule { radius, length } => Part::new(
+                    at,
+                    Obb::new(
+                        centre,
+                        &rot,
+                        &Vector3::new(*radius, *radius, length / 2.0 + radius),
+                    ),
+                    Convex::Capsule(Capsule::new(
+                        Vector::new(0.0, 0.0, (-length / 2.0) as f32),
+                        Vector::new(0.0, 0.0, (length / 2.0) as f32),
+                        *radius as f32,
+                    )),
+                ),
                 Shape::Mesh { scale, mesh, .. } => {
                     let pts: Vec<Vector> = mesh
                         .vertices
                         .iter()
-                        .map(|v| vector(&Point3::from(v.coords.component_mul(scale))))
+                        .map(|v| {
+                            let p = v.coords.component_mul(scale);
+                            Vector::new(p.x as f32, p.y as f32, p.z as f32)
+                        })
                         .collect();
-                    SharedShape::new(ConvexPolyhedron::from_convex_hull(&pts)?)
+                    let hull = Hull::new(&pts)?;
+                    // The box holds the hull's f32 vertices placed in the
+                    // lane frame: the smaller of the box along the mesh
+                    // frame's axes and the box along the principal axes.
+                    let placed: Vec<Point3<f64>> = hull
+                        .points
+                        .iter()
+                        .map(|p| at * Point3::new(p.x as f64, p.y as f64, p.z as f64))
+                        .collect();
+                    let (mut obb, volume) = Obb::fit(&placed, &rot);
+                    let mean = placed.iter().fold(Vector3::zeros(), |a, p| a + p.coords)
+                        / placed.len() as f64;
+                    let cov = placed.iter().fold(Matrix3::zeros(), |a, p| {
+                        let d = p.coords - mean;
+                        a + d * d.transpose()
+                    });
+                    let eig = SymmetricEigen::new(cov).eigenvectors;
+                    if eig.iter().all(|v| v.is_finite()) {
+                        let (pca, v) = Obb::fit(&placed, &eig);
+                        if v < volume {
+                            obb = pca;
+                        }
+                    }
+                    Part::new(at, obb, Convex::Hull(Arc::new(hull)))
                 }
             };
-            parts.push((at, shape));
+            parts.push(part);
         }
-        (!parts.is_empty()).then_some(Self { parts })
+        (!parts.is_empty()).then(|| Self {
+            parts: parts.into(),
+        })
     }
 }
 
-/// The pose of lane `i` of a lane frame.
-fn lane_pose<L: Lanes>(f: &LaneFrame<L>, i: usize) -> Isometry3<f64> {
-    let v = |k: usize| f[k].lane(i) as f64;
-    let m = nalgebra::Matrix3::new(v(0), v(1), v(2), v(3), v(4), v(5), v(6), v(7), v(8));
-    let rot = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(m));
-    Isometry3::from_parts(nalgebra::Translation3::new(v(9), v(10), v(11)), rot)
+/// A box's centre and axes in the base frame, on every lane.
+#[inline(always)]
+fn place<L: Lanes>(f: &LaneFrame<L>, o: &Obb) -> ([L; 3], [[L; 3]; 3]) {
+    let s = L::splat;
+    let rot = |v: [f32; 3]| {
+        [
+            f[0] * s(v[0]) + f[1] * s(v[1]) + f[2] * s(v[2]),
+            f[3] * s(v[0]) + f[4] * s(v[1]) + f[5] * s(v[2]),
+            f[6] * s(v[0]) + f[7] * s(v[1]) + f[8] * s(v[2]),
+        ]
+    };
+    let c = rot(o.c);
+    (
+        [c[0] + f[9], c[1] + f[10], c[2] + f[11]],
+        [
+            rot([o.u[0], o.u[1], o.u[2]]),
+            rot([o.u[3], o.u[4], o.u[5]]),
+            rot([o.u[6], o.u[7], o.u[8]]),
+        ],
+    )
+}
+
+#[inline(always)]
+fn dot<L: Lanes>(a: &[L; 3], b: &[L; 3]) -> L {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// Lanes where boxes `a` (frame `fa`) and `b` (frame `fb`), each grown by
+/// `grow`, may overlap: the separating-axis test on the 15 axes.
+#[inline(always)]
+fn boxes_overlap<L: Lanes>(
+    a: &Obb,
+    b: &Obb,
+    fa: &LaneFrame<L>,
+    fb: &LaneFrame<L>,
+    grow: f32,
+) -> u32 {
+    let s = L::splat;
+    let (ca, ua) = place(fa, a);
+    let (cb, ub) = place(fb, b);
+    let ha = a.h.map(|h| s(h + grow));
+    let hb = b.h.map(|h| s(h + grow));
+    let t = [cb[0] - ca[0], cb[1] - ca[1], cb[2] - ca[2]];
+    let r: [[L; 3]; 3] = std::array::from_fn(|i| std::array::from_fn(|j| dot(&ua[i], &ub[j])));
+    let ar: [[L; 3]; 3] =
+        std::array::from_fn(|i| std::array::from_fn(|j| r[i][j].abs() + s(AXIS_EPS)));
+    let ta: [L; 3] = std::array::from_fn(|i| dot(&t, &ua[i]));
+    let mut sep = 0u32;
+    for i in 0..3 {
+        let rb = hb[0] * ar[i][0] + hb[1] * ar[i][1] + hb[2] * ar[i][2];
+        sep |= (ha[i] + rb).lt_mask(ta[i].abs());
+    }
+    for j in 0..3 {
+        let ra = ha[0] * ar[0][j] + ha[1] * ar[1][j] + ha[2] * ar[2][j];
+        let tb = ta[0] * r[0][j] + ta[1] * r[1][j] + ta[2] * r[2][j];
+        sep |= (ra + hb[j]).lt_mask(tb.abs());
+    }
+    for i in 0..3 {
+        let (i1, i2) = ((i + 1) % 3, (i + 2) % 3);
+        for j in 0..3 {
+            let (j1, j2) = ((j + 1) % 3, (j + 2) % 3);
+            let ra = ha[i1] * ar[i2][j] + ha[i2] * ar[i1][j];
+            let rb = hb[j1] * ar[i][j2] + hb[j2] * ar[i][j1];
+            let tt = ta[i2] * r[i1][j] - ta[i1] * r[i2][j];
+            sep |= (ra + rb).lt_mask(tt.abs());
+        }
+    }
+    L::FULL & !sep
+}
+
+/// Lanes where an inner sphere of `a` (frame `fa`) overlaps one of `b`
+/// (frame `fb`): the parts certainly touch there.
+#[inline(always)]
+fn inner_overlap<L: Lanes>(a: &Part, b: &Part, fa: &LaneFrame<L>, fb: &LaneFrame<L>) -> u32 {
+    let mut bs = [([L::splat(0.0); 3], L::splat(0.0)); INNER];
+    for (k, (c, r)) in b.inner.iter().enumerate() {
+        bs[k] = (crate::kernel::apply(fb, c), L::splat(*r));
+    }
+    let bs = &bs[..b.inner.len()];
+    let mut hit = 0;
+    for (c, r) in &a.inner {
+        let p = crate::kernel::apply(fa, c);
+        let r = L::splat(*r);
+        for (q, rq) in bs {
+            let d = [p[0] - q[0], p[1] - q[1], p[2] - q[2]];
+            let rr = r + *rq;
+            hit |= (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).lt_mask(rr * rr);
+        }
+        if hit == L::FULL {
+            break;
+        }
+    }
+    hit
+}
+
+/// Row-major 3x3 product.
+#[inline(always)]
+fn mul3(a: &[f32; 9], b: &[f32; 9]) -> [f32; 9] {
+    std::array::from_fn(|k| {
+        let (i, j) = (k / 3, k % 3);
+        a[i * 3] * b[j] + a[i * 3 + 1] * b[3 + j] + a[i * 3 + 2] * b[6 + j]
+    })
+}
+
+/// The pose of a part on lane `i` of frame `f`: rotation and translation.
+#[inline(always)]
+fn part_pose<L: Lanes>(f: &LaneFrame<L>, i: usize, p: &Frame32) -> ([f32; 9], [f32; 3]) {
+    let m: [f32; 9] = std::array::from_fn(|k| f[k].lane(i));
+    let rot = mul3(&m, &p.r);
+    let t = std::array::from_fn(|r| {
+        m[r * 3] * p.t[0] + m[r * 3 + 1] * p.t[1] + m[r * 3 + 2] * p.t[2] + f[9 + r].lane(i)
+    });
+    (rot, t)
+}
+
+/// The pose of part `b` in the frame of part `a` (parry's `pos12`).
+#[inline(always)]
+fn relative(a: &([f32; 9], [f32; 3]), b: &([f32; 9], [f32; 3])) -> Pose {
+    let (ra, ta) = a;
+    let (rb, tb) = b;
+    // rel = ra^T rb; columns of rel as glam vectors.
+    let col = |j: usize| {
+        Vector::new(
+            ra[0] * rb[j] + ra[3] * rb[3 + j] + ra[6] * rb[6 + j],
+            ra[1] * rb[j] + ra[4] * rb[3 + j] + ra[7] * rb[6 + j],
+            ra[2] * rb[j] + ra[5] * rb[3 + j] + ra[8] * rb[6 + j],
+        )
+    };
+    let rel = Mat3::from_cols(col(0), col(1), col(2));
+    let d = [tb[0] - ta[0], tb[1] - ta[1], tb[2] - ta[2]];
+    let t = Vector::new(
+        ra[0] * d[0] + ra[3] * d[1] + ra[6] * d[2],
+        ra[1] * d[0] + ra[4] * d[1] + ra[7] * d[2],
+        ra[2] * d[0] + ra[5] * d[1] + ra[8] * d[2],
+    );
+    Pose::from_parts(t, Rot3::from_mat3(&rel).normalize())
 }
 
 /// Of the lanes in `lanes`, those where the exact geometry of bodies `a`
-/// and `b` (lane frames `fa`, `fb`) is closer than `margin` (or touches).
-/// Lanes whose geometry parry cannot compare stay set (conservative).
+/// and `b` (lane frames `fa`, `fb`) is closer than `margin` (or touches,
+/// for a margin of zero or less).
 pub fn confirm<L: Lanes>(
     a: &ExactBody,
     b: &ExactBody,
@@ -110,28 +539,112 @@ pub fn confirm<L: Lanes>(
     lanes: u32,
     margin: f32,
 ) -> u32 {
+    let margin = margin.max(0.0);
     let mut out = 0;
-    let mut bits = lanes;
-    while bits != 0 {
-        let i = bits.trailing_zeros() as usize;
-        bits &= bits - 1;
-        let (pa, pb) = (lane_pose(fa, i), lane_pose(fb, i));
-        let hit = a.parts.iter().any(|(ia, sa)| {
-            let wa = pose(&(pa * ia));
-            b.parts.iter().any(|(ib, sb)| {
-                let wb = pose(&(pb * ib));
-                if margin > 0.0 {
-                    distance(&wa, sa.as_ref(), &wb, sb.as_ref())
-                        .map_or(true, |d| d.distance < margin)
+    for pa in a.parts.iter() {
+        for pb in b.parts.iter() {
+            let todo = lanes & !out;
+            if todo == 0 {
+                return out;
+            }
+            let mut bits = todo & boxes_overlap(&pa.obb, &pb.obb, fa, fb, margin / 2.0);
+            if bits == 0 {
+                continue;
+            }
+            let sure = bits & inner_overlap(pa, pb, fa, fb);
+            out |= sure;
+            bits &= !sure;
+            while bits != 0 {
+                let i = bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                let pos12 = relative(&part_pose(fa, i, &pa.pose), &part_pose(fb, i, &pb.pose));
+                let (sa, sb) = (&pa.shape, &pb.shape);
+                let hit = if margin > 0.0 {
+                    distance_support_map_support_map(&pos12, sa, sb) < margin
                 } else {
-                    intersection_test(&wa, sa.as_ref(), &wb, sb.as_ref())
-                        .map_or(true, |r| r.intersecting)
+                    intersection_test_support_map_support_map(&pos12, sa, sb)
+                };
+                if hit {
+                    out |= 1 << i;
                 }
-            })
-        });
-        if hit {
-            out |= 1 << i;
+            }
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The packed scan finds the furthest vertex of a hull with many
+    /// coplanar vertices (against a plain scan of the input points).
+    #[test]
+    fn hull_support_matches_scan() {
+        let mut pts = Vec::new();
+        for i in 0..40 {
+            let a = i as f32 * 0.157;
+            for z in [-0.1f32, 0.0, 0.1] {
+                pts.push(Vector::new(0.05 * a.cos(), 0.05 * a.sin(), z));
+            }
+        }
+        let hull = Hull::new(&pts).unwrap();
+        for k in 0..1000 {
+            let d = Vector::new(
+                (k as f32 * 0.37).sin(),
+                (k as f32 * 0.91).cos(),
+                (k as f32 * 0.13).sin() - 0.3,
+            );
+            let got = hull.support(d).dot(d);
+            let best = pts.iter().map(|p| p.dot(d)).fold(f32::MIN, f32::max);
+            assert!(got >= best - 1e-6, "{k}: {got} < {best}");
+        }
+    }
+
+    /// The box test never separates boxes that overlap (checked against
+    /// points sampled inside the boxes), and separates far ones.
+    #[test]
+    fn box_test_is_conservative() {
+        let a = Obb::new(
+            Vector3::new(0.0, 0.0, 0.0),
+            &Matrix3::identity(),
+            &Vector3::new(0.1, 0.05, 0.2),
+        );
+        let rot = UnitQuaternion::from_euler_angles(0.3, -0.7, 1.1)
+            .to_rotation_matrix()
+            .into_inner();
+        let b = Obb::new(Vector3::zeros(), &rot, &Vector3::new(0.03, 0.08, 0.06));
+        let ident: LaneFrame<f32> = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0];
+        let (mut overlaps, mut seps) = (0, 0);
+        for k in 0..4000 {
+            let off = Vector3::new(
+                ((k * 7919) % 1000) as f64 / 1000.0 - 0.5,
+                ((k * 104_729) % 1000) as f64 / 1000.0 - 0.5,
+                ((k * 1_299_709) % 1000) as f64 / 1000.0 - 0.5,
+            ) * 0.7;
+            let mut fb = ident;
+            fb[9..12].copy_from_slice(&[off.x as f32, off.y as f32, off.z as f32]);
+            let says = boxes_overlap(&a, &b, &ident, &fb, 0.0) != 0;
+            // A point of b (grid over its volume) inside a proves overlap.
+            let mut inside = false;
+            for x in -4..=4 {
+                for y in -4..=4 {
+                    for z in -4..=4 {
+                        let l =
+                            Vector3::new(0.03 * x as f64, 0.08 * y as f64, 0.06 * z as f64) / 4.0;
+                        let p = rot * l + off;
+                        inside |= p.x.abs() <= 0.1 && p.y.abs() <= 0.05 && p.z.abs() <= 0.2;
+                    }
+                }
+            }
+            assert!(!inside || says, "{k}: overlapping boxes separated");
+            if inside {
+                overlaps += 1;
+            }
+            if !says {
+                seps += 1;
+            }
+        }
+        assert!(overlaps > 100 && seps > 100, "{overlaps} {seps}");
+    }
 }

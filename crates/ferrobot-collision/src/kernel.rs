@@ -164,7 +164,6 @@ pub fn check<L: Lanes>(
     }
     for bi in (0..robot.bodies.len()).rev() {
         let body = &robot.bodies[bi];
-        let frame = scratch.frames[body.frame];
         let bc = scratch.bounds[bi];
         if body.frame == 0 && skip_static {
             continue;
@@ -182,7 +181,17 @@ pub fn check<L: Lanes>(
                 let reach = (f32x8::splat(body.bound.1) + chunk[3]) + f32x8::splat(margin);
                 (dx * dx + dy * dy + dz * dz).lt_mask(reach * reach)
             } else {
-                0xff
+                // Eight lanes: the sphere the body sweeps over all
+                // configurations against eight obstacle bounds (obstacles
+                // out of the arm's reach from this body never get tested).
+                let (c, r) = body.sweep;
+                let (dx, dy, dz) = (
+                    f32x8::splat(c[0]) - chunk[0],
+                    f32x8::splat(c[1]) - chunk[1],
+                    f32x8::splat(c[2]) - chunk[2],
+                );
+                let reach = (f32x8::splat(r) + chunk[3]) + f32x8::splat(margin);
+                (dx * dx + dy * dy + dz * dz).lt_mask(reach * reach)
             };
             let valid = (world.obstacles.len() - ci * 8).min(8);
             let mut bits = candidates & ((1u32 << valid) - 1);
@@ -190,9 +199,7 @@ pub fn check<L: Lanes>(
                 let oi = ci * 8 + bits.trailing_zeros() as usize;
                 bits &= bits - 1;
                 let obs = &world.obstacles[oi];
-                self::world_pair(
-                    robot, body, bi, &frame, &bc, obs, m, active, &mut hit, scratch,
-                );
+                self::world_pair(robot, body, bi, &bc, obs, m, active, &mut hit, scratch);
                 if hit & active == active {
                     return hit & active;
                 }
@@ -208,9 +215,8 @@ pub fn check<L: Lanes>(
         if near == 0 {
             continue;
         }
-        let (fa, fb) = (scratch.frames[ba.frame], scratch.frames[bb.frame]);
-        ensure_centers(robot, a, &fa, scratch);
-        ensure_centers(robot, b, &fb, scratch);
+        ensure_centers(robot, a, scratch);
+        ensure_centers(robot, b, scratch);
         let mut spheres_hit = 0u32;
         for i in ba.first..ba.first + ba.count {
             // Each sphere of `a` against the bounding sphere of `b` first.
@@ -233,7 +239,8 @@ pub fn check<L: Lanes>(
         // Spheres overlap: the links' exact geometry decides.
         hit |= match (&robot.exact[a], &robot.exact[b]) {
             (Some(ea), Some(eb)) if spheres_hit != 0 => {
-                crate::exact::confirm(ea, eb, &fa, &fb, spheres_hit, margin)
+                let (fa, fb) = (&scratch.frames[ba.frame], &scratch.frames[bb.frame]);
+                crate::exact::confirm(ea, eb, fa, fb, spheres_hit, margin)
             }
             _ => spheres_hit,
         };
@@ -254,7 +261,6 @@ fn world_pair<L: Lanes>(
     robot: &CompiledRobot,
     body: &crate::compiled::Body,
     bi: usize,
-    frame: &LaneFrame<L>,
     bc: &[L; 3],
     obs: &crate::compiled::Obstacle,
     m: L,
@@ -275,7 +281,7 @@ fn world_pair<L: Lanes>(
     if near == 0 {
         return;
     }
-    ensure_centers(robot, bi, frame, scratch);
+    ensure_centers(robot, bi, scratch);
     for k in body.first..body.first + body.count {
         let c = scratch.centers[k];
         let r = L::splat(robot.radii[k]) + m;
@@ -292,16 +298,12 @@ fn world_pair<L: Lanes>(
 }
 
 #[inline(always)]
-fn ensure_centers<L: Lanes>(
-    robot: &CompiledRobot,
-    body: usize,
-    frame: &LaneFrame<L>,
-    scratch: &mut Scratch<L>,
-) {
+fn ensure_centers<L: Lanes>(robot: &CompiledRobot, body: usize, scratch: &mut Scratch<L>) {
     if scratch.done[body] {
         return;
     }
     let b = &robot.bodies[body];
+    let frame = &scratch.frames[b.frame];
     for k in b.first..b.first + b.count {
         scratch.centers[k] = apply(frame, &robot.centers[k]);
     }

@@ -1,0 +1,212 @@
+//! The exact self-collision stage against an independent reference (parry
+//! convex polyhedra of the links' meshes, posed by the model's f64 forward
+//! kinematics), and the collision explanation (`contacts`) against
+//! `in_collision`.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use ferrobot_collision::spherize::{SpherizeOptions, spherize_robot};
+use ferrobot_collision::{AllowedCollisions, CollisionChecker, CollisionWorld, RobotSpheres};
+use ferrobot_model::{LoadOptions, RobotModel, Shape, SrdfSource};
+use nalgebra::Isometry3;
+use parry3d::math::{Pose, Rot3, Vector};
+use parry3d::query::contact;
+use parry3d::shape::ConvexPolyhedron;
+use rand::{Rng, SeedableRng, rngs::StdRng};
+
+fn shared(rel: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared")
+        .join(rel)
+}
+
+fn mbm_panda() -> (Arc<RobotModel>, RobotSpheres, AllowedCollisions) {
+    let model = RobotModel::from_urdf_file(
+        shared("robots/panda/panda.urdf"),
+        &LoadOptions {
+            srdf: Some(SrdfSource::File(shared("robots/panda/panda.srdf"))),
+            ee_link: Some("panda_hand".into()),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let spheres =
+        RobotSpheres::from_spherized_urdf(&model, shared("robots/panda/panda_spherized.urdf"))
+            .unwrap();
+    let acm = AllowedCollisions::from_model(&model);
+    (Arc::new(model), spheres, acm)
+}
+
+fn random_q(model: &RobotModel, rng: &mut StdRng) -> Vec<f64> {
+    model
+        .lower_limits()
+        .iter()
+        .zip(model.upper_limits())
+        .map(|(l, h)| rng.random_range(*l..h))
+        .collect()
+}
+
+fn to_pose(iso: &Isometry3<f64>) -> Pose {
+    let t = iso.translation.vector;
+    let q = iso.rotation.coords; // x, y, z, w
+    Pose::from_parts(
+        Vector::new(t.x as f32, t.y as f32, t.z as f32),
+        Rot3::from_xyzw(q[0] as f32, q[1] as f32, q[2] as f32, q[3] as f32),
+    )
+}
+
+/// Each link's meshes as parry convex polyhedra in the link frame.
+fn hulls(model: &RobotModel) -> Vec<Vec<(Isometry3<f64>, ConvexPolyhedron)>> {
+    model
+        .links()
+        .iter()
+        .map(|link| {
+            link.collisions
+                .iter()
+                .map(|g| match &g.shape {
+                    Shape::Mesh { scale, mesh, .. } => {
+                        let pts: Vec<Vector> = mesh
+                            .vertices
+                            .iter()
+                            .map(|v| {
+                                let p = v.coords.component_mul(scale);
+                                Vector::new(p.x as f32, p.y as f32, p.z as f32)
+                            })
+                            .collect();
+                        (g.origin, ConvexPolyhedron::from_convex_hull(&pts).unwrap())
+                    }
+                    _ => panic!("the MotionBenchMaker Panda has mesh collision geometry"),
+                })
+                .collect()
+        })
+        .collect()
+}
+
+#[test]
+fn exact_self_collision_matches_convex_hull_reference() {
+    let (model, spheres, acm) = mbm_panda();
+    let link_spheres = spheres.links.clone();
+    let checker =
+        CollisionChecker::new(model.clone(), spheres, acm, CollisionWorld::new()).unwrap();
+    let mut spheres_only = checker.clone();
+    spheres_only.set_exact_self_collision(false);
+    let hulls = hulls(&model);
+    let (robot, _) = checker.compiled();
+    let pairs: Vec<(usize, usize)> = robot
+        .pairs
+        .iter()
+        .map(|&(a, b)| (robot.bodies[a].link, robot.bodies[b].link))
+        .collect();
+    let mut rng = StdRng::seed_from_u64(21);
+    let (mut deep, mut filtered, mut disagree, n) = (0, 0, 0, 3000);
+    for _ in 0..n {
+        let q = random_q(&model, &mut rng);
+        let poses = model.fk_all(&q).unwrap();
+        // Reference: the deepest penetration of any checked pair's hulls.
+        // Reference: the deepest penetration of the hulls of any checked
+        // pair whose spheres overlap (the exact stage decides only there;
+        // a hand-made sphere model need not cover the hulls).
+        let mut depth = f32::INFINITY;
+        for &(a, b) in &pairs {
+            let overlap = link_spheres[a]
+                .iter()
+                .flat_map(|sa| link_spheres[b].iter().map(move |sb| (sa, sb)))
+                .map(|(sa, sb)| {
+                    sa.radius + sb.radius - (poses[a] * sa.center - poses[b] * sb.center).norm()
+                })
+                .fold(f64::NEG_INFINITY, f64::max);
+            if overlap <= 0.0 {
+                continue;
+            }
+            for (oa, ha) in &hulls[a] {
+                for (ob, hb) in &hulls[b] {
+                    let (pa, pb) = (to_pose(&(poses[a] * oa)), to_pose(&(poses[b] * ob)));
+                    if let Some(c) = contact(&pa, ha, &pb, hb, 0.0).unwrap() {
+                        // Clear overlaps only: both stages agree beyond rounding.
+                        let d = if overlap > 1e-4 {
+                            c.dist
+                        } else {
+                            c.dist.max(0.0)
+                        };
+                        depth = depth.min(d);
+                    }
+                }
+            }
+        }
+        let got = checker.in_collision(&q).unwrap();
+        if depth < -1e-4 {
+            deep += 1;
+            assert!(got, "hulls penetrate {depth} m, checker says free at {q:?}");
+        }
+        if (depth <= 0.0) != got {
+            disagree += 1;
+        }
+        if spheres_only.in_collision(&q).unwrap() && !got {
+            filtered += 1;
+        }
+    }
+    // Only configurations at a touching boundary may differ (f32 lanes).
+    assert!(disagree <= n / 500, "{disagree} of {n} disagree");
+    assert!(deep > 100 && filtered > 10, "{deep} {filtered}");
+}
+
+#[test]
+fn contacts_agree_with_in_collision() {
+    let (model, spheres, acm) = mbm_panda();
+    let world =
+        CollisionWorld::from_moveit_scene(shared("bench/mbm/bookshelf_small_panda/scene0002.yaml"))
+            .unwrap();
+    let checker = CollisionChecker::new(model.clone(), spheres, acm, world).unwrap();
+    let mut spheres_only = checker.clone();
+    spheres_only.set_exact_self_collision(false);
+    let mut rng = StdRng::seed_from_u64(5);
+    let (mut hits, mut free, mut sphere_only_self) = (0, 0, 0);
+    for _ in 0..1500 {
+        let q = random_q(&model, &mut rng);
+        let got = checker.in_collision(&q).unwrap();
+        let contacts = checker.contacts(&q).unwrap();
+        assert_eq!(got, !contacts.is_empty(), "{q:?}: {contacts:?}");
+        if got {
+            hits += 1;
+        } else {
+            free += 1;
+        }
+        // Self-contacts the spheres alone would list but the geometry rules out.
+        let listed =
+            |c: &[ferrobot_collision::Contact]| c.iter().filter(|c| c.self_collision).count();
+        if listed(&spheres_only.contacts(&q).unwrap()) > listed(&contacts) {
+            sphere_only_self += 1;
+        }
+    }
+    assert!(
+        hits > 100 && free > 100 && sphere_only_self > 10,
+        "{hits} {free} {sphere_only_self}"
+    );
+    // Elbow fully bent: the hand comes back onto link 1, a real contact
+    // that the explanation names.
+    let folded = [0.0, 0.0, 0.0, -3.0, 0.0, 0.5, 0.0];
+    assert!(checker.in_collision(&folded).unwrap());
+    let contacts = checker.contacts(&folded).unwrap();
+    assert!(
+        contacts
+            .iter()
+            .any(|c| c.self_collision && c.body == "panda_link1" && c.other == "panda_hand"),
+        "{contacts:?}"
+    );
+}
+
+#[test]
+fn bundled_panda_ready_is_free_and_unexplained() {
+    let model = Arc::new(ferrobot_model::robots::panda().unwrap());
+    let (links, _) = spherize_robot(&model, &SpherizeOptions::default()).unwrap();
+    let spheres = RobotSpheres::new(&model, links).unwrap();
+    let acm = AllowedCollisions::from_model(&model);
+    let checker =
+        CollisionChecker::new(model.clone(), spheres, acm, CollisionWorld::new()).unwrap();
+    let ready = model.named_state("ready", None).unwrap();
+    assert!(!checker.in_collision(&ready).unwrap());
+    assert!(checker.contacts(&ready).unwrap().is_empty());
+    let batch = checker.in_collision_batch(&ready).unwrap();
+    assert_eq!(batch, vec![false]);
+}
