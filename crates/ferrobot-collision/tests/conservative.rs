@@ -3,7 +3,10 @@
 //! triangle meshes) intersects a MotionBenchMaker scene primitive is
 //! reported in collision by the sphere checker.
 
-use std::path::PathBuf;
+mod common;
+
+use common::{shared, to_pose};
+
 use std::sync::Arc;
 
 use ferrobot_collision::spherize::{SpherizeOptions, spherize_robot};
@@ -11,26 +14,11 @@ use ferrobot_collision::{
     AllowedCollisions, CollisionChecker, CollisionWorld, ObstacleShape, RobotSpheres,
 };
 use ferrobot_model::{LoadOptions, RobotModel, Shape};
-use nalgebra::{Isometry3, UnitQuaternion, Vector3};
-use parry3d::math::{Pose, Rot3, Vector};
+use nalgebra::{UnitQuaternion, Vector3};
+use parry3d::math::{Pose, Vector};
 use parry3d::query::intersection_test;
 use parry3d::shape::{Ball, Cuboid, Cylinder, SharedShape, TriMesh};
 use rand::{Rng, SeedableRng, rngs::StdRng};
-
-fn shared(rel: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared")
-        .join(rel)
-}
-
-fn to_pose(iso: &Isometry3<f64>) -> Pose {
-    let t = iso.translation.vector;
-    let q = iso.rotation.coords; // x, y, z, w
-    Pose::from_parts(
-        Vector::new(t.x as f32, t.y as f32, t.z as f32),
-        Rot3::from_xyzw(q[0] as f32, q[1] as f32, q[2] as f32, q[3] as f32),
-    )
-}
 
 #[test]
 fn automatic_spheres_never_miss_an_exact_collision_in_any_scene() {

@@ -3,58 +3,20 @@
 //! kinematics), and the collision explanation (`contacts`) against
 //! `in_collision`.
 
-use std::path::PathBuf;
+mod common;
+
+use common::{mbm_panda, random_q, shared, to_pose};
+
 use std::sync::Arc;
 
 use ferrobot_collision::spherize::{SpherizeOptions, spherize_robot};
 use ferrobot_collision::{AllowedCollisions, CollisionChecker, CollisionWorld, RobotSpheres};
-use ferrobot_model::{LoadOptions, RobotModel, Shape, SrdfSource};
+use ferrobot_model::{RobotModel, Shape};
 use nalgebra::Isometry3;
-use parry3d::math::{Pose, Rot3, Vector};
+use parry3d::math::Vector;
 use parry3d::query::contact;
 use parry3d::shape::ConvexPolyhedron;
-use rand::{Rng, SeedableRng, rngs::StdRng};
-
-fn shared(rel: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared")
-        .join(rel)
-}
-
-fn mbm_panda() -> (Arc<RobotModel>, RobotSpheres, AllowedCollisions) {
-    let model = RobotModel::from_urdf_file(
-        shared("robots/panda/panda.urdf"),
-        &LoadOptions {
-            srdf: Some(SrdfSource::File(shared("robots/panda/panda.srdf"))),
-            ee_link: Some("panda_hand".into()),
-            ..Default::default()
-        },
-    )
-    .unwrap();
-    let spheres =
-        RobotSpheres::from_spherized_urdf(&model, shared("robots/panda/panda_spherized.urdf"))
-            .unwrap();
-    let acm = AllowedCollisions::from_model(&model);
-    (Arc::new(model), spheres, acm)
-}
-
-fn random_q(model: &RobotModel, rng: &mut StdRng) -> Vec<f64> {
-    model
-        .lower_limits()
-        .iter()
-        .zip(model.upper_limits())
-        .map(|(l, h)| rng.random_range(*l..h))
-        .collect()
-}
-
-fn to_pose(iso: &Isometry3<f64>) -> Pose {
-    let t = iso.translation.vector;
-    let q = iso.rotation.coords; // x, y, z, w
-    Pose::from_parts(
-        Vector::new(t.x as f32, t.y as f32, t.z as f32),
-        Rot3::from_xyzw(q[0] as f32, q[1] as f32, q[2] as f32, q[3] as f32),
-    )
-}
+use rand::{SeedableRng, rngs::StdRng};
 
 /// Each link's meshes as parry convex polyhedra in the link frame.
 fn hulls(model: &RobotModel) -> Vec<Vec<(Isometry3<f64>, ConvexPolyhedron)>> {

@@ -1,44 +1,12 @@
 //! The lane kernel against an independent f64 reference (exact sphere to
 //! primitive distances), and the batched/SIMD paths against the scalar path.
 
-use std::path::PathBuf;
-use std::sync::Arc;
+mod common;
 
-use ferrobot_collision::{AllowedCollisions, CollisionChecker, CollisionWorld, RobotSpheres};
-use ferrobot_model::{LoadOptions, RobotModel, SrdfSource};
+use common::{mbm_panda, random_q, shared};
+
+use ferrobot_collision::{CollisionChecker, CollisionWorld};
 use rand::{Rng, SeedableRng, rngs::StdRng};
-
-fn shared(rel: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared")
-        .join(rel)
-}
-
-fn panda() -> (Arc<RobotModel>, RobotSpheres, AllowedCollisions) {
-    let model = RobotModel::from_urdf_file(
-        shared("robots/panda/panda.urdf"),
-        &LoadOptions {
-            srdf: Some(SrdfSource::File(shared("robots/panda/panda.srdf"))),
-            ee_link: Some("panda_hand".into()),
-            ..Default::default()
-        },
-    )
-    .unwrap();
-    let spheres =
-        RobotSpheres::from_spherized_urdf(&model, shared("robots/panda/panda_spherized.urdf"))
-            .unwrap();
-    let acm = AllowedCollisions::from_model(&model);
-    (Arc::new(model), spheres, acm)
-}
-
-fn random_q(model: &RobotModel, rng: &mut StdRng) -> Vec<f64> {
-    model
-        .lower_limits()
-        .iter()
-        .zip(model.upper_limits())
-        .map(|(l, h)| rng.random_range(*l..h))
-        .collect()
-}
 
 /// Reference: every sphere against every object part with exact f64
 /// distances, and every checked pair of bodies.
@@ -48,7 +16,7 @@ fn reference(checker: &CollisionChecker, q: &[f64]) -> f64 {
 
 #[test]
 fn scenes_parse_and_kernel_agrees_with_exact_reference() {
-    let (model, spheres, acm) = panda();
+    let (model, spheres, acm) = mbm_panda();
     assert_eq!(spheres.count(), 59);
     let mut rng = StdRng::seed_from_u64(5);
     let mut checked = 0;
@@ -83,7 +51,7 @@ fn scenes_parse_and_kernel_agrees_with_exact_reference() {
 
 #[test]
 fn batch_and_simd_agree_exactly_with_scalar() {
-    let (model, spheres, acm) = panda();
+    let (model, spheres, acm) = mbm_panda();
     let world =
         CollisionWorld::from_moveit_scene(shared("bench/mbm/bookshelf_small_panda/scene0003.yaml"))
             .unwrap();
@@ -102,7 +70,7 @@ fn batch_and_simd_agree_exactly_with_scalar() {
 
 #[test]
 fn motion_check_matches_dense_scalar_checks() {
-    let (model, spheres, acm) = panda();
+    let (model, spheres, acm) = mbm_panda();
     let world =
         CollisionWorld::from_moveit_scene(shared("bench/mbm/table_pick_panda/scene0001.yaml"))
             .unwrap();

@@ -1,0 +1,59 @@
+//! Helpers shared by the collision crate's integration tests: the robots in
+//! `../shared`, random configurations and nalgebra-to-parry poses.
+
+#![allow(dead_code)] // each test file uses a part
+
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use ferrobot_collision::{AllowedCollisions, RobotSpheres};
+use ferrobot_model::{LoadOptions, RobotModel, SrdfSource};
+use nalgebra::Isometry3;
+use parry3d::math::{Pose, Rot3, Vector};
+use rand::{Rng, rngs::StdRng};
+
+/// A path in the `shared` folder beside the checkout.
+pub fn shared(rel: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared")
+        .join(rel)
+}
+
+/// The MotionBenchMaker Panda (mesh URDF + SRDF), its spherized model and
+/// its allowed-collision matrix.
+pub fn mbm_panda() -> (Arc<RobotModel>, RobotSpheres, AllowedCollisions) {
+    let model = RobotModel::from_urdf_file(
+        shared("robots/panda/panda.urdf"),
+        &LoadOptions {
+            srdf: Some(SrdfSource::File(shared("robots/panda/panda.srdf"))),
+            ee_link: Some("panda_hand".into()),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let spheres =
+        RobotSpheres::from_spherized_urdf(&model, shared("robots/panda/panda_spherized.urdf"))
+            .unwrap();
+    let acm = AllowedCollisions::from_model(&model);
+    (Arc::new(model), spheres, acm)
+}
+
+/// A configuration drawn uniformly within the joint limits.
+pub fn random_q(model: &RobotModel, rng: &mut StdRng) -> Vec<f64> {
+    model
+        .lower_limits()
+        .iter()
+        .zip(model.upper_limits())
+        .map(|(l, h)| rng.random_range(*l..h))
+        .collect()
+}
+
+/// A parry (f32) pose from an nalgebra isometry.
+pub fn to_pose(iso: &Isometry3<f64>) -> Pose {
+    let t = iso.translation.vector;
+    let q = iso.rotation.coords; // x, y, z, w
+    Pose::from_parts(
+        Vector::new(t.x as f32, t.y as f32, t.z as f32),
+        Rot3::from_xyzw(q[0] as f32, q[1] as f32, q[2] as f32, q[3] as f32),
+    )
+}
