@@ -165,7 +165,21 @@ impl CollisionChecker {
             },
         );
         self.id = NEXT_ID.fetch_add(1, Ordering::Relaxed);
+        self.update_pair_maps();
         self.update_static();
+    }
+
+    /// Builds (or takes from the process cache) the joint-space clearance
+    /// maps of the self pairs for the current margin (see
+    /// [`crate::pair_map`]).
+    fn update_pair_maps(&mut self) {
+        let limits: Vec<(f64, f64)> = self
+            .model
+            .lower_limits()
+            .into_iter()
+            .zip(self.model.upper_limits())
+            .collect();
+        self.robot.pair_maps = crate::pair_map::maps_for(&self.robot, self.margin as f32, &limits);
     }
 
     /// Whether self-collisions found by spheres are confirmed on the links'
@@ -191,6 +205,8 @@ impl CollisionChecker {
         let mut only_static = self.robot.clone();
         only_static.bodies.retain(|b| b.frame == 0);
         only_static.pairs.clear();
+        only_static.pair_maps.clear();
+        only_static.pair_reach.clear();
         let q = vec![0.0f32; self.model.num_dof()];
         let mut scratch = Scratch::<f32>::new(&only_static);
         self.static_hit = check(
@@ -265,6 +281,7 @@ impl CollisionChecker {
             )));
         }
         self.margin = margin;
+        self.update_pair_maps();
         self.update_static();
         Ok(())
     }

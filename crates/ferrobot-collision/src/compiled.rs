@@ -44,6 +44,35 @@ impl Frame32 {
             t: [v.x as f32, v.y as f32, v.z as f32],
         }
     }
+
+    /// The rotation as a signed permutation, if it is one to within `1e-7`
+    /// per entry (joint frames turned by multiples of 90 degrees, as in most
+    /// URDFs): for each column `j`, the row `src[j]` of its one non-zero
+    /// entry and that entry's sign.
+    pub fn signed_permutation(&self) -> Option<([usize; 3], [f32; 3])> {
+        let mut src = [0usize; 3];
+        let mut sign = [0.0f32; 3];
+        for j in 0..3 {
+            let mut found = None;
+            for l in 0..3 {
+                let v = self.r[l * 3 + j];
+                if (v.abs() - 1.0).abs() <= 1e-7 {
+                    if found.is_some() {
+                        return None;
+                    }
+                    found = Some((l, v.signum()));
+                } else if v.abs() > 1e-7 {
+                    return None;
+                }
+            }
+            (src[j], sign[j]) = found?;
+        }
+        // A permutation: every row used once.
+        if src[0] == src[1] || src[1] == src[2] || src[0] == src[2] {
+            return None;
+        }
+        Some((src, sign))
+    }
 }
 
 /// One movable joint of the lane forward kinematics.
@@ -61,6 +90,10 @@ pub struct Step {
     pub gain: f32,
     /// Mimic offset (0 for an independent joint).
     pub offset: f32,
+    /// `k`'s rotation as a signed permutation (see
+    /// [`Frame32::signed_permutation`]), which the forward kinematics
+    /// applies by picking columns instead of a matrix product.
+    pub perm: Option<([usize; 3], [f32; 3])>,
 }
 
 /// A body of the sphere model: a link (or an attached object) whose spheres
@@ -121,6 +154,11 @@ pub struct CompiledRobot {
     pub exact: Vec<Option<crate::exact::ExactBody>>,
     /// Body pairs checked for self-collision (body indices).
     pub pairs: Vec<(usize, usize)>,
+    /// Sum of the two bounding radii of each pair (aligned with `pairs`).
+    pub pair_reach: Vec<f32>,
+    /// Joint-space clearance maps of the pairs (aligned with `pairs`, or
+    /// empty): set by the checker, used by the single-configuration kernel.
+    pub pair_maps: Vec<Option<std::sync::Arc<crate::pair_map::PairMap>>>,
     /// For each model link: its lane frame and the constant transform from
     /// that frame to the link frame (`link = frame * correction`).
     pub link_frames: Vec<(usize, Isometry3<f64>)>,
@@ -221,9 +259,11 @@ impl CompiledRobot {
                         } => (dof, multiplier, offset),
                         JointCoupling::Fixed => unreachable!(),
                     };
+                    let k = Frame32::from_iso(&k);
                     steps.push(Step {
                         parent: pframe,
-                        k: Frame32::from_iso(&k),
+                        perm: k.signed_permutation(),
+                        k,
                         prismatic: kind == JointKind::Prismatic,
                         dof,
                         gain: gain as f32,
@@ -245,6 +285,8 @@ impl CompiledRobot {
             packs: Vec::new(),
             exact: Vec::new(),
             pairs: Vec::new(),
+            pair_reach: Vec::new(),
+            pair_maps: Vec::new(),
             link_frames,
             frame_reach,
         };
@@ -258,6 +300,9 @@ impl CompiledRobot {
             for b in a + 1..robot.bodies.len() {
                 if check_pair(&robot.bodies[a], &robot.bodies[b]) {
                     robot.pairs.push((a, b));
+                    robot
+                        .pair_reach
+                        .push(robot.bodies[a].bound.1 + robot.bodies[b].bound.1);
                 }
             }
         }

@@ -4,7 +4,7 @@
 
 use nalgebra::Point3;
 
-use crate::compiled::{CompiledRobot, CompiledWorld, Frame32, Prim};
+use crate::compiled::{CompiledRobot, CompiledWorld, Prim, Step};
 use wide::f32x8;
 
 use crate::lanes::{Lanes, sin_cos};
@@ -39,43 +39,99 @@ impl<L: Lanes> Scratch<L> {
     }
 }
 
+/// `p` times the step's constant transform. A rotation that is a signed
+/// permutation is applied by picking columns, and zero translation entries
+/// are skipped: the same operations for every lane type, so the one-lane and
+/// eight-lane kinematics agree bit for bit.
 #[inline(always)]
-fn compose<L: Lanes>(p: &LaneFrame<L>, k: &Frame32) -> LaneFrame<L> {
+fn compose<L: Lanes>(p: &LaneFrame<L>, step: &Step) -> LaneFrame<L> {
     let s = L::splat;
+    let k = &step.k;
     let mut o = [s(0.0); 12];
-    for i in 0..3 {
-        let (a, b, c) = (p[i * 3], p[i * 3 + 1], p[i * 3 + 2]);
-        for j in 0..3 {
-            o[i * 3 + j] = a * s(k.r[j]) + b * s(k.r[3 + j]) + c * s(k.r[6 + j]);
+    match step.perm {
+        Some((src, sign)) => {
+            for i in 0..3 {
+                for j in 0..3 {
+                    o[i * 3 + j] = p[i * 3 + src[j]] * s(sign[j]);
+                }
+            }
         }
-        o[9 + i] = a * s(k.t[0]) + b * s(k.t[1]) + c * s(k.t[2]) + p[9 + i];
+        None => {
+            for i in 0..3 {
+                let (a, b, c) = (p[i * 3], p[i * 3 + 1], p[i * 3 + 2]);
+                for j in 0..3 {
+                    o[i * 3 + j] = a * s(k.r[j]) + b * s(k.r[3 + j]) + c * s(k.r[6 + j]);
+                }
+            }
+        }
+    }
+    for i in 0..3 {
+        let mut t = p[9 + i];
+        for l in 0..3 {
+            if k.t[l] != 0.0 {
+                t = p[i * 3 + l] * s(k.t[l]) + t;
+            }
+        }
+        o[9 + i] = t;
     }
     o
 }
 
+/// Applies joint `step` at coordinate `qj` (with `sc` = (sin, cos) of `qj`
+/// for a revolute joint) to its parent's frame.
+#[inline(always)]
+fn joint_frame<L: Lanes>(parent: &LaneFrame<L>, step: &Step, qj: L, sc: (L, L)) -> LaneFrame<L> {
+    let mut m = compose(parent, step);
+    if step.prismatic {
+        for r in 0..3 {
+            m[9 + r] = m[9 + r] + m[r * 3 + 2] * qj;
+        }
+    } else {
+        let (s, c) = sc;
+        for r in 0..3 {
+            let (x, y) = (m[r * 3], m[r * 3 + 1]);
+            m[r * 3] = x * c + y * s;
+            m[r * 3 + 1] = y * c - x * s;
+        }
+    }
+    m
+}
+
 /// Forward kinematics of every lane frame for the DOF lanes `q`.
+///
+/// With one lane (a single configuration), the sines and cosines of up to
+/// eight joints are evaluated at once in SIMD lanes; [`sin_cos`] is
+/// lane-exact, so the frames equal the eight-lane kernel's bit for bit.
 #[inline]
 pub fn forward<L: Lanes>(robot: &CompiledRobot, q: &[L], scratch: &mut Scratch<L>) {
     let (one, zero) = (L::splat(1.0), L::splat(0.0));
     scratch.frames[0] = [
         one, zero, zero, zero, one, zero, zero, zero, one, zero, zero, zero,
     ];
-    for (i, step) in robot.steps.iter().enumerate() {
-        let mut m = compose(&scratch.frames[step.parent], &step.k);
-        let qj = q[step.dof] * L::splat(step.gain) + L::splat(step.offset);
-        if step.prismatic {
-            for r in 0..3 {
-                m[9 + r] = m[9 + r] + m[r * 3 + 2] * qj;
-            }
-        } else {
-            let (s, c) = sin_cos(qj);
-            for r in 0..3 {
-                let (x, y) = (m[r * 3], m[r * 3 + 1]);
-                m[r * 3] = x * c + y * s;
-                m[r * 3 + 1] = y * c - x * s;
+    if L::WIDTH == 1 {
+        for (block, steps) in robot.steps.chunks(8).enumerate() {
+            let qj: [L; 8] = std::array::from_fn(|i| match steps.get(i) {
+                Some(st) => q[st.dof] * L::splat(st.gain) + L::splat(st.offset),
+                None => zero,
+            });
+            let (s8, c8) = sin_cos(f32x8::from(qj.map(|v| v.lane(0))));
+            let (s8, c8) = (s8.to_array(), c8.to_array());
+            for (i, step) in steps.iter().enumerate() {
+                let f = block * 8 + i;
+                let sc = (L::splat(s8[i]), L::splat(c8[i]));
+                scratch.frames[f + 1] = joint_frame(&scratch.frames[step.parent], step, qj[i], sc);
             }
         }
-        scratch.frames[i + 1] = m;
+        return;
+    }
+    for (i, step) in robot.steps.iter().enumerate() {
+        let qj = q[step.dof] * L::splat(step.gain) + L::splat(step.offset);
+        let sc = if step.prismatic {
+            (zero, zero)
+        } else {
+            sin_cos(qj)
+        };
+        scratch.frames[i + 1] = joint_frame(&scratch.frames[step.parent], step, qj, sc);
     }
 }
 

@@ -17,6 +17,7 @@ pub mod exact;
 pub mod kernel;
 pub mod lanes;
 pub mod moveit;
+pub mod pair_map;
 pub mod robot_spheres;
 pub mod shapes;
 pub mod single;

@@ -119,14 +119,20 @@ pub fn check_one(
             }
         }
     }
-    for &(a, b) in &robot.pairs {
-        let (ba, bb) = (&robot.bodies[a], &robot.bodies[b]);
+    for (pi, &(a, b)) in robot.pairs.iter().enumerate() {
         let (ca, cb) = (s.bounds[a], s.bounds[b]);
-        let reach = (ba.bound.1 + bb.bound.1) + margin;
+        let reach = robot.pair_reach[pi] + margin;
         let d = [ca[0] - cb[0], ca[1] - cb[1], ca[2] - cb[2]];
         if (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) >= reach * reach {
             continue;
         }
+        // Bounds overlap: a clearance map may still vouch for the pair.
+        if let Some(Some(map)) = robot.pair_maps.get(pi)
+            && map.clear(q, margin)
+        {
+            continue;
+        }
+        let (ba, bb) = (&robot.bodies[a], &robot.bodies[b]);
         let (fa, fb) = (s.lanes.frames()[ba.frame], s.lanes.frames()[bb.frame]);
         body_packs(robot, a, &fa, s);
         body_packs(robot, b, &fb, s);

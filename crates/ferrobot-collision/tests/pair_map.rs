@@ -1,0 +1,107 @@
+//! Joint-space clearance maps against an independent reference: wherever a
+//! map says a self pair is clear, the pair's spheres, placed by the model's
+//! `f64` forward kinematics, are apart by more than the margin; and the
+//! single-configuration path that uses the maps answers exactly as the
+//! batch kernel, which does not.
+
+mod common;
+
+use common::{mbm_panda, random_q, shared};
+
+use ferrobot_collision::pair_map::PairMap;
+use ferrobot_collision::{CollisionChecker, CollisionWorld};
+use rand::{Rng, SeedableRng, rngs::StdRng};
+
+/// Smallest surface distance between the spheres of links `la` and `lb`
+/// at `q`, from the model's forward kinematics in `f64`.
+fn clearance(checker: &CollisionChecker, q: &[f64], la: usize, lb: usize) -> f64 {
+    let poses = checker.model().fk_all(q).unwrap();
+    let s = &checker.spheres().links;
+    let mut best = f64::INFINITY;
+    for a in &s[la] {
+        let ca = poses[la] * a.center;
+        for b in &s[lb] {
+            let cb = poses[lb] * b.center;
+            best = best.min((ca - cb).norm() - a.radius - b.radius);
+        }
+    }
+    best
+}
+
+#[test]
+fn clear_cells_are_clear_for_every_configuration_in_them() {
+    let (model, spheres, acm) = mbm_panda();
+    let mut checker =
+        CollisionChecker::new(model.clone(), spheres, acm, CollisionWorld::new()).unwrap();
+    let margin = 0.01;
+    checker.set_margin(margin).unwrap();
+    let (robot, _) = checker.compiled();
+    let maps: Vec<(usize, usize, &PairMap)> = robot
+        .pairs
+        .iter()
+        .zip(&robot.pair_maps)
+        .filter_map(|(&(a, b), m)| {
+            m.as_deref()
+                .map(|m| (robot.bodies[a].link, robot.bodies[b].link, m))
+        })
+        .collect();
+    // The Panda's wrist: link 5 against the hand and fingers (joints 6, 7).
+    assert!(maps.len() >= 2, "{} maps", maps.len());
+    // Link 7 sits within a centimetre of link 5 in every configuration, so
+    // its map is empty at this margin; the hand and fingers are mostly clear.
+    assert!(maps.iter().filter(|m| m.2.clear_fraction() > 0.5).count() >= 2);
+    let mut rng = StdRng::seed_from_u64(3);
+    let (mut clear, mut closest) = (0, f64::INFINITY);
+    for (la, lb, map) in &maps {
+        for _ in 0..3000 {
+            let mut q = random_q(&model, &mut rng);
+            // Half the samples near the two joints' extremes and cell edges.
+            if rng.random_bool(0.5) {
+                for d in map.dofs() {
+                    let (l, h) = (model.lower_limits()[d], model.upper_limits()[d]);
+                    let cell = (h - l) / 128.0;
+                    let k = rng.random_range(0..128) as f64;
+                    q[d] = (l + cell * (k + rng.random_range(0.0..1e-3))).min(h).max(l);
+                }
+            }
+            let q32: Vec<f32> = q.iter().map(|&v| v as f32).collect();
+            if map.clear(&q32, margin as f32) {
+                let c = clearance(&checker, &q, *la, *lb);
+                assert!(c > margin, "links {la}-{lb} at {q:?}: clearance {c}");
+                clear += 1;
+                closest = closest.min(c);
+            }
+            assert!(
+                !map.clear(&q32, margin as f32 * 2.0),
+                "built for a smaller margin"
+            );
+        }
+    }
+    assert!(clear > 2000, "{clear} samples in clear cells");
+    // Not vacuous: the maps vouch for configurations close to contact.
+    assert!(
+        closest < margin + 0.02,
+        "closest vouched clearance {closest}"
+    );
+}
+
+#[test]
+fn single_path_with_maps_agrees_with_batch_kernel() {
+    let (model, spheres, acm) = mbm_panda();
+    for (scene, margin) in [
+        ("bench/mbm/table_pick_panda/scene0002.yaml", 0.0),
+        ("bench/mbm/bookshelf_small_panda/scene0005.yaml", 0.02),
+    ] {
+        let world = CollisionWorld::from_moveit_scene(shared(scene)).unwrap();
+        let mut checker =
+            CollisionChecker::new(model.clone(), spheres.clone(), acm.clone(), world).unwrap();
+        checker.set_margin(margin).unwrap();
+        assert!(checker.compiled().0.pair_maps.iter().any(|m| m.is_some()));
+        let mut rng = StdRng::seed_from_u64(11);
+        let qs: Vec<f64> = (0..4000).flat_map(|_| random_q(&model, &mut rng)).collect();
+        let batch = checker.in_collision_batch(&qs).unwrap();
+        for (i, q) in qs.chunks(7).enumerate() {
+            assert_eq!(checker.in_collision(q).unwrap(), batch[i], "{scene} {q:?}");
+        }
+    }
+}
