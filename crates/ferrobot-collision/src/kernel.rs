@@ -5,7 +5,7 @@
 use nalgebra::Point3;
 
 use crate::compiled::{CompiledRobot, CompiledWorld, Prim, Step};
-use wide::f32x8;
+use wide::{f32x4, f32x8};
 
 use crate::lanes::{Lanes, sin_cos};
 
@@ -132,6 +132,81 @@ pub fn forward<L: Lanes>(robot: &CompiledRobot, q: &[L], scratch: &mut Scratch<L
             sin_cos(qj)
         };
         scratch.frames[i + 1] = joint_frame(&scratch.frames[step.parent], step, qj, sc);
+    }
+}
+
+/// Forward kinematics of one configuration with each frame held as four
+/// `f32x4` columns (rotation columns, then translation), written out as
+/// row-major [`LaneFrame`]s. Every entry goes through the same operations,
+/// in the same order, as in [`forward`], so the frames are bit-identical to
+/// `forward::<f32>`'s (tested); the columns just let one instruction serve
+/// three rows.
+pub fn forward_one(robot: &CompiledRobot, q: &[f32], scratch: &mut Scratch<f32>) {
+    type Cols = [f32x4; 4];
+    let zero4 = f32x4::splat(0.0);
+    let mut cols: Vec<Cols> = Vec::new();
+    let mut stack: [Cols; 24] = [[zero4; 4]; 24];
+    let n = robot.steps.len() + 1;
+    let store: &mut [Cols] = if n <= stack.len() {
+        &mut stack[..n]
+    } else {
+        cols.resize(n, [zero4; 4]);
+        &mut cols
+    };
+    store[0] = [
+        f32x4::from([1.0, 0.0, 0.0, 0.0]),
+        f32x4::from([0.0, 1.0, 0.0, 0.0]),
+        f32x4::from([0.0, 0.0, 1.0, 0.0]),
+        zero4,
+    ];
+    scratch.frames[0] = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0];
+    for (block, steps) in robot.steps.chunks(8).enumerate() {
+        let qj: [f32; 8] = std::array::from_fn(|i| match steps.get(i) {
+            Some(st) => q[st.dof] * st.gain + st.offset,
+            None => 0.0,
+        });
+        let (s8, c8) = sin_cos(f32x8::from(qj));
+        let (s8, c8) = (s8.to_array(), c8.to_array());
+        for (i, step) in steps.iter().enumerate() {
+            let f = block * 8 + i;
+            let p = store[step.parent];
+            let k = &step.k;
+            let mut m: Cols = [zero4; 4];
+            match step.perm {
+                Some((src, sign)) => {
+                    for (j, col) in m.iter_mut().take(3).enumerate() {
+                        *col = p[src[j]] * f32x4::splat(sign[j]);
+                    }
+                }
+                None => {
+                    for (j, col) in m.iter_mut().take(3).enumerate() {
+                        *col = p[0] * f32x4::splat(k.r[j])
+                            + p[1] * f32x4::splat(k.r[3 + j])
+                            + p[2] * f32x4::splat(k.r[6 + j]);
+                    }
+                }
+            }
+            let mut t = p[3];
+            for (pl, &tl) in p.iter().zip(&k.t) {
+                if tl != 0.0 {
+                    t = *pl * f32x4::splat(tl) + t;
+                }
+            }
+            m[3] = t;
+            if step.prismatic {
+                m[3] += m[2] * f32x4::splat(qj[i]);
+            } else {
+                let (sn, cs) = (f32x4::splat(s8[i]), f32x4::splat(c8[i]));
+                let (x, y) = (m[0], m[1]);
+                m[0] = x * cs + y * sn;
+                m[1] = y * cs - x * sn;
+            }
+            store[f + 1] = m;
+            let [c0, c1, c2, t] = m.map(|c| c.to_array());
+            scratch.frames[f + 1] = [
+                c0[0], c1[0], c2[0], c0[1], c1[1], c2[1], c0[2], c1[2], c2[2], t[0], t[1], t[2],
+            ];
+        }
     }
 }
 

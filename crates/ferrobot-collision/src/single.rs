@@ -11,8 +11,8 @@
 
 use wide::f32x8;
 
-use crate::compiled::{CompiledRobot, CompiledWorld, SpherePack};
-use crate::kernel::{LaneFrame, Scratch, apply, complex_hits, forward, sphere_hits_prim};
+use crate::compiled::{CompiledRobot, CompiledWorld};
+use crate::kernel::{LaneFrame, Scratch, apply, complex_hits, forward_one, sphere_hits_prim};
 use crate::lanes::Lanes;
 
 /// Buffers of [`check_one`] (one per thread).
@@ -36,29 +36,31 @@ impl OneScratch {
     }
 }
 
-/// Pack centres of body `bi` in the base frame (computed once per check).
+/// Pack centres of body `bi` in the base frame, computed on its first use
+/// in a check.
 #[inline(always)]
-fn body_packs<'a>(
+fn ensure_packs(
     robot: &CompiledRobot,
     bi: usize,
-    frame: &LaneFrame<f32>,
-    s: &'a mut OneScratch,
-) -> &'a [[f32x8; 3]] {
+    frames: &[LaneFrame<f32>],
+    done: &mut [bool],
+    packs: &mut [[f32x8; 3]],
+) {
+    if done[bi] {
+        return;
+    }
     let b = &robot.bodies[bi];
     let range = b.first_pack..b.first_pack + b.pack_count;
-    if !s.done[bi] {
-        let f = frame.map(f32x8::splat);
-        for k in range.clone() {
-            let SpherePack { c, .. } = robot.packs[k];
-            s.packs[k] = [
-                f[0] * c[0] + f[1] * c[1] + f[2] * c[2] + f[9],
-                f[3] * c[0] + f[4] * c[1] + f[5] * c[2] + f[10],
-                f[6] * c[0] + f[7] * c[1] + f[8] * c[2] + f[11],
-            ];
-        }
-        s.done[bi] = true;
+    let f = frames[b.frame].map(f32x8::splat);
+    for (out, pack) in packs[range.clone()].iter_mut().zip(&robot.packs[range]) {
+        let c = pack.c;
+        *out = [
+            f[0] * c[0] + f[1] * c[1] + f[2] * c[2] + f[9],
+            f[3] * c[0] + f[4] * c[1] + f[5] * c[2] + f[10],
+            f[6] * c[0] + f[7] * c[1] + f[8] * c[2] + f[11],
+        ];
     }
-    &s.packs[range]
+    done[bi] = true;
 }
 
 /// Whether configuration `q` (`f32`, model DOF order) touches the world or
@@ -72,31 +74,38 @@ pub fn check_one(
     skip_static: bool,
     s: &mut OneScratch,
 ) -> bool {
-    forward(robot, q, &mut s.lanes);
-    s.done.iter_mut().for_each(|d| *d = false);
-    let frames = s.lanes.frames();
-    for (bi, body) in robot.bodies.iter().enumerate() {
-        s.bounds[bi] = apply(&frames[body.frame], &body.bound.0);
+    forward_one(robot, q, &mut s.lanes);
+    let OneScratch {
+        lanes,
+        bounds,
+        packs,
+        done,
+    } = s;
+    let frames = lanes.frames();
+    done.fill(false);
+    for (bound, body) in bounds.iter_mut().zip(&robot.bodies) {
+        *bound = apply(&frames[body.frame], &body.bound.0);
     }
     let m8 = f32x8::splat(margin);
+    let num_obstacles = world.obstacles.len();
     // Distal bodies first: they collide most often.
-    for bi in (0..robot.bodies.len()).rev() {
-        let body = &robot.bodies[bi];
+    for (bi, (body, bc)) in robot.bodies.iter().zip(bounds.iter()).enumerate().rev() {
         if body.frame == 0 && skip_static {
             continue;
         }
-        let frame = s.lanes.frames()[body.frame];
-        let bc = s.bounds[bi];
+        let bc = *bc;
+        let (x, y, z) = (
+            f32x8::splat(bc[0]),
+            f32x8::splat(bc[1]),
+            f32x8::splat(bc[2]),
+        );
+        let rb = f32x8::splat(body.bound.1);
         let reach_body = body.bound.1 + margin;
         for (ci, chunk) in world.bound_soa.iter().enumerate() {
             // The body's bounding sphere against eight obstacle bounds.
-            let (dx, dy, dz) = (
-                f32x8::splat(bc[0]) - chunk[0],
-                f32x8::splat(bc[1]) - chunk[1],
-                f32x8::splat(bc[2]) - chunk[2],
-            );
-            let reach = (f32x8::splat(body.bound.1) + chunk[3]) + m8;
-            let valid = (world.obstacles.len() - ci * 8).min(8);
+            let (dx, dy, dz) = (x - chunk[0], y - chunk[1], z - chunk[2]);
+            let reach = (rb + chunk[3]) + m8;
+            let valid = (num_obstacles - ci * 8).min(8);
             let mut bits =
                 (dx * dx + dy * dy + dz * dz).lt_mask(reach * reach) & ((1u32 << valid) - 1);
             while bits != 0 {
@@ -105,9 +114,10 @@ pub fn check_one(
                 if obs.complex.is_none() && sphere_hits_prim(&obs.prim, &bc, reach_body) == 0 {
                     continue;
                 }
-                let first = body.first_pack;
-                for (k, c) in body_packs(robot, bi, &frame, s).iter().enumerate() {
-                    let r = robot.packs[first + k].r + m8;
+                ensure_packs(robot, bi, frames, done, packs);
+                let range = body.first_pack..body.first_pack + body.pack_count;
+                for (c, pack) in packs[range.clone()].iter().zip(&robot.packs[range]) {
+                    let r = pack.r + m8;
                     let hit = match &obs.complex {
                         Some((shape, pose)) => complex_hits(shape, pose, c, r, 0xff),
                         None => sphere_hits_prim(&obs.prim, c, r),
@@ -120,7 +130,7 @@ pub fn check_one(
         }
     }
     for (pi, &(a, b)) in robot.pairs.iter().enumerate() {
-        let (ca, cb) = (s.bounds[a], s.bounds[b]);
+        let (ca, cb) = (bounds[a], bounds[b]);
         let reach = robot.pair_reach[pi] + margin;
         let d = [ca[0] - cb[0], ca[1] - cb[1], ca[2] - cb[2]];
         if (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) >= reach * reach {
@@ -133,15 +143,15 @@ pub fn check_one(
             continue;
         }
         let (ba, bb) = (&robot.bodies[a], &robot.bodies[b]);
-        let (fa, fb) = (s.lanes.frames()[ba.frame], s.lanes.frames()[bb.frame]);
-        body_packs(robot, a, &fa, s);
-        body_packs(robot, b, &fb, s);
+        ensure_packs(robot, a, frames, done, packs);
+        ensure_packs(robot, b, frames, done, packs);
+        let (fa, fb) = (&frames[ba.frame], &frames[bb.frame]);
         let cb8 = cb.map(f32x8::splat);
         let rb = f32x8::splat(bb.bound.1);
         let exact = (&robot.exact[a], &robot.exact[b]);
         'pair: for ka in ba.first_pack..ba.first_pack + ba.pack_count {
             // Eight spheres of `a` against the bounding sphere of `b`.
-            let p = s.packs[ka];
+            let p = packs[ka];
             let ri = robot.packs[ka].r + m8;
             let d = [p[0] - cb8[0], p[1] - cb8[1], p[2] - cb8[2]];
             let reach = ri + rb;
@@ -156,15 +166,15 @@ pub fn check_one(
                 ]
                 .map(f32x8::splat);
                 let ri = f32x8::splat(ri.to_array()[lane]);
-                for kb in bb.first_pack..bb.first_pack + bb.pack_count {
-                    let q = s.packs[kb];
-                    let d = [pi[0] - q[0], pi[1] - q[1], pi[2] - q[2]];
-                    let rr = ri + robot.packs[kb].r;
+                let range_b = bb.first_pack..bb.first_pack + bb.pack_count;
+                for (pb, pack_b) in packs[range_b.clone()].iter().zip(&robot.packs[range_b]) {
+                    let d = [pi[0] - pb[0], pi[1] - pb[1], pi[2] - pb[2]];
+                    let rr = ri + pack_b.r;
                     if (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).lt_mask(rr * rr) != 0 {
                         // Spheres overlap: the links' exact geometry decides.
                         match exact {
                             (Some(ea), Some(eb)) => {
-                                if crate::exact::confirm(ea, eb, &fa, &fb, 1, margin) != 0 {
+                                if crate::exact::confirm(ea, eb, fa, fb, 1, margin) != 0 {
                                     return true;
                                 }
                                 break 'pair;
