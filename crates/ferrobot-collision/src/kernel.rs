@@ -337,12 +337,19 @@ pub fn check<L: Lanes>(
             }
         }
     }
-    for &(a, b) in &robot.pairs {
+    for (pi, &(a, b)) in robot.pairs.iter().enumerate() {
         let (ba, bb) = (&robot.bodies[a], &robot.bodies[b]);
         let (ca, cb) = (scratch.bounds[a], scratch.bounds[b]);
         let reach = L::splat(ba.bound.1 + bb.bound.1) + m;
         let d = [ca[0] - cb[0], ca[1] - cb[1], ca[2] - cb[2]];
-        let near = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).lt_mask(reach * reach) & active & !hit;
+        let mut near =
+            (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).lt_mask(reach * reach) & active & !hit;
+        // Lanes a joint-space clearance map vouches for need no spheres.
+        if near != 0
+            && let Some(Some(map)) = robot.pair_maps.get(pi)
+        {
+            near &= !map.clear_lanes(q, margin, near);
+        }
         if near == 0 {
             continue;
         }

@@ -14,7 +14,8 @@
 //! sphere's distance from each joint axis), plus a slack for `f32`
 //! rounding. A set bit therefore means the sphere stage would find no
 //! overlapping spheres: skipping it changes no answer. Cells that are not
-//! certain fall back to the sphere stage.
+//! certain fall back to the sphere stage. Both kernels use the maps: the
+//! single-configuration one per pair, the lane kernel per lane.
 
 use std::collections::HashMap;
 use std::hash::{Hash, Hasher};
@@ -59,7 +60,29 @@ impl PairMap {
     /// limits or a larger margin than the map's give `false`.
     #[inline(always)]
     pub fn clear(&self, q: &[f32], margin: f32) -> bool {
+        self.clear_at(q[self.dofs[0]], q[self.dofs[1]], margin)
+    }
+
+    /// [`PairMap::clear`] for the lanes of `q` (DOF-major lane vectors)
+    /// set in `lanes`: the bitmask of those the map vouches for.
+    #[inline(always)]
+    pub fn clear_lanes<L: Lanes>(&self, q: &[L], margin: f32, lanes: u32) -> u32 {
         let (x, y) = (q[self.dofs[0]], q[self.dofs[1]]);
+        let mut out = 0;
+        let mut rest = lanes;
+        while rest != 0 {
+            let i = rest.trailing_zeros() as usize;
+            rest &= rest - 1;
+            if self.clear_at(x.lane(i), y.lane(i), margin) {
+                out |= 1 << i;
+            }
+        }
+        out
+    }
+
+    /// Whether the cell at coordinates (`x`, `y`) of the two DOFs is clear.
+    #[inline(always)]
+    fn clear_at(&self, x: f32, y: f32, margin: f32) -> bool {
         // `!(a <= b)` is also true for NaN.
         if !(x >= self.lo[0] && x <= self.hi[0] && y >= self.lo[1] && y <= self.hi[1])
             || margin > self.margin
