@@ -1,7 +1,7 @@
 //! A fixed workload for instruction counting (`valgrind --tool=callgrind`):
 //! `cargo build --release -p ferrobot-benches --example collision_probe`
 //! then `valgrind --tool=callgrind target/release/examples/collision_probe MODE [SCENE]` with MODE one of
-//! `none` (setup only), `single`, `batch`, `motion`, `fk`; `single-spheres` and `batch-spheres`
+//! `none` (setup only), `single`, `single-twice` (every check twice), `batch`, `motion`, `fk`; `single-spheres` and `batch-spheres`
 //! decide self-collision by spheres alone (no exact stage), for reference; a `-noworld`
 //! suffix (e.g. `single-noworld`, `single-spheres-noworld`) empties the world (self-collision only).
 
@@ -45,6 +45,16 @@ fn main() {
             .chunks(7)
             .filter(|q| checker.in_collision_unchecked(q))
             .count(),
+        // The same checks twice (caches such as the world grid warm for the
+        // second pass); the second pass's cost is this mode's minus `single`'s.
+        "single-twice" => (0..2)
+            .map(|_| {
+                qs.chunks(7)
+                    .filter(|q| checker.in_collision_unchecked(q))
+                    .count()
+            })
+            .last()
+            .unwrap_or(0),
         "fk" => {
             let (r, _) = checker.compiled();
             let mut sc = ferrobot_collision::kernel::Scratch::<f32>::new(r);

@@ -23,6 +23,7 @@ use crate::single::{OneScratch, check_one};
 use crate::sphere::Sphere;
 use crate::spherize::{SpherizeOptions, spherize_link};
 use crate::world::{CollisionWorld, WorldObject, check_shape};
+use crate::world_grid::WorldGrid;
 
 /// An object attached to a robot link (a grasped part, a tool).
 #[derive(Debug, Clone)]
@@ -96,6 +97,9 @@ pub struct CollisionChecker {
     exact_self: bool,
     /// Exact geometry per link (built once; empty when disabled).
     exact_links: Arc<Vec<Option<crate::exact::ExactBody>>>,
+    /// Distance bounds to the world for the single-configuration kernel,
+    /// made on first use after any change of robot or world.
+    grid: std::sync::OnceLock<Option<Arc<WorldGrid>>>,
 }
 
 impl CollisionChecker {
@@ -128,6 +132,7 @@ impl CollisionChecker {
             static_hit: false,
             id: 0,
             exact_self: true,
+            grid: Default::default(),
         };
         checker.recompile_robot();
         Ok(checker)
@@ -202,6 +207,7 @@ impl CollisionChecker {
 
     /// Tests the bodies fixed to the base against the world once.
     fn update_static(&mut self) {
+        self.grid = Default::default();
         let mut only_static = self.robot.clone();
         only_static.bodies.retain(|b| b.frame == 0);
         only_static.pairs.clear();
@@ -323,10 +329,17 @@ impl CollisionChecker {
                 *slot = Some((self.id, OneScratch::new(&self.robot)));
             }
             let scratch = &mut slot.as_mut().expect("set above").1;
+            let grid = self
+                .grid
+                .get_or_init(|| {
+                    WorldGrid::for_robot(&self.robot, &self.compiled_world).map(Arc::new)
+                })
+                .as_deref();
             self.static_hit
                 || check_one(
                     &self.robot,
                     &self.compiled_world,
+                    grid,
                     q32,
                     self.margin as f32,
                     true,

@@ -25,6 +25,7 @@ pub mod sphere;
 pub mod spherize;
 pub mod trimesh;
 pub mod world;
+pub mod world_grid;
 
 pub use acm::{AllowedCollisions, AnalysisReport};
 pub use checker::{CollisionChecker, Contact};

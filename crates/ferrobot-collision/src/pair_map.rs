@@ -89,8 +89,8 @@ impl PairMap {
         {
             return false;
         }
-        let i = (((x - self.lo[0]) * self.inv_h[0]) as usize).min(CELLS - 1);
-        let j = (((y - self.lo[1]) * self.inv_h[1]) as usize).min(CELLS - 1);
+        let i = (((x - self.lo[0]) * self.inv_h[0]) as i32 as usize).min(CELLS - 1);
+        let j = (((y - self.lo[1]) * self.inv_h[1]) as i32 as usize).min(CELLS - 1);
         let k = i * CELLS + j;
         self.bits[k >> 6] >> (k & 63) & 1 == 1
     }

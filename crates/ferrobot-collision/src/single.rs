@@ -14,6 +14,7 @@ use wide::f32x8;
 use crate::compiled::{CompiledRobot, CompiledWorld};
 use crate::kernel::{LaneFrame, Scratch, apply, complex_hits, forward_one, sphere_hits_prim};
 use crate::lanes::Lanes;
+use crate::world_grid::{SLACK, WorldGrid};
 
 /// Buffers of [`check_one`] (one per thread).
 #[derive(Debug, Clone)]
@@ -65,10 +66,13 @@ fn ensure_packs(
 
 /// Whether configuration `q` (`f32`, model DOF order) touches the world or
 /// itself. With `skip_static`, bodies fixed to the base are not tested
-/// against the world (the caller knows their answer).
+/// against the world (the caller knows their answer). `grid`, made for this
+/// robot and world, lets bodies far from every obstacle skip the obstacle
+/// tests (see [`crate::world_grid`]).
 pub fn check_one(
     robot: &CompiledRobot,
     world: &CompiledWorld,
+    grid: Option<&WorldGrid>,
     q: &[f32],
     margin: f32,
     skip_static: bool,
@@ -101,6 +105,12 @@ pub fn check_one(
         );
         let rb = f32x8::splat(body.bound.1);
         let reach_body = body.bound.1 + margin;
+        // Most bodies are far from everything: one grid lookup shows it.
+        if let Some(g) = grid
+            && g.clearance(world, &bc) > reach_body + SLACK
+        {
+            continue;
+        }
         for (ci, chunk) in world.bound_soa.iter().enumerate() {
             // The body's bounding sphere against eight obstacle bounds.
             let (dx, dy, dz) = (x - chunk[0], y - chunk[1], z - chunk[2]);
