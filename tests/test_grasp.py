@@ -411,3 +411,49 @@ def test_empty_input_gives_an_empty_group():
     assert len(fg.detect_from_rgbd(np.zeros((10, 12)), 500, 500, 6, 5)) == 0
     gg = fg.detect_from_rgbd(np.full((10, 12), 800.0), 500, 500, 6, 5, workspace=[5, 6, 5, 6, 5, 6])
     assert len(gg) == 0 and gg.to_array().shape == (0, 17)
+
+
+# --- hand body and centre of mass -------------------------------------------------------------------
+
+PALM = (0.092, 0.208, 0.063)  # the Panda hand's housing: along approach, closing axis, z (OPTIONS palm_*)
+
+
+def _body_corners(g) -> np.ndarray:
+    """World corners of the hand's housing: centred on the fingers, from their base back by its depth."""
+    base = g.depth - L_FINGER
+    lo = np.array([base - PALM[0], -PALM[1] / 2, -PALM[2] / 2])
+    hi = np.array([base, PALM[1] / 2, PALM[2] / 2])
+    return sample_box(lo, hi, n=2) @ g.rotation_matrix.T + g.translation
+
+
+def test_the_hand_housing_stays_above_the_table():
+    # A low 8 x 5 x 3 cm box seen at a grazing angle: side grasps fit the fingers but put the
+    # 6.3 cm tall, 20.8 cm wide housing under the table top unless it is modelled.
+    scene = Scene(objects=[Box(size=(0.08, 0.05, 0.03), yaw=0.4)])
+    cam = look_at(eye=(-0.5, -0.1, 0.25), target=(0.0, 0.0, 0.015))
+    depth, labels = render(scene, cam)
+    gw = fg.detect_from_rgbd(depth, FX, FY, CX, CY, 1.0, mask=labels).transform(cam)
+    assert len(gw) > 0
+    for g in gw:
+        assert _body_corners(g)[:, 2].min() >= -1.5e-3, f"{g}: the housing goes under the table"
+    tiny = fg.detect_from_rgbd(
+        depth, FX, FY, CX, CY, 1.0, mask=labels, palm_width=1e-3, palm_height=1e-3, palm_depth=1e-3
+    ).transform(cam)
+    assert min(_body_corners(g)[:, 2].min() for g in tiny) < -0.01  # the check is what keeps them out
+
+
+def test_the_best_grasp_holds_a_long_box_near_its_middle():
+    # A 22 x 3.5 x 3.5 cm bar lying on the table: its centre of mass is its middle (x = 0.05); a grasp
+    # far along it must hold the weight as a torque. The best grasp closes across the bar within 1.5 cm
+    # of the middle, the true lever arm.
+    scene = Scene(objects=[Box(size=(0.22, 0.035, 0.035), center_xy=(0.05, 0.0))])
+    cam = look_at(eye=(-0.3, -0.35, 0.5), target=(0.05, 0.0, 0.02))
+    depth, labels = render(scene, cam)
+    gw = fg.detect_from_rgbd(depth, FX, FY, CX, CY, 1.0, mask=labels).transform(cam)
+    assert len(gw) > 0
+    best = gw[0]
+    assert abs(best.rotation_matrix[0, 1]) < np.sin(np.deg2rad(20))  # closes across, not along, the bar
+    assert abs(best.translation[0] - 0.05) < 0.015, best
+    # without the preference, the best grasp's arm is not constrained (it is found anywhere along the bar)
+    spread = fg.detect_from_rgbd(depth, FX, FY, CX, CY, 1.0, mask=labels, torque_scale=0.0).transform(cam)
+    assert np.ptp(spread.translations[:, 0]) > 0.1

@@ -20,7 +20,7 @@ use crate::grasp::Grasp;
 use crate::gripper::{GripperGeometry, Region};
 use crate::normals::SurfaceCloud;
 use crate::plane::Plane;
-use crate::quality::{contact_from_profile, friction_needed, score};
+use crate::quality::{contact_from_profile, friction_needed, lever_arm, score, torque_factor};
 
 /// Parameters of the hand search.
 #[derive(Debug, Clone)]
@@ -41,6 +41,11 @@ pub struct SearchParams {
     pub approach_direction: Vector3<f64>,
     /// A support plane whose far side is solid, if any.
     pub plane: Option<Plane>,
+    /// Estimated centre of mass per object label (see [`crate::mass`]).
+    pub mass_centres: Vec<(i32, Point3<f64>)>,
+    /// Lever arm of the weight about the grasp axis at which the score
+    /// halves ([`torque_factor`]); 0 disables the term.
+    pub torque_scale: f64,
 }
 
 /// How far (m) a hand corner may dip below the support plane.
@@ -193,16 +198,19 @@ fn evaluate(
             continue;
         }
         if let Some(plane) = &sp.plane {
-            let below = g.boxes(depth, width, yc).iter().any(|(lo, hi)| {
-                (0..8).any(|k| {
-                    let c = Vector3::new(
-                        if k & 1 == 0 { lo.x } else { hi.x },
-                        if k & 2 == 0 { lo.y } else { hi.y },
-                        if k & 4 == 0 { lo.z } else { hi.z },
-                    );
-                    plane.distance(&(p + r * c)) < -PLANE_TOLERANCE
-                })
-            });
+            let [f1, f2, palm] = g.boxes(depth, width, yc);
+            let below = [f1, f2, palm, g.body_box(depth, yc)]
+                .iter()
+                .any(|(lo, hi)| {
+                    (0..8).any(|k| {
+                        let c = Vector3::new(
+                            if k & 1 == 0 { lo.x } else { hi.x },
+                            if k & 2 == 0 { lo.y } else { hi.y },
+                            if k & 4 == 0 { lo.z } else { hi.z },
+                        );
+                        plane.distance(&(p + r * c)) < -PLANE_TOLERANCE
+                    })
+                });
             if below {
                 continue;
             }
@@ -242,12 +250,25 @@ fn score_hand(
     let full = (g.height / sp.voxel_size).max(1.0);
     let support = left.cells.min(right.cells) as f64 / full;
     let approach = r.column(0).into_owned();
-    let s = score(
-        mu,
-        sp.friction,
-        support,
-        approach.dot(&sp.approach_direction),
-    );
+    // The weight's torque about the closing axis through the contacts'
+    // midpoint (gravity against the support plane's normal when known).
+    let label = cloud.labels[seed];
+    let torque = match sp.mass_centres.iter().find(|(l, _)| *l == label) {
+        Some((_, com)) if sp.torque_scale > 0.0 => {
+            let centre = p.coords + r * ((left.point + right.point) / 2.0);
+            let up = sp.plane.as_ref().map(|pl| pl.normal);
+            let arm = lever_arm(&com.coords, &centre, &r.column(1).into_owned(), up.as_ref());
+            torque_factor(arm, sp.torque_scale)
+        }
+        _ => 1.0,
+    };
+    let s = torque
+        * score(
+            mu,
+            sp.friction,
+            support,
+            approach.dot(&sp.approach_direction),
+        );
     if s <= 0.0 {
         return None;
     }

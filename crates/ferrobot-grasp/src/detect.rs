@@ -9,6 +9,7 @@ use crate::candidates::{SearchParams, hands_at_seed};
 use crate::error::{GraspError, Result, positive};
 use crate::grasp::GraspGroup;
 use crate::gripper::GripperGeometry;
+use crate::mass::mass_centres;
 use crate::nms::nms;
 use crate::normals::SurfaceCloud;
 use crate::plane::find_support_plane;
@@ -61,6 +62,11 @@ pub struct DetectOptions {
     pub support_plane: bool,
     /// Inlier distance of the support plane, metres (default 0.005).
     pub plane_threshold: f64,
+    /// Prefer grasps whose axis passes near the object's estimated centre
+    /// of mass ([`crate::mass`]; labelled points only): the score is
+    /// multiplied by 1 / (1 + (arm / torque_scale)²) for the lever arm of
+    /// the weight about the grasp axis, metres (default 0.01; 0 disables).
+    pub torque_scale: f64,
 }
 
 impl Default for DetectOptions {
@@ -83,6 +89,7 @@ impl Default for DetectOptions {
             rng_seed: 0,
             support_plane: true,
             plane_threshold: 0.005,
+            torque_scale: 0.01,
         }
     }
 }
@@ -121,6 +128,12 @@ impl DetectOptions {
         }
         positive("nms_translation", self.nms_translation)?;
         positive("plane_threshold", self.plane_threshold)?;
+        if !(self.torque_scale.is_finite() && self.torque_scale >= 0.0) {
+            return Err(GraspError::InvalidArgument(format!(
+                "torque_scale must be finite and >= 0, got {}",
+                self.torque_scale
+            )));
+        }
         if !(self.seed_spacing.is_finite() && self.seed_spacing >= 0.0) {
             return Err(GraspError::InvalidArgument(format!(
                 "seed_spacing must be finite and >= 0, got {}",
@@ -195,6 +208,17 @@ pub fn detect(
     } else {
         None
     };
+    let mass_centres = if opts.torque_scale > 0.0 {
+        mass_centres(
+            &centroids,
+            &ds_labels,
+            plane.as_ref(),
+            opts.plane_threshold,
+            opts.voxel_size,
+        )
+    } else {
+        Vec::new()
+    };
     let is_candidate = |i: usize| {
         ds_seedable[i] && plane.is_none_or(|pl| pl.distance(&centroids[i]) > opts.plane_threshold)
     };
@@ -265,6 +289,8 @@ pub fn detect(
         friction: opts.friction,
         approach_direction: opts.approach_direction.normalize(),
         plane,
+        mass_centres,
+        torque_scale: opts.torque_scale,
     };
     let grasps: Vec<_> = seeds
         .par_iter()

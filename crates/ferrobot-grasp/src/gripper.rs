@@ -31,6 +31,16 @@ pub struct GripperGeometry {
     /// (default 2 mm; 5 mm excluded many good grasps in the simulated
     /// evaluation, `benches/grasp_eval.py`).
     pub clearance: f64,
+    /// Size of the hand's body (the housing the fingers slide in) along the
+    /// closing axis (Panda: 0.208). The body is a box centred on the
+    /// fingers, from the fingers' base back `palm_depth`; it is checked
+    /// against the support plane only, so a hand whose housing would hit
+    /// the table is rejected.
+    pub palm_width: f64,
+    /// Size of the hand's body along z (Panda: 0.063).
+    pub palm_height: f64,
+    /// Size of the hand's body along the approach (Panda: 0.092).
+    pub palm_depth: f64,
 }
 
 impl Default for GripperGeometry {
@@ -42,6 +52,9 @@ impl Default for GripperGeometry {
             height: 0.02,
             approach_distance: 0.03,
             clearance: 0.002,
+            palm_width: 0.208,
+            palm_height: 0.063,
+            palm_depth: 0.092,
         }
     }
 }
@@ -65,6 +78,9 @@ impl GripperGeometry {
         positive("gripper finger_depth", self.finger_depth)?;
         positive("gripper finger_width", self.finger_width)?;
         positive("gripper height", self.height)?;
+        positive("gripper palm_width", self.palm_width)?;
+        positive("gripper palm_height", self.palm_height)?;
+        positive("gripper palm_depth", self.palm_depth)?;
         for (what, v) in [
             ("gripper approach_distance", self.approach_distance),
             ("gripper clearance", self.clearance),
@@ -143,6 +159,18 @@ impl GripperGeometry {
                 Vector3::new(base, yc + outer, hz),
             ),
         ]
+    }
+
+    /// The hand's body as a (min, max) box in the gripper frame: centred on
+    /// the fingers (y = `yc`, z = 0), from the fingers' base
+    /// (x = `depth` - `finger_depth`) back by `palm_depth`.
+    pub fn body_box(&self, depth: f64, yc: f64) -> (Vector3<f64>, Vector3<f64>) {
+        let base = depth - self.finger_depth;
+        let (hy, hz) = (self.palm_width / 2.0, self.palm_height / 2.0);
+        (
+            Vector3::new(base - self.palm_depth, yc - hy, -hz),
+            Vector3::new(base, yc + hy, hz),
+        )
     }
 
     /// Radius of a ball around the grasp origin that holds the whole hand

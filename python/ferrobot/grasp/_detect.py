@@ -28,12 +28,16 @@ OPTIONS = {
     "rng_seed": 0,
     "support_plane": True,
     "plane_threshold": 0.005,
+    "torque_scale": 0.01,
     "max_width": 0.08,
     "finger_depth": 0.05,
     "finger_width": 0.01,
     "height": 0.02,
     "approach_distance": 0.03,
     "clearance": 0.002,
+    "palm_width": 0.208,
+    "palm_height": 0.063,
+    "palm_depth": 0.092,
 }
 
 
