@@ -18,7 +18,7 @@ OPTIONS = {
     "seed_spacing": 0.0,
     "num_rotations": 8,
     "approach_tilts": (0.0, -0.4, 0.4),
-    "depths": (0.04, 0.03, 0.02),
+    "depths": (0.04, 0.03, 0.02, 0.015),
     "friction": 1.0,
     "viewpoint": (0.0, 0.0, 0.0),
     "approach_direction": (0.0, 0.0, 1.0),
