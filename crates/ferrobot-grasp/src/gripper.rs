@@ -137,6 +137,49 @@ impl GripperGeometry {
             .any(|p| self.region(p, depth, width, yc, margin) == Region::Collision)
     }
 
+    /// Whether any of `points` is [`Region::Collision`] for this hand, and
+    /// how many are [`Region::Closing`] (the count is complete only when
+    /// there is no collision): [`Self::region`] restated without branches
+    /// and checked in blocks, which is what the hand search runs per hand.
+    ///
+    /// A point collides when it is inside the hand's outer box (grown by
+    /// `margin`) and either behind the fingers' base + `margin` or within
+    /// `margin` of a finger's inner face or beyond it; a closing-region
+    /// point satisfies neither, so the two tests never overlap.
+    pub fn collision_and_closing(
+        &self,
+        points: &[Vector3<f64>],
+        depth: f64,
+        width: f64,
+        yc: f64,
+        margin: f64,
+    ) -> (bool, usize) {
+        let half = width / 2.0;
+        let base = depth - self.finger_depth;
+        let hz = self.height / 2.0;
+        let back = base - self.finger_width - self.approach_distance - margin;
+        let outer_y = half + self.finger_width + margin;
+        let mut closing = 0usize;
+        for block in points.chunks(32) {
+            let mut hit = false;
+            for p in block {
+                let y = (p.y - yc).abs();
+                let z = p.z.abs();
+                let outer =
+                    (z <= hz + margin) & (p.x <= depth + margin) & (y <= outer_y) & (p.x >= back);
+                let solid = (p.x < base + margin) | (y >= half - margin);
+                hit |= outer & solid;
+                let inside =
+                    (z <= hz) & (p.x >= base + margin) & (p.x <= depth) & (y < half - margin);
+                closing += usize::from(inside);
+            }
+            if hit {
+                return (true, closing);
+            }
+        }
+        (false, closing)
+    }
+
     /// The hand's solid boxes as (min, max) corners in the gripper frame:
     /// left finger, right finger, and palm with the approach corridor.
     pub fn boxes(&self, depth: f64, width: f64, yc: f64) -> [(Vector3<f64>, Vector3<f64>); 3] {
@@ -200,5 +243,44 @@ mod tests {
         assert_eq!(r(-0.07, 0.0, 0.0), Region::Collision); // corridor
         assert_eq!(r(-0.1, 0.0, 0.0), Region::Free);
         assert_eq!(r(0.0, 0.0, 0.011), Region::Free);
+    }
+
+    #[test]
+    fn block_test_agrees_with_regions() {
+        // Points on a grid through and around a hand, including the
+        // regions' boundaries: the block test must give what region() gives.
+        let g = GripperGeometry::default();
+        let (depth, width, yc, m) = (0.03, 0.05, 0.004, 0.00375);
+        let mut pts = Vec::new();
+        for i in -70..=25 {
+            for j in -40..=40 {
+                for k in -8..=8 {
+                    pts.push(Vector3::new(
+                        0.0025 * i as f64,
+                        yc + 0.0025 * j as f64,
+                        0.0017 * k as f64,
+                    ));
+                }
+            }
+        }
+        let mut all_closing = 0;
+        for p in &pts {
+            let r = g.region(p, depth, width, yc, m);
+            let (hit, closing) =
+                g.collision_and_closing(std::slice::from_ref(p), depth, width, yc, m);
+            assert_eq!(hit, r == Region::Collision, "{p:?} {r:?}");
+            assert_eq!(closing == 1, r == Region::Closing, "{p:?} {r:?}");
+            all_closing += closing;
+        }
+        let free: Vec<_> = pts
+            .iter()
+            .copied()
+            .filter(|p| g.region(p, depth, width, yc, m) != Region::Collision)
+            .collect();
+        assert_eq!(
+            g.collision_and_closing(&free, depth, width, yc, m),
+            (false, all_closing)
+        );
+        assert!(g.collision_and_closing(&pts, depth, width, yc, m).0);
     }
 }
