@@ -457,3 +457,21 @@ def test_the_best_grasp_holds_a_long_box_near_its_middle():
     # without the preference, the best grasp's arm is not constrained (it is found anywhere along the bar)
     spread = fg.detect_from_rgbd(depth, FX, FY, CX, CY, 1.0, mask=labels, torque_scale=0.0).transform(cam)
     assert np.ptp(spread.translations[:, 0]) > 0.1
+
+
+def test_a_cube_is_pinched_across_its_faces_not_its_edges():
+    # A 5 cm cube seen from 50 degrees above the table: its hidden faces come from completing the
+    # volume under the top. The best grasp closes square to a pair of faces (within 15 degrees), not
+    # across the vertical edges, where the faces are at 45 degrees to the fingers.
+    yaw = 0.5
+    scene = Scene(objects=[Box(size=(0.05, 0.05, 0.05), yaw=yaw)])
+    el = np.deg2rad(50)
+    cam = look_at(eye=(0.6 * np.cos(el), 0.0, 0.025 + 0.6 * np.sin(el)), target=(0.0, 0.0, 0.025))
+    depth, labels = render(scene, cam)
+    down = cam[:3, :3].T @ np.array([0.0, 0.0, -1.0])
+    gw = fg.detect_from_rgbd(depth, FX, FY, CX, CY, 1.0, mask=labels, approach_direction=tuple(down)).transform(cam)
+    assert len(gw) > 0
+    y = gw[0].rotation_matrix[:, 1]
+    faces = [np.array([np.cos(yaw), np.sin(yaw), 0.0]), np.array([-np.sin(yaw), np.cos(yaw), 0.0])]
+    assert max(abs(y @ f) for f in faces) > np.cos(np.deg2rad(15)), gw[0]
+    assert gw[0].width < 0.05 + 0.015  # the 5 cm between faces, not the 7.1 cm diagonal
