@@ -89,7 +89,7 @@ def test_grasps_on_both_objects_sorted_and_bounded(detected):
     assert np.all(np.diff(s) <= 0) and np.all(s > 0) and np.all(s <= 1)
     assert np.all(gg.widths <= MAX_WIDTH + 1e-12) and np.all(gg.widths > 0)
     np.testing.assert_allclose(gg.heights, HEIGHT)
-    assert set(np.round(gg.depths, 6)) <= {0.01, 0.02, 0.03, 0.04}
+    assert set(np.round(gg.depths, 6)) <= {round(d, 6) for d in fg.OPTIONS["depths"]}
     R = gg.rotation_matrices
     np.testing.assert_allclose(R @ R.transpose(0, 2, 1), np.broadcast_to(np.eye(3), R.shape), atol=1e-9)
     np.testing.assert_allclose(np.linalg.det(R), 1.0, atol=1e-9)

@@ -267,12 +267,7 @@ pub fn detect(
             pl,
             opts.plane_threshold,
             opts.voxel_size,
-            // One voxel apart down the columns: with two, every other row of
-            // a finger's (x, z) profile held no hidden point for a top-down
-            // hand, and the profile took a far-side point there, which
-            // corrupted the contact faces (a cube then scored a pinch across
-            // its diagonal above one across its faces).
-            opts.voxel_size,
+            2.0 * opts.voxel_size,
             Some((lo, hi)),
         );
     }

@@ -34,7 +34,7 @@ OPTIONS = {
     "finger_width": 0.01,
     "height": 0.02,
     "approach_distance": 0.03,
-    "clearance": 0.001,
+    "clearance": 0.002,
     "palm_width": 0.208,
     "palm_height": 0.063,
     "palm_depth": 0.092,
