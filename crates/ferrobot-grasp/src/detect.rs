@@ -9,6 +9,7 @@ use crate::candidates::{SearchParams, hands_at_seed};
 use crate::error::{GraspError, Result, positive};
 use crate::grasp::GraspGroup;
 use crate::gripper::GripperGeometry;
+use crate::mass::mass_centres;
 use crate::nms::nms;
 use crate::normals::SurfaceCloud;
 use crate::plane::find_support_plane;
@@ -35,10 +36,12 @@ pub struct DetectOptions {
     pub num_rotations: usize,
     /// Approach tilts about the closing axis, radians (default 0, ±0.4).
     pub approach_tilts: Vec<f64>,
-    /// Fingertip depths beyond the surface to try, metres (default
-    /// 0.02–0.04 in steps of 0.01; GraspNet also tries 0.01, but fingers
-    /// 1 cm over a rounded object let it slip out: in `benches/grasp_eval.py`
-    /// dropping 0.01 raised top-1 success markedly).
+    /// Fingertip depths beyond the surface to try, deepest first, metres
+    /// (default 0.04, 0.03, 0.02, 0.015; GraspNet also tries 0.01, but
+    /// fingers 1 cm over a rounded object let it slip out: in
+    /// `benches/grasp_eval.py` dropping 0.01 raised top-1 success markedly;
+    /// 0.015 is what reaches around objects lying flat that are under 2 cm
+    /// tall, where the table stops every deeper hand).
     pub depths: Vec<f64>,
     /// Friction coefficient the grasp must close at (default 1.0).
     pub friction: f64,
@@ -61,6 +64,11 @@ pub struct DetectOptions {
     pub support_plane: bool,
     /// Inlier distance of the support plane, metres (default 0.005).
     pub plane_threshold: f64,
+    /// Prefer grasps whose axis passes near the object's estimated centre
+    /// of mass ([`crate::mass`]; labelled points only): the score is
+    /// multiplied by 1 / (1 + (arm / torque_scale)²) for the lever arm of
+    /// the weight about the grasp axis, metres (default 0.01; 0 disables).
+    pub torque_scale: f64,
 }
 
 impl Default for DetectOptions {
@@ -73,7 +81,7 @@ impl Default for DetectOptions {
             seed_spacing: 0.0,
             num_rotations: 8,
             approach_tilts: vec![0.0, -0.4, 0.4],
-            depths: vec![0.04, 0.03, 0.02],
+            depths: vec![0.04, 0.03, 0.02, 0.015],
             friction: 1.0,
             viewpoint: Point3::origin(),
             approach_direction: Vector3::z(),
@@ -83,6 +91,7 @@ impl Default for DetectOptions {
             rng_seed: 0,
             support_plane: true,
             plane_threshold: 0.005,
+            torque_scale: 0.01,
         }
     }
 }
@@ -121,6 +130,12 @@ impl DetectOptions {
         }
         positive("nms_translation", self.nms_translation)?;
         positive("plane_threshold", self.plane_threshold)?;
+        if !(self.torque_scale.is_finite() && self.torque_scale >= 0.0) {
+            return Err(GraspError::InvalidArgument(format!(
+                "torque_scale must be finite and >= 0, got {}",
+                self.torque_scale
+            )));
+        }
         if !(self.seed_spacing.is_finite() && self.seed_spacing >= 0.0) {
             return Err(GraspError::InvalidArgument(format!(
                 "seed_spacing must be finite and >= 0, got {}",
@@ -195,6 +210,17 @@ pub fn detect(
     } else {
         None
     };
+    let mass_centres = if opts.torque_scale > 0.0 {
+        mass_centres(
+            &centroids,
+            &ds_labels,
+            plane.as_ref(),
+            opts.plane_threshold,
+            opts.voxel_size,
+        )
+    } else {
+        Vec::new()
+    };
     let is_candidate = |i: usize| {
         ds_seedable[i] && plane.is_none_or(|pl| pl.distance(&centroids[i]) > opts.plane_threshold)
     };
@@ -265,6 +291,8 @@ pub fn detect(
         friction: opts.friction,
         approach_direction: opts.approach_direction.normalize(),
         plane,
+        mass_centres,
+        torque_scale: opts.torque_scale,
     };
     let grasps: Vec<_> = seeds
         .par_iter()

@@ -31,6 +31,16 @@ pub struct GripperGeometry {
     /// (default 2 mm; 5 mm excluded many good grasps in the simulated
     /// evaluation, `benches/grasp_eval.py`).
     pub clearance: f64,
+    /// Size of the hand's body (the housing the fingers slide in) along the
+    /// closing axis (Panda: 0.208). The body is a box centred on the
+    /// fingers, from the fingers' base back `palm_depth`; it is checked
+    /// against the support plane only, so a hand whose housing would hit
+    /// the table is rejected.
+    pub palm_width: f64,
+    /// Size of the hand's body along z (Panda: 0.063).
+    pub palm_height: f64,
+    /// Size of the hand's body along the approach (Panda: 0.092).
+    pub palm_depth: f64,
 }
 
 impl Default for GripperGeometry {
@@ -42,6 +52,9 @@ impl Default for GripperGeometry {
             height: 0.02,
             approach_distance: 0.03,
             clearance: 0.002,
+            palm_width: 0.208,
+            palm_height: 0.063,
+            palm_depth: 0.092,
         }
     }
 }
@@ -65,6 +78,9 @@ impl GripperGeometry {
         positive("gripper finger_depth", self.finger_depth)?;
         positive("gripper finger_width", self.finger_width)?;
         positive("gripper height", self.height)?;
+        positive("gripper palm_width", self.palm_width)?;
+        positive("gripper palm_height", self.palm_height)?;
+        positive("gripper palm_depth", self.palm_depth)?;
         for (what, v) in [
             ("gripper approach_distance", self.approach_distance),
             ("gripper clearance", self.clearance),
@@ -121,6 +137,49 @@ impl GripperGeometry {
             .any(|p| self.region(p, depth, width, yc, margin) == Region::Collision)
     }
 
+    /// Whether any of `points` is [`Region::Collision`] for this hand, and
+    /// how many are [`Region::Closing`] (the count is complete only when
+    /// there is no collision): [`Self::region`] restated without branches
+    /// and checked in blocks, which is what the hand search runs per hand.
+    ///
+    /// A point collides when it is inside the hand's outer box (grown by
+    /// `margin`) and either behind the fingers' base + `margin` or within
+    /// `margin` of a finger's inner face or beyond it; a closing-region
+    /// point satisfies neither, so the two tests never overlap.
+    pub fn collision_and_closing(
+        &self,
+        points: &[Vector3<f64>],
+        depth: f64,
+        width: f64,
+        yc: f64,
+        margin: f64,
+    ) -> (bool, usize) {
+        let half = width / 2.0;
+        let base = depth - self.finger_depth;
+        let hz = self.height / 2.0;
+        let back = base - self.finger_width - self.approach_distance - margin;
+        let outer_y = half + self.finger_width + margin;
+        let mut closing = 0usize;
+        for block in points.chunks(32) {
+            let mut hit = false;
+            for p in block {
+                let y = (p.y - yc).abs();
+                let z = p.z.abs();
+                let outer =
+                    (z <= hz + margin) & (p.x <= depth + margin) & (y <= outer_y) & (p.x >= back);
+                let solid = (p.x < base + margin) | (y >= half - margin);
+                hit |= outer & solid;
+                let inside =
+                    (z <= hz) & (p.x >= base + margin) & (p.x <= depth) & (y < half - margin);
+                closing += usize::from(inside);
+            }
+            if hit {
+                return (true, closing);
+            }
+        }
+        (false, closing)
+    }
+
     /// The hand's solid boxes as (min, max) corners in the gripper frame:
     /// left finger, right finger, and palm with the approach corridor.
     pub fn boxes(&self, depth: f64, width: f64, yc: f64) -> [(Vector3<f64>, Vector3<f64>); 3] {
@@ -143,6 +202,18 @@ impl GripperGeometry {
                 Vector3::new(base, yc + outer, hz),
             ),
         ]
+    }
+
+    /// The hand's body as a (min, max) box in the gripper frame: centred on
+    /// the fingers (y = `yc`, z = 0), from the fingers' base
+    /// (x = `depth` - `finger_depth`) back by `palm_depth`.
+    pub fn body_box(&self, depth: f64, yc: f64) -> (Vector3<f64>, Vector3<f64>) {
+        let base = depth - self.finger_depth;
+        let (hy, hz) = (self.palm_width / 2.0, self.palm_height / 2.0);
+        (
+            Vector3::new(base - self.palm_depth, yc - hy, -hz),
+            Vector3::new(base, yc + hy, hz),
+        )
     }
 
     /// Radius of a ball around the grasp origin that holds the whole hand
@@ -172,5 +243,44 @@ mod tests {
         assert_eq!(r(-0.07, 0.0, 0.0), Region::Collision); // corridor
         assert_eq!(r(-0.1, 0.0, 0.0), Region::Free);
         assert_eq!(r(0.0, 0.0, 0.011), Region::Free);
+    }
+
+    #[test]
+    fn block_test_agrees_with_regions() {
+        // Points on a grid through and around a hand, including the
+        // regions' boundaries: the block test must give what region() gives.
+        let g = GripperGeometry::default();
+        let (depth, width, yc, m) = (0.03, 0.05, 0.004, 0.00375);
+        let mut pts = Vec::new();
+        for i in -70..=25 {
+            for j in -40..=40 {
+                for k in -8..=8 {
+                    pts.push(Vector3::new(
+                        0.0025 * i as f64,
+                        yc + 0.0025 * j as f64,
+                        0.0017 * k as f64,
+                    ));
+                }
+            }
+        }
+        let mut all_closing = 0;
+        for p in &pts {
+            let r = g.region(p, depth, width, yc, m);
+            let (hit, closing) =
+                g.collision_and_closing(std::slice::from_ref(p), depth, width, yc, m);
+            assert_eq!(hit, r == Region::Collision, "{p:?} {r:?}");
+            assert_eq!(closing == 1, r == Region::Closing, "{p:?} {r:?}");
+            all_closing += closing;
+        }
+        let free: Vec<_> = pts
+            .iter()
+            .copied()
+            .filter(|p| g.region(p, depth, width, yc, m) != Region::Collision)
+            .collect();
+        assert_eq!(
+            g.collision_and_closing(&free, depth, width, yc, m),
+            (false, all_closing)
+        );
+        assert!(g.collision_and_closing(&pts, depth, width, yc, m).0);
     }
 }

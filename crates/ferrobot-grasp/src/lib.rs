@@ -23,6 +23,7 @@ pub mod error;
 pub mod frames;
 pub mod grasp;
 pub mod gripper;
+pub mod mass;
 pub mod nms;
 pub mod normals;
 pub mod plane;

@@ -145,6 +145,36 @@ pub fn score(mu_needed: f64, mu: f64, support: f64, approach_cos: f64) -> f64 {
     fc * (0.5 + 0.25 * support.clamp(0.0, 1.0) + 0.125 * (1.0 + approach_cos.clamp(-1.0, 1.0)))
 }
 
+/// Lever arm (m) of the weight at `com` about the closing axis through
+/// `centre` along the unit `axis`: with `up` (unit, against gravity) the
+/// horizontal distance of `com` from the axis measured perpendicular to it,
+/// |((com - centre) × up) · axis|, so the weight's torque about the axis is
+/// m·g times it; without `up` (gravity unknown) the distance from `com` to
+/// the axis line, the largest lever arm over all directions of gravity.
+pub fn lever_arm(
+    com: &Vector3<f64>,
+    centre: &Vector3<f64>,
+    axis: &Vector3<f64>,
+    up: Option<&Vector3<f64>>,
+) -> f64 {
+    let d = com - centre;
+    match up {
+        Some(u) => d.cross(u).dot(axis).abs(),
+        None => (d - axis * d.dot(axis)).norm(),
+    }
+}
+
+/// Score factor in (0, 1] for a lever arm `arm` of the object's weight about
+/// the grasp axis: 1 / (1 + (arm / scale)²), which halves at `arm` = `scale`
+/// (1 when `scale` is 0: no preference).
+pub fn torque_factor(arm: f64, scale: f64) -> f64 {
+    if scale <= 0.0 {
+        return 1.0;
+    }
+    let r = arm / scale;
+    1.0 / (1.0 + r * r)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -169,6 +199,30 @@ mod tests {
         assert!(friction_needed(&a, &b3).is_infinite());
         assert_eq!(score(0.6, 0.5, 1.0, 1.0), 0.0);
         assert!((score(0.0, 1.0, 1.0, 1.0) - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn lever_arm_of_an_offset_weight() {
+        let y = Vector3::y();
+        let up = Vector3::z();
+        let c = Vector3::zeros();
+        // Straight below or above the axis: no torque; 3 cm to the side
+        // (along x) and 2 cm down: 3 cm arm; an offset along the axis
+        // itself never makes a torque about it.
+        assert!(lever_arm(&Vector3::new(0.0, 0.0, -0.05), &c, &y, Some(&up)) < 1e-12);
+        let arm = lever_arm(&Vector3::new(0.03, 0.5, -0.02), &c, &y, Some(&up));
+        assert!((arm - 0.03).abs() < 1e-12);
+        // Tilted axis (45 degrees up in the x-z plane): the horizontal arm
+        // perpendicular to it is the y offset.
+        let ax = Vector3::new(1.0, 0.0, 1.0).normalize();
+        let arm = lever_arm(&Vector3::new(0.1, 0.02, 0.1), &c, &ax, Some(&up));
+        assert!((arm - 0.02 / 2f64.sqrt()).abs() < 1e-12);
+        // Gravity unknown: the distance to the axis line.
+        let arm = lever_arm(&Vector3::new(0.03, 0.5, -0.04), &c, &y, None);
+        assert!((arm - 0.05).abs() < 1e-12);
+        assert_eq!(torque_factor(0.02, 0.02), 0.5);
+        assert_eq!(torque_factor(0.05, 0.0), 1.0);
+        assert!((torque_factor(0.0, 0.02) - 1.0).abs() < 1e-15);
     }
 
     #[test]

@@ -4,6 +4,7 @@ use std::collections::HashMap;
 use std::hash::{BuildHasherDefault, Hasher};
 
 use nalgebra::{Point3, Vector3};
+use rayon::prelude::*;
 
 use crate::error::{GraspError, Result, positive};
 
@@ -53,41 +54,69 @@ fn pack_cell(x: f64, y: f64, z: f64) -> Option<u64> {
 /// each, the index of the first input point that fell in the voxel (so
 /// per-point attributes such as labels can follow). Output order is the
 /// order in which voxels are first met, so the result is deterministic.
+///
+/// Runs on the rayon pool: the voxel keys are computed in parallel, then
+/// the voxels are split among the threads by key, each thread summing its
+/// voxels' points in input order (so every centroid is the same sum as a
+/// serial pass gives), and the voxels are put back in first-met order.
 pub fn voxel_downsample(
     points: &[Point3<f64>],
     size: f64,
 ) -> Result<(Vec<Point3<f64>>, Vec<usize>)> {
     positive("voxel size", size)?;
     let inv = 1.0 / size;
-    let mut index: GridMap<u64, usize> =
-        GridMap::with_capacity_and_hasher(points.len() / 4 + 1, Default::default());
-    let mut sums: Vec<(Vector3<f64>, u32)> = Vec::new();
-    let mut first = Vec::new();
-    for (i, p) in points.iter().enumerate() {
-        let key = pack_cell(
-            (p.x * inv).floor(),
-            (p.y * inv).floor(),
-            (p.z * inv).floor(),
-        )
-        .ok_or_else(|| {
-            GraspError::InvalidArgument(format!(
-                "voxel grid: point {i} ({}, {}, {}) is more than 2^20 voxels of {size} m from the origin",
-                p.x, p.y, p.z
-            ))
-        })?;
-        let slot = *index.entry(key).or_insert_with(|| {
-            sums.push((Vector3::zeros(), 0));
-            first.push(i);
-            sums.len() - 1
-        });
-        sums[slot].0 += p.coords;
-        sums[slot].1 += 1;
-    }
-    let centroids = sums
-        .into_iter()
-        .map(|(s, n)| Point3::from(s / f64::from(n)))
+    let keys: Vec<u64> = points
+        .par_iter()
+        .enumerate()
+        .map(|(i, p)| {
+            pack_cell(
+                (p.x * inv).floor(),
+                (p.y * inv).floor(),
+                (p.z * inv).floor(),
+            )
+            .ok_or_else(|| {
+                GraspError::InvalidArgument(format!(
+                    "voxel grid: point {i} ({}, {}, {}) is more than 2^20 voxels of {size} m from the origin",
+                    p.x, p.y, p.z
+                ))
+            })
+        })
+        .collect::<Result<_>>()?;
+    let parts = rayon::current_num_threads().clamp(1, 16) as u64;
+    // (first index, centroid) of every voxel, one list per part.
+    let lists: Vec<Vec<(usize, Point3<f64>)>> = (0..parts)
+        .into_par_iter()
+        .map(|part| {
+            let mut index: GridMap<u64, usize> = GridMap::with_capacity_and_hasher(
+                points.len() / (4 * parts as usize) + 1,
+                Default::default(),
+            );
+            let mut sums: Vec<(Vector3<f64>, u32, usize)> = Vec::new();
+            for (i, (&key, p)) in keys.iter().zip(points).enumerate() {
+                if part_of(key, parts) != part {
+                    continue;
+                }
+                let slot = *index.entry(key).or_insert_with(|| {
+                    sums.push((Vector3::zeros(), 0, i));
+                    sums.len() - 1
+                });
+                sums[slot].0 += p.coords;
+                sums[slot].1 += 1;
+            }
+            sums.into_iter()
+                .map(|(s, n, first)| (first, Point3::from(s / f64::from(n))))
+                .collect()
+        })
         .collect();
-    Ok((centroids, first))
+    let mut all: Vec<(usize, Point3<f64>)> = lists.into_iter().flatten().collect();
+    all.sort_unstable_by_key(|(first, _)| *first);
+    Ok(all.into_iter().map(|(f, c)| (c, f)).unzip())
+}
+
+/// Which of `parts` parts a voxel key belongs to (a multiplicative hash, so
+/// neighbouring voxels spread over the parts).
+fn part_of(key: u64, parts: u64) -> u64 {
+    (key.wrapping_mul(GRID_HASH_K) >> 40) % parts
 }
 
 #[cfg(test)]
@@ -106,5 +135,57 @@ mod tests {
         assert_eq!(first, vec![0, 2]);
         assert!((c[0] - Point3::new(0.002, 0.002, 0.002)).norm() < 1e-12);
         assert!(voxel_downsample(&pts, 0.0).is_err());
+    }
+
+    #[test]
+    fn parallel_split_gives_the_serial_result() {
+        // Many points over many voxels, in a scrambled order: centroids
+        // (bit for bit) and first indices must be what one serial pass in
+        // input order gives, on any number of threads.
+        let mut pts = Vec::new();
+        let mut state = 12345u64;
+        for _ in 0..20000 {
+            let mut next = || {
+                state = state
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                (state >> 11) as f64 / (1u64 << 53) as f64
+            };
+            pts.push(Point3::new(
+                next() * 0.3,
+                next() * 0.2 - 0.1,
+                0.5 + next() * 0.1,
+            ));
+        }
+        let size = 0.01;
+        let mut order: Vec<u64> = Vec::new();
+        let mut serial: HashMap<u64, (Vector3<f64>, u32, usize)> = HashMap::new();
+        for (i, p) in pts.iter().enumerate() {
+            let key = pack_cell(
+                (p.x / size).floor(),
+                (p.y / size).floor(),
+                (p.z / size).floor(),
+            )
+            .unwrap();
+            let e = serial.entry(key).or_insert_with(|| {
+                order.push(key);
+                (Vector3::zeros(), 0, i)
+            });
+            e.0 += p.coords;
+            e.1 += 1;
+        }
+        for threads in [1, 2, 3] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            let (c, first) = pool.install(|| voxel_downsample(&pts, size)).unwrap();
+            assert_eq!(c.len(), order.len());
+            for (k, key) in order.iter().enumerate() {
+                let (s, n, f) = serial[key];
+                assert_eq!(first[k], f);
+                assert_eq!(c[k], Point3::from(s / f64::from(n)));
+            }
+        }
     }
 }

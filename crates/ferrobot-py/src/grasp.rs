@@ -75,12 +75,16 @@ fn options(opts: Option<&Bound<'_, PyDict>>) -> PyResult<DetectOptions> {
                 })?
             }
             "plane_threshold" => o.plane_threshold = f(&v)?,
+            "torque_scale" => o.torque_scale = f(&v)?,
             "max_width" => o.gripper.max_width = f(&v)?,
             "finger_depth" => o.gripper.finger_depth = f(&v)?,
             "finger_width" => o.gripper.finger_width = f(&v)?,
             "height" => o.gripper.height = f(&v)?,
             "approach_distance" => o.gripper.approach_distance = f(&v)?,
             "clearance" => o.gripper.clearance = f(&v)?,
+            "palm_width" => o.gripper.palm_width = f(&v)?,
+            "palm_height" => o.gripper.palm_height = f(&v)?,
+            "palm_depth" => o.gripper.palm_depth = f(&v)?,
             other => {
                 return Err(InvalidArgumentError::new_err(format!(
                     "unknown grasp option '{other}'"

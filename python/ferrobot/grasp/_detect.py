@@ -18,7 +18,7 @@ OPTIONS = {
     "seed_spacing": 0.0,
     "num_rotations": 8,
     "approach_tilts": (0.0, -0.4, 0.4),
-    "depths": (0.04, 0.03, 0.02),
+    "depths": (0.04, 0.03, 0.02, 0.015),
     "friction": 1.0,
     "viewpoint": (0.0, 0.0, 0.0),
     "approach_direction": (0.0, 0.0, 1.0),
@@ -28,12 +28,16 @@ OPTIONS = {
     "rng_seed": 0,
     "support_plane": True,
     "plane_threshold": 0.005,
+    "torque_scale": 0.01,
     "max_width": 0.08,
     "finger_depth": 0.05,
     "finger_width": 0.01,
     "height": 0.02,
     "approach_distance": 0.03,
     "clearance": 0.002,
+    "palm_width": 0.208,
+    "palm_height": 0.063,
+    "palm_depth": 0.092,
 }
 
 
