@@ -98,9 +98,17 @@ pub struct CollisionChecker {
     /// Exact geometry per link (built once; empty when disabled).
     exact_links: Arc<Vec<Option<crate::exact::ExactBody>>>,
     /// Distance bounds to the world for the single-configuration kernel,
-    /// made on first use after any change of robot or world.
+    /// made once [`GRID_AFTER`] single checks have run since the last
+    /// change of robot or world.
     grid: std::sync::OnceLock<Option<Arc<WorldGrid>>>,
+    /// Single checks since the last change (counted until the grid exists).
+    single_checks: Arc<AtomicU64>,
 }
+
+/// Single checks on an unchanged robot and world before the world grid is
+/// made: the grid costs an allocation and a fill per cell on first use, which
+/// a few checks (a plan's start and goal) never pay back.
+const GRID_AFTER: u64 = 512;
 
 impl CollisionChecker {
     /// A checker for `model` with sphere model `spheres`, excluded pairs
@@ -133,6 +141,7 @@ impl CollisionChecker {
             id: 0,
             exact_self: true,
             grid: Default::default(),
+            single_checks: Default::default(),
         };
         checker.recompile_robot();
         Ok(checker)
@@ -208,6 +217,7 @@ impl CollisionChecker {
     /// Tests the bodies fixed to the base against the world once.
     fn update_static(&mut self) {
         self.grid = Default::default();
+        self.single_checks = Default::default();
         let mut only_static = self.robot.clone();
         only_static.bodies.retain(|b| b.frame == 0);
         only_static.pairs.clear();
@@ -329,12 +339,16 @@ impl CollisionChecker {
                 *slot = Some((self.id, OneScratch::new(&self.robot)));
             }
             let scratch = &mut slot.as_mut().expect("set above").1;
-            let grid = self
-                .grid
-                .get_or_init(|| {
-                    WorldGrid::for_robot(&self.robot, &self.compiled_world).map(Arc::new)
-                })
-                .as_deref();
+            let grid = match self.grid.get() {
+                Some(g) => g.as_deref(),
+                None if self.single_checks.fetch_add(1, Ordering::Relaxed) >= GRID_AFTER => self
+                    .grid
+                    .get_or_init(|| {
+                        WorldGrid::for_robot(&self.robot, &self.compiled_world).map(Arc::new)
+                    })
+                    .as_deref(),
+                None => None,
+            };
             self.static_hit
                 || check_one(
                     &self.robot,
