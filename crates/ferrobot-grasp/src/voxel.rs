@@ -92,14 +92,24 @@ pub fn voxel_downsample(
                 Default::default(),
             );
             let mut sums: Vec<(Vector3<f64>, u32, usize)> = Vec::new();
+            // Neighbouring pixels mostly share a voxel: the last voxel's
+            // slot is reused without hashing (keys use 63 bits, so MAX is
+            // never a key).
+            let (mut last_key, mut last_slot) = (u64::MAX, 0usize);
             for (i, (&key, p)) in keys.iter().zip(points).enumerate() {
                 if part_of(key, parts) != part {
                     continue;
                 }
-                let slot = *index.entry(key).or_insert_with(|| {
-                    sums.push((Vector3::zeros(), 0, i));
-                    sums.len() - 1
-                });
+                let slot = if key == last_key {
+                    last_slot
+                } else {
+                    let slot = *index.entry(key).or_insert_with(|| {
+                        sums.push((Vector3::zeros(), 0, i));
+                        sums.len() - 1
+                    });
+                    (last_key, last_slot) = (key, slot);
+                    slot
+                };
                 sums[slot].0 += p.coords;
                 sums[slot].1 += 1;
             }
@@ -116,7 +126,8 @@ pub fn voxel_downsample(
 /// Which of `parts` parts a voxel key belongs to (a multiplicative hash, so
 /// neighbouring voxels spread over the parts).
 fn part_of(key: u64, parts: u64) -> u64 {
-    (key.wrapping_mul(GRID_HASH_K) >> 40) % parts
+    // A multiply-shift range reduction: no division per point.
+    ((key.wrapping_mul(GRID_HASH_K) >> 32) * parts) >> 32
 }
 
 #[cfg(test)]
