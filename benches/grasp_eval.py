@@ -25,7 +25,7 @@ Per object, in a fresh ``ferrobot.World`` (240 Hz):
   here, loaded as a ferrobot robot whose base is placed at the pre-grasp pose; joint drives move it),
   so the hand is a driven body with real contacts; fingers are two independent prismatic joints.
   Sequence: pre-grasp 5 cm back along the approach, approach (0.5 s), close with 20 N per finger
-  (0.5 s), lift 10 cm (1 s), hold 2 s; the slides are stiff PD drives (1e5 N/m, 600 N s/m, 500 N);
+  (0.5 s), lift 10 cm (1 s), hold 2 s; the slides are stiff PD drives (2e4 N/m, 1e3 N s/m, 500 N);
 - success: the object rose at least 8 cm with the hand and the fingers did not close on nothing
   (opening > 2 mm), i.e. the object is still between the fingers.
 
