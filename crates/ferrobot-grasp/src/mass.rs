@@ -38,25 +38,10 @@ pub fn mass_centres(
             }
         }
         Some(pl) => {
-            let e1 = crate::normals::any_perpendicular(&pl.normal);
-            let e2 = pl.normal.cross(&e1);
             // Highest point of each (label, cell).
-            let mut top: HashMap<(i32, i64, i64), (usize, f64)> = HashMap::new();
-            for (i, (p, &l)) in points.iter().zip(labels).enumerate() {
-                let h = pl.distance(p);
-                if l == -1 || h <= threshold {
-                    continue;
-                }
-                let key = (
-                    l,
-                    (e1.dot(&p.coords) / cell).floor() as i64,
-                    (e2.dot(&p.coords) / cell).floor() as i64,
-                );
-                let e = top.entry(key).or_insert((i, h));
-                if h > e.1 {
-                    *e = (i, h);
-                }
-            }
+            let top = pl.highest_per_cell(points, threshold, cell, |i| {
+                (labels[i] != -1).then_some(labels[i])
+            });
             for ((l, _, _), (i, h)) in top {
                 let c = points[i].coords - pl.normal * (h / 2.0);
                 let e = sums.entry(l).or_insert((Vector3::zeros(), 0.0));

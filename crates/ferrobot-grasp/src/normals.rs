@@ -96,23 +96,10 @@ impl SurfaceCloud {
         step: f64,
         clip: Option<(Vector3<f64>, Vector3<f64>)>,
     ) {
-        let e1 = crate::normals::any_perpendicular(&plane.normal);
-        let e2 = plane.normal.cross(&e1);
-        let mut top: crate::voxel::GridMap<(i64, i64), (usize, f64)> = Default::default();
-        for (i, p) in self.points[..self.num_observed].iter().enumerate() {
-            let h = plane.distance(p);
-            if h <= threshold {
-                continue;
-            }
-            let key = (
-                (e1.dot(&p.coords) / cell).floor() as i64,
-                (e2.dot(&p.coords) / cell).floor() as i64,
-            );
-            let e = top.entry(key).or_insert((i, h));
-            if h > e.1 {
-                *e = (i, h);
-            }
-        }
+        let top =
+            plane.highest_per_cell(&self.points[..self.num_observed], threshold, cell, |_| {
+                Some(0)
+            });
         let mut tops: Vec<(usize, f64)> = top.into_values().collect();
         tops.sort_unstable_by_key(|t| t.0);
         let mut extra = Vec::new();

@@ -21,6 +21,40 @@ impl Plane {
     pub fn distance(&self, p: &Point3<f64>) -> f64 {
         self.normal.dot(&p.coords) - self.offset
     }
+
+    /// The highest point of each group and square cell of the plane (side
+    /// `cell`): for every `(group, column, row)`, the index and height of
+    /// the point highest above the plane, over the `points` more than
+    /// `threshold` above it. `group` gives each point's group (e.g. its
+    /// object label), or `None` to skip the point.
+    pub(crate) fn highest_per_cell(
+        &self,
+        points: &[Point3<f64>],
+        threshold: f64,
+        cell: f64,
+        group: impl Fn(usize) -> Option<i32>,
+    ) -> crate::voxel::GridMap<(i32, i64, i64), (usize, f64)> {
+        let e1 = crate::normals::any_perpendicular(&self.normal);
+        let e2 = self.normal.cross(&e1);
+        let mut top: crate::voxel::GridMap<(i32, i64, i64), (usize, f64)> = Default::default();
+        for (i, p) in points.iter().enumerate() {
+            let h = self.distance(p);
+            let Some(g) = group(i) else { continue };
+            if h <= threshold {
+                continue;
+            }
+            let key = (
+                g,
+                (e1.dot(&p.coords) / cell).floor() as i64,
+                (e2.dot(&p.coords) / cell).floor() as i64,
+            );
+            let e = top.entry(key).or_insert((i, h));
+            if h > e.1 {
+                *e = (i, h);
+            }
+        }
+        top
+    }
 }
 
 /// The plane with the most points within `threshold`, by RANSAC over
