@@ -1,12 +1,15 @@
 //! Fixtures shared by ferrobot's benchmarks (see `benches/benches` and
 //! `benches/examples`): the MotionBenchMaker Panda from `../shared`, its
-//! collision checker in a scene, and random configurations.
+//! collision checker in a scene, random configurations, and the simulated
+//! table scene.
 
 use std::path::PathBuf;
 use std::sync::Arc;
 
 use ferrobot_collision::{AllowedCollisions, CollisionChecker, CollisionWorld, RobotSpheres};
 use ferrobot_model::{LoadOptions, RobotModel, SrdfSource};
+use ferrobot_sim::{ObjectDesc, ObjectShape, RobotOptions, World, WorldConfig};
+use nalgebra::{Isometry3, Vector3};
 use rand::{Rng, SeedableRng, rngs::StdRng};
 
 /// A path inside `../shared` beside the checkout.
@@ -113,4 +116,62 @@ pub fn mbm_problems(folder: &str) -> Vec<MbmProblem> {
             }
         })
         .collect()
+}
+
+/// Joint targets of the simulated Panda in [`sim_table_scene`] (7 arm
+/// joints, then the finger).
+pub const SIM_Q0: [f64; 8] = [0.0, -0.3, 0.0, -2.2, 0.0, 2.0, 0.785, 0.04];
+
+/// The simulation benchmarks' scene, settled for one second: the bundled
+/// Panda holding [`SIM_Q0`] with its position drives, and with `objects` a
+/// static 0.8 x 1.2 x 0.4 m table with a 5 cm box, a can and a ball resting
+/// on it.
+pub fn sim_table_scene(objects: bool) -> World {
+    let mut w = World::new(WorldConfig::default()).expect("world");
+    let model = Arc::new(ferrobot_model::robots::panda().expect("bundled Panda"));
+    let mut opts = RobotOptions::new("panda");
+    opts.q = Some(SIM_Q0.to_vec());
+    let r = w.add_robot(model, &opts).expect("robot");
+    w.with_robot(r, |robot, s| robot.set_position_targets(s, &SIM_Q0, None))
+        .expect("targets");
+    if objects {
+        let mut add = |name: &str, shape, pose, is_static| {
+            let mut d = ObjectDesc::new(name, shape, pose);
+            d.is_static = is_static;
+            w.add_object(d).expect("object");
+        };
+        add(
+            "table",
+            ObjectShape::Box {
+                half_extents: Vector3::new(0.4, 0.6, 0.2),
+            },
+            Isometry3::translation(0.6, 0.0, 0.2),
+            true,
+        );
+        add(
+            "box",
+            ObjectShape::Box {
+                half_extents: Vector3::new(0.025, 0.025, 0.025),
+            },
+            Isometry3::translation(0.5, 0.0, 0.425),
+            false,
+        );
+        add(
+            "can",
+            ObjectShape::Cylinder {
+                radius: 0.03,
+                length: 0.12,
+            },
+            Isometry3::translation(0.6, 0.25, 0.46),
+            false,
+        );
+        add(
+            "ball",
+            ObjectShape::Sphere { radius: 0.04 },
+            Isometry3::translation(0.7, -0.25, 0.44),
+            false,
+        );
+    }
+    w.step(240).expect("settle");
+    w
 }

@@ -302,6 +302,13 @@ impl CollisionChecker {
         Ok(())
     }
 
+    /// Whether the single-configuration path has made its world grid (see
+    /// [`crate::world_grid`]; made after 512 single checks on an
+    /// unchanged robot and world), for diagnostics.
+    pub fn has_world_grid(&self) -> bool {
+        self.grid.get().is_some_and(|g| g.is_some())
+    }
+
     /// Compiled data (for benchmarks and diagnostics).
     pub fn compiled(&self) -> (&CompiledRobot, &CompiledWorld) {
         (&self.robot, &self.compiled_world)

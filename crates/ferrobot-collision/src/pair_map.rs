@@ -25,7 +25,7 @@ use rayon::prelude::*;
 use wide::f32x8;
 
 use crate::compiled::CompiledRobot;
-use crate::kernel::{LaneFrame, Scratch, forward};
+use crate::kernel::{LaneFrame, Scratch, apply, forward};
 use crate::lanes::Lanes;
 
 /// Cells along each of the two joint coordinates.
@@ -212,7 +212,7 @@ impl Plan {
         let (o1, o2) = (origin(self.steps[0]), origin(self.steps[1]));
         let mut r2 = 0.0f32;
         for k in body.first..body.first + body.count {
-            let c = apply(&frames[body.frame], &robot.centers[k]);
+            let c: [f32; 3] = apply(&frames[body.frame], &robot.centers[k]);
             r2 = r2.max(norm(sub(c, o2)));
         }
         let r1 = norm(sub(o2, o1)) + r2;
@@ -279,7 +279,7 @@ impl Plan {
             })
             .collect();
         for k in bp.first..bp.first + bp.count {
-            let c = apply(&frames[bp.frame], &robot.centers[k]).map(f32x8::splat);
+            let c = apply::<f32>(&frames[bp.frame], &robot.centers[k]).map(f32x8::splat);
             let r = f32x8::splat(robot.radii[k]);
             for (pc, pr) in &packs {
                 let d = [c[0] - pc[0], c[1] - pc[1], c[2] - pc[2]];
@@ -292,14 +292,6 @@ impl Plan {
         }
         true
     }
-}
-
-fn apply(f: &LaneFrame<f32>, p: &[f32; 3]) -> [f32; 3] {
-    [
-        f[0] * p[0] + f[1] * p[1] + f[2] * p[2] + f[9],
-        f[3] * p[0] + f[4] * p[1] + f[5] * p[2] + f[10],
-        f[6] * p[0] + f[7] * p[1] + f[8] * p[2] + f[11],
-    ]
 }
 
 fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {

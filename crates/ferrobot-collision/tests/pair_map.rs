@@ -6,7 +6,7 @@
 
 mod common;
 
-use common::{mbm_panda, random_q, shared};
+use common::{assert_single_matches_batch, mbm_panda, random_q};
 
 use ferrobot_collision::pair_map::PairMap;
 use ferrobot_collision::{CollisionChecker, CollisionWorld};
@@ -87,21 +87,11 @@ fn clear_cells_are_clear_for_every_configuration_in_them() {
 
 #[test]
 fn single_path_with_maps_agrees_with_batch_kernel() {
-    let (model, spheres, acm) = mbm_panda();
     for (scene, margin) in [
         ("bench/mbm/table_pick_panda/scene0002.yaml", 0.0),
         ("bench/mbm/bookshelf_small_panda/scene0005.yaml", 0.02),
     ] {
-        let world = CollisionWorld::from_moveit_scene(shared(scene)).unwrap();
-        let mut checker =
-            CollisionChecker::new(model.clone(), spheres.clone(), acm.clone(), world).unwrap();
-        checker.set_margin(margin).unwrap();
+        let (checker, _) = assert_single_matches_batch(scene, margin, 11, 4000, 1);
         assert!(checker.compiled().0.pair_maps.iter().any(|m| m.is_some()));
-        let mut rng = StdRng::seed_from_u64(11);
-        let qs: Vec<f64> = (0..4000).flat_map(|_| random_q(&model, &mut rng)).collect();
-        let batch = checker.in_collision_batch(&qs).unwrap();
-        for (i, q) in qs.chunks(7).enumerate() {
-            assert_eq!(checker.in_collision(q).unwrap(), batch[i], "{scene} {q:?}");
-        }
     }
 }

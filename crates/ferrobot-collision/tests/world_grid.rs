@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{mbm_panda, random_q, shared, to_pose};
+use common::{assert_single_matches_batch, mbm_panda, shared, to_pose};
 
 use ferrobot_collision::world_grid::WorldGrid;
 use ferrobot_collision::{CollisionChecker, CollisionWorld, ObstacleShape};
@@ -102,24 +102,13 @@ fn grid_bounds_never_exceed_exact_distances() {
 
 #[test]
 fn single_path_with_grid_agrees_with_batch_kernel_in_every_dev_scene_kind() {
-    let (model, spheres, acm) = mbm_panda();
-    let mut rng = StdRng::seed_from_u64(12);
     for (scene, margin) in [
         ("bench/mbm/table_pick_panda/scene0009.yaml", 0.0),
         ("bench/mbm/bookshelf_small_panda/scene0010.yaml", 0.03),
     ] {
-        let world = CollisionWorld::from_moveit_scene(shared(scene)).unwrap();
-        let mut checker =
-            CollisionChecker::new(model.clone(), spheres.clone(), acm.clone(), world).unwrap();
-        checker.set_margin(margin).unwrap();
-        let qs: Vec<f64> = (0..4000).flat_map(|_| random_q(&model, &mut rng)).collect();
-        let batch = checker.in_collision_batch(&qs).unwrap();
-        // Twice: with the grid's cells being filled, then filled.
-        for _ in 0..2 {
-            for (i, q) in qs.chunks(7).enumerate() {
-                assert_eq!(checker.in_collision(q).unwrap(), batch[i], "{scene} {q:?}");
-            }
-        }
+        // Twice: with the grid being made and its cells filled, then filled.
+        let (checker, batch) = assert_single_matches_batch(scene, margin, 12, 4000, 2);
+        assert!(checker.has_world_grid(), "{scene}: the grid was never made");
         assert!(batch.iter().filter(|&&b| b).count() > 200);
     }
 }

@@ -6,11 +6,11 @@
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use ferrobot_collision::{AllowedCollisions, RobotSpheres};
+use ferrobot_collision::{AllowedCollisions, CollisionChecker, CollisionWorld, RobotSpheres};
 use ferrobot_model::{LoadOptions, RobotModel, SrdfSource};
 use nalgebra::Isometry3;
 use parry3d::math::{Pose, Rot3, Vector};
-use rand::{Rng, rngs::StdRng};
+use rand::{Rng, SeedableRng, rngs::StdRng};
 
 /// A path in the `shared` folder beside the checkout.
 pub fn shared(rel: &str) -> PathBuf {
@@ -56,4 +56,31 @@ pub fn to_pose(iso: &Isometry3<f64>) -> Pose {
         Vector::new(t.x as f32, t.y as f32, t.z as f32),
         Rot3::from_xyzw(q[0] as f32, q[1] as f32, q[2] as f32, q[3] as f32),
     )
+}
+
+/// The MotionBenchMaker Panda's checker in `scene` (a path below `shared`)
+/// with `margin`; then `n` random configurations (seeded) checked one at a
+/// time `passes` times over (caches such as the world grid fill during the
+/// first pass), each answer asserted equal to the batch kernel's. Returns
+/// the checker and the batch answers.
+pub fn assert_single_matches_batch(
+    scene: &str,
+    margin: f64,
+    seed: u64,
+    n: usize,
+    passes: usize,
+) -> (CollisionChecker, Vec<bool>) {
+    let (model, spheres, acm) = mbm_panda();
+    let world = CollisionWorld::from_moveit_scene(shared(scene)).unwrap();
+    let mut checker = CollisionChecker::new(model.clone(), spheres, acm, world).unwrap();
+    checker.set_margin(margin).unwrap();
+    let mut rng = StdRng::seed_from_u64(seed);
+    let qs: Vec<f64> = (0..n).flat_map(|_| random_q(&model, &mut rng)).collect();
+    let batch = checker.in_collision_batch(&qs).unwrap();
+    for _ in 0..passes {
+        for (i, q) in qs.chunks(model.num_dof()).enumerate() {
+            assert_eq!(checker.in_collision(q).unwrap(), batch[i], "{scene} {q:?}");
+        }
+    }
+    (checker, batch)
 }
