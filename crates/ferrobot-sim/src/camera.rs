@@ -171,7 +171,7 @@ struct Item {
 }
 
 /// A primitive placed in the camera frame for analytic ray casts.
-#[derive(Clone, Copy)]
+#[derive(Clone)]
 enum Fast {
     /// Use parry.
     None,
@@ -184,6 +184,12 @@ enum Fast {
     /// Cylinder along local y: camera-to-local rotation, camera origin in
     /// the local frame, half height, radius.
     Cylinder(Mat3, Vector, f32, f32),
+    /// Convex polyhedron (convex hulls, parts of convex decompositions):
+    /// its face planes (outward normal n, offset d; inside is n·x <= d) in
+    /// the camera frame. Parry casts these through GJK, which on thin hulls
+    /// returned hits centimetres outside the shape (a phantom fin 4.5 cm
+    /// above one of pybullet_data's random meshes).
+    Convex(Vec<(Vector, f32)>),
 }
 
 impl Fast {
@@ -202,6 +208,20 @@ impl Fast {
             Self::Cuboid(to_local, origin, c.half_extents)
         } else if let Some(c) = shape.as_cylinder() {
             Self::Cylinder(to_local, origin, c.half_height, c.radius)
+        } else if let Some(c) = shape.as_convex_polyhedron() {
+            let adj = c.vertices_adj_to_face();
+            Self::Convex(
+                c.faces()
+                    .iter()
+                    .map(|f| {
+                        let n = pose.rotation * f.normal;
+                        let p = pose.transform_point(
+                            c.points()[adj[f.first_vertex_or_edge as usize] as usize],
+                        );
+                        (n, n.dot(p))
+                    })
+                    .collect(),
+            )
         } else {
             Self::None
         }
@@ -212,6 +232,7 @@ impl Fast {
     #[inline]
     fn cast(&self, dir: Vector) -> Option<Option<(f32, Vector)>> {
         Some(match *self {
+            Self::Convex(ref planes) => ray_convex(dir, planes),
             Self::None => return None,
             Self::Capsule(pa, pb, r) => ray_capsule(dir, pa, pb, r),
             Self::Ball(c, r) => {
@@ -247,6 +268,30 @@ impl Fast {
             }
         })
     }
+}
+
+/// First intersection `t` (in units of `dir`, origin at the camera) of the
+/// ray with the convex polyhedron `planes` (outward normal, offset), and
+/// the outward normal there: the ray clipped by every face plane. `None`
+/// when missed or when the camera is inside.
+fn ray_convex(dir: Vector, planes: &[(Vector, f32)]) -> Option<(f32, Vector)> {
+    let (mut t_in, mut t_out) = (f32::NEG_INFINITY, f32::INFINITY);
+    let mut normal = Vector::ZERO;
+    for &(n, d) in planes {
+        let den = n.dot(dir);
+        if den < 0.0 {
+            let t = d / den;
+            if t > t_in {
+                t_in = t;
+                normal = n;
+            }
+        } else if den > 0.0 {
+            t_out = t_out.min(d / den);
+        } else if d < 0.0 {
+            return None;
+        }
+    }
+    (t_in > 0.0 && t_in <= t_out).then_some((t_in, normal))
 }
 
 /// First hit of `o + t d` (local frame) with a capped cylinder along y;
