@@ -1,0 +1,137 @@
+//! The self pairs' bounding-sphere test of the single-configuration kernel,
+//! eight pairs per SIMD instruction.
+//!
+//! The bodies' bounding-sphere centres are kept eight bodies to a chunk
+//! (structure of arrays, [`BodyCentres`]). For each batch of eight pairs,
+//! lane permutes pick the two members' centres out of the chunks, and one
+//! distance test serves the eight pairs. Each lane computes exactly what the
+//! scalar test of its pair would (the centres' difference, its squares
+//! summed left to right, against `(reach + margin)^2`, a pair going on
+//! unless the distance is at least the reach), so the same pairs reach the
+//! sphere stage in the same order.
+
+use wide::{f32x8, u32x8};
+
+use crate::body_centres::BodyCentres;
+
+/// One member of each pair of a batch.
+#[derive(Debug, Clone)]
+struct Side {
+    /// The member's lane in its chunk, per pair.
+    lane: u32x8,
+    /// For each chunk after the first: the pairs whose member lies in it.
+    in_chunk: Vec<f32x8>,
+}
+
+impl Side {
+    /// This member's centres, x, y, z, one pair per lane.
+    #[inline(always)]
+    fn centres(&self, centres: &BodyCentres) -> [f32x8; 3] {
+        let chunks = centres.chunks();
+        let mut out = chunks[0].map(|v| v.shuffle(self.lane));
+        for (chunk, mask) in chunks[1..].iter().zip(&self.in_chunk) {
+            for (o, v) in out.iter_mut().zip(chunk) {
+                *o = mask.select(v.shuffle(self.lane), *o);
+            }
+        }
+        out
+    }
+}
+
+/// Eight self pairs.
+#[derive(Debug, Clone)]
+struct Batch {
+    sides: [Side; 2],
+    /// Sums of the two bounding radii (0 in padding lanes).
+    reach: f32x8,
+    /// Lanes that hold a pair.
+    valid: u32,
+}
+
+/// The self pairs' bounding spheres, batched (see the module docs).
+#[derive(Debug, Clone)]
+pub struct PairBounds {
+    batches: Vec<Batch>,
+}
+
+impl PairBounds {
+    /// Batches of `pairs` (body indices, for `num_bodies` bodies) with the
+    /// sums of their bounding radii `reach` (aligned with `pairs`).
+    pub fn new(pairs: &[(usize, usize)], reach: &[f32], num_bodies: usize) -> Self {
+        let chunks = num_bodies.div_ceil(8);
+        let batches = pairs
+            .chunks(8)
+            .zip(reach.chunks(8))
+            .map(|(pairs, reach)| {
+                let side = |member: fn(&(usize, usize)) -> usize| {
+                    let body = |i: usize| pairs.get(i).map_or(0, member);
+                    Side {
+                        lane: u32x8::new(std::array::from_fn(|i| (body(i) % 8) as u32)),
+                        in_chunk: (1..chunks)
+                            .map(|c| {
+                                let chunk =
+                                    f32x8::new(std::array::from_fn(|i| (body(i) / 8) as f32));
+                                chunk.simd_eq(f32x8::splat(c as f32))
+                            })
+                            .collect(),
+                    }
+                };
+                Batch {
+                    sides: [side(|p| p.0), side(|p| p.1)],
+                    reach: f32x8::new(std::array::from_fn(|i| {
+                        reach.get(i).copied().unwrap_or(0.0)
+                    })),
+                    valid: (1u32 << pairs.len()) - 1,
+                }
+            })
+            .collect();
+        Self { batches }
+    }
+
+    /// The pairs (indices into the pairs given to [`PairBounds::new`]), in
+    /// order, whose bounding spheres at `centres` are not at least their
+    /// reach plus `margin` apart. Batches are tested as the iterator
+    /// reaches them.
+    #[inline(always)]
+    pub fn near<'a>(&'a self, centres: &'a BodyCentres, margin: f32) -> Near<'a> {
+        Near {
+            bounds: self,
+            centres,
+            margin: f32x8::splat(margin),
+            next_batch: 0,
+            bits: 0,
+        }
+    }
+}
+
+/// Iterator of [`PairBounds::near`].
+#[derive(Debug)]
+pub struct Near<'a> {
+    bounds: &'a PairBounds,
+    centres: &'a BodyCentres,
+    margin: f32x8,
+    next_batch: usize,
+    /// Near pairs of the current batch not yet returned.
+    bits: u32,
+}
+
+impl Iterator for Near<'_> {
+    type Item = usize;
+
+    #[inline(always)]
+    fn next(&mut self) -> Option<usize> {
+        while self.bits == 0 {
+            let batch = self.bounds.batches.get(self.next_batch)?;
+            self.next_batch += 1;
+            let [a, b] = &batch.sides;
+            let (ca, cb) = (a.centres(self.centres), b.centres(self.centres));
+            let d = [ca[0] - cb[0], ca[1] - cb[1], ca[2] - cb[2]];
+            let reach = batch.reach + self.margin;
+            let far = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).simd_ge(reach * reach);
+            self.bits = !far.to_bitmask() & batch.valid;
+        }
+        let i = self.bits.trailing_zeros() as usize;
+        self.bits &= self.bits - 1;
+        Some((self.next_batch - 1) * 8 + i)
+    }
+}
