@@ -15,12 +15,19 @@ impl BodyCentres {
         Self(vec![[f32x8::splat(f32::NAN); 3]; num_bodies.div_ceil(8)])
     }
 
-    /// Sets the centre of `body` from the first three lanes of `c`.
+    /// Sets the centres of bodies `0, 1, ...` from the first three lanes
+    /// of each item of `centres`.
     #[inline(always)]
-    pub fn set(&mut self, body: usize, c: f32x4) {
-        let chunk = &mut self.0[body / 8];
-        for (lanes, v) in chunk.iter_mut().zip(c.to_array()) {
-            lanes.as_mut_array()[body % 8] = v;
+    pub fn set_all(&mut self, mut centres: impl Iterator<Item = f32x4>) {
+        for chunk in &mut self.0 {
+            for lane in 0..8 {
+                let Some(c) = centres.next() else {
+                    return;
+                };
+                for (lanes, v) in chunk.iter_mut().zip(c.to_array()) {
+                    lanes.as_mut_array()[lane] = v;
+                }
+            }
         }
     }
 

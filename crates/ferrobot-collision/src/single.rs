@@ -108,9 +108,12 @@ pub fn check_one(
     } = s;
     forward_cols(robot, q, frames);
     done.fill(false);
-    for (bi, body) in robot.bodies.iter().enumerate() {
-        bounds.set(bi, apply_cols(&frames[body.frame], &body.bound.0));
-    }
+    bounds.set_all(
+        robot
+            .bodies
+            .iter()
+            .map(|b| apply_cols(&frames[b.frame], &b.bound.0)),
+    );
     let m8 = f32x8::splat(margin);
     let num_obstacles = world.obstacles.len();
     let num_bodies = robot.bodies.len();

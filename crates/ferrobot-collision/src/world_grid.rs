@@ -93,33 +93,41 @@ impl WorldGrid {
             // In range where it counts, so the plain truncating conversion is exact.
             ijk[a] = f.fast_trunc_int();
         }
-        let [i, j, k] = ijk.map(|v| v.to_array());
+        // At most 6 m / 5 cm + 1 = 121 cells per axis: inside lanes' indices
+        // stay far below 2^31.
+        let idx = ((ijk[0] * i32x8::splat(self.n[1] as i32) + ijk[1])
+            * i32x8::splat(self.n[2] as i32)
+            + ijk[2])
+            .to_array();
         let mut v = [0i32; 8];
         while inside != 0 {
             let l = inside.trailing_zeros() as usize;
             inside &= inside - 1;
-            let cell = [i[l], j[l], k[l]].map(|x| x as usize);
-            v[l] = self.cell(world, cell) as i32;
+            v[l] = self.cell(world, idx[l] as usize, || {
+                ijk.map(|c| c.to_array()[l] as usize)
+            }) as i32;
         }
         f32x8::from_i32x8(i32x8::new(v)) * f32x8::splat(QUANTUM)
     }
 
-    /// The stored bound of cell `ijk` (in the grid), filled on first use.
+    /// The stored bound of cell `idx` (cell `ijk()` of the grid), filled on
+    /// first use.
     #[inline(always)]
-    fn cell(&self, world: &CompiledWorld, ijk: [usize; 3]) -> u8 {
-        let idx = (ijk[0] * self.n[1] + ijk[1]) * self.n[2] + ijk[2];
+    fn cell(&self, world: &CompiledWorld, idx: usize, ijk: impl FnOnce() -> [usize; 3]) -> u8 {
         let Some(cell) = self.cells.get(idx) else {
             return 0;
         };
         let mut v = cell.load(Ordering::Relaxed);
         if v == UNKNOWN {
-            v = self.fill(world, ijk);
+            v = self.fill(world, ijk());
             cell.store(v, Ordering::Relaxed);
         }
         v
     }
 
     /// The stored bound of cell (`i`, `j`, `k`).
+    #[cold]
+    #[inline(never)]
     fn fill(&self, world: &CompiledWorld, ijk: [usize; 3]) -> u8 {
         let c = [0, 1, 2].map(|a| self.origin[a] + (ijk[a] as f32 + 0.5) * CELL);
         let nearest = world
