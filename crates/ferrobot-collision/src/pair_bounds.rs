@@ -135,3 +135,61 @@ impl Iterator for Near<'_> {
         Some((self.next_batch - 1) * 8 + i)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use wide::f32x4;
+
+    /// The near pairs are exactly those the scalar test keeps (the
+    /// single kernel's former loop), in order, for three chunks of bodies,
+    /// every pair, several margins and a NaN centre.
+    #[test]
+    fn near_pairs_match_the_scalar_test() {
+        let n = 19;
+        let mut seed = 7u32;
+        let mut rnd = || {
+            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (seed >> 8) as f32 / (1u32 << 24) as f32
+        };
+        let pairs: Vec<(usize, usize)> = (0..n)
+            .flat_map(|a| (a + 1..n).map(move |b| (a, b)))
+            .filter(|&(a, b)| (a * 7 + b) % 5 != 0)
+            .collect();
+        let reach: Vec<f32> = pairs.iter().map(|_| 0.05 + 0.3 * rnd()).collect();
+        let bounds = PairBounds::new(&pairs, &reach, n);
+        let mut centres = BodyCentres::new(n);
+        let (mut near, mut far) = (0, 0);
+        for trial in 0..200 {
+            let cs: Vec<[f32; 4]> = (0..n)
+                .map(|i| {
+                    if trial % 50 == 3 && i == 11 {
+                        [f32::NAN; 4]
+                    } else {
+                        [rnd(), rnd(), rnd(), 0.0]
+                    }
+                })
+                .collect();
+            centres.set_all(cs.iter().map(|&c| f32x4::from(c)));
+            let margin = [0.0, 0.02, -0.01][trial % 3];
+            let want: Vec<usize> = pairs
+                .iter()
+                .enumerate()
+                .filter(|&(pi, &(a, b))| {
+                    let (ca, cb) = (centres.get(a), centres.get(b));
+                    let r = reach[pi] + margin;
+                    let d = [ca[0] - cb[0], ca[1] - cb[1], ca[2] - cb[2]];
+                    // Near unless at least the reach apart (NaN is near).
+                    let far = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) >= r * r;
+                    !far
+                })
+                .map(|(pi, _)| pi)
+                .collect();
+            let got: Vec<usize> = bounds.near(&centres, margin).collect();
+            assert_eq!(got, want, "trial {trial}");
+            near += want.len();
+            far += pairs.len() - want.len();
+        }
+        assert!(near > 1000 && far > 1000, "{near} {far}");
+    }
+}
