@@ -175,14 +175,14 @@ pub fn check_one(
         }
     }
     for pi in pair_bounds.near(bounds, margin) {
-        let (a, b) = robot.pairs[pi];
-        let cb = bounds.get(b);
         // Bounds overlap: a clearance map may still vouch for the pair.
         if let Some(Some(map)) = robot.pair_maps.get(pi)
             && map.clear(q, margin)
         {
             continue;
         }
+        let (a, b) = robot.pairs[pi];
+        let cb = bounds.get(b);
         let (ba, bb) = (&robot.bodies[a], &robot.bodies[b]);
         ensure_packs(robot, a, frames, done, packs);
         ensure_packs(robot, b, frames, done, packs);
