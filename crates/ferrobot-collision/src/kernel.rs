@@ -179,10 +179,11 @@ pub fn forward_cols(robot: &CompiledRobot, q: &[f32], cols: &mut [Cols]) {
                 }
             }
             let mut t = p[3];
-            for (pl, &tl) in p.iter().zip(&k.t) {
-                if tl != 0.0 {
-                    t = *pl * f32x4::splat(tl) + t;
-                }
+            let mut axes = step.t_axes;
+            while axes != 0 {
+                let l = axes.trailing_zeros() as usize;
+                axes &= axes - 1;
+                t = p[l] * f32x4::splat(k.t[l]) + t;
             }
             m[3] = t;
             if step.prismatic {
