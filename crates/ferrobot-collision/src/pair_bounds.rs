@@ -2,50 +2,34 @@
 //! eight pairs per SIMD instruction.
 //!
 //! The bodies' bounding-sphere centres are kept eight bodies to a chunk
-//! (structure of arrays, [`BodyCentres`]). For each batch of eight pairs,
-//! lane permutes pick the two members' centres out of the chunks, and one
+//! (structure of arrays, [`BodyCentres`]). Pairs are batched eight at a
+//! time by the chunks of their two members, so that one lane permute per
+//! coordinate picks each member's centres out of its chunk, and one
 //! distance test serves the eight pairs. Each lane computes exactly what the
 //! scalar test of its pair would (the centres' difference, its squares
 //! summed left to right, against `(reach + margin)^2`, a pair going on
 //! unless the distance is at least the reach), so the same pairs reach the
-//! sphere stage in the same order.
+//! sphere stage; only their order differs, which cannot change whether any
+//! of them collides.
 
 use wide::{f32x8, u32x8};
 
 use crate::body_centres::BodyCentres;
 
-/// One member of each pair of a batch.
-#[derive(Debug, Clone)]
-struct Side {
-    /// The member's lane in its chunk, per pair.
-    lane: u32x8,
-    /// For each chunk after the first: the pairs whose member lies in it.
-    in_chunk: Vec<f32x8>,
-}
-
-impl Side {
-    /// This member's centres, x, y, z, one pair per lane.
-    #[inline(always)]
-    fn centres(&self, centres: &BodyCentres) -> [f32x8; 3] {
-        let chunks = centres.chunks();
-        let mut out = chunks[0].map(|v| v.shuffle(self.lane));
-        for (chunk, mask) in chunks[1..].iter().zip(&self.in_chunk) {
-            for (o, v) in out.iter_mut().zip(chunk) {
-                *o = mask.select(v.shuffle(self.lane), *o);
-            }
-        }
-        out
-    }
-}
-
-/// Eight self pairs.
+/// Eight self pairs whose first members lie in one chunk of bodies and
+/// whose second members lie in one chunk.
 #[derive(Debug, Clone)]
 struct Batch {
-    sides: [Side; 2],
+    /// The chunks of the two members.
+    chunks: [usize; 2],
+    /// The two members' lanes in their chunks, per pair.
+    lanes: [u32x8; 2],
     /// Sums of the two bounding radii (0 in padding lanes).
     reach: f32x8,
     /// Lanes that hold a pair.
     valid: u32,
+    /// The pairs' indices (see [`PairBounds::new`]), per lane.
+    pairs: [usize; 8],
 }
 
 /// The self pairs' bounding spheres, batched (see the module docs).
@@ -59,39 +43,39 @@ impl PairBounds {
     /// sums of their bounding radii `reach` (aligned with `pairs`).
     pub fn new(pairs: &[(usize, usize)], reach: &[f32], num_bodies: usize) -> Self {
         let chunks = num_bodies.div_ceil(8);
-        let batches = pairs
-            .chunks(8)
-            .zip(reach.chunks(8))
-            .map(|(pairs, reach)| {
-                let side = |member: fn(&(usize, usize)) -> usize| {
-                    let body = |i: usize| pairs.get(i).map_or(0, member);
-                    Side {
-                        lane: u32x8::new(std::array::from_fn(|i| (body(i) % 8) as u32)),
-                        in_chunk: (1..chunks)
-                            .map(|c| {
-                                let chunk =
-                                    f32x8::new(std::array::from_fn(|i| (body(i) / 8) as f32));
-                                chunk.simd_eq(f32x8::splat(c as f32))
-                            })
-                            .collect(),
-                    }
-                };
-                Batch {
-                    sides: [side(|p| p.0), side(|p| p.1)],
-                    reach: f32x8::new(std::array::from_fn(|i| {
-                        reach.get(i).copied().unwrap_or(0.0)
-                    })),
-                    valid: (1u32 << pairs.len()) - 1,
+        let mut batches = Vec::new();
+        for ca in 0..chunks {
+            for cb in 0..chunks {
+                let group: Vec<usize> = (0..pairs.len())
+                    .filter(|&pi| pairs[pi].0 / 8 == ca && pairs[pi].1 / 8 == cb)
+                    .collect();
+                for group in group.chunks(8) {
+                    let lane = |member: fn(&(usize, usize)) -> usize| {
+                        u32x8::new(std::array::from_fn(|i| {
+                            group
+                                .get(i)
+                                .map_or(0, |&pi| (member(&pairs[pi]) % 8) as u32)
+                        }))
+                    };
+                    batches.push(Batch {
+                        chunks: [ca, cb],
+                        lanes: [lane(|p| p.0), lane(|p| p.1)],
+                        reach: f32x8::new(std::array::from_fn(|i| {
+                            group.get(i).map_or(0.0, |&pi| reach[pi])
+                        })),
+                        valid: (1u32 << group.len()) - 1,
+                        pairs: std::array::from_fn(|i| group.get(i).copied().unwrap_or(0)),
+                    });
                 }
-            })
-            .collect();
+            }
+        }
         Self { batches }
     }
 
-    /// The pairs (indices into the pairs given to [`PairBounds::new`]), in
-    /// order, whose bounding spheres at `centres` are not at least their
-    /// reach plus `margin` apart. Batches are tested as the iterator
-    /// reaches them.
+    /// The pairs (indices into the pairs given to [`PairBounds::new`]),
+    /// each once, in batch order, whose bounding spheres at `centres` are
+    /// not at least their reach plus `margin` apart. Batches are tested as
+    /// the iterator reaches them.
     #[inline(always)]
     pub fn near<'a>(&'a self, centres: &'a BodyCentres, margin: f32) -> Near<'a> {
         Near {
@@ -123,8 +107,9 @@ impl Iterator for Near<'_> {
         while self.bits == 0 {
             let batch = self.bounds.batches.get(self.next_batch)?;
             self.next_batch += 1;
-            let [a, b] = &batch.sides;
-            let (ca, cb) = (a.centres(self.centres), b.centres(self.centres));
+            let chunks = self.centres.chunks();
+            let [ca, cb] =
+                [0, 1].map(|s| chunks[batch.chunks[s]].map(|v| v.shuffle(batch.lanes[s])));
             let d = [ca[0] - cb[0], ca[1] - cb[1], ca[2] - cb[2]];
             let reach = batch.reach + self.margin;
             let far = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).simd_ge(reach * reach);
@@ -132,7 +117,7 @@ impl Iterator for Near<'_> {
         }
         let i = self.bits.trailing_zeros() as usize;
         self.bits &= self.bits - 1;
-        Some((self.next_batch - 1) * 8 + i)
+        Some(self.bounds.batches[self.next_batch - 1].pairs[i])
     }
 }
 
@@ -142,7 +127,7 @@ mod tests {
     use wide::f32x4;
 
     /// The near pairs are exactly those the scalar test keeps (the
-    /// single kernel's former loop), in order, for three chunks of bodies,
+    /// single kernel's former loop), each once, for three chunks of bodies,
     /// every pair, several margins and a NaN centre.
     #[test]
     fn near_pairs_match_the_scalar_test() {
@@ -185,7 +170,8 @@ mod tests {
                 })
                 .map(|(pi, _)| pi)
                 .collect();
-            let got: Vec<usize> = bounds.near(&centres, margin).collect();
+            let mut got: Vec<usize> = bounds.near(&centres, margin).collect();
+            got.sort_unstable();
             assert_eq!(got, want, "trial {trial}");
             near += want.len();
             far += pairs.len() - want.len();
