@@ -31,6 +31,9 @@ pub struct OneScratch {
     bounds: BodyCentres,
     /// Bounding radii, eight bodies per chunk (padding 0).
     bound_r: Vec<f32x8>,
+    /// Per chunk of eight bodies: the bodies (bit per lane), and those not
+    /// fixed to the base.
+    in_chunk: Vec<(u32, u32)>,
     pair_bounds: PairBounds,
     packs: Vec<[f32x8; 3]>,
     done: Vec<bool>,
@@ -48,6 +51,19 @@ impl OneScratch {
                     f32x8::new(std::array::from_fn(|i| {
                         robot.bodies.get(c * 8 + i).map_or(0.0, |b| b.bound.1)
                     }))
+                })
+                .collect(),
+            in_chunk: robot
+                .bodies
+                .chunks(8)
+                .map(|c| {
+                    let bits = |f: &dyn Fn(&crate::compiled::Body) -> bool| {
+                        c.iter()
+                            .enumerate()
+                            .filter(|(_, b)| f(b))
+                            .fold(0u32, |m, (i, _)| m | 1 << i)
+                    };
+                    (bits(&|_| true), bits(&|b| b.frame != 0))
                 })
                 .collect(),
             pair_bounds: PairBounds::new(&robot.pairs, &robot.pair_reach, n),
@@ -102,6 +118,7 @@ pub fn check_one(
         frames,
         bounds,
         bound_r,
+        in_chunk,
         pair_bounds,
         packs,
         done,
@@ -116,27 +133,29 @@ pub fn check_one(
     );
     let m8 = f32x8::splat(margin);
     let num_obstacles = world.obstacles.len();
-    let num_bodies = robot.bodies.len();
     // Distal bodies first: they collide most often.
-    for (chunk, (centres, r)) in bounds.chunks().iter().zip(bound_r.iter()).enumerate().rev() {
-        let mut todo = if num_bodies - chunk * 8 >= 8 {
-            0xff
-        } else {
-            (1u32 << (num_bodies - chunk * 8)) - 1
-        };
+    for (chunk, ((centres, r), &(all, moving))) in bounds
+        .chunks()
+        .iter()
+        .zip(bound_r.iter())
+        .zip(in_chunk.iter())
+        .enumerate()
+        .rev()
+    {
+        let mut todo = if skip_static { moving } else { all };
         // Most bodies are far from everything: one grid lookup shows it.
         if let Some(g) = grid {
             let reach = (*r + m8) + f32x8::splat(SLACK);
-            todo &= !g.clearances(world, centres).simd_gt(reach).to_bitmask();
+            todo &= !g
+                .clearances(world, centres, todo)
+                .simd_gt(reach)
+                .to_bitmask();
         }
         while todo != 0 {
             let lane = 31 - todo.leading_zeros() as usize;
             todo &= !(1 << lane);
             let bi = chunk * 8 + lane;
             let body = &robot.bodies[bi];
-            if body.frame == 0 && skip_static {
-                continue;
-            }
             let bc = bounds.get(bi);
             let (x, y, z) = (
                 f32x8::splat(bc[0]),

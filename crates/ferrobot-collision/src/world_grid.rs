@@ -40,6 +40,8 @@ pub const SLACK: f32 = 1e-4;
 pub struct WorldGrid {
     origin: [f32; 3],
     n: [usize; 3],
+    /// `n` as `f32`.
+    n_f32: [f32; 3],
     cells: Box<[AtomicU8]>,
 }
 
@@ -70,6 +72,7 @@ impl WorldGrid {
         Some(Self {
             origin: lo,
             n,
+            n_f32: n.map(|x| x as f32),
             cells,
         })
     }
@@ -77,19 +80,20 @@ impl WorldGrid {
     /// A lower bound on the distance from `p` to every obstacle of `world`
     /// (the world the grid was made for); 0 outside the grid.
     pub fn clearance(&self, world: &CompiledWorld, p: &[f32; 3]) -> f32 {
-        self.clearances(world, &p.map(f32x8::splat)).as_array()[0]
+        self.clearances(world, &p.map(f32x8::splat), 1).as_array()[0]
     }
 
-    /// [`WorldGrid::clearance`] of eight points at once (x, y, z lanes).
+    /// [`WorldGrid::clearance`] of eight points at once (x, y, z lanes),
+    /// for the lanes set in `lanes` (0 in the others).
     #[inline(always)]
-    pub fn clearances(&self, world: &CompiledWorld, p: &[f32x8; 3]) -> f32x8 {
+    pub fn clearances(&self, world: &CompiledWorld, p: &[f32x8; 3], lanes: u32) -> f32x8 {
         let zero = f32x8::splat(0.0);
-        let mut inside = u32::MAX;
+        let mut inside = lanes;
         let mut ijk = [i32x8::splat(0); 3];
         for a in 0..3 {
             let f = (p[a] - f32x8::splat(self.origin[a])) * f32x8::splat(1.0 / CELL);
             // In [0, n) (NaN fails both tests).
-            inside &= (f.simd_ge(zero) & f.simd_lt(f32x8::splat(self.n[a] as f32))).to_bitmask();
+            inside &= (f.simd_ge(zero) & f.simd_lt(f32x8::splat(self.n_f32[a]))).to_bitmask();
             // In range where it counts, so the plain truncating conversion is exact.
             ijk[a] = f.fast_trunc_int();
         }
