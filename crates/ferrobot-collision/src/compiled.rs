@@ -94,6 +94,9 @@ pub struct Step {
     /// [`Frame32::signed_permutation`]), which the forward kinematics
     /// applies by picking columns instead of a matrix product.
     pub perm: Option<([usize; 3], [f32; 3])>,
+    /// Bit `l` set where `k.t[l]` is not zero: the kinematics adds only
+    /// those translation terms, in increasing `l`.
+    pub t_axes: u8,
 }
 
 /// A body of the sphere model: a link (or an attached object) whose spheres
@@ -263,6 +266,7 @@ impl CompiledRobot {
                     steps.push(Step {
                         parent: pframe,
                         perm: k.signed_permutation(),
+                        t_axes: (0..3).filter(|&l| k.t[l] != 0.0).fold(0, |m, l| m | 1 << l),
                         k,
                         prismatic: kind == JointKind::Prismatic,
                         dof,

@@ -135,31 +135,24 @@ pub fn forward<L: Lanes>(robot: &CompiledRobot, q: &[L], scratch: &mut Scratch<L
     }
 }
 
-/// Forward kinematics of one configuration with each frame held as four
-/// `f32x4` columns (rotation columns, then translation), written out as
-/// row-major [`LaneFrame`]s. Every entry goes through the same operations,
-/// in the same order, as in [`forward`], so the frames are bit-identical to
-/// `forward::<f32>`'s (tested); the columns just let one instruction serve
-/// three rows.
-pub fn forward_one(robot: &CompiledRobot, q: &[f32], scratch: &mut Scratch<f32>) {
-    type Cols = [f32x4; 4];
+/// A frame of one configuration as four `f32x4` columns: the rotation's
+/// three columns, then the translation (fourth lanes 0).
+pub type Cols = [f32x4; 4];
+
+/// Forward kinematics of one configuration with each frame held as
+/// [`Cols`]: `cols[f]` is frame `f` (`cols` holds
+/// [`CompiledRobot::num_frames`] frames). Every entry goes through the same
+/// operations, in the same order, as in [`forward`], so the frames are
+/// bit-identical to `forward::<f32>`'s (tested); the columns just let one
+/// instruction serve three rows.
+pub fn forward_cols(robot: &CompiledRobot, q: &[f32], cols: &mut [Cols]) {
     let zero4 = f32x4::splat(0.0);
-    let mut cols: Vec<Cols> = Vec::new();
-    let mut stack: [Cols; 24] = [[zero4; 4]; 24];
-    let n = robot.steps.len() + 1;
-    let store: &mut [Cols] = if n <= stack.len() {
-        &mut stack[..n]
-    } else {
-        cols.resize(n, [zero4; 4]);
-        &mut cols
-    };
-    store[0] = [
+    cols[0] = [
         f32x4::from([1.0, 0.0, 0.0, 0.0]),
         f32x4::from([0.0, 1.0, 0.0, 0.0]),
         f32x4::from([0.0, 0.0, 1.0, 0.0]),
         zero4,
     ];
-    scratch.frames[0] = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0];
     for (block, steps) in robot.steps.chunks(8).enumerate() {
         let qj: [f32; 8] = std::array::from_fn(|i| match steps.get(i) {
             Some(st) => q[st.dof] * st.gain + st.offset,
@@ -168,8 +161,7 @@ pub fn forward_one(robot: &CompiledRobot, q: &[f32], scratch: &mut Scratch<f32>)
         let (s8, c8) = sin_cos(f32x8::from(qj));
         let (s8, c8) = (s8.to_array(), c8.to_array());
         for (i, step) in steps.iter().enumerate() {
-            let f = block * 8 + i;
-            let p = store[step.parent];
+            let p = cols[step.parent];
             let k = &step.k;
             let mut m: Cols = [zero4; 4];
             match step.perm {
@@ -187,10 +179,11 @@ pub fn forward_one(robot: &CompiledRobot, q: &[f32], scratch: &mut Scratch<f32>)
                 }
             }
             let mut t = p[3];
-            for (pl, &tl) in p.iter().zip(&k.t) {
-                if tl != 0.0 {
-                    t = *pl * f32x4::splat(tl) + t;
-                }
+            let mut axes = step.t_axes;
+            while axes != 0 {
+                let l = axes.trailing_zeros() as usize;
+                axes &= axes - 1;
+                t = p[l] * f32x4::splat(k.t[l]) + t;
             }
             m[3] = t;
             if step.prismatic {
@@ -201,12 +194,35 @@ pub fn forward_one(robot: &CompiledRobot, q: &[f32], scratch: &mut Scratch<f32>)
                 m[0] = x * cs + y * sn;
                 m[1] = y * cs - x * sn;
             }
-            store[f + 1] = m;
-            let [c0, c1, c2, t] = m.map(|c| c.to_array());
-            scratch.frames[f + 1] = [
-                c0[0], c1[0], c2[0], c0[1], c1[1], c2[1], c0[2], c1[2], c2[2], t[0], t[1], t[2],
-            ];
+            cols[block * 8 + i + 1] = m;
         }
+    }
+}
+
+/// The row-major [`LaneFrame`] of a frame held as [`Cols`].
+#[inline(always)]
+pub fn cols_to_frame(m: &Cols) -> LaneFrame<f32> {
+    let [c0, c1, c2, t] = m.map(|c| c.to_array());
+    [
+        c0[0], c1[0], c2[0], c0[1], c1[1], c2[1], c0[2], c1[2], c2[2], t[0], t[1], t[2],
+    ]
+}
+
+/// `m` applied to point `p`: the same operations per row as [`apply`], so
+/// the result equals `apply(&cols_to_frame(m), p)` bit for bit (fourth
+/// lane 0).
+#[inline(always)]
+pub fn apply_cols(m: &Cols, p: &[f32; 3]) -> f32x4 {
+    m[0] * f32x4::splat(p[0]) + m[1] * f32x4::splat(p[1]) + m[2] * f32x4::splat(p[2]) + m[3]
+}
+
+/// [`forward_cols`] written out as row-major frames into `scratch` (see
+/// [`Scratch::frames`]).
+pub fn forward_one(robot: &CompiledRobot, q: &[f32], scratch: &mut Scratch<f32>) {
+    let mut cols = vec![[f32x4::splat(0.0); 4]; scratch.frames.len()];
+    forward_cols(robot, q, &mut cols);
+    for (f, m) in scratch.frames.iter_mut().zip(&cols) {
+        *f = cols_to_frame(m);
     }
 }
 

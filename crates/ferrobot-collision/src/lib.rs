@@ -8,6 +8,7 @@
 //! motions, with bit-identical results per configuration.
 
 pub mod acm;
+pub mod body_centres;
 pub mod checker;
 pub mod cloud;
 pub mod compiled;
@@ -17,6 +18,7 @@ pub mod exact;
 pub mod kernel;
 pub mod lanes;
 pub mod moveit;
+pub mod pair_bounds;
 pub mod pair_map;
 pub mod robot_spheres;
 pub mod shapes;

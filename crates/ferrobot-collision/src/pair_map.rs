@@ -22,7 +22,7 @@ use std::hash::{Hash, Hasher};
 use std::sync::{Arc, Mutex, OnceLock};
 
 use rayon::prelude::*;
-use wide::f32x8;
+use wide::{f32x4, f32x8, i32x4};
 
 use crate::compiled::CompiledRobot;
 use crate::kernel::{LaneFrame, Scratch, apply, forward};
@@ -40,12 +40,13 @@ const SLACK: f32 = 1e-4;
 pub struct PairMap {
     /// The two DOFs whose coordinates index the map.
     dofs: [usize; 2],
-    /// Lower joint limits of the two DOFs.
-    lo: [f32; 2],
-    /// Upper joint limits of the two DOFs.
-    hi: [f32; 2],
-    /// Cells per unit of each coordinate.
-    inv_h: [f32; 2],
+    /// Lower joint limits of the two DOFs (lanes 0 and 1; lanes 2 and 3
+    /// are 0).
+    lo: f32x4,
+    /// Upper joint limits of the two DOFs (lanes as in `lo`).
+    hi: f32x4,
+    /// Cells per unit of each coordinate (lanes as in `lo`).
+    inv_h: f32x4,
     /// Margin the map was built for: it is valid for margins up to this.
     margin: f32,
     /// One bit per cell, row-major over (first DOF, second DOF).
@@ -83,15 +84,19 @@ impl PairMap {
     /// Whether the cell at coordinates (`x`, `y`) of the two DOFs is clear.
     #[inline(always)]
     fn clear_at(&self, x: f32, y: f32, margin: f32) -> bool {
-        // `!(a <= b)` is also true for NaN.
-        if !(x >= self.lo[0] && x <= self.hi[0] && y >= self.lo[1] && y <= self.hi[1])
-            || margin > self.margin
+        let v = f32x4::from([x, y, 0.0, 0.0]);
+        // Both coordinates within the limits (NaN fails).
+        if (v.simd_ge(self.lo) & v.simd_le(self.hi)).to_bitmask() != 0b1111 || margin > self.margin
         {
             return false;
         }
-        let i = (((x - self.lo[0]) * self.inv_h[0]) as i32 as usize).min(CELLS - 1);
-        let j = (((y - self.lo[1]) * self.inv_h[1]) as i32 as usize).min(CELLS - 1);
-        let k = i * CELLS + j;
+        // In [0, CELLS] after the test above, so the plain truncating
+        // conversion is exact.
+        let ij = ((v - self.lo) * self.inv_h)
+            .fast_trunc_int()
+            .min(i32x4::splat(CELLS as i32 - 1))
+            .to_array();
+        let k = ij[0] as usize * CELLS + ij[1] as usize;
         self.bits[k >> 6] >> (k & 63) & 1 == 1
     }
 
@@ -249,9 +254,9 @@ impl Plan {
         }
         PairMap {
             dofs: self.dofs,
-            lo: self.lo,
-            hi: self.hi,
-            inv_h: h.map(|x| 1.0 / x),
+            lo: lanes2(self.lo),
+            hi: lanes2(self.hi),
+            inv_h: lanes2(h.map(|x| 1.0 / x)),
             margin,
             bits,
             clear_fraction: clear as f64 / (CELLS * CELLS) as f64,
@@ -292,6 +297,11 @@ impl Plan {
         }
         true
     }
+}
+
+/// `v` in lanes 0 and 1, lanes 2 and 3 zero.
+fn lanes2(v: [f32; 2]) -> f32x4 {
+    f32x4::from([v[0], v[1], 0.0, 0.0])
 }
 
 fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
@@ -373,9 +383,9 @@ mod tests {
     fn cell_index_handles_bounds_and_nan() {
         let map = PairMap {
             dofs: [0, 1],
-            lo: [-1.0, 0.0],
-            hi: [1.0, 2.0],
-            inv_h: [CELLS as f32 / 2.0, CELLS as f32 / 2.0],
+            lo: lanes2([-1.0, 0.0]),
+            hi: lanes2([1.0, 2.0]),
+            inv_h: lanes2([CELLS as f32 / 2.0, CELLS as f32 / 2.0]),
             margin: 0.01,
             bits: vec![u64::MAX; (CELLS * CELLS).div_ceil(64)],
             clear_fraction: 1.0,
@@ -388,5 +398,47 @@ mod tests {
         );
         assert!(!map.clear(&[1.1, 1.0], 0.0), "outside the limits");
         assert!(!map.clear(&[f32::NAN, 1.0], 0.0));
+    }
+
+    /// The cell looked up is the one of the scalar formula the maps were
+    /// built for (`(x - lo) * inv_h` truncated, at most `CELLS - 1`), at
+    /// random points, cell edges and the limits.
+    #[test]
+    fn cell_lookup_matches_scalar_index() {
+        let (lo, hi) = ([-2.8973f32, -0.0175], [2.8973f32, 3.7525]);
+        let inv_h = [0, 1].map(|i| CELLS as f32 / (hi[i] - lo[i]));
+        let mut seed = 3u64;
+        let mut next = || {
+            seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+            seed >> 11
+        };
+        let bits: Vec<u64> = (0..(CELLS * CELLS).div_ceil(64)).map(|_| next()).collect();
+        let map = PairMap {
+            dofs: [0, 1],
+            lo: lanes2(lo),
+            hi: lanes2(hi),
+            inv_h: lanes2(inv_h),
+            margin: 0.0,
+            bits: bits.clone(),
+            clear_fraction: 0.5,
+        };
+        let mut points: Vec<[f32; 2]> = (0..20_000)
+            .map(|_| [0, 1].map(|i| lo[i] + (hi[i] - lo[i]) * (next() % 1_000_001) as f32 / 1e6))
+            .collect();
+        for k in 0..=CELLS {
+            let edge = [0, 1].map(|i| lo[i] + k as f32 / inv_h[i]);
+            points.push(edge.map(|e| e.clamp(lo[0].min(lo[1]), hi[0].max(hi[1]))));
+        }
+        points.extend([lo, hi, [lo[0], hi[1]], [hi[0], lo[1]]]);
+        for p in points {
+            let inside = (0..2).all(|i| p[i] >= lo[i] && p[i] <= hi[i]);
+            let want = inside && {
+                let c =
+                    [0, 1].map(|i| (((p[i] - lo[i]) * inv_h[i]) as i32 as usize).min(CELLS - 1));
+                let k = c[0] * CELLS + c[1];
+                bits[k >> 6] >> (k & 63) & 1 == 1
+            };
+            assert_eq!(map.clear(&p, 0.0), want, "{p:?}");
+        }
     }
 }

@@ -1,26 +1,40 @@
 //! The single-configuration kernel: one configuration, SIMD lanes over
-//! spheres.
+//! spheres and bodies.
 //!
 //! The batch kernel ([`crate::kernel::check`]) puts eight configurations in
 //! the lanes, which leaves seven lanes idle when a planner asks about one
-//! configuration. Here the forward kinematics runs in scalar `f32` (the same
-//! code as the batch kernel's) and each body's spheres are tested eight at a
-//! time ([`crate::compiled::SpherePack`]). Every per-sphere test is the same
-//! sequence of `f32` operations as in the batch kernel, so the two answer
-//! identically.
+//! configuration. Here the forward kinematics runs on `f32x4` columns
+//! ([`crate::kernel::forward_cols`], bit-identical to the batch kernel's
+//! frames), the bodies' bounding spheres are looked up in the world grid
+//! and tested pair against pair eight at a time
+//! ([`crate::body_centres`], [`crate::pair_bounds`]), and each body's
+//! spheres are tested eight at a time ([`crate::compiled::SpherePack`]).
+//! Every per-sphere test is the same sequence of `f32` operations as in the
+//! batch kernel, so the two answer identically.
 
-use wide::f32x8;
+use wide::{f32x4, f32x8};
 
+use crate::body_centres::BodyCentres;
 use crate::compiled::{CompiledRobot, CompiledWorld};
-use crate::kernel::{LaneFrame, Scratch, apply, complex_hits, forward_one, sphere_hits_prim};
+use crate::kernel::{
+    Cols, apply_cols, cols_to_frame, complex_hits, forward_cols, sphere_hits_prim,
+};
 use crate::lanes::Lanes;
+use crate::pair_bounds::PairBounds;
 use crate::world_grid::{SLACK, WorldGrid};
 
-/// Buffers of [`check_one`] (one per thread).
+/// Buffers of [`check_one`] (one per thread), and the robot's self pairs
+/// batched for it.
 #[derive(Debug, Clone)]
 pub struct OneScratch {
-    lanes: Scratch<f32>,
-    bounds: Vec<[f32; 3]>,
+    frames: Vec<Cols>,
+    bounds: BodyCentres,
+    /// Bounding radii, eight bodies per chunk (padding 0).
+    bound_r: Vec<f32x8>,
+    /// Per chunk of eight bodies: the bodies (bit per lane), and those not
+    /// fixed to the base.
+    in_chunk: Vec<(u32, u32)>,
+    pair_bounds: PairBounds,
     packs: Vec<[f32x8; 3]>,
     done: Vec<bool>,
 }
@@ -28,11 +42,33 @@ pub struct OneScratch {
 impl OneScratch {
     /// Buffers sized for `robot`.
     pub fn new(robot: &CompiledRobot) -> Self {
+        let n = robot.bodies.len();
         Self {
-            lanes: Scratch::new(robot),
-            bounds: vec![[0.0; 3]; robot.bodies.len()],
+            frames: vec![[f32x4::splat(0.0); 4]; robot.num_frames()],
+            bounds: BodyCentres::new(n),
+            bound_r: (0..n.div_ceil(8))
+                .map(|c| {
+                    f32x8::new(std::array::from_fn(|i| {
+                        robot.bodies.get(c * 8 + i).map_or(0.0, |b| b.bound.1)
+                    }))
+                })
+                .collect(),
+            in_chunk: robot
+                .bodies
+                .chunks(8)
+                .map(|c| {
+                    let bits = |f: &dyn Fn(&crate::compiled::Body) -> bool| {
+                        c.iter()
+                            .enumerate()
+                            .filter(|(_, b)| f(b))
+                            .fold(0u32, |m, (i, _)| m | 1 << i)
+                    };
+                    (bits(&|_| true), bits(&|b| b.frame != 0))
+                })
+                .collect(),
+            pair_bounds: PairBounds::new(&robot.pairs, &robot.pair_reach, n),
             packs: vec![[f32x8::splat(0.0); 3]; robot.packs.len()],
-            done: vec![false; robot.bodies.len()],
+            done: vec![false; n],
         }
     }
 }
@@ -43,7 +79,7 @@ impl OneScratch {
 fn ensure_packs(
     robot: &CompiledRobot,
     bi: usize,
-    frames: &[LaneFrame<f32>],
+    frames: &[Cols],
     done: &mut [bool],
     packs: &mut [[f32x8; 3]],
 ) {
@@ -52,7 +88,7 @@ fn ensure_packs(
     }
     let b = &robot.bodies[bi];
     let range = b.first_pack..b.first_pack + b.pack_count;
-    let f = frames[b.frame].map(f32x8::splat);
+    let f = cols_to_frame(&frames[b.frame]).map(f32x8::splat);
     for (out, pack) in packs[range.clone()].iter_mut().zip(&robot.packs[range]) {
         let c = pack.c;
         *out = [
@@ -78,84 +114,97 @@ pub fn check_one(
     skip_static: bool,
     s: &mut OneScratch,
 ) -> bool {
-    forward_one(robot, q, &mut s.lanes);
     let OneScratch {
-        lanes,
+        frames,
         bounds,
+        bound_r,
+        in_chunk,
+        pair_bounds,
         packs,
         done,
     } = s;
-    let frames = lanes.frames();
+    forward_cols(robot, q, frames);
     done.fill(false);
-    for (bound, body) in bounds.iter_mut().zip(&robot.bodies) {
-        *bound = apply(&frames[body.frame], &body.bound.0);
-    }
+    bounds.set_all(
+        robot
+            .bodies
+            .iter()
+            .map(|b| apply_cols(&frames[b.frame], &b.bound.0)),
+    );
     let m8 = f32x8::splat(margin);
     let num_obstacles = world.obstacles.len();
     // Distal bodies first: they collide most often.
-    for (bi, (body, bc)) in robot.bodies.iter().zip(bounds.iter()).enumerate().rev() {
-        if body.frame == 0 && skip_static {
-            continue;
-        }
-        let bc = *bc;
-        let (x, y, z) = (
-            f32x8::splat(bc[0]),
-            f32x8::splat(bc[1]),
-            f32x8::splat(bc[2]),
-        );
-        let rb = f32x8::splat(body.bound.1);
-        let reach_body = body.bound.1 + margin;
+    for (chunk, ((centres, r), &(all, moving))) in bounds
+        .chunks()
+        .iter()
+        .zip(bound_r.iter())
+        .zip(in_chunk.iter())
+        .enumerate()
+        .rev()
+    {
+        let mut todo = if skip_static { moving } else { all };
         // Most bodies are far from everything: one grid lookup shows it.
-        if let Some(g) = grid
-            && g.clearance(world, &bc) > reach_body + SLACK
-        {
-            continue;
+        if let Some(g) = grid {
+            let reach = (*r + m8) + f32x8::splat(SLACK);
+            todo &= !g
+                .clearances(world, centres, todo)
+                .simd_gt(reach)
+                .to_bitmask();
         }
-        for (ci, chunk) in world.bound_soa.iter().enumerate() {
-            // The body's bounding sphere against eight obstacle bounds.
-            let (dx, dy, dz) = (x - chunk[0], y - chunk[1], z - chunk[2]);
-            let reach = (rb + chunk[3]) + m8;
-            let valid = (num_obstacles - ci * 8).min(8);
-            let mut bits =
-                (dx * dx + dy * dy + dz * dz).lt_mask(reach * reach) & ((1u32 << valid) - 1);
-            while bits != 0 {
-                let obs = &world.obstacles[ci * 8 + bits.trailing_zeros() as usize];
-                bits &= bits - 1;
-                if obs.complex.is_none() && sphere_hits_prim(&obs.prim, &bc, reach_body) == 0 {
-                    continue;
-                }
-                ensure_packs(robot, bi, frames, done, packs);
-                let range = body.first_pack..body.first_pack + body.pack_count;
-                for (c, pack) in packs[range.clone()].iter().zip(&robot.packs[range]) {
-                    let r = pack.r + m8;
-                    let hit = match &obs.complex {
-                        Some((shape, pose)) => complex_hits(shape, pose, c, r, 0xff),
-                        None => sphere_hits_prim(&obs.prim, c, r),
-                    };
-                    if hit != 0 {
-                        return true;
+        while todo != 0 {
+            let lane = 31 - todo.leading_zeros() as usize;
+            todo &= !(1 << lane);
+            let bi = chunk * 8 + lane;
+            let body = &robot.bodies[bi];
+            let bc = bounds.get(bi);
+            let (x, y, z) = (
+                f32x8::splat(bc[0]),
+                f32x8::splat(bc[1]),
+                f32x8::splat(bc[2]),
+            );
+            let rb = f32x8::splat(body.bound.1);
+            let reach_body = body.bound.1 + margin;
+            for (ci, chunk) in world.bound_soa.iter().enumerate() {
+                // The body's bounding sphere against eight obstacle bounds.
+                let (dx, dy, dz) = (x - chunk[0], y - chunk[1], z - chunk[2]);
+                let reach = (rb + chunk[3]) + m8;
+                let valid = (num_obstacles - ci * 8).min(8);
+                let mut bits =
+                    (dx * dx + dy * dy + dz * dz).lt_mask(reach * reach) & ((1u32 << valid) - 1);
+                while bits != 0 {
+                    let obs = &world.obstacles[ci * 8 + bits.trailing_zeros() as usize];
+                    bits &= bits - 1;
+                    if obs.complex.is_none() && sphere_hits_prim(&obs.prim, &bc, reach_body) == 0 {
+                        continue;
+                    }
+                    ensure_packs(robot, bi, frames, done, packs);
+                    let range = body.first_pack..body.first_pack + body.pack_count;
+                    for (c, pack) in packs[range.clone()].iter().zip(&robot.packs[range]) {
+                        let r = pack.r + m8;
+                        let hit = match &obs.complex {
+                            Some((shape, pose)) => complex_hits(shape, pose, c, r, 0xff),
+                            None => sphere_hits_prim(&obs.prim, c, r),
+                        };
+                        if hit != 0 {
+                            return true;
+                        }
                     }
                 }
             }
         }
     }
-    for (pi, &(a, b)) in robot.pairs.iter().enumerate() {
-        let (ca, cb) = (bounds[a], bounds[b]);
-        let reach = robot.pair_reach[pi] + margin;
-        let d = [ca[0] - cb[0], ca[1] - cb[1], ca[2] - cb[2]];
-        if (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) >= reach * reach {
-            continue;
-        }
+    for pi in pair_bounds.near(bounds, margin) {
         // Bounds overlap: a clearance map may still vouch for the pair.
         if let Some(Some(map)) = robot.pair_maps.get(pi)
             && map.clear(q, margin)
         {
             continue;
         }
+        let (a, b) = robot.pairs[pi];
+        let cb = bounds.get(b);
         let (ba, bb) = (&robot.bodies[a], &robot.bodies[b]);
         ensure_packs(robot, a, frames, done, packs);
         ensure_packs(robot, b, frames, done, packs);
-        let (fa, fb) = (&frames[ba.frame], &frames[bb.frame]);
         let cb8 = cb.map(f32x8::splat);
         let rb = f32x8::splat(bb.bound.1);
         let exact = (&robot.exact[a], &robot.exact[b]);
@@ -184,7 +233,11 @@ pub fn check_one(
                         // Spheres overlap: the links' exact geometry decides.
                         match exact {
                             (Some(ea), Some(eb)) => {
-                                if crate::exact::confirm(ea, eb, fa, fb, 1, margin) != 0 {
+                                let (fa, fb) = (
+                                    cols_to_frame(&frames[ba.frame]),
+                                    cols_to_frame(&frames[bb.frame]),
+                                );
+                                if crate::exact::confirm(ea, eb, &fa, &fb, 1, margin) != 0 {
                                     return true;
                                 }
                                 break 'pair;

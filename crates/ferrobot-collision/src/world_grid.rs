@@ -20,7 +20,7 @@
 
 use std::sync::atomic::{AtomicU8, Ordering};
 
-use wide::f32x4;
+use wide::{f32x8, i32x8};
 
 use crate::compiled::{CompiledRobot, CompiledWorld, Prim};
 
@@ -39,10 +39,9 @@ pub const SLACK: f32 = 1e-4;
 #[derive(Debug)]
 pub struct WorldGrid {
     origin: [f32; 3],
-    /// `origin` and the cell counts as SIMD vectors (fourth lanes 0 and 1).
-    origin4: f32x4,
-    n4: f32x4,
     n: [usize; 3],
+    /// `n` as `f32`.
+    n_f32: [f32; 3],
     cells: Box<[AtomicU8]>,
 }
 
@@ -72,39 +71,67 @@ impl WorldGrid {
             .collect();
         Some(Self {
             origin: lo,
-            origin4: f32x4::from([lo[0], lo[1], lo[2], 0.0]),
-            n4: f32x4::from([n[0] as f32, n[1] as f32, n[2] as f32, 1.0]),
             n,
+            n_f32: n.map(|x| x as f32),
             cells,
         })
     }
 
     /// A lower bound on the distance from `p` to every obstacle of `world`
     /// (the world the grid was made for); 0 outside the grid.
-    #[inline(always)]
     pub fn clearance(&self, world: &CompiledWorld, p: &[f32; 3]) -> f32 {
-        let f = (f32x4::from([p[0], p[1], p[2], 0.0]) - self.origin4) * f32x4::splat(1.0 / CELL);
-        // All three coordinates in [0, n) (NaN fails both tests; the fourth
-        // lane is 0 in [0, 1)).
-        let inside = f.simd_ge(f32x4::splat(0.0)).to_bitmask() & f.simd_lt(self.n4).to_bitmask();
-        if inside != 0b1111 {
-            return 0.0;
+        self.clearances(world, &p.map(f32x8::splat), 1).as_array()[0]
+    }
+
+    /// [`WorldGrid::clearance`] of eight points at once (x, y, z lanes),
+    /// for the lanes set in `lanes` (0 in the others).
+    #[inline(always)]
+    pub fn clearances(&self, world: &CompiledWorld, p: &[f32x8; 3], lanes: u32) -> f32x8 {
+        let zero = f32x8::splat(0.0);
+        let mut inside = lanes;
+        let mut ijk = [i32x8::splat(0); 3];
+        for a in 0..3 {
+            let f = (p[a] - f32x8::splat(self.origin[a])) * f32x8::splat(1.0 / CELL);
+            // In [0, n) (NaN fails both tests).
+            inside &= (f.simd_ge(zero) & f.simd_lt(f32x8::splat(self.n_f32[a]))).to_bitmask();
+            // In range where it counts, so the plain truncating conversion is exact.
+            ijk[a] = f.fast_trunc_int();
         }
-        // In range, so the plain truncating conversion is exact.
-        let [i, j, k, _] = f.fast_trunc_int().to_array().map(|x| x as usize);
-        let idx = (i * self.n[1] + j) * self.n[2] + k;
+        // At most 6 m / 5 cm + 1 = 121 cells per axis: inside lanes' indices
+        // stay far below 2^31.
+        let idx = ((ijk[0] * i32x8::splat(self.n[1] as i32) + ijk[1])
+            * i32x8::splat(self.n[2] as i32)
+            + ijk[2])
+            .to_array();
+        let mut v = [0i32; 8];
+        while inside != 0 {
+            let l = inside.trailing_zeros() as usize;
+            inside &= inside - 1;
+            v[l] = self.cell(world, idx[l] as usize, || {
+                ijk.map(|c| c.to_array()[l] as usize)
+            }) as i32;
+        }
+        f32x8::from_i32x8(i32x8::new(v)) * f32x8::splat(QUANTUM)
+    }
+
+    /// The stored bound of cell `idx` (cell `ijk()` of the grid), filled on
+    /// first use.
+    #[inline(always)]
+    fn cell(&self, world: &CompiledWorld, idx: usize, ijk: impl FnOnce() -> [usize; 3]) -> u8 {
         let Some(cell) = self.cells.get(idx) else {
-            return 0.0;
+            return 0;
         };
         let mut v = cell.load(Ordering::Relaxed);
         if v == UNKNOWN {
-            v = self.fill(world, [i, j, k]);
+            v = self.fill(world, ijk());
             cell.store(v, Ordering::Relaxed);
         }
-        v as f32 * QUANTUM
+        v
     }
 
     /// The stored bound of cell (`i`, `j`, `k`).
+    #[cold]
+    #[inline(never)]
     fn fill(&self, world: &CompiledWorld, ijk: [usize; 3]) -> u8 {
         let c = [0, 1, 2].map(|a| self.origin[a] + (ijk[a] as f32 + 0.5) * CELL);
         let nearest = world
