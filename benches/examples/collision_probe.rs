@@ -1,7 +1,8 @@
 //! A fixed workload for instruction counting (`valgrind --tool=callgrind`):
 //! `cargo build --release -p ferrobot-benches --example collision_probe`
 //! then `valgrind --tool=callgrind target/release/examples/collision_probe MODE [SCENE]` with MODE one of
-//! `none` (setup only), `single`, `single-twice` (every check twice), `batch`, `motion`, `fk`; `single-spheres` and `batch-spheres`
+//! `none` (setup only), `single`, `single-twice` (every check twice), `batch`, `motion`, `fk`,
+//! `classes` (wall time per check of free, world-colliding and self-colliding configurations); `single-spheres` and `batch-spheres`
 //! decide self-collision by spheres alone (no exact stage), for reference; a `-noworld`
 //! suffix (e.g. `single-noworld`, `single-spheres-noworld`) empties the world (self-collision only).
 
@@ -65,6 +66,53 @@ fn main() {
                 acc += sc.frames()[7][11];
             }
             acc as usize
+        }
+        // Wall time of the warm single check per class of configuration:
+        // free, colliding with the world only, colliding with the robot
+        // itself (median of 5 passes per class).
+        "classes" => {
+            let mut own = checker.clone();
+            own.set_world(ferrobot_collision::CollisionWorld::new());
+            for q in qs.chunks(7) {
+                checker.in_collision_unchecked(q);
+            }
+            let mut classes: [(&str, Vec<&[f64]>); 4] = [
+                ("all", qs.chunks(7).collect()),
+                ("free", vec![]),
+                ("world only", vec![]),
+                ("self", vec![]),
+            ];
+            for q in qs.chunks(7) {
+                let k = match (
+                    checker.in_collision_unchecked(q),
+                    own.in_collision_unchecked(q),
+                ) {
+                    (false, _) => 1,
+                    (true, false) => 2,
+                    (true, true) => 3,
+                };
+                classes[k].1.push(q);
+            }
+            for (name, set) in &classes {
+                let mut ns: Vec<f64> = (0..5)
+                    .map(|_| {
+                        let t = std::time::Instant::now();
+                        let hits = set
+                            .iter()
+                            .filter(|q| checker.in_collision_unchecked(q))
+                            .count();
+                        std::hint::black_box(hits);
+                        t.elapsed().as_nanos() as f64 / set.len() as f64
+                    })
+                    .collect();
+                ns.sort_by(f64::total_cmp);
+                println!(
+                    "{name:>10}: {:6} configurations, {:7.1} ns per check",
+                    set.len(),
+                    ns[2]
+                );
+            }
+            classes[2].1.len() + classes[3].1.len()
         }
         _ => 0,
     };

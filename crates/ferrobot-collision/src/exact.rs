@@ -231,7 +231,7 @@ struct Part {
 }
 
 /// At most this many inner spheres per part.
-const INNER: usize = 6;
+const INNER: usize = 16;
 
 impl Part {
     fn new(pose: Isometry3<f64>, obb: Obb, shape: Convex) -> Self {
@@ -243,7 +243,7 @@ impl Part {
         };
         // Candidates on a grid over the box, largest inscribed first, kept
         // when not mostly inside one already kept.
-        let n = 9;
+        let n = 13;
         let mut cands: Vec<(Vector3<f64>, f64)> = Vec::new();
         let axes = |k: usize| {
             Vector3::new(
@@ -273,7 +273,7 @@ impl Part {
         cands.sort_by(|a, b| b.1.total_cmp(&a.1));
         let mut kept: Vec<(Vector3<f64>, f64)> = Vec::new();
         for (p, r) in cands {
-            if kept.len() == INNER || kept.first().is_some_and(|k| r < 0.3 * k.1) {
+            if kept.len() == INNER || kept.first().is_some_and(|k| r < 0.2 * k.1) {
                 break;
             }
             if kept.iter().all(|(q, s)| (p - q).norm() > 0.7 * s.max(r)) {
@@ -461,9 +461,16 @@ fn boxes_overlap<L: Lanes>(
 }
 
 /// Lanes where an inner sphere of `a` (frame `fa`) overlaps one of `b`
-/// (frame `fb`): the parts certainly touch there.
+/// (frame `fb`): the parts certainly touch there. Stops once every lane of
+/// `want` is found (other lanes may then be missing from the answer).
 #[inline(always)]
-fn inner_overlap<L: Lanes>(a: &Part, b: &Part, fa: &LaneFrame<L>, fb: &LaneFrame<L>) -> u32 {
+fn inner_overlap<L: Lanes>(
+    a: &Part,
+    b: &Part,
+    fa: &LaneFrame<L>,
+    fb: &LaneFrame<L>,
+    want: u32,
+) -> u32 {
     let mut bs = [([L::splat(0.0); 3], L::splat(0.0)); INNER];
     for (k, (c, r)) in b.inner.iter().enumerate() {
         bs[k] = (crate::kernel::apply(fb, c), L::splat(*r));
@@ -478,7 +485,7 @@ fn inner_overlap<L: Lanes>(a: &Part, b: &Part, fa: &LaneFrame<L>, fb: &LaneFrame
             let rr = r + *rq;
             hit |= (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).lt_mask(rr * rr);
         }
-        if hit == L::FULL {
+        if hit & want == want {
             break;
         }
     }
@@ -551,7 +558,7 @@ pub fn confirm<L: Lanes>(
             if bits == 0 {
                 continue;
             }
-            let sure = bits & inner_overlap(pa, pb, fa, fb);
+            let sure = bits & inner_overlap(pa, pb, fa, fb, bits);
             out |= sure;
             bits &= !sure;
             while bits != 0 {
