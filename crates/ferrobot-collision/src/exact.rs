@@ -228,6 +228,9 @@ struct Part {
     /// Spheres inside the shape (lane frame: centre, radius): two parts
     /// whose inner spheres overlap certainly touch, without GJK.
     inner: Vec<([f32; 3], f32)>,
+    /// The same spheres eight to a pack (x, y, z, radius lanes; padding
+    /// lanes NaN, which never overlap), for the one-lane test.
+    inner_packs: Vec<[f32x8; 4]>,
 }
 
 /// At most this many inner spheres per part.
@@ -240,6 +243,7 @@ impl Part {
             obb,
             shape,
             inner: Vec::new(),
+            inner_packs: Vec::new(),
         };
         // Candidates on a grid over the box, largest inscribed first, kept
         // when not mostly inside one already kept.
@@ -283,6 +287,20 @@ impl Part {
         part.inner = kept
             .into_iter()
             .map(|(p, r)| ([p.x as f32, p.y as f32, p.z as f32], r as f32))
+            .collect();
+        part.inner_packs = part
+            .inner
+            .chunks(8)
+            .map(|chunk| {
+                let lane = |k: usize| {
+                    f32x8::new(std::array::from_fn(|i| {
+                        chunk
+                            .get(i)
+                            .map_or(f32::NAN, |(c, r)| if k < 3 { c[k] } else { *r })
+                    }))
+                };
+                [lane(0), lane(1), lane(2), lane(3)]
+            })
             .collect();
         part
     }
@@ -471,6 +489,9 @@ fn inner_overlap<L: Lanes>(
     fb: &LaneFrame<L>,
     want: u32,
 ) -> u32 {
+    if L::WIDTH == 1 {
+        return inner_overlap_one(a, b, fa, fb);
+    }
     let mut bs = [([L::splat(0.0); 3], L::splat(0.0)); INNER];
     for (k, (c, r)) in b.inner.iter().enumerate() {
         bs[k] = (crate::kernel::apply(fb, c), L::splat(*r));
@@ -490,6 +511,35 @@ fn inner_overlap<L: Lanes>(
         }
     }
     hit
+}
+
+/// [`inner_overlap`] for one lane: the spheres of `b` eight at a time,
+/// with the same arithmetic per sphere pair (so the same answer).
+#[inline(always)]
+fn inner_overlap_one<L: Lanes>(a: &Part, b: &Part, fa: &LaneFrame<L>, fb: &LaneFrame<L>) -> u32 {
+    let f: [f32x8; 12] = std::array::from_fn(|k| f32x8::splat(fb[k].lane(0)));
+    let mut bs = [[f32x8::splat(0.0); 4]; INNER.div_ceil(8)];
+    for (out, [x, y, z, r]) in bs.iter_mut().zip(&b.inner_packs) {
+        *out = [
+            f[0] * *x + f[1] * *y + f[2] * *z + f[9],
+            f[3] * *x + f[4] * *y + f[5] * *z + f[10],
+            f[6] * *x + f[7] * *y + f[8] * *z + f[11],
+            *r,
+        ];
+    }
+    let bs = &bs[..b.inner_packs.len()];
+    for (c, r) in &a.inner {
+        let p = crate::kernel::apply(fa, c).map(|v| f32x8::splat(v.lane(0)));
+        let r = f32x8::splat(*r);
+        for q in bs {
+            let d = [p[0] - q[0], p[1] - q[1], p[2] - q[2]];
+            let rr = r + q[3];
+            if (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).lt_mask(rr * rr) != 0 {
+                return 1;
+            }
+        }
+    }
+    0
 }
 
 /// Row-major 3x3 product.
