@@ -15,19 +15,26 @@ impl BodyCentres {
         Self(vec![[f32x8::splat(f32::NAN); 3]; num_bodies.div_ceil(8)])
     }
 
-    /// Sets the centres of bodies `0, 1, ...` from the first three lanes
-    /// of each item of `centres`.
+    /// Sets the centres of bodies `0..n` to the first three lanes of
+    /// `centre(body)` (`n` at most the number of bodies). Each chunk is
+    /// assembled in registers: writing lanes one by one and then loading
+    /// the chunk would stall on store forwarding.
     #[inline(always)]
-    pub fn set_all(&mut self, mut centres: impl Iterator<Item = f32x4>) {
-        for chunk in &mut self.0 {
-            for lane in 0..8 {
-                let Some(c) = centres.next() else {
-                    return;
-                };
-                for (lanes, v) in chunk.iter_mut().zip(c.to_array()) {
-                    lanes.as_mut_array()[lane] = v;
+    pub fn set_all(&mut self, n: usize, centre: impl Fn(usize) -> f32x4) {
+        for (c, chunk) in self.0.iter_mut().enumerate() {
+            let v: [f32x4; 8] = std::array::from_fn(|i| {
+                if c * 8 + i < n {
+                    centre(c * 8 + i)
+                } else {
+                    f32x4::splat(f32::NAN)
                 }
-            }
+            });
+            let lo = f32x4::transpose([v[0], v[1], v[2], v[3]]);
+            let hi = f32x4::transpose([v[4], v[5], v[6], v[7]]);
+            *chunk = std::array::from_fn(|k| {
+                let (l, h) = (lo[k].to_array(), hi[k].to_array());
+                f32x8::new([l[0], l[1], l[2], l[3], h[0], h[1], h[2], h[3]])
+            });
         }
     }
 

@@ -94,9 +94,36 @@ pub struct Step {
     /// [`Frame32::signed_permutation`]), which the forward kinematics
     /// applies by picking columns instead of a matrix product.
     pub perm: Option<([usize; 3], [f32; 3])>,
-    /// Bit `l` set where `k.t[l]` is not zero: the kinematics adds only
-    /// those translation terms, in increasing `l`.
-    pub t_axes: u8,
+}
+
+/// Eight steps side by side (lane `i` for the block's step `i`; padding
+/// lanes read DOF 0 with gain 0, offset 0 and signs 1).
+#[derive(Debug, Clone)]
+pub struct StepBlock {
+    /// Driving DOF per step.
+    pub dofs: [usize; 8],
+    /// Mimic gains.
+    pub gain: f32x8,
+    /// Mimic offsets.
+    pub offset: f32x8,
+    /// The signs a step's permutation gives columns 0 and 1 (1 for a step
+    /// without one).
+    pub signs: [f32x8; 2],
+}
+
+impl StepBlock {
+    /// The block of up to eight `steps`.
+    fn new(steps: &[Step]) -> Self {
+        let lanes = |f: &dyn Fn(&Step) -> f32, pad: f32| {
+            f32x8::new(std::array::from_fn(|i| steps.get(i).map_or(pad, f)))
+        };
+        Self {
+            dofs: std::array::from_fn(|i| steps.get(i).map_or(0, |s| s.dof)),
+            gain: lanes(&|s| s.gain, 0.0),
+            offset: lanes(&|s| s.offset, 0.0),
+            signs: [0, 1].map(|j| lanes(&|s| s.perm.map_or(1.0, |(_, sign)| sign[j]), 1.0)),
+        }
+    }
 }
 
 /// A body of the sphere model: a link (or an attached object) whose spheres
@@ -144,6 +171,11 @@ pub struct CompiledRobot {
     pub num_dof: usize,
     /// Movable joints in tree order; step `i` makes frame `i + 1`.
     pub steps: Vec<Step>,
+    /// The steps in blocks of eight, lane `i` of block `b` describing step
+    /// `8 b + i`, for the one-configuration kinematics
+    /// ([`crate::kernel::forward_cols`]). Derived from `steps` by
+    /// [`CompiledRobot::new`].
+    pub step_blocks: Vec<StepBlock>,
     /// Bodies with spheres.
     pub bodies: Vec<Body>,
     /// Sphere centres in their body's frame.
@@ -266,7 +298,6 @@ impl CompiledRobot {
                     steps.push(Step {
                         parent: pframe,
                         perm: k.signed_permutation(),
-                        t_axes: (0..3).filter(|&l| k.t[l] != 0.0).fold(0, |m, l| m | 1 << l),
                         k,
                         prismatic: kind == JointKind::Prismatic,
                         dof,
@@ -280,9 +311,11 @@ impl CompiledRobot {
                 }
             }
         }
+        let step_blocks = steps.chunks(8).map(StepBlock::new).collect();
         let mut robot = Self {
             num_dof: model.num_dof(),
             steps,
+            step_blocks,
             bodies: Vec::new(),
             centers: Vec::new(),
             radii: Vec::new(),

@@ -40,9 +40,10 @@ impl<L: Lanes> Scratch<L> {
 }
 
 /// `p` times the step's constant transform. A rotation that is a signed
-/// permutation is applied by picking columns, and zero translation entries
-/// are skipped: the same operations for every lane type, so the one-lane and
-/// eight-lane kinematics agree bit for bit.
+/// permutation is applied by picking columns; the translation adds all three
+/// terms, in increasing order. [`forward_cols`] performs the same operations
+/// (up to multiplications by 1 and sign changes, which are exact), so the
+/// one-configuration and eight-lane kinematics agree bit for bit.
 #[inline(always)]
 fn compose<L: Lanes>(p: &LaneFrame<L>, step: &Step) -> LaneFrame<L> {
     let s = L::splat;
@@ -68,9 +69,7 @@ fn compose<L: Lanes>(p: &LaneFrame<L>, step: &Step) -> LaneFrame<L> {
     for i in 0..3 {
         let mut t = p[9 + i];
         for l in 0..3 {
-            if k.t[l] != 0.0 {
-                t = p[i * 3 + l] * s(k.t[l]) + t;
-            }
+            t = p[i * 3 + l] * s(k.t[l]) + t;
         }
         o[9 + i] = t;
     }
@@ -145,6 +144,11 @@ pub type Cols = [f32x4; 4];
 /// operations, in the same order, as in [`forward`], so the frames are
 /// bit-identical to `forward::<f32>`'s (tested); the columns just let one
 /// instruction serve three rows.
+///
+/// The kinematics is a chain of dependent steps, so its cost is latency:
+/// the joint coordinates are gathered into one vector in registers, and
+/// each step reads its parent's columns one at a time (a 32-byte load of
+/// two columns just stored separately would stall on store forwarding).
 pub fn forward_cols(robot: &CompiledRobot, q: &[f32], cols: &mut [Cols]) {
     let zero4 = f32x4::splat(0.0);
     cols[0] = [
@@ -153,48 +157,51 @@ pub fn forward_cols(robot: &CompiledRobot, q: &[f32], cols: &mut [Cols]) {
         f32x4::from([0.0, 0.0, 1.0, 0.0]),
         zero4,
     ];
-    for (block, steps) in robot.steps.chunks(8).enumerate() {
-        let qj: [f32; 8] = std::array::from_fn(|i| match steps.get(i) {
-            Some(st) => q[st.dof] * st.gain + st.offset,
-            None => 0.0,
-        });
-        let (s8, c8) = sin_cos(f32x8::from(qj));
-        let (s8, c8) = (s8.to_array(), c8.to_array());
+    for (block, (steps, sb)) in robot.steps.chunks(8).zip(&robot.step_blocks).enumerate() {
+        // The same products and sums as the eight-lane kernel's, lane-wise.
+        let qv = f32x8::new(sb.dofs.map(|d| q[d])) * sb.gain + sb.offset;
+        let (s8, c8) = sin_cos(qv);
+        let [sign0, sign1] = sb.signs;
+        let qj = qv.to_array();
+        // A permutation's signs of columns 0 and 1 folded into the rotation
+        // terms: (x s0) c = x (c s0) exactly, so the columns equal
+        // `compose` then `joint_frame`'s.
+        let rot = [c8 * sign0, s8 * sign1, c8 * sign1, s8 * sign0].map(|v| v.to_array());
+        let (sign0, sign1) = (sign0.to_array(), sign1.to_array());
         for (i, step) in steps.iter().enumerate() {
-            let p = cols[step.parent];
+            // By reference: see the function's docs.
+            let p = &cols[step.parent];
             let k = &step.k;
-            let mut m: Cols = [zero4; 4];
-            match step.perm {
-                Some((src, sign)) => {
-                    for (j, col) in m.iter_mut().take(3).enumerate() {
-                        *col = p[src[j]] * f32x4::splat(sign[j]);
-                    }
-                }
+            let (x, y, z) = match step.perm {
+                Some((src, sign)) => (
+                    p[src[0] & 3],
+                    p[src[1] & 3],
+                    p[src[2] & 3] * f32x4::splat(sign[2]),
+                ),
                 None => {
-                    for (j, col) in m.iter_mut().take(3).enumerate() {
-                        *col = p[0] * f32x4::splat(k.r[j])
+                    let col = |j: usize| {
+                        p[0] * f32x4::splat(k.r[j])
                             + p[1] * f32x4::splat(k.r[3 + j])
-                            + p[2] * f32x4::splat(k.r[6 + j]);
-                    }
+                            + p[2] * f32x4::splat(k.r[6 + j])
+                    };
+                    (col(0), col(1), col(2))
                 }
-            }
+            };
             let mut t = p[3];
-            let mut axes = step.t_axes;
-            while axes != 0 {
-                let l = axes.trailing_zeros() as usize;
-                axes &= axes - 1;
-                t = p[l] * f32x4::splat(k.t[l]) + t;
+            for (l, &tl) in k.t.iter().enumerate() {
+                t = p[l] * f32x4::splat(tl) + t;
             }
-            m[3] = t;
-            if step.prismatic {
-                m[3] += m[2] * f32x4::splat(qj[i]);
+            cols[block * 8 + i + 1] = if step.prismatic {
+                [
+                    x * f32x4::splat(sign0[i]),
+                    y * f32x4::splat(sign1[i]),
+                    z,
+                    t + z * f32x4::splat(qj[i]),
+                ]
             } else {
-                let (sn, cs) = (f32x4::splat(s8[i]), f32x4::splat(c8[i]));
-                let (x, y) = (m[0], m[1]);
-                m[0] = x * cs + y * sn;
-                m[1] = y * cs - x * sn;
-            }
-            cols[block * 8 + i + 1] = m;
+                let r = |v: usize| f32x4::splat(rot[v][i]);
+                [x * r(0) + y * r(1), y * r(2) - x * r(3), z, t]
+            };
         }
     }
 }

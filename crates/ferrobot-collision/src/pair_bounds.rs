@@ -155,7 +155,7 @@ mod tests {
                     }
                 })
                 .collect();
-            centres.set_all(cs.iter().map(|&c| f32x4::from(c)));
+            centres.set_all(n, |i| f32x4::from(cs[i]));
             let margin = [0.0, 0.02, -0.01][trial % 3];
             let want: Vec<usize> = pairs
                 .iter()

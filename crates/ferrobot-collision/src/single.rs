@@ -125,12 +125,10 @@ pub fn check_one(
     } = s;
     forward_cols(robot, q, frames);
     done.fill(false);
-    bounds.set_all(
-        robot
-            .bodies
-            .iter()
-            .map(|b| apply_cols(&frames[b.frame], &b.bound.0)),
-    );
+    let bodies = &robot.bodies;
+    bounds.set_all(bodies.len(), |i| {
+        apply_cols(&frames[bodies[i].frame], &bodies[i].bound.0)
+    });
     let m8 = f32x8::splat(margin);
     let num_obstacles = world.obstacles.len();
     // Distal bodies first: they collide most often.
@@ -146,10 +144,7 @@ pub fn check_one(
         // Most bodies are far from everything: one grid lookup shows it.
         if let Some(g) = grid {
             let reach = (*r + m8) + f32x8::splat(SLACK);
-            todo &= !g
-                .clearances(world, centres, todo)
-                .simd_gt(reach)
-                .to_bitmask();
+            todo &= !g.clear_lanes(world, centres, reach, todo);
         }
         while todo != 0 {
             let lane = 31 - todo.leading_zeros() as usize;

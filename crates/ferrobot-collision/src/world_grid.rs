@@ -80,13 +80,45 @@ impl WorldGrid {
     /// A lower bound on the distance from `p` to every obstacle of `world`
     /// (the world the grid was made for); 0 outside the grid.
     pub fn clearance(&self, world: &CompiledWorld, p: &[f32; 3]) -> f32 {
-        self.clearances(world, &p.map(f32x8::splat), 1).as_array()[0]
+        let mut bound = 0.0;
+        self.cells(world, &p.map(f32x8::splat), 1, |_, v| {
+            bound = v as f32 * QUANTUM
+        });
+        bound
     }
 
-    /// [`WorldGrid::clearance`] of eight points at once (x, y, z lanes),
-    /// for the lanes set in `lanes` (0 in the others).
+    /// The lanes set in `lanes` whose point (x, y, z lanes of `p`) has a
+    /// [`WorldGrid::clearance`] greater than that lane of `reach`.
     #[inline(always)]
-    pub fn clearances(&self, world: &CompiledWorld, p: &[f32x8; 3], lanes: u32) -> f32x8 {
+    pub fn clear_lanes(
+        &self,
+        world: &CompiledWorld,
+        p: &[f32x8; 3],
+        reach: f32x8,
+        lanes: u32,
+    ) -> u32 {
+        let reach = reach.to_array();
+        let mut clear = 0;
+        // Lane by lane in registers: a vector assembled from eight scalar
+        // stores would stall on store forwarding.
+        self.cells(world, p, lanes, |l, v| {
+            if v as f32 * QUANTUM > reach[l] {
+                clear |= 1 << l;
+            }
+        });
+        clear
+    }
+
+    /// Calls `f(lane, stored bound)` for each lane set in `lanes` whose
+    /// point lies in the grid.
+    #[inline(always)]
+    fn cells(
+        &self,
+        world: &CompiledWorld,
+        p: &[f32x8; 3],
+        lanes: u32,
+        mut f: impl FnMut(usize, u8),
+    ) {
         let zero = f32x8::splat(0.0);
         let mut inside = lanes;
         let mut ijk = [i32x8::splat(0); 3];
@@ -103,15 +135,14 @@ impl WorldGrid {
             * i32x8::splat(self.n[2] as i32)
             + ijk[2])
             .to_array();
-        let mut v = [0i32; 8];
         while inside != 0 {
             let l = inside.trailing_zeros() as usize;
             inside &= inside - 1;
-            v[l] = self.cell(world, idx[l] as usize, || {
+            let v = self.cell(world, idx[l] as usize, || {
                 ijk.map(|c| c.to_array()[l] as usize)
-            }) as i32;
+            });
+            f(l, v);
         }
-        f32x8::from_i32x8(i32x8::new(v)) * f32x8::splat(QUANTUM)
     }
 
     /// The stored bound of cell `idx` (cell `ijk()` of the grid), filled on
