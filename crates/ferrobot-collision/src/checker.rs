@@ -194,6 +194,7 @@ impl CollisionChecker {
             .zip(self.model.upper_limits())
             .collect();
         self.robot.pair_maps = crate::pair_map::maps_for(&self.robot, self.margin as f32, &limits);
+        self.robot.collide_maps = crate::pair_map::collide_maps(&self.robot.pair_maps);
     }
 
     /// Whether self-collisions found by spheres are confirmed on the links'
@@ -222,6 +223,7 @@ impl CollisionChecker {
         only_static.bodies.retain(|b| b.frame == 0);
         only_static.pairs.clear();
         only_static.pair_maps.clear();
+        only_static.collide_maps.clear();
         only_static.pair_reach.clear();
         let q = vec![0.0f32; self.model.num_dof()];
         let mut scratch = Scratch::<f32>::new(&only_static);

@@ -194,6 +194,10 @@ pub struct CompiledRobot {
     /// Joint-space clearance maps of the pairs (aligned with `pairs`, or
     /// empty): set by the checker, used by the single-configuration kernel.
     pub pair_maps: Vec<Option<std::sync::Arc<crate::pair_map::PairMap>>>,
+    /// The colliding cells of `pair_maps`, one map per pair of DOFs
+    /// ([`crate::pair_map::collide_maps`]): set with them by the checker,
+    /// used by the single-configuration kernel.
+    pub collide_maps: Vec<crate::pair_map::PairMap>,
     /// For each model link: its lane frame and the constant transform from
     /// that frame to the link frame (`link = frame * correction`).
     pub link_frames: Vec<(usize, Isometry3<f64>)>,
@@ -324,6 +328,7 @@ impl CompiledRobot {
             pairs: Vec::new(),
             pair_reach: Vec::new(),
             pair_maps: Vec::new(),
+            collide_maps: Vec::new(),
             link_frames,
             frame_reach,
         };

@@ -320,6 +320,13 @@ impl std::fmt::Debug for ExactBody {
 }
 
 impl ExactBody {
+    /// Every part's inscribed spheres (body lane frame: centre, radius):
+    /// two bodies whose inscribed spheres overlap are confirmed touching by
+    /// [`confirm`] for any margin.
+    pub fn inscribed(&self) -> impl Iterator<Item = &([f32; 3], f32)> {
+        self.parts.iter().flat_map(|p| p.inner.iter())
+    }
+
     /// The collision geometry of `link`, posed by `corr` (link frame in the
     /// lane frame). None if the link has no collision geometry or a part
     /// cannot be represented (a degenerate mesh): spheres alone decide.

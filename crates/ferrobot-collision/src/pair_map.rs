@@ -16,6 +16,16 @@
 //! overlapping spheres: skipping it changes no answer. Cells that are not
 //! certain fall back to the sphere stage. Both kernels use the maps: the
 //! single-configuration one per pair, the lane kernel per lane.
+//!
+//! A second bitmap marks the cells where the pair certainly collides: at the
+//! cell centre some sphere pair overlaps (with the margin) by more than the
+//! motion bound plus the slack, so the sphere stage reaches the exact stage
+//! everywhere in the cell, and, when both bodies have exact geometry, some
+//! pair of their inscribed spheres overlaps by as much, so the exact stage
+//! ([`crate::exact::confirm`]) confirms the contact everywhere in the cell.
+//! About half of the Panda's self-collisions are the hand or a finger
+//! against link 5; the single-configuration kernel answers those with one
+//! lookup per pair of joints ([`collide_maps`]) before any other test.
 
 use std::collections::HashMap;
 use std::hash::{Hash, Hasher};
@@ -47,12 +57,17 @@ pub struct PairMap {
     hi: f32x4,
     /// Cells per unit of each coordinate (lanes as in `lo`).
     inv_h: f32x4,
-    /// Margin the map was built for: it is valid for margins up to this.
+    /// Margin the map was built for: its clear cells are valid for margins
+    /// up to this, its colliding cells for margins from this.
     margin: f32,
-    /// One bit per cell, row-major over (first DOF, second DOF).
+    /// One bit per cell, row-major over (first DOF, second DOF): clear.
     bits: Vec<u64>,
+    /// One bit per cell (as `bits`): certainly colliding.
+    collide_bits: Vec<u64>,
     /// Fraction of cells that are clear.
     clear_fraction: f64,
+    /// Fraction of cells that certainly collide.
+    collide_fraction: f64,
 }
 
 impl PairMap {
@@ -84,11 +99,29 @@ impl PairMap {
     /// Whether the cell at coordinates (`x`, `y`) of the two DOFs is clear.
     #[inline(always)]
     fn clear_at(&self, x: f32, y: f32, margin: f32) -> bool {
+        margin <= self.margin && self.cell(x, y).is_some_and(|k| bit(&self.bits, k))
+    }
+
+    /// Whether the pair certainly collides at `q` (model DOF order) with
+    /// `margin`: the exact stage would confirm a contact. Coordinates
+    /// outside the joint limits or a smaller margin than the map's give
+    /// `false`.
+    #[inline(always)]
+    pub fn collides(&self, q: &[f32], margin: f32) -> bool {
+        margin >= self.margin
+            && self
+                .cell(q[self.dofs[0]], q[self.dofs[1]])
+                .is_some_and(|k| bit(&self.collide_bits, k))
+    }
+
+    /// The cell (row-major index) of coordinates (`x`, `y`) of the two
+    /// DOFs, or `None` outside the limits (or NaN).
+    #[inline(always)]
+    fn cell(&self, x: f32, y: f32) -> Option<usize> {
         let v = f32x4::from([x, y, 0.0, 0.0]);
         // Both coordinates within the limits (NaN fails).
-        if (v.simd_ge(self.lo) & v.simd_le(self.hi)).to_bitmask() != 0b1111 || margin > self.margin
-        {
-            return false;
+        if (v.simd_ge(self.lo) & v.simd_le(self.hi)).to_bitmask() != 0b1111 {
+            return None;
         }
         // In [0, CELLS] after the test above, so the plain truncating
         // conversion is exact.
@@ -96,8 +129,7 @@ impl PairMap {
             .fast_trunc_int()
             .min(i32x4::splat(CELLS as i32 - 1))
             .to_array();
-        let k = ij[0] as usize * CELLS + ij[1] as usize;
-        self.bits[k >> 6] >> (k & 63) & 1 == 1
+        Some(ij[0] as usize * CELLS + ij[1] as usize)
     }
 
     /// The two DOFs that index the map.
@@ -108,6 +140,11 @@ impl PairMap {
     /// Fraction of the map's cells that are certainly clear.
     pub fn clear_fraction(&self) -> f64 {
         self.clear_fraction
+    }
+
+    /// Fraction of the map's cells where the pair certainly collides.
+    pub fn collide_fraction(&self) -> f64 {
+        self.collide_fraction
     }
 
     /// Builds the map of body pair (`a`, `b`) of `robot` for `margin`, or
@@ -126,6 +163,9 @@ impl PairMap {
         Some(plan.build(robot, margin))
     }
 }
+
+/// Spheres as (centre, radius) in a body's lane frame.
+type Spheres = Vec<([f32; 3], f32)>;
 
 /// What a map of one pair is computed from.
 struct Plan {
@@ -215,9 +255,13 @@ impl Plan {
             [f[9], f[10], f[11]]
         };
         let (o1, o2) = (origin(self.steps[0]), origin(self.steps[1]));
+        let inscribed = self.inscribed(robot);
         let mut r2 = 0.0f32;
-        for k in body.first..body.first + body.count {
-            let c: [f32; 3] = apply(&frames[body.frame], &robot.centers[k]);
+        for c in (body.first..body.first + body.count)
+            .map(|k| &robot.centers[k])
+            .chain(inscribed.iter().flat_map(|i| i[1].iter().map(|(c, _)| c)))
+        {
+            let c: [f32; 3] = apply(&frames[body.frame], c);
             r2 = r2.max(norm(sub(c, o2)));
         }
         let r1 = norm(sub(o2, o1)) + r2;
@@ -225,7 +269,7 @@ impl Plan {
         let motion = 0.5 * (gains[0] * h[0] * r1 * 1.001 + gains[1] * h[1] * r2 * 1.001);
         let threshold = margin + motion + SLACK;
         // One row of cells (fixed first coordinate) per task.
-        let rows: Vec<Vec<bool>> = (0..CELLS)
+        let rows: Vec<Vec<(bool, bool)>> = (0..CELLS)
             .into_par_iter()
             .map_init(
                 || (Scratch::<f32>::new(robot), vec![0.0f32; robot.num_dof]),
@@ -235,20 +279,35 @@ impl Plan {
                         .map(|j| {
                             q[self.dofs[1]] = centre(1, j);
                             forward(robot, q, scratch);
-                            self.cell_clear(robot, scratch.frames(), threshold)
+                            let frames = scratch.frames();
+                            (
+                                self.cell_clear(robot, frames, threshold),
+                                self.cell_collides(
+                                    robot,
+                                    frames,
+                                    margin,
+                                    motion + SLACK,
+                                    inscribed.as_ref(),
+                                ),
+                            )
                         })
                         .collect()
                 },
             )
             .collect();
         let mut bits = vec![0u64; (CELLS * CELLS).div_ceil(64)];
-        let mut clear = 0usize;
+        let mut collide_bits = bits.clone();
+        let (mut clear, mut collide) = (0usize, 0usize);
         for (i, row) in rows.iter().enumerate() {
-            for (j, &c) in row.iter().enumerate() {
+            for (j, &(c, x)) in row.iter().enumerate() {
+                let k = i * CELLS + j;
                 if c {
-                    let k = i * CELLS + j;
                     bits[k >> 6] |= 1 << (k & 63);
                     clear += 1;
+                }
+                if x {
+                    collide_bits[k >> 6] |= 1 << (k & 63);
+                    collide += 1;
                 }
             }
         }
@@ -259,7 +318,73 @@ impl Plan {
             inv_h: lanes2(h.map(|x| 1.0 / x)),
             margin,
             bits,
+            collide_bits,
             clear_fraction: clear as f64 / (CELLS * CELLS) as f64,
+            collide_fraction: collide as f64 / (CELLS * CELLS) as f64,
+        }
+    }
+
+    /// The inscribed spheres of the proximal and distal body, if both have
+    /// exact geometry (else the sphere stage alone decides the pair).
+    fn inscribed(&self, robot: &CompiledRobot) -> Option<[Spheres; 2]> {
+        let exact = |b: usize| robot.exact.get(b).and_then(|e| e.as_ref());
+        match (exact(self.prox), exact(self.dist)) {
+            (Some(p), Some(d)) => Some([p, d].map(|e| e.inscribed().copied().collect())),
+            _ => None,
+        }
+    }
+
+    /// Whether the pair certainly collides everywhere within `motion` of
+    /// these frames (see the module docs): some sphere pair overlaps, with
+    /// `margin`, by more than `motion`, and so does some pair of
+    /// `inscribed` spheres (proximal, distal; `None`: spheres decide).
+    fn cell_collides(
+        &self,
+        robot: &CompiledRobot,
+        frames: &[LaneFrame<f32>],
+        margin: f32,
+        motion: f32,
+        inscribed: Option<&[Spheres; 2]>,
+    ) -> bool {
+        let (bp, bd) = (&robot.bodies[self.prox], &robot.bodies[self.dist]);
+        // Largest overlap of a sphere of `a` (frame fa) with one of `b`.
+        let overlap = |a: &mut dyn Iterator<Item = ([f32; 3], f32)>,
+                       fa: usize,
+                       b: &[([f32; 3], f32)],
+                       fb: usize| {
+            let b: Vec<([f32; 3], f32)> = b
+                .iter()
+                .map(|(c, r)| (apply::<f32>(&frames[fb], c), *r))
+                .collect();
+            let mut best = f32::NEG_INFINITY;
+            for (c, r) in a {
+                let c = apply::<f32>(&frames[fa], &c);
+                for (cb, rb) in &b {
+                    best = best.max(r + rb - norm(sub(c, *cb)));
+                }
+            }
+            best
+        };
+        let spheres = |b: &crate::compiled::Body| -> Vec<([f32; 3], f32)> {
+            (b.first..b.first + b.count)
+                .map(|k| (robot.centers[k], robot.radii[k]))
+                .collect()
+        };
+        // NaN compares false: not certain.
+        let sure = |depth: f32| depth > motion;
+        if !sure(
+            overlap(
+                &mut spheres(bp).into_iter(),
+                bp.frame,
+                &spheres(bd),
+                bd.frame,
+            ) + margin,
+        ) {
+            return false;
+        }
+        match inscribed {
+            Some([p, d]) => sure(overlap(&mut p.iter().copied(), bp.frame, d, bd.frame)),
+            None => true,
         }
     }
 
@@ -297,6 +422,46 @@ impl Plan {
         }
         true
     }
+}
+
+/// Bit `k` of `bits`.
+#[inline(always)]
+fn bit(bits: &[u64], k: usize) -> bool {
+    bits[k >> 6] >> (k & 63) & 1 == 1
+}
+
+/// One map per pair of DOFs among `maps` whose colliding cells are those
+/// of any of its maps (and which has no clear cells): one lookup tells
+/// whether some pair of bodies those two joints separate certainly
+/// collides. Maps over the same DOFs share their limits and so their cells.
+pub fn collide_maps(maps: &[Option<Arc<PairMap>>]) -> Vec<PairMap> {
+    let mut out: Vec<PairMap> = Vec::new();
+    for m in maps.iter().flatten() {
+        let same = |o: &PairMap| {
+            o.dofs == m.dofs
+                && o.margin == m.margin
+                && [o.lo, o.hi, o.inv_h].map(|v| v.to_array())
+                    == [m.lo, m.hi, m.inv_h].map(|v| v.to_array())
+        };
+        match out.iter_mut().find(|o| same(o)) {
+            Some(o) => {
+                for (a, b) in o.collide_bits.iter_mut().zip(&m.collide_bits) {
+                    *a |= b;
+                }
+            }
+            None => out.push(PairMap {
+                bits: vec![0; m.bits.len()],
+                clear_fraction: 0.0,
+                ..(**m).clone()
+            }),
+        }
+    }
+    for o in &mut out {
+        let n: u32 = o.collide_bits.iter().map(|b| b.count_ones()).sum();
+        o.collide_fraction = n as f64 / (CELLS * CELLS) as f64;
+    }
+    out.retain(|o| o.collide_fraction > 0.0);
+    out
 }
 
 /// `v` in lanes 0 and 1, lanes 2 and 3 zero.
@@ -367,6 +532,18 @@ fn key(robot: &CompiledRobot, plan: &Plan, margin: f32) -> u64 {
             bits(&mut h, &[robot.radii[k]]);
         }
     }
+    match plan.inscribed(robot) {
+        Some(sets) => {
+            for set in sets {
+                set.len().hash(&mut h);
+                for (c, r) in set {
+                    bits(&mut h, &c);
+                    bits(&mut h, &[r]);
+                }
+            }
+        }
+        None => u8::MAX.hash(&mut h),
+    }
     (plan.steps, plan.dofs).hash(&mut h);
     bits(
         &mut h,
@@ -388,7 +565,9 @@ mod tests {
             inv_h: lanes2([CELLS as f32 / 2.0, CELLS as f32 / 2.0]),
             margin: 0.01,
             bits: vec![u64::MAX; (CELLS * CELLS).div_ceil(64)],
+            collide_bits: vec![0; (CELLS * CELLS).div_ceil(64)],
             clear_fraction: 1.0,
+            collide_fraction: 0.0,
         };
         assert!(map.clear(&[0.0, 1.0], 0.0));
         assert!(map.clear(&[1.0, 2.0], 0.01));
@@ -420,7 +599,9 @@ mod tests {
             inv_h: lanes2(inv_h),
             margin: 0.0,
             bits: bits.clone(),
+            collide_bits: bits.iter().map(|b| !b).collect(),
             clear_fraction: 0.5,
+            collide_fraction: 0.5,
         };
         let mut points: Vec<[f32; 2]> = (0..20_000)
             .map(|_| [0, 1].map(|i| lo[i] + (hi[i] - lo[i]) * (next() % 1_000_001) as f32 / 1e6))
@@ -439,6 +620,7 @@ mod tests {
                 bits[k >> 6] >> (k & 63) & 1 == 1
             };
             assert_eq!(map.clear(&p, 0.0), want, "{p:?}");
+            assert_eq!(map.collides(&p, 0.0), inside && !want, "{p:?}");
         }
     }
 }

@@ -123,6 +123,11 @@ pub fn check_one(
         packs,
         done,
     } = s;
+    // Pairs two joints apart (the hand against link 5) that certainly
+    // collide here: one lookup per pair of joints, before anything else.
+    if robot.collide_maps.iter().any(|m| m.collides(q, margin)) {
+        return true;
+    }
     forward_cols(robot, q, frames);
     done.fill(false);
     let bodies = &robot.bodies;

@@ -5,45 +5,14 @@
 
 mod common;
 
-use common::{mbm_panda, random_q, shared, to_pose};
+use common::{hulls, mbm_panda, random_q, shared, to_pose};
 
 use std::sync::Arc;
 
 use ferrobot_collision::spherize::{SpherizeOptions, spherize_robot};
 use ferrobot_collision::{AllowedCollisions, CollisionChecker, CollisionWorld, RobotSpheres};
-use ferrobot_model::{RobotModel, Shape};
-use nalgebra::Isometry3;
-use parry3d::math::Vector;
 use parry3d::query::contact;
-use parry3d::shape::ConvexPolyhedron;
 use rand::{SeedableRng, rngs::StdRng};
-
-/// Each link's meshes as parry convex polyhedra in the link frame.
-fn hulls(model: &RobotModel) -> Vec<Vec<(Isometry3<f64>, ConvexPolyhedron)>> {
-    model
-        .links()
-        .iter()
-        .map(|link| {
-            link.collisions
-                .iter()
-                .map(|g| match &g.shape {
-                    Shape::Mesh { scale, mesh, .. } => {
-                        let pts: Vec<Vector> = mesh
-                            .vertices
-                            .iter()
-                            .map(|v| {
-                                let p = v.coords.component_mul(scale);
-                                Vector::new(p.x as f32, p.y as f32, p.z as f32)
-                            })
-                            .collect();
-                        (g.origin, ConvexPolyhedron::from_convex_hull(&pts).unwrap())
-                    }
-                    _ => panic!("the MotionBenchMaker Panda has mesh collision geometry"),
-                })
-                .collect()
-        })
-        .collect()
-}
 
 #[test]
 fn exact_self_collision_matches_convex_hull_reference() {

@@ -1,15 +1,18 @@
 //! Joint-space clearance maps against an independent reference: wherever a
 //! map says a self pair is clear, the pair's spheres, placed by the model's
-//! `f64` forward kinematics, are apart by more than the margin; and the
+//! `f64` forward kinematics, are apart by more than the margin; wherever it
+//! says the pair certainly collides, the spheres overlap and the links'
+//! convex hulls (parry, `f64` poses) intersect; and the
 //! single-configuration path that uses the maps answers exactly as the
 //! batch kernel, which does not.
 
 mod common;
 
-use common::{assert_single_matches_batch, mbm_panda, random_q};
+use common::{assert_single_matches_batch, hulls, mbm_panda, random_q, to_pose};
 
 use ferrobot_collision::pair_map::PairMap;
 use ferrobot_collision::{CollisionChecker, CollisionWorld};
+use parry3d::query::intersection_test;
 use rand::{Rng, SeedableRng, rngs::StdRng};
 
 /// Smallest surface distance between the spheres of links `la` and `lb`
@@ -83,6 +86,75 @@ fn clear_cells_are_clear_for_every_configuration_in_them() {
         closest < margin + 0.02,
         "closest vouched clearance {closest}"
     );
+}
+
+#[test]
+fn colliding_cells_collide_for_every_configuration_in_them() {
+    let (model, spheres, acm) = mbm_panda();
+    let mut checker =
+        CollisionChecker::new(model.clone(), spheres, acm, CollisionWorld::new()).unwrap();
+    let margin = 0.005;
+    checker.set_margin(margin).unwrap();
+    let hulls = hulls(&model);
+    let (robot, _) = checker.compiled();
+    let maps: Vec<(usize, usize, &PairMap)> = robot
+        .pairs
+        .iter()
+        .zip(&robot.pair_maps)
+        .filter_map(|(&(a, b), m)| {
+            m.as_deref()
+                .map(|m| (robot.bodies[a].link, robot.bodies[b].link, m))
+        })
+        .collect();
+    // The hand and link 5 collide over a band of wrist angles.
+    assert!(maps.iter().any(|m| m.2.collide_fraction() > 0.02));
+    // One map over joints 6 and 7 holds the colliding cells of all four.
+    assert_eq!(robot.collide_maps.len(), 1);
+    let mut rng = StdRng::seed_from_u64(8);
+    let (mut colliding, mut shallowest) = (0, f64::INFINITY);
+    for (la, lb, map) in &maps {
+        for _ in 0..10_000 {
+            let mut q = random_q(&model, &mut rng);
+            // Half the samples at cell edges.
+            if rng.random_bool(0.5) {
+                for d in map.dofs() {
+                    let (l, h) = (model.lower_limits()[d], model.upper_limits()[d]);
+                    let cell = (h - l) / 128.0;
+                    let k = rng.random_range(0..=128) as f64;
+                    q[d] = (l + cell * (k - rng.random_range(0.0..1e-3))).min(h).max(l);
+                }
+            }
+            let q32: Vec<f32> = q.iter().map(|&v| v as f32).collect();
+            assert_eq!(
+                robot.collide_maps[0].collides(&q32, margin as f32) && map.collides(&q32, 1.0),
+                map.collides(&q32, margin as f32),
+                "the union holds this map's cells"
+            );
+            if !map.collides(&q32, margin as f32) {
+                continue;
+            }
+            colliding += 1;
+            let c = clearance(&checker, &q, *la, *lb);
+            assert!(c < margin, "links {la}-{lb} at {q:?}: clearance {c}");
+            let poses = model.fk_all(&q).unwrap();
+            let touch = hulls[*la].iter().any(|(oa, ha)| {
+                hulls[*lb].iter().any(|(ob, hb)| {
+                    let (pa, pb) = (to_pose(&(poses[*la] * oa)), to_pose(&(poses[*lb] * ob)));
+                    intersection_test(&pa, ha, &pb, hb).unwrap().intersecting
+                })
+            });
+            assert!(touch, "links {la}-{lb} hulls apart at {q:?}");
+            assert!(checker.in_collision_batch(&q).unwrap()[0]);
+            shallowest = shallowest.min(-c);
+            assert!(
+                !map.collides(&q32, margin as f32 - 0.001),
+                "built for a larger margin"
+            );
+        }
+    }
+    assert!(colliding > 500, "{colliding} samples in colliding cells");
+    // Not vacuous: the maps vouch for configurations close to the contact.
+    assert!(shallowest < 0.02, "shallowest vouched overlap {shallowest}");
 }
 
 #[test]

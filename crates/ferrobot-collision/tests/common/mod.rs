@@ -7,9 +7,10 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use ferrobot_collision::{AllowedCollisions, CollisionChecker, CollisionWorld, RobotSpheres};
-use ferrobot_model::{LoadOptions, RobotModel, SrdfSource};
+use ferrobot_model::{LoadOptions, RobotModel, Shape, SrdfSource};
 use nalgebra::Isometry3;
 use parry3d::math::{Pose, Rot3, Vector};
+use parry3d::shape::ConvexPolyhedron;
 use rand::{Rng, SeedableRng, rngs::StdRng};
 
 /// A path in the `shared` folder beside the checkout.
@@ -83,4 +84,31 @@ pub fn assert_single_matches_batch(
         }
     }
     (checker, batch)
+}
+
+/// Each link's meshes as parry convex polyhedra in the link frame.
+pub fn hulls(model: &RobotModel) -> Vec<Vec<(Isometry3<f64>, ConvexPolyhedron)>> {
+    model
+        .links()
+        .iter()
+        .map(|link| {
+            link.collisions
+                .iter()
+                .map(|g| match &g.shape {
+                    Shape::Mesh { scale, mesh, .. } => {
+                        let pts: Vec<Vector> = mesh
+                            .vertices
+                            .iter()
+                            .map(|v| {
+                                let p = v.coords.component_mul(scale);
+                                Vector::new(p.x as f32, p.y as f32, p.z as f32)
+                            })
+                            .collect();
+                        (g.origin, ConvexPolyhedron::from_convex_hull(&pts).unwrap())
+                    }
+                    _ => panic!("the MotionBenchMaker Panda has mesh collision geometry"),
+                })
+                .collect()
+        })
+        .collect()
 }
