@@ -146,9 +146,12 @@ pub type Cols = [f32x4; 4];
 /// instruction serve three rows.
 ///
 /// The kinematics is a chain of dependent steps, so its cost is latency:
-/// the joint coordinates are gathered into one vector in registers, and
-/// each step reads its parent's columns one at a time (a 32-byte load of
-/// two columns just stored separately would stall on store forwarding).
+/// the joint coordinates are gathered into one vector in registers, a step
+/// whose parent is the frame just made takes it from registers (columns
+/// permuted by a branch on the constant permutation, not by an index,
+/// which would go through memory), and any other step reads its parent's
+/// columns one at a time (a 32-byte load of two columns just stored
+/// separately would stall on store forwarding).
 pub fn forward_cols(robot: &CompiledRobot, q: &[f32], cols: &mut [Cols]) {
     let zero4 = f32x4::splat(0.0);
     cols[0] = [
@@ -157,6 +160,7 @@ pub fn forward_cols(robot: &CompiledRobot, q: &[f32], cols: &mut [Cols]) {
         f32x4::from([0.0, 0.0, 1.0, 0.0]),
         zero4,
     ];
+    let mut prev = cols[0];
     for (block, (steps, sb)) in robot.steps.chunks(8).zip(&robot.step_blocks).enumerate() {
         // The same products and sums as the eight-lane kernel's, lane-wise.
         let qv = f32x8::new(sb.dofs.map(|d| q[d])) * sb.gain + sb.offset;
@@ -169,15 +173,29 @@ pub fn forward_cols(robot: &CompiledRobot, q: &[f32], cols: &mut [Cols]) {
         let rot = [c8 * sign0, s8 * sign1, c8 * sign1, s8 * sign0].map(|v| v.to_array());
         let (sign0, sign1) = (sign0.to_array(), sign1.to_array());
         for (i, step) in steps.iter().enumerate() {
-            // By reference: see the function's docs.
-            let p = &cols[step.parent];
+            let f = block * 8 + i + 1;
+            // The previous frame from registers when it is the parent (a
+            // chain); else by reference (see the function's docs).
+            let p = if step.parent + 1 == f {
+                prev
+            } else {
+                let c = &cols[step.parent];
+                [c[0], c[1], c[2], c[3]]
+            };
             let k = &step.k;
             let (x, y, z) = match step.perm {
-                Some((src, sign)) => (
-                    p[src[0] & 3],
-                    p[src[1] & 3],
-                    p[src[2] & 3] * f32x4::splat(sign[2]),
-                ),
+                Some((src, sign)) => {
+                    // Columns picked by a branch, not an index, so they stay in registers.
+                    let (a, b, c) = match src {
+                        [0, 1, 2] => (p[0], p[1], p[2]),
+                        [0, 2, 1] => (p[0], p[2], p[1]),
+                        [1, 0, 2] => (p[1], p[0], p[2]),
+                        [1, 2, 0] => (p[1], p[2], p[0]),
+                        [2, 0, 1] => (p[2], p[0], p[1]),
+                        _ => (p[2], p[1], p[0]),
+                    };
+                    (a, b, c * f32x4::splat(sign[2]))
+                }
                 None => {
                     let col = |j: usize| {
                         p[0] * f32x4::splat(k.r[j])
@@ -191,7 +209,7 @@ pub fn forward_cols(robot: &CompiledRobot, q: &[f32], cols: &mut [Cols]) {
             for (l, &tl) in k.t.iter().enumerate() {
                 t = p[l] * f32x4::splat(tl) + t;
             }
-            cols[block * 8 + i + 1] = if step.prismatic {
+            prev = if step.prismatic {
                 [
                     x * f32x4::splat(sign0[i]),
                     y * f32x4::splat(sign1[i]),
@@ -202,6 +220,7 @@ pub fn forward_cols(robot: &CompiledRobot, q: &[f32], cols: &mut [Cols]) {
                 let r = |v: usize| f32x4::splat(rot[v][i]);
                 [x * r(0) + y * r(1), y * r(2) - x * r(3), z, t]
             };
+            cols[f] = prev;
         }
     }
 }
