@@ -40,7 +40,13 @@ pub trait Lanes:
     fn round(self) -> Self;
     /// Bitmask of the lanes where `self < o`.
     fn lt_mask(self, o: Self) -> u32;
+    /// `self * a + b`, rounded once where the target has FMA ([`FUSED`])
+    /// and twice elsewhere, identically for every lane type.
+    fn mul_add(self, a: Self, b: Self) -> Self;
 }
+
+/// Whether [`Lanes::mul_add`] is one fused operation on this target.
+pub const FUSED: bool = cfg!(target_feature = "fma");
 
 impl Lanes for f32 {
     const WIDTH: usize = 1;
@@ -80,6 +86,14 @@ impl Lanes for f32 {
     #[inline(always)]
     fn lt_mask(self, o: Self) -> u32 {
         (self < o) as u32
+    }
+    #[inline(always)]
+    fn mul_add(self, a: Self, b: Self) -> Self {
+        if FUSED {
+            f32::mul_add(self, a, b)
+        } else {
+            self * a + b
+        }
     }
 }
 
@@ -125,47 +139,47 @@ impl Lanes for f32x8 {
     fn lt_mask(self, o: Self) -> u32 {
         self.simd_lt(o).to_bitmask()
     }
+    #[inline(always)]
+    fn mul_add(self, a: Self, b: Self) -> Self {
+        if FUSED {
+            f32x8::mul_add(self, a, b)
+        } else {
+            self * a + b
+        }
+    }
 }
 
 /// `(sin x, cos x)` to about 1e-7, lane-wise, from the half angle: `x` is
 /// reduced to `[-pi, pi]`, the half angle's sine and cosine come from
 /// Taylor polynomials on `[-pi/2, pi/2]`, then `sin x = 2 s c`,
-/// `cos x = 1 - 2 s^2`.
+/// `cos x = 1 - 2 s^2`. The polynomials are evaluated in Estrin's scheme
+/// with [`Lanes::mul_add`]: the forward kinematics waits on this, so its
+/// latency counts more than its operation count.
 #[inline(always)]
 pub fn sin_cos<L: Lanes>(x: L) -> (L, L) {
-    // 2 pi split in two parts so that k * 2pi is exact in the first part.
-    const TWO_PI_HI: f32 = 6.28125;
-    const TWO_PI_LO: f32 = 0.001_935_307_2;
+    // pi split in two parts so that k * pi is exact in the first part.
+    const PI_HI: f32 = 3.140_625;
+    const PI_LO: f32 = 0.000_967_653_6;
     const INV_TWO_PI: f32 = 0.159_154_94;
-    let k = (x * L::splat(INV_TWO_PI)).round();
-    let r = x - k * L::splat(TWO_PI_HI) - k * L::splat(TWO_PI_LO);
-    let h = r * L::splat(0.5);
-    let h2 = h * h;
-    // sin h = h (1 - h2/3! (1 - h2/(4*5) (1 - h2/(6*7) (1 - h2/(8*9) (1 - h2/(10*11))))))
-    let one = L::splat(1.0);
-    let s = h
-        * (one
-            - h2 * L::splat(1.0 / 6.0)
-                * (one
-                    - h2 * L::splat(1.0 / 20.0)
-                        * (one
-                            - h2 * L::splat(1.0 / 42.0)
-                                * (one
-                                    - h2 * L::splat(1.0 / 72.0)
-                                        * (one - h2 * L::splat(1.0 / 110.0))))));
-    let c = one
-        - h2 * L::splat(0.5)
-            * (one
-                - h2 * L::splat(1.0 / 12.0)
-                    * (one
-                        - h2 * L::splat(1.0 / 30.0)
-                            * (one
-                                - h2 * L::splat(1.0 / 56.0)
-                                    * (one
-                                        - h2 * L::splat(1.0 / 90.0)
-                                            * (one - h2 * L::splat(1.0 / 132.0))))));
-    let two = L::splat(2.0);
-    (two * s * c, one - two * s * s)
+    let s = L::splat;
+    let k = (x * s(INV_TWO_PI)).round();
+    // Half of x - 2 pi k.
+    let h = (x * s(0.5) - k * s(PI_HI)) - k * s(PI_LO);
+    let u = h * h;
+    let (u2, u4) = (u * u, (u * u) * (u * u));
+    // sin h / h = 1 - u/3! + u^2/5! - u^3/7! + u^4/9! - u^5/11!
+    let p01 = u.mul_add(s(-1.0 / 6.0), s(1.0));
+    let p23 = u.mul_add(s(-1.0 / 5040.0), s(1.0 / 120.0));
+    let p45 = u.mul_add(s(-1.0 / 39_916_800.0), s(1.0 / 362_880.0));
+    let sh = h * u4.mul_add(p45, u2.mul_add(p23, p01));
+    // cos h = 1 - u/2! + u^2/4! - u^3/6! + u^4/8! - u^5/10! + u^6/12!
+    let q01 = u.mul_add(s(-0.5), s(1.0));
+    let q23 = u.mul_add(s(-1.0 / 720.0), s(1.0 / 24.0));
+    let q45 = u.mul_add(s(-1.0 / 3_628_800.0), s(1.0 / 40_320.0));
+    let q6 = s(1.0 / 479_001_600.0);
+    let ch = u4.mul_add(u2.mul_add(q6, q45), u2.mul_add(q23, q01));
+    let two_s = sh + sh;
+    (two_s * ch, (-two_s).mul_add(sh, s(1.0)))
 }
 
 #[cfg(test)]
