@@ -2,7 +2,8 @@
 //! `cargo build --release -p ferrobot-benches --example collision_probe`
 //! then `valgrind --tool=callgrind target/release/examples/collision_probe MODE [SCENE]` with MODE one of
 //! `none` (setup only), `single`, `single-twice` (every check twice), `batch`, `motion`, `fk`,
-//! `classes` (wall time per check of free, world-colliding and self-colliding configurations); `single-spheres` and `batch-spheres`
+//! `classes` (wall time per check of free, world-colliding and self-colliding configurations),
+//! `self-only` (the self-colliding configurations, empty world, checked 5 times); `single-spheres` and `batch-spheres`
 //! decide self-collision by spheres alone (no exact stage), for reference; a `-noworld`
 //! suffix (e.g. `single-noworld`, `single-spheres-noworld`) empties the world (self-collision only).
 
@@ -56,6 +57,18 @@ fn main() {
             })
             .last()
             .unwrap_or(0),
+        // Self-colliding configurations only (found in a first pass).
+        "self-only" => {
+            let mut own = checker.clone();
+            own.set_world(ferrobot_collision::CollisionWorld::new());
+            let sel: Vec<&[f64]> = qs
+                .chunks(7)
+                .filter(|q| own.in_collision_unchecked(q))
+                .collect();
+            (0..5)
+                .map(|_| sel.iter().filter(|q| own.in_collision_unchecked(q)).count())
+                .sum()
+        }
         "fk" => {
             let (r, _) = checker.compiled();
             let mut sc = ferrobot_collision::kernel::Scratch::<f32>::new(r);
