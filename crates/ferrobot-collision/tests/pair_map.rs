@@ -8,10 +8,13 @@
 
 mod common;
 
+use std::sync::Arc;
+
 use common::{assert_single_matches_batch, hulls, mbm_panda, random_q, to_pose};
 
 use ferrobot_collision::pair_map::PairMap;
 use ferrobot_collision::{CollisionChecker, CollisionWorld};
+use ferrobot_model::RobotModel;
 use parry3d::query::intersection_test;
 use rand::{Rng, SeedableRng, rngs::StdRng};
 
@@ -31,15 +34,19 @@ fn clearance(checker: &CollisionChecker, q: &[f64], la: usize, lb: usize) -> f64
     best
 }
 
-#[test]
-fn clear_cells_are_clear_for_every_configuration_in_them() {
+/// The MotionBenchMaker Panda's checker with `margin`, empty world.
+fn panda_checker(margin: f64) -> (Arc<RobotModel>, CollisionChecker) {
     let (model, spheres, acm) = mbm_panda();
     let mut checker =
         CollisionChecker::new(model.clone(), spheres, acm, CollisionWorld::new()).unwrap();
-    let margin = 0.01;
     checker.set_margin(margin).unwrap();
+    (model, checker)
+}
+
+/// The self pairs with a map: (link, link, map).
+fn mapped_pairs(checker: &CollisionChecker) -> Vec<(usize, usize, &PairMap)> {
     let (robot, _) = checker.compiled();
-    let maps: Vec<(usize, usize, &PairMap)> = robot
+    robot
         .pairs
         .iter()
         .zip(&robot.pair_maps)
@@ -47,7 +54,31 @@ fn clear_cells_are_clear_for_every_configuration_in_them() {
             m.as_deref()
                 .map(|m| (robot.bodies[a].link, robot.bodies[b].link, m))
         })
-        .collect();
+        .collect()
+}
+
+/// A random configuration; half the time the map's two coordinates sit
+/// within a thousandth of a cell of a cell edge, on either side.
+fn sample(model: &RobotModel, map: &PairMap, rng: &mut StdRng) -> Vec<f64> {
+    let mut q = random_q(model, rng);
+    if rng.random_bool(0.5) {
+        for d in map.dofs() {
+            let (l, h) = (model.lower_limits()[d], model.upper_limits()[d]);
+            let cell = (h - l) / 128.0;
+            let k = rng.random_range(0..=128) as f64;
+            q[d] = (l + cell * (k + rng.random_range(-1e-3..1e-3)))
+                .min(h)
+                .max(l);
+        }
+    }
+    q
+}
+
+#[test]
+fn clear_cells_are_clear_for_every_configuration_in_them() {
+    let margin = 0.01;
+    let (model, checker) = panda_checker(margin);
+    let maps = mapped_pairs(&checker);
     // The Panda's wrist: link 5 against the hand and fingers (joints 6, 7).
     assert!(maps.len() >= 2, "{} maps", maps.len());
     // Link 7 sits within a centimetre of link 5 in every configuration, so
@@ -57,16 +88,7 @@ fn clear_cells_are_clear_for_every_configuration_in_them() {
     let (mut clear, mut closest) = (0, f64::INFINITY);
     for (la, lb, map) in &maps {
         for _ in 0..3000 {
-            let mut q = random_q(&model, &mut rng);
-            // Half the samples near the two joints' extremes and cell edges.
-            if rng.random_bool(0.5) {
-                for d in map.dofs() {
-                    let (l, h) = (model.lower_limits()[d], model.upper_limits()[d]);
-                    let cell = (h - l) / 128.0;
-                    let k = rng.random_range(0..128) as f64;
-                    q[d] = (l + cell * (k + rng.random_range(0.0..1e-3))).min(h).max(l);
-                }
-            }
+            let q = sample(&model, map, &mut rng);
             let q32: Vec<f32> = q.iter().map(|&v| v as f32).collect();
             if map.clear(&q32, margin as f32) {
                 let c = clearance(&checker, &q, *la, *lb);
@@ -90,22 +112,11 @@ fn clear_cells_are_clear_for_every_configuration_in_them() {
 
 #[test]
 fn colliding_cells_collide_for_every_configuration_in_them() {
-    let (model, spheres, acm) = mbm_panda();
-    let mut checker =
-        CollisionChecker::new(model.clone(), spheres, acm, CollisionWorld::new()).unwrap();
     let margin = 0.005;
-    checker.set_margin(margin).unwrap();
+    let (model, checker) = panda_checker(margin);
     let hulls = hulls(&model);
     let (robot, _) = checker.compiled();
-    let maps: Vec<(usize, usize, &PairMap)> = robot
-        .pairs
-        .iter()
-        .zip(&robot.pair_maps)
-        .filter_map(|(&(a, b), m)| {
-            m.as_deref()
-                .map(|m| (robot.bodies[a].link, robot.bodies[b].link, m))
-        })
-        .collect();
+    let maps = mapped_pairs(&checker);
     // The hand and link 5 collide over a band of wrist angles.
     assert!(maps.iter().any(|m| m.2.collide_fraction() > 0.02));
     // One map over joints 6 and 7 holds the colliding cells of all four.
@@ -114,16 +125,7 @@ fn colliding_cells_collide_for_every_configuration_in_them() {
     let (mut colliding, mut shallowest) = (0, f64::INFINITY);
     for (la, lb, map) in &maps {
         for _ in 0..10_000 {
-            let mut q = random_q(&model, &mut rng);
-            // Half the samples at cell edges.
-            if rng.random_bool(0.5) {
-                for d in map.dofs() {
-                    let (l, h) = (model.lower_limits()[d], model.upper_limits()[d]);
-                    let cell = (h - l) / 128.0;
-                    let k = rng.random_range(0..=128) as f64;
-                    q[d] = (l + cell * (k - rng.random_range(0.0..1e-3))).min(h).max(l);
-                }
-            }
+            let q = sample(&model, map, &mut rng);
             let q32: Vec<f32> = q.iter().map(|&v| v as f32).collect();
             assert_eq!(
                 robot.collide_maps[0].collides(&q32, margin as f32) && map.collides(&q32, 1.0),
