@@ -348,42 +348,32 @@ impl Plan {
     ) -> bool {
         let (bp, bd) = (&robot.bodies[self.prox], &robot.bodies[self.dist]);
         // Largest overlap of a sphere of `a` (frame fa) with one of `b`.
-        let overlap = |a: &mut dyn Iterator<Item = ([f32; 3], f32)>,
-                       fa: usize,
-                       b: &[([f32; 3], f32)],
-                       fb: usize| {
-            let b: Vec<([f32; 3], f32)> = b
+        let overlap = |a: &[([f32; 3], f32)], fa: usize, b: &[([f32; 3], f32)], fb: usize| {
+            let b: Spheres = b
                 .iter()
                 .map(|(c, r)| (apply::<f32>(&frames[fb], c), *r))
                 .collect();
             let mut best = f32::NEG_INFINITY;
             for (c, r) in a {
-                let c = apply::<f32>(&frames[fa], &c);
+                let c = apply::<f32>(&frames[fa], c);
                 for (cb, rb) in &b {
                     best = best.max(r + rb - norm(sub(c, *cb)));
                 }
             }
             best
         };
-        let spheres = |b: &crate::compiled::Body| -> Vec<([f32; 3], f32)> {
+        let spheres = |b: &crate::compiled::Body| -> Spheres {
             (b.first..b.first + b.count)
                 .map(|k| (robot.centers[k], robot.radii[k]))
                 .collect()
         };
         // NaN compares false: not certain.
         let sure = |depth: f32| depth > motion;
-        if !sure(
-            overlap(
-                &mut spheres(bp).into_iter(),
-                bp.frame,
-                &spheres(bd),
-                bd.frame,
-            ) + margin,
-        ) {
+        if !sure(overlap(&spheres(bp), bp.frame, &spheres(bd), bd.frame) + margin) {
             return false;
         }
         match inscribed {
-            Some([p, d]) => sure(overlap(&mut p.iter().copied(), bp.frame, d, bd.frame)),
+            Some([p, d]) => sure(overlap(p, bp.frame, d, bd.frame)),
             None => true,
         }
     }
