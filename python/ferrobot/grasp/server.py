@@ -26,6 +26,7 @@ from __future__ import annotations
 import asyncio
 import dataclasses
 import io
+import itertools
 import json
 import math
 import os
@@ -397,10 +398,19 @@ def _nested_shape(value, name: str, max_side: int, ndim: tuple[int, ...]) -> Non
 def _image(value, name: str, ndim: tuple[int, ...], kinds: str, limits: ServiceLimits) -> np.ndarray:
     if not isinstance(value, np.ndarray):
         _nested_shape(value, name, limits.max_image_side, ndim)
+        source = value
         try:
             value = np.array(value)
         except (ValueError, TypeError, OverflowError):
             raise _BadRequest(422, f"field '{name}': expected a rectangular array of numbers") from None
+        a = value
+        if "b" not in kinds and a.ndim >= 2 and a.dtype.kind in "iuf":
+            # numpy turns [true, 1.5] into [1.0, 1.5]: JSON booleans are not numbers
+            flat = itertools.chain.from_iterable(source)
+            if a.ndim == 3:
+                flat = itertools.chain.from_iterable(flat)
+            if any(map(_IS_BOOL, flat)):
+                raise _BadRequest(422, f"field '{name}': expected numbers, got a boolean")
     a = value
     if a.ndim not in ndim:
         raise _BadRequest(422, f"field '{name}': expected {' or '.join(f'{d}-D' for d in ndim)}, got shape {a.shape}")
@@ -414,6 +424,7 @@ def _image(value, name: str, ndim: tuple[int, ...], kinds: str, limits: ServiceL
     return a
 
 
+_IS_BOOL = bool.__instancecheck__
 _NPZ_MAX_MEMBERS = 16
 
 
@@ -481,7 +492,7 @@ def _run(data: dict, limits: ServiceLimits):
     k = {n: FIELD_RANGES[n].check(n, data[n]) for n in ("fx", "fy", "cx", "cy", "scale")}
     colors = data.get("colors")
     if colors is not None:
-        colors = _image(colors, "colors", (2, 3), "uifb", limits)
+        colors = _image(colors, "colors", (2, 3), "uif", limits)
     mask = data.get("mask")
     if mask is not None:
         mask = _image(mask, "mask", (2,), "uifb", limits)
@@ -535,10 +546,13 @@ def _process_schema(limits: ServiceLimits) -> dict:
     props = {
         "depths": image({"type": "number", "minimum": 0}, "H x W raw depth (0: no reading), H, W <= max_image_side"),
         "colors": image(
-            {"type": "array", "items": {"type": "number"}, "minItems": 3, "maxItems": 3},
-            "H x W x 3 colours (checked, unused)",
+            {"type": ["array", "number"], "items": {"type": "number"}, "minItems": 3, "maxItems": 3},
+            "H x W x 3 colours, or H x W grey levels (checked, unused)",
         ),
-        "mask": image({"type": "integer", "minimum": _INT32[0], "maximum": _INT32[1]}, "H x W object ids (0: none)"),
+        "mask": image(
+            {"type": ["integer", "boolean"], "minimum": _INT32[0], "maximum": _INT32[1]},
+            "H x W object ids (0: none) or booleans",
+        ),
         "options": {
             "type": "object",
             "additionalProperties": False,
@@ -547,10 +561,14 @@ def _process_schema(limits: ServiceLimits) -> dict:
         },
     }
     props.update({n: r.schema() for n, r in FIELD_RANGES.items()})
+    for name, prop in props.items():
+        if name not in _REQUIRED:  # an optional field given as null is absent
+            prop["type"] = [prop["type"], "null"]
     return {
         "type": "object",
         "required": list(_REQUIRED),
         "additionalProperties": False,
+        "not": {"required": ["lims", "workspace"]},
         "properties": props,
         "description": f"AnyGrasp's request; at most max_json_bytes = {limits.max_json_bytes} bytes",
     }
