@@ -17,6 +17,9 @@ concurrently:
 * ``GET /health`` every 0.25 s (5 s timeout): every one must answer 200;
 * the server's resident memory (VmRSS from /proc, the server process and its children) every 0.1 s.
 
+``--worst-options`` instead times detection on a rendered 640 x 480 frame with the default options and with every
+work bound of the service's option table at its worst at once (interleaved, 3 runs each, median).
+
 Prints (and writes with ``--json``) the counts, the valid requests' p50/p95 latency, the maximum RSS and every
 failure; exits 1 if a valid request was lost, a health check failed, a hostile request got a 5xx or RSS went
 over ``--rss-limit-mb``.
@@ -180,12 +183,46 @@ def hostile_requests(port: int):
     ]
 
 
+def worst_options() -> int:
+    import ferrobot.grasp as fg
+    from ferrobot.grasp.server import OPTION_RANGES
+
+    r = OPTION_RANGES
+    worst = {
+        "voxel_size": r["voxel_size"].lo,
+        "normal_radius": r["normal_radius"].hi,
+        "num_seeds": int(r["num_seeds"].hi),
+        "num_rotations": int(r["num_rotations"].hi),
+        "approach_tilts": list(np.linspace(-1.5, 1.5, r["approach_tilts"].length)),
+        "depths": list(np.linspace(0.045, 0.005, r["depths"].length)),
+        "seed_spacing": r["seed_spacing"].hi,
+        "nms_translation": r["nms_translation"].hi,
+    }
+    w, h, f = 640, 480, 600.0
+    scene, cam = default_scene()
+    depth, _ = render(scene, cam, width=w, height=h, fx=f, fy=f, cx=w / 2 - 0.5, cy=h / 2 - 0.5)
+    mm = np.round(depth * 1000).astype(np.uint16)
+    times: dict[str, list[float]] = {"default": [], "worst": []}
+    for _ in range(3):
+        for name, opts in (("default", {}), ("worst", worst)):
+            t = time.perf_counter()
+            n = len(fg.detect_from_rgbd(mm, f, f, w / 2 - 0.5, h / 2 - 0.5, 1000.0, **opts))
+            times[name].append(time.perf_counter() - t)
+            print(f"{name:8s} {times[name][-1]:7.2f} s  {n} grasps", flush=True)
+    d, x = statistics.median(times["default"]), statistics.median(times["worst"])
+    print(f"median: default {d:.2f} s, worst {x:.2f} s ({x / d:.0f}x); worst options: {worst}")
+    return 0
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--duration", type=float, default=60.0, help="seconds of load (default 60)")
     ap.add_argument("--json", default=None, help="write the summary here")
     ap.add_argument("--rss-limit-mb", type=float, default=512.0, help="fail above this server RSS (default 512)")
+    ap.add_argument("--worst-options", action="store_true", help="time the worst-case options instead")
     args = ap.parse_args(argv)
+    if args.worst_options:
+        return worst_options()
 
     import httpx
 

@@ -234,17 +234,19 @@ FIELD_RANGES: dict[str, Range] = {
 }
 
 #: Range of each detection option the service accepts (``options`` of ``/process``): the detector's own checks
-#: (``DetectOptions::validate``) plus upper bounds that keep one request's work within ~200x the defaults'.
+#: (``DetectOptions::validate``) plus upper bounds on the work. With every work bound at its worst at once
+#: (voxel 2 mm, normal radius 3 cm, 512 seeds x 16 rotations x 5 tilts x 6 depths) a 640 x 480 frame takes
+#: ~15 s on 2 cores, ~50x the defaults (BENCHMARKS.md).
 OPTION_RANGES: dict[str, Range] = {
-    "voxel_size": Range("float", 0.001, 0.05, doc="voxel size of the downsampling, metres"),
-    "normal_radius": Range("float", 0.002, 0.05, doc="neighbourhood radius of the normals, metres"),
-    "num_seeds": Range("int", 1, 1024, doc="seed points sampled"),
+    "voxel_size": Range("float", 0.002, 0.05, doc="voxel size of the downsampling, metres"),
+    "normal_radius": Range("float", 0.002, 0.03, doc="neighbourhood radius of the normals, metres"),
+    "num_seeds": Range("int", 1, 512, doc="seed points sampled"),
     "seed_spacing": Range("float", 0.0, 0.1, doc="minimum seed spacing while possible, metres"),
-    "num_rotations": Range("int", 1, 32, doc="closing-axis rotations over a half turn"),
+    "num_rotations": Range("int", 1, 16, doc="closing-axis rotations over a half turn"),
     "approach_tilts": Range(
-        "list", -_PI / 2, _PI / 2, lo_open=True, hi_open=True, length=8, variable=True, doc="radians"
+        "list", -_PI / 2, _PI / 2, lo_open=True, hi_open=True, length=5, variable=True, doc="radians"
     ),
-    "depths": Range("list", 0.0, 0.3, hi_open=True, length=8, variable=True, doc="fingertip depths, metres"),
+    "depths": Range("list", 0.0, 0.3, hi_open=True, length=6, variable=True, doc="fingertip depths, metres"),
     "friction": Range("float", 0.0, 10.0, lo_open=True, doc="friction coefficient"),
     "viewpoint": Range("list", -1e3, 1e3, length=3, doc="camera position, metres"),
     "approach_direction": Range("list", -1e3, 1e3, length=3, doc="preferred approach (non-zero)"),
