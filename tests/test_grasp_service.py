@@ -102,8 +102,16 @@ def test_binary_endpoint_matches_json(client, frame):
         ({"depths": [[1, 2]], "fx": 1, "fy": 1, "cx": 0, "cy": 0, "scale": 0}, 422, "field 'scale': 0 is out of range"),
         ({"depths": [[1, -2]], "fx": 1, "fy": 1, "cx": 0, "cy": 0, "scale": 1}, 400, "negative depth"),
         ({"depths": [[1, 2]], "fx": 1, "fy": 1, "cx": 0, "cy": 0, "scale": 1, "colors": [[1, 2, 3]]}, 400, "colors"),
-        ({"depths": [[1, 2]], "fx": 1, "fy": 1, "cx": 0, "cy": 0, "scale": 1, "lims": [0, 1]}, 422, "'lims': expected a list of 6"),
-        ({"depths": [[1, 2]], "fx": 1, "fy": 1, "cx": 0, "cy": 0, "scale": 1, "lims": [1, 0, 0, 1, 0, 1]}, 400, "workspace"),
+        (
+            {"depths": [[1, 2]], "fx": 1, "fy": 1, "cx": 0, "cy": 0, "scale": 1, "lims": [0, 1]},
+            422,
+            "'lims': expected a list of 6",
+        ),
+        (
+            {"depths": [[1, 2]], "fx": 1, "fy": 1, "cx": 0, "cy": 0, "scale": 1, "lims": [1, 0, 0, 1, 0, 1]},
+            400,
+            "workspace",
+        ),
         ({"depths": [[1, 2]], "fx": 1, "fy": 1, "cx": 0, "cy": 0, "scale": 1, "options": {"x": 1}}, 422, "unknown"),
     ],
 )

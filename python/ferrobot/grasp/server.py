@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import asyncio
 import dataclasses
+import functools
 import io
 import itertools
 import json
@@ -236,7 +237,7 @@ FIELD_RANGES: dict[str, Range] = {
 #: Range of each detection option the service accepts (``options`` of ``/process``): the detector's own checks
 #: (``DetectOptions::validate``) plus upper bounds on the work. With every work bound at its worst at once
 #: (voxel 2 mm, normal radius 3 cm, 512 seeds x 16 rotations x 5 tilts x 6 depths) a 640 x 480 frame takes
-#: ~15 s on 2 cores, ~50x the defaults (BENCHMARKS.md).
+#: ~14 s on 2 cores, ~70x the defaults (BENCHMARKS.md).
 OPTION_RANGES: dict[str, Range] = {
     "voxel_size": Range("float", 0.002, 0.05, doc="voxel size of the downsampling, metres"),
     "normal_radius": Range("float", 0.002, 0.03, doc="neighbourhood radius of the normals, metres"),
@@ -709,6 +710,11 @@ def create_app(max_body_bytes: int | None = None, limits: ServiceLimits | None =
 # uvicorn protocol with a request-header deadline.
 
 
+@functools.lru_cache(maxsize=4)
+def _header_timeout(env: str | None) -> float:
+    return ServiceLimits.from_env().header_timeout
+
+
 class HeaderTimeoutH11Protocol(H11Protocol):
     """uvicorn's h11 protocol plus a deadline on receiving a request's line and headers: a connection that has
     not sent complete headers ``header_timeout`` seconds after it opened (or after its previous response) is
@@ -716,7 +722,7 @@ class HeaderTimeoutH11Protocol(H11Protocol):
 
     def __init__(self, *args, **kwargs):
         super().__init__(*args, **kwargs)
-        self._header_timeout = ServiceLimits.from_env().header_timeout
+        self._header_timeout = _header_timeout(os.environ.get(_ENV_LIMITS))
         self._header_timer = None
 
     def _arm(self):
