@@ -476,3 +476,9 @@ def test_client_outage_lists_each_servers_reason(stubs):
         with pytest.raises(ServiceError, match="after 2 round.*HTTP 503: at the connection limit"):
             c.health()
         assert a.hits == b.hits == 2
+
+
+def test_a_body_where_none_is_expected_is_refused_not_drained(client):
+    r = client.request("GET", "/health", content=b"x" * 10_000)
+    assert r.status_code == 413 and "limit of 0 bytes" in r.json()["detail"]
+    assert client.get("/health").status_code == 200

@@ -306,13 +306,16 @@ class _Guard:
         self.limits = limits
 
     def _limit(self, path: str) -> int:
-        return self.limits.max_json_bytes if path == "/process" else self.limits.max_body_bytes
+        """Body limit of a path: no other endpoint takes a body."""
+        return {"/process": self.limits.max_json_bytes, "/process_npz": self.limits.max_body_bytes}.get(path, 0)
 
     async def __call__(self, scope, receive, send):
-        if scope["type"] != "http" or scope["method"] not in ("POST", "PUT", "PATCH"):
+        if scope["type"] != "http":
             return await self.app(scope, receive, send)
         lengths = [v for k, v in scope["headers"] if k.lower() == b"content-length"]
         chunked = any(k.lower() == b"transfer-encoding" for k, _ in scope["headers"])
+        if not chunked and (not lengths or lengths == [b"0"]):
+            return await self.app(scope, receive, send)  # no body
         limit = self._limit(scope["path"])
         if lengths and chunked:
             return await _reply(send, 400, "a request may not carry both Content-Length and Transfer-Encoding")
