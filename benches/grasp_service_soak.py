@@ -17,6 +17,7 @@ concurrently:
 * ``GET /health`` every 0.25 s (5 s timeout): every one must answer 200;
 * the server's resident memory (VmRSS from /proc, the server process and its children) every 0.1 s.
 
+``--no-hostile`` runs the valid clients and ``/health`` alone (a baseline for the latencies).
 ``--worst-options`` instead times detection on a rendered 640 x 480 frame with the default options and with every
 work bound of the service's option table at its worst at once (interleaved, 3 runs each, median).
 
@@ -219,6 +220,7 @@ def main(argv=None) -> int:
     ap.add_argument("--duration", type=float, default=60.0, help="seconds of load (default 60)")
     ap.add_argument("--json", default=None, help="write the summary here")
     ap.add_argument("--rss-limit-mb", type=float, default=512.0, help="fail above this server RSS (default 512)")
+    ap.add_argument("--no-hostile", action="store_true", help="valid clients and /health only (a baseline)")
     ap.add_argument("--worst-options", action="store_true", help="time the worst-case options instead")
     args = ap.parse_args(argv)
     if args.worst_options:
@@ -343,8 +345,9 @@ def main(argv=None) -> int:
             stop.wait(0.1)
 
     threads = [threading.Thread(target=valid, args=(b,)) for b in (True, True, False)]
-    threads += [threading.Thread(target=attacker, args=(o,)) for o in (0, 6)]
-    threads += [threading.Thread(target=trickler) for _ in range(8)]
+    if not args.no_hostile:
+        threads += [threading.Thread(target=attacker, args=(o,)) for o in (0, 6)]
+        threads += [threading.Thread(target=trickler) for _ in range(8)]
     threads += [threading.Thread(target=health), threading.Thread(target=memory)]
     t0 = time.perf_counter()
     for t in threads:
