@@ -18,6 +18,8 @@ concurrently:
 * the server's resident memory (VmRSS from /proc, the server process and its children) every 0.1 s.
 
 ``--no-hostile`` runs the valid clients and ``/health`` alone (a baseline for the latencies).
+``--largest`` sends, one at a time to a server with default limits, the largest requests it accepts: a 4096 x 4096
+float64 ``.npz`` frame with colours and a JSON frame just under the JSON limit, with their time and peak RSS.
 ``--worst-options`` instead times detection on a rendered 640 x 480 frame with the default options and with every
 work bound of the service's option table at its worst at once (interleaved, 3 runs each, median).
 
@@ -184,6 +186,66 @@ def hostile_requests(port: int):
     ]
 
 
+def _start_server(extra=()) -> tuple[subprocess.Popen, str]:
+    import httpx
+
+    port = _free_port()
+    cmd = [sys.executable, "-m", "ferrobot.cli", "serve-grasp", "--host", "127.0.0.1", "--port", str(port)]
+    server = subprocess.Popen([*cmd, "--log-level", "critical", *extra], stdout=subprocess.DEVNULL)
+    url = f"http://127.0.0.1:{port}"
+    deadline = time.monotonic() + 60
+    while True:
+        try:
+            httpx.get(url + "/health", timeout=1.0)
+            return server, url
+        except httpx.HTTPError:
+            if server.poll() is not None or time.monotonic() > deadline:
+                server.kill()
+                raise RuntimeError("the server did not start") from None
+            time.sleep(0.2)
+
+
+def largest() -> int:
+    import httpx
+
+    server, url = _start_server()
+    peak = [0]
+    stop = threading.Event()
+
+    def memory():
+        while not stop.is_set():
+            peak[0] = max(peak[0], _rss_kb(server.pid))
+            stop.wait(0.05)
+
+    threading.Thread(target=memory, daemon=True).start()
+    n = 4096
+    k = {"fx": 1.5 * n, "fy": 1.5 * n, "cx": n / 2, "cy": n / 2, "scale": 1000.0}
+    scene, cam = default_scene()
+    depth, _ = render(scene, cam, width=n, height=n, fx=k["fx"], fy=k["fy"], cx=k["cx"], cy=k["cy"])
+    mm = np.round(np.nan_to_num(depth) * 1000).astype(np.uint16)
+    npz = _npz(depths=mm.astype(np.float64), colors=np.zeros((n, n, 3), np.uint8), **k)
+    side = 2600  # the largest square millimetre image whose JSON fits the default 32 MiB
+    body = json.dumps({"depths": mm[:side, :side].tolist(), **k}).encode()
+    ok = True
+    for name, path, data, ctype in (
+        (f"npz {n}x{n} float64 depth + uint8 colours", "/process_npz", npz, "application/octet-stream"),
+        (f"JSON {side}x{side} millimetre depth", "/process", body, "application/json"),
+    ):
+        peak[0] = 0
+        t = time.perf_counter()
+        r = httpx.post(url + path, content=data, headers={"content-type": ctype}, timeout=600)
+        ok &= r.status_code == 200
+        print(
+            f"{name}: {len(data) / MiB:.1f} MiB sent -> HTTP {r.status_code} in {time.perf_counter() - t:.1f} s, "
+            f"peak server RSS {peak[0] / 1024:.0f} MB",
+            flush=True,
+        )
+    stop.set()
+    server.terminate()
+    server.wait(timeout=10)
+    return 0 if ok else 1
+
+
 def worst_options() -> int:
     import ferrobot.grasp as fg
     from ferrobot.grasp.server import OPTION_RANGES
@@ -221,10 +283,13 @@ def main(argv=None) -> int:
     ap.add_argument("--json", default=None, help="write the summary here")
     ap.add_argument("--rss-limit-mb", type=float, default=512.0, help="fail above this server RSS (default 512)")
     ap.add_argument("--no-hostile", action="store_true", help="valid clients and /health only (a baseline)")
+    ap.add_argument("--largest", action="store_true", help="time the largest accepted requests instead")
     ap.add_argument("--worst-options", action="store_true", help="time the worst-case options instead")
     args = ap.parse_args(argv)
     if args.worst_options:
         return worst_options()
+    if args.largest:
+        return largest()
 
     import httpx
 
