@@ -374,7 +374,9 @@ def _reject_constant(name: str):
     raise ValueError(f"{name} is not valid JSON (RFC 8259 has no NaN or Infinity)")
 
 
-def _parse_json(body: bytes) -> dict:
+def _parse_json(body: bytes) -> tuple[dict, bool]:
+    """The parsed object, and whether the text has a ``true`` or ``false`` literal anywhere (when it has none, no
+    array can hold a boolean and :func:`_image` skips looking for one)."""
     try:
         data = json.loads(body, parse_constant=_reject_constant)
     except RecursionError:
@@ -383,7 +385,7 @@ def _parse_json(body: bytes) -> dict:
         raise _BadRequest(422, f"body is not valid JSON: {e}") from None
     if not isinstance(data, dict):
         raise _BadRequest(422, f"body must be a JSON object, got {_type(data)}")
-    return data
+    return data, (b"true" in body or b"false" in body)
 
 
 def _nested_shape(value, name: str, max_side: int, ndim: tuple[int, ...]) -> None:
@@ -401,7 +403,9 @@ def _nested_shape(value, name: str, max_side: int, ndim: tuple[int, ...]) -> Non
         raise _BadRequest(422, f"field '{name}': expected a rectangular array, rows have {sorted(widths)[:4]} items")
 
 
-def _image(value, name: str, ndim: tuple[int, ...], kinds: str, limits: ServiceLimits) -> np.ndarray:
+def _image(
+    value, name: str, ndim: tuple[int, ...], kinds: str, limits: ServiceLimits, bools: bool = True
+) -> np.ndarray:
     if not isinstance(value, np.ndarray):
         _nested_shape(value, name, limits.max_image_side, ndim)
         source = value
@@ -410,7 +414,7 @@ def _image(value, name: str, ndim: tuple[int, ...], kinds: str, limits: ServiceL
         except (ValueError, TypeError, OverflowError):
             raise _BadRequest(422, f"field '{name}': expected a rectangular array of numbers") from None
         a = value
-        if "b" not in kinds and a.ndim >= 2 and a.dtype.kind in "iuf":
+        if bools and "b" not in kinds and a.ndim >= 2 and a.dtype.kind in "iuf":
             # numpy turns [true, 1.5] into [1.0, 1.5]: JSON booleans are not numbers
             flat = itertools.chain.from_iterable(source)
             if a.ndim == 3:
@@ -485,20 +489,20 @@ def _read_npz(body: bytes, limits: ServiceLimits) -> dict:
     return data
 
 
-def _run(data: dict, limits: ServiceLimits):
+def _run(data: dict, limits: ServiceLimits, bools: bool = True):
     unknown = sorted(set(data) - _KNOWN)
     if unknown:
         raise _BadRequest(422, f"unknown field(s) {unknown}; known: {sorted(_KNOWN)}")
     missing = [n for n in _REQUIRED if data.get(n) is None]
     if missing:
         raise _BadRequest(422, f"missing field '{missing[0]}'" + (f" (and {missing[1:]})" if missing[1:] else ""))
-    depth = _image(data["depths"], "depths", (2,), "uif", limits)
+    depth = _image(data["depths"], "depths", (2,), "uif", limits, bools)
     if depth.size == 0:
         raise _BadRequest(422, "field 'depths': empty image")
     k = {n: FIELD_RANGES[n].check(n, data[n]) for n in ("fx", "fy", "cx", "cy", "scale")}
     colors = data.get("colors")
     if colors is not None:
-        colors = _image(colors, "colors", (2, 3), "uif", limits)
+        colors = _image(colors, "colors", (2, 3), "uif", limits, bools)
     mask = data.get("mask")
     if mask is not None:
         mask = _image(mask, "mask", (2,), "uifb", limits)
@@ -639,7 +643,8 @@ def create_app(max_body_bytes: int | None = None, limits: ServiceLimits | None =
         return {"status": "ok", "version": __version__, "pid": os.getpid()}
 
     def process_json(body: bytes):
-        return {"grasp_groups": _run(_parse_json(body), limits).to_dicts()}
+        data, bools = _parse_json(body)
+        return {"grasp_groups": _run(data, limits, bools).to_dicts()}
 
     def process_npz_body(body: bytes) -> bytes:
         gg = _run(_read_npz(body, limits), limits)
