@@ -20,6 +20,9 @@ concurrently:
 ``--no-hostile`` runs the valid clients and ``/health`` alone (a baseline for the latencies).
 ``--largest`` sends, one at a time to a server with default limits, the largest requests it accepts: a 4096 x 4096
 float64 ``.npz`` frame with colours and a JSON frame just under the JSON limit, with their time and peak RSS.
+``--latency`` times valid 640 x 480 requests (JSON with colours, and ``.npz``) one at a time, 10 rounds; with
+``--baseline-pythonpath DIR`` a second server importing ferrobot from DIR (e.g. another checkout's ``python``)
+is timed in the same rounds, interleaved.
 ``--worst-options`` instead times detection on a rendered 640 x 480 frame with the default options and with every
 work bound of the service's option table at its worst at once (interleaved, 3 runs each, median).
 
@@ -205,6 +208,51 @@ def _start_server(extra=()) -> tuple[subprocess.Popen, str]:
             time.sleep(0.2)
 
 
+def latency(baseline: str | None) -> int:
+    import httpx
+
+    servers = {"this tree": _start_server()}
+    if baseline:
+        env = dict(os.environ, PYTHONPATH=baseline)
+        port = _free_port()
+        cmd = [sys.executable, "-m", "ferrobot.cli", "serve-grasp", "--port", str(port), "--log-level", "critical"]
+        proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL)
+        url = f"http://127.0.0.1:{port}"
+        for _ in range(300):
+            try:
+                httpx.get(url + "/health", timeout=1.0)
+                break
+            except httpx.HTTPError:
+                time.sleep(0.2)
+        servers[f"baseline ({baseline})"] = (proc, url)
+    w, h, f = 640, 480, 600.0
+    k = {"fx": f, "fy": f, "cx": w / 2 - 0.5, "cy": h / 2 - 0.5, "scale": 1000.0}
+    scene, cam = default_scene()
+    depth, labels = render(scene, cam, width=w, height=h, fx=f, fy=f, cx=k["cx"], cy=k["cy"])
+    mm = np.round(depth * 1000).astype(np.uint16)
+    colors = np.zeros((h, w, 3), np.uint8)
+    colors[labels > 0] = [200, 30, 30]
+    bodies = {
+        "JSON": ("/process", json.dumps({"depths": mm.tolist(), "colors": colors.tolist(), **k}).encode()),
+        "npz": ("/process_npz", _npz(depths=mm, colors=colors, **k)),
+    }
+    times: dict[tuple[str, str], list[float]] = collections.defaultdict(list)
+    with httpx.Client(timeout=120.0) as c:
+        for _ in range(10):
+            for name, (_, url) in servers.items():
+                for kind, (path, body) in bodies.items():
+                    t = time.perf_counter()
+                    r = c.post(url + path, content=body, headers={"content-type": "application/json"})
+                    times[(name, kind)].append(time.perf_counter() - t)
+                    assert r.status_code == 200, r.text
+    for (name, kind), ts in times.items():
+        print(f"{name:40s} {kind:5s} median {1e3 * statistics.median(ts):7.1f} ms  min {1e3 * min(ts):7.1f} ms")
+    for proc, _ in servers.values():
+        proc.terminate()
+        proc.wait(timeout=10)
+    return 0
+
+
 def largest() -> int:
     import httpx
 
@@ -283,6 +331,12 @@ def main(argv=None) -> int:
     ap.add_argument("--json", default=None, help="write the summary here")
     ap.add_argument("--rss-limit-mb", type=float, default=512.0, help="fail above this server RSS (default 512)")
     ap.add_argument("--no-hostile", action="store_true", help="valid clients and /health only (a baseline)")
+    ap.add_argument(
+        "--latency", action="store_true", help="time valid 640x480 requests alone (see --baseline-pythonpath)"
+    )
+    ap.add_argument(
+        "--baseline-pythonpath", default=None, help="with --latency: also a server importing ferrobot from here"
+    )
     ap.add_argument("--largest", action="store_true", help="time the largest accepted requests instead")
     ap.add_argument("--worst-options", action="store_true", help="time the worst-case options instead")
     args = ap.parse_args(argv)
@@ -290,6 +344,8 @@ def main(argv=None) -> int:
         return worst_options()
     if args.largest:
         return largest()
+    if args.latency:
+        return latency(args.baseline_pythonpath)
 
     import httpx
 
