@@ -482,3 +482,12 @@ def test_a_body_where_none_is_expected_is_refused_not_drained(client):
     r = client.request("GET", "/health", content=b"x" * 10_000)
     assert r.status_code == 413 and "limit of 0 bytes" in r.json()["detail"]
     assert client.get("/health").status_code == 200
+
+
+def test_client_reports_an_unreadable_answer_as_a_service_error(stubs):
+    s = stubs(200, {"not": "grasps"})
+    with GraspClient([s.url], retries=0) as c:
+        with pytest.raises(ServiceError, match="unreadable answer"):
+            c.process(np.full((4, 4), 800, np.uint16), 100.0, 100.0, 2.0, 2.0)
+        with pytest.raises(ServiceError, match="unreadable answer"):
+            c.process(np.full((4, 4), 800, np.uint16), 100.0, 100.0, 2.0, 2.0, binary=False)

@@ -105,6 +105,8 @@ class GraspClient:
                     errors[address] = f"{type(e).__name__}: {e}"
                     self._mark(address, False)
                     continue
+                except httpx.HTTPError as e:  # not the network's fault (e.g. an undecodable answer)
+                    raise ServiceError(f"{address}{path}: {type(e).__name__}: {e}") from None
                 if r.status_code in _RETRYABLE:  # overloaded, or a proxy with no server behind it
                     errors[address] = f"HTTP {r.status_code}: {_detail(r)}"
                     self._mark(address, False)
@@ -161,8 +163,11 @@ class GraspClient:
             r = self._request(
                 "POST", "/process_npz", content=buf.getvalue(), headers={"content-type": "application/octet-stream"}
             )
-            with np.load(io.BytesIO(r.content), allow_pickle=False) as z:
-                return GraspGroup(z["grasps"].astype(np.float64))
+            try:
+                with np.load(io.BytesIO(r.content), allow_pickle=False) as z:
+                    return GraspGroup(z["grasps"].astype(np.float64))
+            except Exception as e:  # noqa: BLE001 - whatever is wrong with the answer, it is the server's
+                raise ServiceError(f"{r.url}: unreadable answer ({type(e).__name__}: {e})") from None
         body = {"depths": depths.tolist(), "fx": fx, "fy": fy, "cx": cx, "cy": cy, "scale": scale}
         if colors is not None:
             body["colors"] = np.asarray(colors).tolist()
@@ -175,4 +180,7 @@ class GraspClient:
         if max_grasps is not None:
             body["max_grasps"] = int(max_grasps)
         r = self._request("POST", "/process", json=body)
-        return GraspGroup.from_dicts(r.json()["grasp_groups"])
+        try:
+            return GraspGroup.from_dicts(r.json()["grasp_groups"])
+        except Exception as e:  # noqa: BLE001 - whatever is wrong with the answer, it is the server's
+            raise ServiceError(f"{r.url}: unreadable answer ({type(e).__name__}: {e})") from None
