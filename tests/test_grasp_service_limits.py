@@ -75,6 +75,8 @@ def _npz(**arrays) -> bytes:
         ('"fx": NaN', 422, "not valid JSON"),
         ('"fx": Infinity', 422, "not valid JSON"),
         ('"mask": [[0, "a"], [1, 1]]', 422, "field 'mask'"),
+        ('"max_grasps": 3, "options": {"max_grasps": 4}', 422, "aliases"),
+        ('"lims": [0, 1, 0, 1, 0, 1], "workspace": [0, 1, 0, 1, 0, 1]', 422, "aliases"),
     ],
 )
 def test_json_client_mistakes_get_4xx_naming_the_field(client, extra, status, message):

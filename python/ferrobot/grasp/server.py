@@ -528,6 +528,8 @@ def _run(data: dict, limits: ServiceLimits, bools: bool = True):
     if unknown:
         raise _BadRequest(422, f"field 'options': unknown option(s) {unknown}")
     options = {n: OPTION_RANGES[n].check(f"options.{n}", v) for n, v in raw_options.items()}
+    if "max_grasps" in data and "max_grasps" in options:
+        raise _BadRequest(422, "fields 'max_grasps' and 'options.max_grasps' are aliases: give one")
     if data.get("max_grasps") is not None:
         options["max_grasps"] = FIELD_RANGES["max_grasps"].check("max_grasps", data["max_grasps"])
     try:
@@ -578,7 +580,10 @@ def _process_schema(limits: ServiceLimits) -> dict:
         "type": "object",
         "required": list(_REQUIRED),
         "additionalProperties": False,
-        "not": {"required": ["lims", "workspace"]},
+        "allOf": [  # aliases: one of each pair
+            {"not": {"required": ["lims", "workspace"]}},
+            {"not": {"required": ["max_grasps", "options"], "properties": {"options": {"required": ["max_grasps"]}}}},
+        ],
         "properties": props,
         "description": f"AnyGrasp's request; at most max_json_bytes = {limits.max_json_bytes} bytes",
     }
