@@ -61,7 +61,8 @@ class ServiceLimits:
 
     * ``max_body_bytes``: bytes of a ``/process_npz`` body, counted as they are read (a chunked body is cut off
       at the limit: 413).
-    * ``max_json_bytes``: bytes of a ``/process`` JSON body (JSON costs ~10x its size in memory to parse).
+    * ``max_json_bytes``: bytes of a ``/process`` JSON body (a 30 MiB JSON frame peaks at ~1 GB of server memory,
+      parsing and detection together: BENCHMARKS.md).
     * ``max_image_side``: rows and columns of ``depths`` (and so of ``colors`` and ``mask``): 413 beyond.
     * ``max_decoded_bytes``: total size of the arrays an ``.npz`` decodes to, read from the archive's headers
       before anything is decompressed (413 beyond; the default is 4x the body limit).
