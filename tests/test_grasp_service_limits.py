@@ -493,3 +493,14 @@ def test_client_reports_an_unreadable_answer_as_a_service_error(stubs):
             c.process(np.full((4, 4), 800, np.uint16), 100.0, 100.0, 2.0, 2.0)
         with pytest.raises(ServiceError, match="unreadable answer"):
             c.process(np.full((4, 4), 800, np.uint16), 100.0, 100.0, 2.0, 2.0, binary=False)
+
+
+@pytest.mark.parametrize(
+    ("flag", "value"),
+    [("--max-json-mb", "0"), ("--body-timeout", "-1"), ("--header-timeout", "nan"), ("--max-image-side", "0")],
+)
+def test_serve_grasp_rejects_bad_limits(capsys, flag, value):
+    from ferrobot.cli import main
+
+    assert main(["serve-grasp", flag, value]) == 2
+    assert f"{flag} must be > 0" in capsys.readouterr().err
