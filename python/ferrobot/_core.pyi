@@ -37,6 +37,19 @@ class RobotModel:
         ee_link: str | None = None,
         group: str | None = None,
     ) -> RobotModel: ...
+    @staticmethod
+    def from_usd(
+        path: str | PathLike[str],
+        *,
+        root: str | None = None,
+        srdf: str | PathLike[str] | None = None,
+        base_link: str | None = None,
+        ee_link: str | None = None,
+        group: str | None = None,
+    ) -> RobotModel:
+        """A UsdPhysics articulation (needs usd-core; see ferrobot.usd)."""
+    def to_usd(self, path: str | PathLike[str]) -> Any:
+        """Writes the model as USD (needs usd-core; see ferrobot.usd.write_usd); returns the path."""
     @property
     def name(self) -> str: ...
     @property
