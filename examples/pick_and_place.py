@@ -21,7 +21,7 @@ args = ap.parse_args()
 
 spec = random_scene(args.seed)
 world, robot, camera = build_world(spec)  # ferrobot.World, its Robot (Isaac-Sim-like API), a Camera
-base = robot.get_world_pose()
+base = robot.get_world_transform()
 planner = ferrobot.Planner(robot.model)
 arm = [robot.dof_names.index(n) for n in planner.joint_names]
 
@@ -48,7 +48,7 @@ target_id = next(i for i, n in world.segmentation_labels.items() if n == spec.ta
 k = camera.intrinsic_matrix
 depth = np.where(np.isfinite(frame["depth"]), frame["depth"], 0.0)
 points, pixels = ferrobot.grasp.backproject(depth, k[0, 0], k[1, 1], k[0, 2], k[1, 2], scale=1.0)
-cam_pose = camera.get_world_pose()
+cam_pose = camera.get_world_transform()
 points = ferrobot.grasp.transform_points(points, cam_pose)
 labels = frame["segmentation"][pixels[:, 0], pixels[:, 1]]
 keep = points[:, 2] > TABLE_TOP - 0.02  # workspace: the table and what is on it

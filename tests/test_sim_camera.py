@@ -182,7 +182,7 @@ def test_camera_on_link_follows_the_robot():
     cam = ferrobot.Camera(w, 64, 48, 20.0, pose=local, robot=r, link="panda_hand")
     for q in (model.neutral_configuration(), np.array([0.5, -0.3, 0.2, -2.0, 0.1, 1.8, 0.3, 0.02])):
         r.set_joint_positions(q)
-        assert cam.get_world_pose() == pytest.approx(model.fk(q, "panda_hand") @ local, abs=1e-5)
+        assert cam.get_world_transform() == pytest.approx(model.fk(q, "panda_hand") @ local, abs=1e-5)
     # looking down the hand's z axis the fingers are seen
     out = cam.render(rgb=False)
     ids = {w.segmentation_labels[i] for i in np.unique(out["segmentation"])}

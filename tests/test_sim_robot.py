@@ -299,7 +299,7 @@ def test_set_world_pose_moves_everything():
     new = np.eye(4)
     new[:3, 3] = [1.0, 2.0, 0.5]
     r.set_world_pose(new)
-    assert r.get_world_pose() == pytest.approx(new)
+    assert r.get_world_transform() == pytest.approx(new)
     assert r.get_link_pose("panda_hand") == pytest.approx(new @ model.fk(PANDA_Q0, "panda_hand"), abs=1e-5)
     w.step(10)
     assert r.get_joint_positions() == pytest.approx(PANDA_Q0, abs=1e-3)

@@ -168,6 +168,35 @@ def cmd_demo(args: argparse.Namespace) -> int:
     return 0 if result.success else 1
 
 
+def cmd_view(args: argparse.Namespace) -> int:
+    """A 3D view of a demo folder or a URDF robot: live through viser, or written as one HTML file."""
+    from pathlib import Path
+
+    from .pipeline.viewer import write_viewer
+    from .pipeline.viewer_live import LiveView, episode_scene, robot_scene
+
+    path = Path(args.path)
+    if path.is_dir():
+        data = episode_scene(path)
+    elif path.suffix.lower() == ".urdf":
+        data = robot_scene(path, args.trajectory)
+    else:
+        print(f"ferrobot view: error: {path} is neither a demo folder nor a .urdf file", file=sys.stderr)
+        return 2
+    if args.html:
+        print(f"wrote {write_viewer(args.html, data, f'ferrobot view: {path.name}')}")
+        return 0
+    view = LiveView(data, host=args.host, port=args.port)
+    print(f"ferrobot view: http://{args.host}:{view.port} (Ctrl-C to stop)")
+    try:
+        view.run()
+    except KeyboardInterrupt:
+        pass
+    finally:
+        view.close()
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="ferrobot", description=__doc__)
     parser.add_argument("--version", action="store_true", help="print the version and exit")
@@ -209,6 +238,13 @@ def main(argv: list[str] | None = None) -> int:
     p_serve.add_argument("--max-inflight", type=int, default=2, help="requests detected at once (default 2)")
     p_serve.add_argument("--log-level", default="info", choices=["critical", "error", "warning", "info", "debug"])
     p_serve.set_defaults(func=cmd_serve_grasp)
+    p_view = sub.add_parser("view", help="3D view of a demo folder or a URDF robot (live via viser, or --html)")
+    p_view.add_argument("path", help="a `ferrobot demo` output folder or a .urdf file")
+    p_view.add_argument("--trajectory", default=None, help="URDF: an .npz with positions (T, num_dof) to play")
+    p_view.add_argument("--html", default=None, help="write a self-contained HTML viewer here instead of serving")
+    p_view.add_argument("--host", default="127.0.0.1", help="live view address (default 127.0.0.1)")
+    p_view.add_argument("--port", type=int, default=8080, help="live view port (default 8080)")
+    p_view.set_defaults(func=cmd_view)
     args = parser.parse_args(argv)
     if args.version:
         from . import __version__

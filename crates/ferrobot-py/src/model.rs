@@ -188,6 +188,41 @@ impl PyRobotModel {
         Self::load(py, |o| RobotModel::from_urdf_str(&text, o), &opts)
     }
 
+    /// Reads a UsdPhysics articulation from a USD file (through PyPI
+    /// `usd-core`, `ferrobot.usd.read_usd`): joints, limits, drives' force
+    /// limits, mimic couplings, geometry, masses and inertias.
+    #[staticmethod]
+    #[pyo3(signature = (path, *, root=None, srdf=None, base_link=None, ee_link=None, group=None))]
+    fn from_usd<'py>(
+        py: Python<'py>,
+        path: PathBuf,
+        root: Option<String>,
+        srdf: Option<&Bound<'py, PyAny>>,
+        base_link: Option<String>,
+        ee_link: Option<String>,
+        group: Option<String>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let kw = PyDict::new(py);
+        kw.set_item("root", root)?;
+        kw.set_item("srdf", srdf)?;
+        kw.set_item("base_link", base_link)?;
+        kw.set_item("ee_link", ee_link)?;
+        kw.set_item("group", group)?;
+        py.import("ferrobot.usd")?
+            .getattr("read_usd")?
+            .call((path,), Some(&kw))?
+            .getattr("model")
+    }
+
+    /// Writes the model as a UsdPhysics articulation (`ferrobot.usd.write_usd`,
+    /// needs `usd-core`); returns the path.
+    fn to_usd<'py>(slf: &Bound<'py, Self>, path: PathBuf) -> PyResult<Bound<'py, PyAny>> {
+        slf.py()
+            .import("ferrobot.usd")?
+            .getattr("write_usd")?
+            .call1((slf, path))
+    }
+
     /// The robot's name.
     #[getter]
     fn name(&self) -> String {

@@ -78,6 +78,59 @@ fn pose_arg(pose: Option<&Bound<'_, PyAny>>, what: &str) -> PyResult<Isometry3<f
     }
 }
 
+/// A pose as Isaac Sim returns it: position (3,), orientation (w, x, y, z).
+fn pose_parts<'py>(py: Python<'py>, pose: &Isometry3<f64>) -> VecPair<'py> {
+    let t = pose.translation.vector;
+    let q = pose.rotation.quaternion();
+    (
+        vec1(py, vec![t.x, t.y, t.z]),
+        vec1(py, vec![q.w, q.i, q.j, q.k]),
+    )
+}
+
+/// Isaac Sim's `set_world_pose(position, orientation)`: each part optional
+/// (kept from `current`); a whole pose (4x4 or 7-vector) as `position`.
+fn compose_pose(
+    current: &Isometry3<f64>,
+    position: Option<&Bound<'_, PyAny>>,
+    orientation: Option<&Bound<'_, PyAny>>,
+) -> PyResult<Isometry3<f64>> {
+    if let (Some(p), None) = (position, orientation) {
+        let a = crate::arrays::read_array_any(p, "position")?;
+        if matches!(a.shape.as_slice(), [7] | [4, 4]) {
+            return pose_arg(Some(p), "position");
+        }
+    }
+    let t = match position {
+        Some(p) => {
+            let v = vec3_arg(p, "position")?;
+            if v.iter().any(|x| !x.is_finite()) {
+                return Err(NonFiniteError::new_err("position: non-finite value"));
+            }
+            v
+        }
+        None => current.translation.vector,
+    };
+    let q = match orientation {
+        Some(o) => {
+            let a = read_array(o, "orientation", 1, &[Some(4)])?;
+            let d = a.data();
+            let v = [t.x, t.y, t.z, d[0], d[1], d[2], d[3]];
+            let arr = Array1::from_vec(v.to_vec()).into_pyarray(o.py());
+            pose_arg(Some(arr.as_any()), "orientation")?.rotation
+        }
+        None => current.rotation,
+    };
+    Ok(Isometry3::from_parts(t.into(), q))
+}
+
+/// Emits a `UserWarning` for an Isaac Sim setter ferrobot has no use for.
+fn no_effect_warning(py: Python<'_>, msg: &str) -> PyResult<()> {
+    let cat = py.get_type::<pyo3::exceptions::PyUserWarning>();
+    let msg = std::ffi::CString::new(msg).unwrap_or_default();
+    PyErr::warn(py, &cat, &msg, 1)
+}
+
 /// NaN in a pose is a `NonFiniteError` (read_pose would report it too;
 /// this keeps the message naming the argument).
 fn check_pose_finite(p: &Bound<'_, PyAny>, what: &str) -> PyResult<()> {
@@ -491,9 +544,15 @@ impl PyWorld {
     }
 
     /// Advances the simulation by `n` steps; raises `SimulationDiverged`
-    /// when it blows up.
-    #[pyo3(signature = (n=1))]
-    fn step(&self, py: Python<'_>, n: usize) -> PyResult<()> {
+    /// when it blows up. `render` and `step_sim` follow Isaac Sim's
+    /// `World.step`: cameras render when asked (`Camera.render`), so
+    /// `render` has nothing to do; `step_sim=False` does not step.
+    #[pyo3(signature = (n=1, *, render=false, step_sim=true))]
+    fn step(&self, py: Python<'_>, n: usize, render: bool, step_sim: bool) -> PyResult<()> {
+        let _ = render;
+        if !step_sim {
+            return Ok(());
+        }
         let inner = self.inner.clone();
         guard(|| {
             py.detach(|| inner.lock().expect("world lock").step(n))
@@ -730,16 +789,194 @@ impl PyRobot {
         })
     }
 
+    // --- Isaac Sim shapes (issue 22): world pose as (position, wxyz),
+    // joint states, articulation actions, solver setters, initialize. ---
+
+    /// World pose of the base link as Isaac Sim returns it: position (3,)
+    /// and orientation (4,) as (w, x, y, z). `get_world_transform()` gives
+    /// the 4x4.
+    fn get_world_pose<'py>(&self, py: Python<'py>) -> PyResult<VecPair<'py>> {
+        Ok(pose_parts(py, &self.read(|r, _| r.world_pose())?))
+    }
+
     /// World pose (4x4) of the base link.
-    fn get_world_pose<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    fn get_world_transform<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
         Ok(matrix(py, &self.read(|r, _| r.world_pose())?))
     }
 
-    /// Moves the fixed base to `pose`.
-    fn set_world_pose(&self, pose: &Bound<'_, PyAny>) -> PyResult<()> {
-        let p = pose_arg(Some(pose), "pose")?;
+    /// Moves the fixed base: `position` (3,) and/or `orientation` (4,)
+    /// (w, x, y, z), the other part kept (Isaac Sim's signature); or a whole
+    /// pose (4x4 or 7-vector) as `position` with no `orientation`.
+    #[pyo3(signature = (position=None, orientation=None))]
+    fn set_world_pose(
+        &self,
+        position: Option<&Bound<'_, PyAny>>,
+        orientation: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<()> {
+        let current = self.read(|r, _| r.world_pose())?;
+        let p = compose_pose(&current, position, orientation)?;
         self.with(|r, s| r.set_world_pose(s, p))
     }
+
+    /// Isaac Sim's `initialize()`: nothing to do (a ferrobot robot is ready
+    /// when added); safe to call any number of times.
+    #[pyo3(signature = (physics_sim_view=None))]
+    fn initialize(&self, physics_sim_view: Option<&Bound<'_, PyAny>>) {
+        let _ = physics_sim_view;
+    }
+
+    /// Isaac Sim's `get_joints_state()`: an object with `positions`,
+    /// `velocities` and `efforts` (num_dof,), the efforts being those set
+    /// with `set_joint_efforts` (Isaac's applied efforts, not drive forces).
+    fn get_joints_state<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let (q, qd, e) = self.read(|r, w| {
+            (
+                r.joint_positions(w.state()),
+                r.joint_velocities(w.state()),
+                r.efforts().to_vec(),
+            )
+        })?;
+        py.import("ferrobot.compat.isaac")?
+            .getattr("JointsState")?
+            .call1((vec1(py, q), vec1(py, qd), vec1(py, e)))
+    }
+
+    /// Efforts set with `set_joint_efforts` (num_dof,).
+    fn get_applied_joint_efforts<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        Ok(vec1(py, self.read(|r, _| r.efforts().to_vec())?))
+    }
+
+    /// Isaac Sim's `apply_action(ArticulationAction)`: any object with
+    /// `joint_positions` (drive position targets), `joint_velocities`
+    /// (drive velocity targets), `joint_efforts` and `joint_indices`
+    /// (all DOFs when None). A None entry leaves that DOF unchanged, as in
+    /// Isaac Sim. Everything is checked before anything is applied.
+    fn apply_action(&self, control_actions: &Bound<'_, PyAny>) -> PyResult<()> {
+        let field = |name: &str| -> PyResult<Option<Vec<Option<f64>>>> {
+            let v = control_actions.getattr(name).map_err(|_| {
+                InvalidArgumentError::new_err(format!(
+                    "control_actions: has no attribute '{name}' (expected an ArticulationAction)"
+                ))
+            })?;
+            if v.is_none() {
+                return Ok(None);
+            }
+            let v = if v.hasattr("tolist")? {
+                v.call_method0("tolist")?
+            } else {
+                v
+            };
+            v.extract::<Vec<Option<f64>>>().map(Some).map_err(|_| {
+                InvalidArgumentError::new_err(format!(
+                    "control_actions.{name}: expected a 1-D sequence of numbers or None"
+                ))
+            })
+        };
+        let ix_obj = control_actions.getattr("joint_indices").map_err(|_| {
+            InvalidArgumentError::new_err(
+                "control_actions: has no attribute 'joint_indices' (expected an ArticulationAction)",
+            )
+        })?;
+        let ix: Option<Vec<i64>> = if ix_obj.is_none() {
+            None
+        } else {
+            let o = if ix_obj.hasattr("tolist")? {
+                ix_obj.call_method0("tolist")?
+            } else {
+                ix_obj
+            };
+            Some(o.extract().map_err(|_| {
+                InvalidArgumentError::new_err(
+                    "control_actions.joint_indices: expected a sequence of integers",
+                )
+            })?)
+        };
+        let ix = indices_arg(ix)?;
+        let n = self.model.num_dof();
+        let all: Vec<usize> = match &ix {
+            Some(v) => v.clone(),
+            None => (0..n).collect(),
+        };
+        let mut parts: Vec<(&str, Vec<usize>, Vec<f64>)> = Vec::new();
+        for name in ["joint_positions", "joint_velocities", "joint_efforts"] {
+            let Some(vals) = field(name)? else { continue };
+            if vals.len() != all.len() {
+                return Err(ShapeError::new_err(format!(
+                    "control_actions.{name}: expected {} values (one per joint index), got {}",
+                    all.len(),
+                    vals.len()
+                )));
+            }
+            let (mut idx, mut v) = (Vec::new(), Vec::new());
+            for (&i, x) in all.iter().zip(vals) {
+                if let Some(x) = x {
+                    if !x.is_finite() {
+                        return Err(NonFiniteError::new_err(format!(
+                            "control_actions.{name}: non-finite value for joint index {i}"
+                        )));
+                    }
+                    idx.push(i);
+                    v.push(x);
+                }
+            }
+            parts.push((name, idx, v));
+        }
+        self.with(|r, s| {
+            ferrobot_sim::drives::resolve_indices(r, Some(&all))?;
+            for (name, idx, v) in &parts {
+                match *name {
+                    "joint_positions" => r.set_position_targets(s, v, Some(idx))?,
+                    "joint_velocities" => r.set_velocity_targets(s, v, Some(idx))?,
+                    _ => r.set_efforts(v, Some(idx))?,
+                }
+            }
+            Ok(())
+        })
+    }
+
+    /// Isaac Sim's position iteration count: ferrobot's extra solver
+    /// substeps while the robot touches something (`set_solver_iterations`).
+    fn set_solver_position_iteration_count(&self, count: usize) -> PyResult<()> {
+        self.set_solver_iterations(count)
+    }
+
+    /// The extra solver substeps (see `set_solver_position_iteration_count`).
+    fn get_solver_position_iteration_count(&self) -> PyResult<usize> {
+        self.read(|r, _| r.solver_iterations())
+    }
+
+    /// Accepted for Isaac Sim scripts; has no effect, and says so with a
+    /// `UserWarning`: Rapier's solver has no separate velocity iterations.
+    fn set_solver_velocity_iteration_count(&self, py: Python<'_>, count: usize) -> PyResult<()> {
+        no_effect_warning(
+            py,
+            &format!(
+                "set_solver_velocity_iteration_count({count}) has no effect: Rapier's solver has no separate velocity iterations (use set_solver_position_iteration_count)"
+            ),
+        )
+    }
+
+    /// Accepted for Isaac Sim scripts (`threshold` finite, >= 0); has no
+    /// effect, and says so with a `UserWarning`: ferrobot's robots never
+    /// sleep and Rapier has no PhysX-style stabilisation damping.
+    fn set_stabilization_threshold(&self, py: Python<'_>, threshold: f64) -> PyResult<()> {
+        if !threshold.is_finite() || threshold < 0.0 {
+            return Err(InvalidArgumentError::new_err(format!(
+                "threshold: expected a finite value >= 0, got {threshold}"
+            )));
+        }
+        no_effect_warning(
+            py,
+            &format!(
+                "set_stabilization_threshold({threshold}) has no effect: ferrobot's robots never sleep and Rapier has no stabilisation damping"
+            ),
+        )
+    }
+
+    // --- end of the Isaac Sim shapes ---
 
     /// World pose (4x4) of a link (default: the end effector).
     #[pyo3(signature = (link=None))]
@@ -1049,13 +1286,44 @@ impl PyCamera {
     }
 
     /// World pose (4x4) of the OpenCV camera frame.
-    fn get_world_pose<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    fn get_world_transform<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
         let p = guard(|| {
             lock(&self.world)?
                 .camera_pose(&self.camera)
                 .map_err(sim_err)
         })?;
         Ok(matrix(py, &p))
+    }
+
+    /// World pose as Isaac Sim's `Camera.get_world_pose(camera_axes)`:
+    /// position (3,) and orientation (w, x, y, z) of the camera frame in
+    /// the convention `camera_axes`: "world" (x forward, y left, z up; Isaac
+    /// Sim's default), "ros" (OpenCV: x right, y down, z forward) or "usd"
+    /// (OpenGL: x right, y up, -z forward).
+    #[pyo3(signature = (camera_axes="world"))]
+    fn get_world_pose<'py>(&self, py: Python<'py>, camera_axes: &str) -> PyResult<VecPair<'py>> {
+        let p = guard(|| {
+            lock(&self.world)?
+                .camera_pose(&self.camera)
+                .map_err(sim_err)
+        })?;
+        let p = match camera_axes {
+            "ros" => p,
+            "usd" => conventions::opencv_to_opengl(&p),
+            "world" => {
+                let m = nalgebra::Matrix3::new(0.0, -1.0, 0.0, 0.0, 0.0, -1.0, 1.0, 0.0, 0.0);
+                let r = nalgebra::UnitQuaternion::from_rotation_matrix(
+                    &nalgebra::Rotation3::from_matrix_unchecked(m),
+                );
+                p * r
+            }
+            other => {
+                return Err(InvalidArgumentError::new_err(format!(
+                    "camera_axes: expected 'world', 'ros' or 'usd', got '{other}'"
+                )));
+            }
+        };
+        Ok(pose_parts(py, &p))
     }
 
     /// Renders the scene: dict with "depth" (H, W) float32 metres along the

@@ -157,6 +157,11 @@ impl Robot {
         Ok(())
     }
 
+    /// The efforts (N·m or N) set with [`Robot::set_efforts`], per DOF.
+    pub fn efforts(&self) -> &[f64] {
+        &self.efforts
+    }
+
     /// Sets drive gains and force limits for the DOFs `indices` (all when
     /// `None`). Gains must be >= 0, force limits > 0 (inf: unlimited).
     pub fn set_drive_gains(

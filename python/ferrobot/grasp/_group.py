@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._core import grasp_nms, grasp_transform
-from ..errors import ShapeError
+from ..errors import InvalidArgumentError, NonFiniteError, ShapeError
 
 __all__ = ["Grasp", "GraspGroup", "GRASP_COLUMNS", "PANDA_TCP_OFFSET", "GRASP_TO_PANDA_HAND"]
 
@@ -26,6 +26,18 @@ PANDA_TCP_OFFSET = 0.1034
 #: Rotation from the grasp frame (x approach, y closing) to the Panda hand frame (z approach, y closing):
 #: ``R_hand = R_grasp @ GRASP_TO_PANDA_HAND``; its columns are the hand's axes in grasp coordinates.
 GRASP_TO_PANDA_HAND = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]])
+
+
+class _instance_or_class:
+    """A method bound to the instance when called on one, else to the class (graspnetAPI's ``from_npy``)."""
+
+    def __init__(self, f):
+        self.f = f
+        self.__doc__ = f.__doc__
+
+    def __get__(self, obj, cls):
+        target = cls if obj is None else obj
+        return lambda *a, **k: self.f(target, *a, **k)
 
 
 def _as_array(a) -> np.ndarray:
@@ -229,14 +241,123 @@ class GraspGroup:
 
     @classmethod
     def from_dicts(cls, items: list[dict]) -> GraspGroup:
-        """Inverse of :meth:`to_dicts` (``height`` defaults to 0.02, ``object_id`` to -1)."""
+        """Inverse of :meth:`to_dicts`, tolerant of other servers' answers (AnyGrasp Flask servers).
+
+        Required per grasp: ``translation`` (3) and ``rotation_matrix`` (3x3, or ``rotation`` / 9 values).
+        Missing fields take :data:`DICT_DEFAULTS`: ``score`` 0 (order kept), ``width`` 0.08 m (the Panda's
+        full opening, ferrobot's ``max_width``), ``height`` 0.02 m, ``depth`` 0.02 m (graspnetAPI's defaults),
+        ``object_id`` -1. A missing required field raises :class:`ferrobot.errors.InvalidArgumentError`.
+        """
         rows = np.zeros((len(items), GRASP_COLUMNS))
         for i, g in enumerate(items):
-            rows[i, 0] = g["score"]
-            rows[i, 1] = g["width"]
-            rows[i, 2] = g.get("height", 0.02)
-            rows[i, 3] = g["depth"]
-            rows[i, 4:13] = np.asarray(g["rotation_matrix"], dtype=np.float64).reshape(9)
-            rows[i, 13:16] = g["translation"]
-            rows[i, 16] = g.get("object_id", -1)
+            if not isinstance(g, dict):
+                raise InvalidArgumentError(f"grasp {i}: expected a dict, got {type(g).__name__}")
+            rot = g.get("rotation_matrix", g.get("rotation"))
+            if rot is None or g.get("translation") is None:
+                raise InvalidArgumentError(
+                    f"grasp {i}: needs 'translation' and 'rotation_matrix'; got keys {sorted(g)}"
+                )
+            rows[i, 0] = g.get("score", DICT_DEFAULTS["score"])
+            rows[i, 1] = g.get("width", DICT_DEFAULTS["width"])
+            rows[i, 2] = g.get("height", DICT_DEFAULTS["height"])
+            rows[i, 3] = g.get("depth", DICT_DEFAULTS["depth"])
+            rows[i, 4:13] = np.asarray(rot, dtype=np.float64).reshape(9)
+            rows[i, 13:16] = np.asarray(g["translation"], dtype=np.float64).reshape(3)
+            rows[i, 16] = g.get("object_id", DICT_DEFAULTS["object_id"])
+        if not np.all(np.isfinite(rows)):
+            raise NonFiniteError("grasps: the answer contains NaN or infinite values")
         return cls(rows)
+
+    # --- graspnetAPI's file and sampling methods (issue 22) ---
+
+    def save_npy(self, npy_file_path) -> None:
+        """Saves the (N, 17) float32 array with ``numpy.save`` (graspnetAPI's file format)."""
+        np.save(npy_file_path, self.to_array())
+
+    @_instance_or_class
+    def from_npy(self_or_cls, npy_file_path):
+        """Loads a ``save_npy`` file. As graspnetAPI: ``GraspGroup().from_npy(path)`` fills that group and returns
+        it; ``GraspGroup.from_npy(path)`` returns a new group."""
+        arr = np.load(npy_file_path, allow_pickle=False)
+        if isinstance(self_or_cls, type):
+            return self_or_cls(arr)
+        self_or_cls.grasp_group_array = _as_array(arr).copy()
+        return self_or_cls
+
+    def random_sample(self, numGrasp: int = 20, rng=None) -> GraspGroup:  # noqa: N803 (graspnetAPI's name)
+        """A new group of ``numGrasp`` grasps drawn without replacement; ``rng`` a ``numpy.random.Generator`` or
+        a seed (default: fresh entropy)."""
+        n = int(numGrasp)
+        if n < 0 or n > len(self):
+            raise InvalidArgumentError(f"numGrasp: expected 0..{len(self)} (the group's size), got {numGrasp}")
+        rng = np.random.default_rng(rng)
+        return GraspGroup(self.grasp_group_array[rng.permutation(len(self))[:n]])
+
+    def remove(self, index) -> GraspGroup:
+        """Removes the grasps at ``index`` (an int, list or boolean mask) in place; returns ``self``."""
+        ix = np.asarray(index)
+        if ix.dtype == bool:
+            if ix.shape != (len(self),):
+                raise ShapeError(f"index: a boolean mask needs shape ({len(self)},), got {ix.shape}")
+            ix = np.flatnonzero(ix)
+        ix = ix.astype(np.int64).ravel()
+        if ix.size and (ix.min() < -len(self) or ix.max() >= len(self)):
+            raise InvalidArgumentError(f"index: out of range for {len(self)} grasps")
+        self.grasp_group_array = np.delete(self.grasp_group_array, ix, axis=0)
+        return self
+
+    def to_open3d_geometry_list(self, color=None) -> list:
+        """One ``open3d.geometry.TriangleMesh`` per grasp (the hand's fingers and palm as boxes, the outline of
+        :meth:`gripper_lines`); needs ``open3d`` (``pip install open3d``)."""
+        try:
+            import open3d as o3d
+        except ImportError as e:
+            raise ImportError("to_open3d_geometry_list needs open3d: pip install open3d") from e
+        out = []
+        for verts, faces in _gripper_meshes(self):
+            m = o3d.geometry.TriangleMesh(o3d.utility.Vector3dVector(verts), o3d.utility.Vector3iVector(faces))
+            m.compute_vertex_normals()
+            m.paint_uniform_color(list(color) if color is not None else [1.0, 0.0, 0.0])
+            out.append(m)
+        return out
+
+
+#: Values ``GraspGroup.from_dicts`` uses for fields a server leaves out.
+DICT_DEFAULTS = {"score": 0.0, "width": 0.08, "height": 0.02, "depth": 0.02, "object_id": -1}
+
+#: The 12 triangles of a box whose corners are indexed by bits (x, y, z) = (c & 1, c >> 1 & 1, c >> 2 & 1).
+_BOX_FACES = np.array(
+    [
+        [0, 2, 1],
+        [1, 2, 3],
+        [4, 5, 6],
+        [5, 7, 6],
+        [0, 1, 4],
+        [1, 5, 4],
+        [2, 6, 3],
+        [3, 6, 7],
+        [0, 4, 2],
+        [2, 4, 6],
+        [1, 3, 5],
+        [3, 7, 5],
+    ]
+)
+
+
+def _gripper_meshes(group: GraspGroup, finger_depth=0.05, finger_width=0.01, approach_distance=0.03):
+    """Per grasp (vertices (24, 3), faces (36, 3)): the three boxes of :meth:`GraspGroup.gripper_lines`."""
+    lines = group.gripper_lines(finger_depth, finger_width, approach_distance)
+    for g in lines:
+        verts, faces = [], []
+        for k in range(3):
+            seg = g[12 * k : 12 * k + 12]
+            corners = np.zeros((8, 3))
+            corners[0], corners[1] = seg[0, 0], seg[0, 1]  # edge 0-1
+            corners[2], corners[4] = seg[1, 1], seg[2, 1]  # edges 0-2, 0-4
+            corners[3] = seg[3, 1]  # edge 1-3
+            corners[5] = seg[4, 1]  # edge 1-5
+            corners[6] = seg[6, 1]  # edge 2-6
+            corners[7] = seg[7, 1]  # edge 3-7
+            verts.append(corners)
+            faces.append(_BOX_FACES + 8 * k)
+        yield np.concatenate(verts), np.concatenate(faces)

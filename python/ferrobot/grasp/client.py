@@ -51,7 +51,7 @@ class GraspClient:
         retries: int = 1,
         backoff: float = 0.05,
         cooldown: float = 5.0,
-        binary: bool = True,
+        binary: bool | None = None,
     ):
         import httpx
 
@@ -66,6 +66,7 @@ class GraspClient:
         self._http = httpx.Client(timeout=timeout)
         self._rr = itertools.count()
         self._dead: dict[str, float] = {}
+        self._speaks_npz: bool | None = None
         self._lock = threading.Lock()
 
     def close(self) -> None:
@@ -146,8 +147,12 @@ class GraspClient:
         binary: bool | None = None,
     ) -> GraspGroup:
         """Grasps for one RGB-D frame (camera frame), best first. ``binary`` (default: the client's) sends an
-        ``.npz`` to ``/process_npz`` (uint16 depth stays uint16); otherwise JSON to ``/process``."""
+        ``.npz`` to ``/process_npz`` (uint16 depth stays uint16); otherwise JSON to ``/process``. When neither
+        says, the client asks ``/health`` once: a ferrobot server gets ``.npz``, any other server (an AnyGrasp
+        Flask server) JSON. JSON answers may leave fields out (see :meth:`GraspGroup.from_dicts`)."""
         binary = self.binary if binary is None else binary
+        if binary is None:
+            binary = self._server_is_ferrobot()
         depths = np.asarray(depths)
         if binary:
             arrays = {"depths": depths, "fx": fx, "fy": fy, "cx": cx, "cy": cy, "scale": scale}
@@ -180,7 +185,42 @@ class GraspClient:
         if max_grasps is not None:
             body["max_grasps"] = int(max_grasps)
         r = self._request("POST", "/process", json=body)
-        try:
-            return GraspGroup.from_dicts(r.json()["grasp_groups"])
-        except Exception as e:  # noqa: BLE001 - whatever is wrong with the answer, it is the server's
-            raise ServiceError(f"{r.url}: unreadable answer ({type(e).__name__}: {e})") from None
+        return _parse_json_grasps(r)
+
+    def _server_is_ferrobot(self) -> bool:
+        """Whether the servers speak ferrobot's ``/process_npz`` (asked once, through ``/health``)."""
+        if self._speaks_npz is None:
+            try:
+                h = self._request("GET", "/health").json()
+            except (RequestRejectedError, ValueError):
+                h = None
+            self._speaks_npz = isinstance(h, dict) and {"status", "version", "pid"} <= set(h)
+        return self._speaks_npz
+
+
+def _parse_json_grasps(r) -> GraspGroup:
+    """A ``/process`` answer: ``{"grasp_groups": [...]}`` (ferrobot, AnyGrasp servers), ``{"grasps": [...]}``,
+    a bare list of grasp dicts, or an (N, 17) array under ``grasp_group_array`` / ``grasp_array``."""
+    try:
+        data = r.json()
+    except ValueError as e:
+        raise ServiceError(f"grasp server answered non-JSON: {r.text[:200]!r}") from e
+    if isinstance(data, dict):
+        for key in ("grasp_group_array", "grasp_array"):
+            if key in data:
+                try:
+                    return GraspGroup(np.asarray(data[key], dtype=np.float64).reshape(-1, 17))
+                except (TypeError, ValueError) as e:
+                    raise ServiceError(f"{r.url}: unreadable {key} ({type(e).__name__}: {e})") from None
+        for key in ("grasp_groups", "grasps"):
+            if key in data:
+                data = data[key]
+                break
+        else:
+            raise ServiceError(f"grasp server answer has no grasps: keys {sorted(data)}")
+    if not isinstance(data, list):
+        raise ServiceError(f"grasp server answer: expected a list of grasps, got {type(data).__name__}")
+    try:
+        return GraspGroup.from_dicts(data)
+    except Exception as e:  # noqa: BLE001 - whatever is wrong with the answer, it is the server's
+        raise ServiceError(f"{r.url}: unreadable answer ({type(e).__name__}: {e})") from None

@@ -320,7 +320,7 @@ class PickPlace:
         preferred straight down; every other point is an obstacle for the hand."""
         depth = np.where(np.isfinite(self.frame["depth"]), self.frame["depth"], 0.0)
         k = self.camera.intrinsic_matrix
-        cam = self.camera.get_world_pose()
+        cam = self.camera.get_world_transform()
         points, pixels = grasp.backproject(depth, k[0, 0], k[1, 1], k[0, 2], k[1, 2], 1.0)
         points = grasp.transform_points(points, cam)
         labels = self.frame["segmentation"][pixels[:, 0], pixels[:, 1]].astype(np.int64)
@@ -553,7 +553,7 @@ class PickPlace:
 
             def scene():
                 self.world, self.robot, self.camera = build_world(spec, self.model)
-                self.base = self.robot.get_world_pose()
+                self.base = self.robot.get_world_transform()
                 # Grasp workspace: the table top and 30 cm above it.
                 (tx, ty), (sx, sy, _) = TABLE_XY, TABLE_SIZE
                 self.workspace = [tx - sx / 2, tx + sx / 2, ty - sy / 2, ty + sy / 2, TABLE_TOP - 0.02, TABLE_TOP + 0.3]

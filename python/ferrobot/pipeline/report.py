@@ -45,7 +45,7 @@ def grasp_image(pp: PickPlace, top: int = 8) -> np.ndarray | None:
     if not hasattr(pp, "grasps_world") or not hasattr(pp, "frame"):
         return None
     img = pp.frame["rgb"].copy()
-    cam, k = pp.camera.get_world_pose(), pp.camera.intrinsic_matrix
+    cam, k = pp.camera.get_world_transform(), pp.camera.intrinsic_matrix
     gw = pp.grasps_world
     lines = gw.gripper_lines()
     chosen = getattr(pp, "choice", None)

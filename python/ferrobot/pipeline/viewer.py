@@ -1,9 +1,17 @@
 """An interactive 3D view of an episode in one self-contained HTML file (no network, no dependencies):
-the robot as its collision spheres, the table and objects, the chosen grasp, and the executed motion
-played back. Drag to orbit, wheel to zoom, slider and play/pause for time.
+the robot drawn with its visual geometry (meshes and primitives; collision spheres on request), the table
+and objects, the grasps, the cameras' frustums, and the executed motion played back. Drag to orbit, wheel
+to zoom, slider and play/pause for time.
 
-Drawn with a small canvas-2D renderer (painter's algorithm over shaded spheres, box and cylinder
-faces, and lines), so it opens in any browser offline.
+Drawn with a small canvas-2D renderer (triangles shaded by a fixed light, back faces culled, depth-sorted by
+the painter's algorithm, plus lines), so it opens in any browser offline.
+
+The view: an orbit camera at azimuth ``az``, elevation ``el`` and distance ``dist`` around ``target`` (world
+frame, z up): eye ``= target + dist (cos el cos az, cos el sin az, sin el)``, forward ``f`` towards the
+target, right ``r = normalize(f x z)``, up ``u = r x f``. A world point ``p`` lands on the canvas (``width`` x
+``height`` pixels) at ``(width / 2 + F (p - eye).r / z, height / 2 - F (p - eye).u / z)`` with
+``z = (p - eye).f`` and the focal length ``F`` in pixels: :func:`project` in Python. The page's URL fragment
+``#frame=K&paused=1&embed=1`` opens at frame ``K``, paused, with the canvas alone at the page's top-left.
 """
 
 from __future__ import annotations
@@ -16,51 +24,293 @@ import numpy as np
 
 from .scene import ROBOT_MOUNT
 
-__all__ = ["viewer_data", "write_viewer"]
+__all__ = ["DEFAULT_VIEW", "mesh_of", "project", "robot_meshes", "scene_data", "viewer_data", "write_viewer"]
+
+#: The viewer's initial camera (see the module docstring) and canvas size.
+DEFAULT_VIEW = {"az": -0.9, "el": 0.5, "dist": 1.7, "target": [0.42, 0.0, 0.6], "F": 700.0, "width": 900, "height": 620}
+
+#: Colour of robot links without an URDF colour.
+ROBOT_COLOR = (0.78, 0.80, 0.86)
+
+
+def project(points, view: dict | None = None) -> np.ndarray:
+    """Canvas pixel coordinates (N, 2) and depths (N,) as (N, 3) of world points (N, 3) under ``view``."""
+    v = {**DEFAULT_VIEW, **(view or {})}
+    az, el, dist, t = v["az"], v["el"], v["dist"], np.asarray(v["target"], dtype=np.float64)
+    eye = t + dist * np.array([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)])
+    f = (t - eye) / np.linalg.norm(t - eye)
+    r = np.cross(f, [0.0, 0.0, 1.0])
+    r /= np.linalg.norm(r)
+    u = np.cross(r, f)
+    d = np.asarray(points, dtype=np.float64).reshape(-1, 3) - eye
+    z = d @ f
+    return np.stack([v["width"] / 2 + v["F"] * (d @ r) / z, v["height"] / 2 - v["F"] * (d @ u) / z, z], axis=1)
+
+
+def _sphere_like(radius: float, half_length: float, n: int = 16, m: int = 8):
+    """A sphere (half_length 0) or a capsule along z as a latitude-longitude triangle mesh."""
+    rings = []
+    for i in range(m + 1):  # north pole to equator, then equator to south pole
+        a = np.pi / 2 * (1 - i / m)
+        rings.append((radius * np.cos(a), radius * np.sin(a) + half_length))
+    for i in range(m + 1):
+        a = -np.pi / 2 * i / m
+        rings.append((radius * np.cos(a), radius * np.sin(a) - half_length))
+    verts, faces = [], []
+    t = 2 * np.pi * np.arange(n) / n
+    for rr, z in rings:
+        verts += [(rr * np.cos(a), rr * np.sin(a), z) for a in t]
+    for k in range(len(rings) - 1):
+        for j in range(n):
+            a, b = k * n + j, k * n + (j + 1) % n
+            c, d = a + n, b + n
+            faces += [(a, c, b), (b, c, d)]
+    return np.array(verts), np.array(faces)
+
+
+def _cylinder(radius: float, length: float, n: int = 20):
+    t = 2 * np.pi * np.arange(n) / n
+    ring = np.stack([radius * np.cos(t), radius * np.sin(t)], 1)
+    top = np.c_[ring, np.full(n, length / 2)]
+    bot = np.c_[ring, np.full(n, -length / 2)]
+    verts = np.vstack([top, bot, [[0, 0, length / 2], [0, 0, -length / 2]]])
+    faces = []
+    for j in range(n):
+        k = (j + 1) % n
+        faces += [(j, n + j, k), (k, n + j, n + k), (2 * n, j, k), (2 * n + 1, n + k, n + j)]
+    return verts, np.array(faces)
+
+
+def _box(size):
+    h = np.asarray(size, dtype=np.float64) / 2
+    verts = (
+        np.array([[(-1) ** (1 - (i & 1)), (-1) ** (1 - (i >> 1 & 1)), (-1) ** (1 - (i >> 2 & 1))] for i in range(8)])
+        * h
+    )
+    faces = np.array(
+        [
+            [0, 2, 1],
+            [1, 2, 3],
+            [4, 5, 6],
+            [5, 7, 6],
+            [0, 1, 4],
+            [1, 5, 4],
+            [2, 6, 3],
+            [3, 6, 7],
+            [0, 4, 2],
+            [2, 4, 6],
+            [1, 3, 5],
+            [3, 7, 5],
+        ]
+    )
+    return verts, faces
+
+
+def _decimate(verts: np.ndarray, faces: np.ndarray, max_faces: int):
+    """Vertex clustering on a grid, coarsened until at most ``max_faces`` triangles remain."""
+    if len(faces) <= max_faces:
+        return verts, faces
+    extent = float(np.ptp(verts, axis=0).max()) or 1.0
+    cell = extent / 64
+    while True:
+        key = np.floor((verts - verts.min(0)) / cell).astype(np.int64)
+        _, inv = np.unique(key, axis=0, return_inverse=True)
+        inv = inv.ravel()
+        f = inv[faces]
+        f = f[(f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])]
+        if len(f) <= max_faces:
+            n = inv.max() + 1
+            v = np.zeros((n, 3))
+            np.add.at(v, inv, verts)
+            v /= np.bincount(inv, minlength=n)[:, None]
+            return v, f
+        cell *= 1.5
+
+
+def mesh_of(geom: dict, max_faces: int = 1500) -> tuple[np.ndarray, np.ndarray]:
+    """Triangle mesh (vertices in the geometry's parent frame, faces) of one geometry dict as
+    ``RobotModel.visual_geometry`` / ``collision_geometry`` give it."""
+    kind = geom["type"]
+    if kind == "box":
+        v, f = _box(geom["size"])
+    elif kind == "sphere":
+        v, f = _sphere_like(geom["radius"], 0.0)
+    elif kind == "capsule":
+        v, f = _sphere_like(geom["radius"], geom["length"] / 2)
+    elif kind == "cylinder":
+        v, f = _cylinder(geom["radius"], geom["length"])
+    elif kind == "mesh":
+        scaled = np.asarray(geom["vertices"]) * np.asarray(geom.get("scale", (1.0, 1.0, 1.0)))
+        v, f = _decimate(scaled, np.asarray(geom["faces"]), max_faces)
+    else:
+        raise ValueError(f"unknown geometry type {kind!r}")
+    o = np.asarray(geom["origin"])
+    return v @ o[:3, :3].T + o[:3, 3], np.asarray(f, dtype=np.int64)
+
+
+def robot_meshes(model, max_faces_per_link: int = 3000) -> list[dict]:
+    """Per link with geometry: ``link`` (index in ``link_names``), ``V`` (n, 3) vertices in the link frame, ``F``
+    (m, 3) faces and ``c`` the colour. Visual geometry, or the collision geometry of links without any."""
+    out = []
+    for li, name in enumerate(model.link_names):
+        geoms = model.visual_geometry(name) or model.collision_geometry(name)
+        if not geoms:
+            continue
+        vs, fs, n, color = [], [], 0, None
+        per = max(200, max_faces_per_link // len(geoms))
+        for g in geoms:
+            v, f = mesh_of(g, per)
+            vs.append(v)
+            fs.append(f + n)
+            n += len(v)
+            if color is None and g.get("rgba") is not None:
+                color = list(g["rgba"][:3])
+        out.append({"link": li, "V": np.vstack(vs), "F": np.vstack(fs), "c": color or list(ROBOT_COLOR)})
+    return out
 
 
 def _round(a, nd: int = 4):
     return np.round(np.asarray(a, dtype=np.float64), nd).tolist()
 
 
-def viewer_data(pp) -> dict:
-    """What the viewer draws, from a :class:`~ferrobot.pipeline.PickPlace` that ran with recorded frames."""
-    model = pp.model
-    spheres = pp.planner.sphere_model
-    links, local = [], []
-    for li, name in enumerate(model.link_names):
-        s = spheres.spheres(name)
-        for c in s:
-            links.append(li)
-            local.append(c)
-    local = np.asarray(local).reshape(-1, 4)
-    base = pp.base
+def _object_mesh(kind: str, size) -> tuple[np.ndarray, np.ndarray]:
+    size = list(size)
+    if kind == "box":
+        return _box(size)
+    if kind == "sphere":
+        return _sphere_like(size[0], 0.0)
+    if kind == "cylinder":
+        return _cylinder(size[0], size[1])
+    if kind == "capsule":
+        return _sphere_like(size[0], size[1] / 2)
+    raise ValueError(f"unknown object kind {kind!r}")
+
+
+def scene_data(
+    model,
+    qs,
+    *,
+    base=None,
+    times=None,
+    stages=None,
+    objects=(),
+    object_poses=None,
+    grasp_lines=None,
+    cameras=(),
+    spheres=None,
+    place=None,
+    view=None,
+) -> dict:
+    """What the viewer draws, for any robot and trajectory.
+
+    ``qs`` (T, num_dof) joint positions (``dof_names`` order), ``base`` the robot's 4x4 world pose,
+    ``times`` (T,) and ``stages`` (T,) labels; ``objects`` dicts with ``name``, ``kind`` (box, sphere,
+    cylinder, capsule, mesh), ``size`` (box extents; radius; radius and length) or ``vertices`` / ``faces``,
+    ``color`` and optionally ``base`` (drawn under everything); ``object_poses`` (T,) dicts name -> 4x4
+    (default: identity); ``grasp_lines`` (N, 2, 3) segments (e.g. ``GraspGroup.gripper_lines()`` flattened);
+    ``cameras`` dicts with ``pose`` (4x4, OpenCV frame), ``fx``, ``fy``, ``cx``, ``cy``, ``width``, ``height``;
+    ``spheres`` a SphereModel drawn on request; ``view`` overrides :data:`DEFAULT_VIEW`.
+    """
+    qs = np.atleast_2d(np.asarray(qs, dtype=np.float64))
+    base = np.eye(4) if base is None else np.asarray(base, dtype=np.float64)
+    meshes = robot_meshes(model)
+    link_ix = [m["link"] for m in meshes]
+    s_links, s_local = [], np.zeros((0, 4))
+    if spheres is not None:
+        rows = []
+        for li, name in enumerate(model.link_names):
+            for c in spheres.spheres(name):
+                s_links.append(li)
+                rows.append(c)
+        s_local = np.asarray(rows).reshape(-1, 4)
     frames = []
-    for st in pp.rec.states:
-        poses = base @ model.fk_all(st["q"])  # (L, 4, 4) in the world
-        centres = np.einsum("nij,nj->ni", poses[links], np.c_[local[:, :3], np.ones(len(local))])[:, :3]
-        frames.append(
+    for k, q in enumerate(qs):
+        poses = base @ model.fk_all(q)
+        fr = {
+            "t": round(float(times[k]) if times is not None else float(k), 3),
+            "stage": stages[k] if stages is not None else "",
+            "links": [_round(poses[i][:3, :].ravel(), 5) for i in link_ix],
+            "objects": {},
+        }
+        if len(s_links):
+            c = np.einsum("nij,nj->ni", poses[s_links], np.c_[s_local[:, :3], np.ones(len(s_local))])[:, :3]
+            fr["spheres"] = _round(c)
+        else:
+            fr["spheres"] = []
+        ops = object_poses[k] if object_poses is not None else {}
+        for o in objects:
+            m = np.asarray(ops.get(o["name"], np.eye(4)))
+            fr["objects"][o["name"]] = _round(m[:3, :].ravel())
+        frames.append(fr)
+    objs = []
+    for o in objects:
+        if o["kind"] == "mesh":
+            v, f = _decimate(np.asarray(o["vertices"], dtype=np.float64), np.asarray(o["faces"]), 2000)
+        else:
+            v, f = _object_mesh(o["kind"], o["size"])
+        objs.append(
             {
-                "t": round(st["t"], 3),
-                "stage": st["stage"],
-                "spheres": _round(centres),
-                "objects": {k: _round(v[:3, :].ravel()) for k, v in st["objects"].items()},
+                "name": o["name"],
+                "kind": o["kind"],
+                "size": _round(o.get("size", [])),
+                "color": list(o["color"]),
+                "base": bool(o.get("base", False)),
+                "V": _round(v),
+                "F": np.asarray(f).tolist(),
             }
         )
-    objects = []
-    for name, kind, size, color in pp.scene_shapes():
-        base_layer = name in ("table", ROBOT_MOUNT)
-        objects.append({"name": name, "kind": kind, "size": _round(size), "color": list(color), "base": base_layer})
+    cams = []
+    for c in cameras:
+        cams.append({k: (_round(v) if k == "pose" else float(v)) for k, v in c.items()})
+    return {
+        "view": {**DEFAULT_VIEW, **(view or {})},
+        "robot": [{"V": _round(m["V"], 5), "F": m["F"].tolist(), "c": m["c"]} for m in meshes],
+        "radii": _round(s_local[:, 3]),
+        "frames": frames,
+        "objects": objs,
+        "grasp": None if grasp_lines is None else _round(np.asarray(grasp_lines).reshape(-1, 2, 3)),
+        "cameras": cams,
+        "place": None if place is None else list(place),
+    }
+
+
+def viewer_data(pp) -> dict:
+    """What the viewer draws, from a :class:`~ferrobot.pipeline.PickPlace` that ran with recorded frames."""
+    states = pp.rec.states
+    objects = [
+        {"name": name, "kind": kind, "size": size, "color": color, "base": name in ("table", ROBOT_MOUNT)}
+        for name, kind, size, color in pp.scene_shapes()
+    ]
     grasp = None
     if getattr(pp, "choice", None) is not None:
-        grasp = _round(pp.grasps_world[pp.choice : pp.choice + 1].gripper_lines()[0])
-    return {
-        "radii": _round(local[:, 3]),
-        "frames": frames,
-        "objects": objects,
-        "grasp": grasp,
-        "place": list(pp.spec.place_xy),
-    }
+        grasp = pp.grasps_world[pp.choice : pp.choice + 1].gripper_lines()[0]
+    cameras = []
+    if getattr(pp, "camera", None) is not None:
+        k = pp.camera.intrinsic_matrix
+        cameras.append(
+            {
+                "pose": pp.camera.get_world_transform(),
+                "fx": k[0, 0],
+                "fy": k[1, 1],
+                "cx": k[0, 2],
+                "cy": k[1, 2],
+                "width": pp.camera.width,
+                "height": pp.camera.height,
+            }
+        )
+    return scene_data(
+        pp.model,
+        [st["q"] for st in states],
+        base=pp.base,
+        times=[st["t"] for st in states],
+        stages=[st["stage"] for st in states],
+        objects=objects,
+        object_poses=[st["objects"] for st in states],
+        grasp_lines=grasp,
+        cameras=cameras,
+        spheres=pp.planner.sphere_model,
+        place=pp.spec.place_xy,
+    )
 
 
 #: The page: HTML, CSS and the canvas renderer, with __TITLE__ and __DATA__ to fill in.
