@@ -503,7 +503,12 @@ def generate(
     tmp = state / "done.json.tmp"
     tmp.write_text(json.dumps(summary, indent=2))
     os.replace(tmp, done_marker)
+    # The dataset is complete: the staged copies and what killed workers left are no longer needed.
     shutil.rmtree(state / "work", ignore_errors=True)
+    for d in (state / "tmp").iterdir():
+        shutil.rmtree(d, ignore_errors=True)
+    for d in (state / "episodes").iterdir():
+        shutil.rmtree(d, ignore_errors=True)
     return summary
 
 
