@@ -175,3 +175,16 @@ def test_bad_arguments_leave_existing_data_untouched(tmp_path, capsys):
     with pytest.raises(InvalidArgumentError, match="workers"):
         generate(tmp_path / "y", GenerateConfig(episodes=1, cameras=cams), workers=0, ray="off")
     assert not (tmp_path / "y").exists()
+
+
+def test_ray_retries_a_killed_worker(tmp_path, reference):
+    pytest.importorskip("ray")
+    out = tmp_path / "ds"
+    marker = tmp_path / "killed"
+    cmd, env = _cmd(out, "--workers", "2", fault=f"worker:2:{marker}")
+    cmd[cmd.index("off")] = "auto"  # --ray auto: a local Ray instance
+    r = subprocess.run(cmd, env=env, check=True, timeout=300, capture_output=True, text=True)
+    assert '"executor": "ray"' in r.stdout
+    assert marker.exists()
+    _same(_content(out), reference)
+    _no_duplicates(out, 3)

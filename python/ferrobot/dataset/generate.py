@@ -434,6 +434,14 @@ def generate(
         raise InvalidArgumentError(f"workers: expected an integer in [1, 4096], got {workers!r}")
     if not (isinstance(max_retries, int) and 0 <= max_retries <= 100):
         raise InvalidArgumentError(f"max_retries: expected an integer in [0, 100], got {max_retries!r}")
+    needed = ("pyarrow", "av", "pandas") if config.format == "lerobot" else ("h5py",)
+    for mod in needed:
+        try:
+            __import__(mod)
+        except ImportError:
+            raise InvalidArgumentError(
+                f"format: '{config.format}' needs the Python package '{mod}': pip install 'ferrobot[dataset]'"
+            ) from None
     use_ray, address = False, None
     if ray not in (None, "off"):
         try:
