@@ -502,6 +502,7 @@ def generate(
             "resumed_from": len(published),
             "generation_wall_s": gen_s,
             "episodes_per_hour": 3600.0 * len(new) / gen_s if new and gen_s > 0 else None,
+            "median_episode_wall_s": float(np.median([r["wall_s"] for r in new])) if new else None,
             "recorded_frames_per_s": frames / gen_s if new and gen_s > 0 else None,
             "executor": "ray" if use_ray else f"local process pool ({workers or os.cpu_count()} workers)",
             "total_wall_s": time.perf_counter() - t0,
