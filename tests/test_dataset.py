@@ -26,10 +26,10 @@ CAMS = "scene:64x48,wrist:32x24"
 
 @pytest.fixture(scope="module")
 def pp():
-    from ferrobot.dataset import generate as gen
+    from ferrobot.dataset.generate import _PP
 
     p = PickPlace()
-    gen._PP["pp"] = p  # in-process generation (workers=1) reuses it: a planner takes seconds to build
+    _PP["pp"] = p  # in-process generation (workers=1) reuses it: a planner takes seconds to build
     return p
 
 

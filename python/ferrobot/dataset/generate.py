@@ -561,23 +561,9 @@ def finalize(out: Path, config: GenerateConfig) -> dict:
 
 
 def _features(config: GenerateConfig) -> dict:
-    """The dataset features of ``config`` (names as in :func:`ferrobot.control.features`)."""
+    """The dataset features of ``config`` (:func:`ferrobot.control.features`, the shared contract)."""
     from .. import robots
+    from ..control import features
 
-    model = robots.panda()
-    dof = list(model.dof_names)
-    arm = [dof[i] for i in model.group_dof_indices]
-    pose = ["x", "y", "z", "qw", "qx", "qy", "qz"]
-    f = {
-        "observation.state": {"dtype": "float32", "shape": [len(dof)], "names": dof},
-        "observation.velocity": {"dtype": "float32", "shape": [len(dof)], "names": dof},
-        "observation.ee_pose": {"dtype": "float32", "shape": [7], "names": pose},
-        "observation.gripper_opening": {"dtype": "float32", "shape": [1], "names": ["opening"]},
-        "action": {"dtype": "float32", "shape": [len(arm) + 1], "names": [*arm, "gripper"]},
-        "action.ee_pose": {"dtype": "float32", "shape": [7], "names": pose},
-    }
-    for c in config.cameras:
-        h, w = c["height"], c["width"]
-        f[f"observation.images.{c['name']}"] = {"dtype": "video", "shape": [h, w, 3], "names": None}
-        f[f"observation.depth.{c['name']}"] = {"dtype": "depth", "shape": [h, w], "names": ["height", "width"]}
-    return f
+    cams = {c["name"]: (c["width"], c["height"]) for c in config.cameras}
+    return features(robots.panda(), None, cams, segmentation=config.segmentation)
