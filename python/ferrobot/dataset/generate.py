@@ -353,9 +353,6 @@ def _prepare(out: Path, cfg: dict) -> Path:
             os.replace(tmp, conf)
     except OSError as e:
         raise InvalidArgumentError(f"out: cannot write to '{out}': {e}") from e
-    # Leftovers of killed workers: never published, safe to remove.
-    for d in (state / "tmp").iterdir():
-        shutil.rmtree(d, ignore_errors=True)
     return state
 
 
@@ -457,6 +454,24 @@ def generate(
     out = Path(out)
     cfg = config.to_dict()
     state = _prepare(out, cfg)
+    import fcntl
+
+    lock = (state / "lock").open("w")
+    try:
+        fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        lock.close()
+        raise InvalidArgumentError(f"out: another 'ferrobot generate' is writing to '{out}'") from None
+    try:
+        return _generate(out, config, cfg, state, workers, use_ray, address, progress, max_retries)
+    finally:
+        lock.close()
+
+
+def _generate(out, config, cfg, state, workers, use_ray, address, progress, max_retries) -> dict:
+    # Leftovers of killed workers (this directory's run holds the lock): never published, safe to remove.
+    for d in (state / "tmp").iterdir():
+        shutil.rmtree(d, ignore_errors=True)
     done_marker = state / "done.json"
     t0 = time.perf_counter()
     if done_marker.exists():
