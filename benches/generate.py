@@ -1,14 +1,13 @@
 """Recorded-episode generation throughput: `ferrobot generate` as a benchmark.
 
     python benches/generate.py [--episodes 8] [--seed 0] [--format lerobot] [--cameras scene:640x480,wrist:320x240]
-                               [--ray] [--lerobot] [--json FILE]
+                               [--ray] [--keep] [--json FILE]
 
 Generates the same episodes with 1 local worker, then with 2 (all cores of this machine), then with a local
 Ray instance when ``--ray`` is given, each into a fresh directory, and reports episodes per hour, recorded
 frames (control steps) per second, CPU seconds per episode and the scaling. A breakdown of one frame's cost
-(render per camera, video encoding, physics per control step) says what bounds the rate. With ``--lerobot``
-the dataset is also loaded with ``lerobot.datasets.lerobot_dataset.LeRobotDataset`` when that package is
-installed. Target (2 cores, issue 19): >= 2,000 episodes/hour with a 640x480 RGB-D scene camera and a
+(render per camera, video encoding, physics per control step) says what bounds the rate. ``--keep`` keeps
+the datasets (their paths are in the JSON); ``benches/lerobot_load.py DIR`` loads one with LeRobot. Target (2 cores, issue 19): >= 2,000 episodes/hour with a 640x480 RGB-D scene camera and a
 320x240 wrist camera at 10 Hz, LeRobot format.
 """
 
@@ -110,16 +109,6 @@ def run(label: str, args, workers: int | None, ray: str) -> dict:
     return r
 
 
-def load_with_lerobot(path: str) -> str:
-    try:
-        from lerobot.datasets.lerobot_dataset import LeRobotDataset
-    except ImportError as e:
-        return f"lerobot not installed ({e})"
-    ds = LeRobotDataset("local/ferrobot", root=path)
-    item = ds[len(ds) // 2]
-    return f"LeRobotDataset loaded: {ds.num_episodes} episodes, {len(ds)} frames, keys {sorted(item)}"
-
-
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--episodes", type=int, default=8)
@@ -127,7 +116,6 @@ def main() -> None:
     ap.add_argument("--format", default="lerobot")
     ap.add_argument("--cameras", default="scene:640x480,wrist:320x240")
     ap.add_argument("--ray", action="store_true", help="also run on a local Ray instance")
-    ap.add_argument("--lerobot", action="store_true", help="load the result with LeRobotDataset")
     ap.add_argument("--keep", action="store_true", help="keep the generated datasets")
     ap.add_argument("--json", type=Path)
     args = ap.parse_args()
@@ -142,9 +130,6 @@ def main() -> None:
     for r in runs[1:]:
         print(f"scaling {r['label']}: x{r['episodes_per_hour'] / base:.2f} over 1 worker")
     result = {"breakdown_ms": bd, "runs": runs, "cameras": args.cameras, "format": args.format}
-    if args.lerobot and args.format == "lerobot":
-        result["lerobot_load"] = load_with_lerobot(runs[-1]["path"])
-        print(result["lerobot_load"])
     if not args.keep:
         for r in runs:
             shutil.rmtree(Path(r["path"]).parent, ignore_errors=True)
