@@ -7,8 +7,9 @@ Generates the same episodes with 1 local worker, then with 2 (all cores of this 
 Ray instance when ``--ray`` is given, each into a fresh directory, and reports episodes per hour, recorded
 frames (control steps) per second, CPU seconds per episode and the scaling. A breakdown of one frame's cost
 (render per camera, video encoding, physics per control step) says what bounds the rate. ``--keep`` keeps
-the datasets (their paths are in the JSON); ``benches/lerobot_load.py DIR`` loads one with LeRobot. Target (2 cores, issue 19): >= 2,000 episodes/hour with a 640x480 RGB-D scene camera and a
-320x240 wrist camera at 10 Hz, LeRobot format.
+the datasets (their paths are in the JSON); ``benches/lerobot_load.py DIR`` loads one with LeRobot.
+Target (2 cores, issue 19): >= 2,000 episodes/hour with a 640x480 RGB-D scene camera and a 320x240 wrist
+camera at 10 Hz, LeRobot format.
 """
 
 from __future__ import annotations
