@@ -401,7 +401,11 @@ def _run_ray(cfg: dict, root: str, todo: list[int], address: str | None, workers
 
     if not ray.is_initialized():
         kwargs = {"address": address} if address else {"num_cpus": workers} if workers else {}
-        ray.init(include_dashboard=False, log_to_driver=False, **kwargs)
+        try:
+            ray.init(include_dashboard=False, log_to_driver=False, **kwargs)
+        except Exception as e:  # Ray raises ConnectionError, ValueError, RuntimeError... for a bad address
+            where = f"the cluster at '{address}'" if address else "a local Ray instance"
+            raise FerrobotError(f"ray: could not start or join {where}: {type(e).__name__}: {e}") from e
     task = ray.remote(num_cpus=1, max_retries=max_retries, retry_exceptions=False)(run_episode)
     refs = [task.options(runtime_env={"env_vars": {"RAYON_NUM_THREADS": "1"}}).remote(cfg, i, root) for i in todo]
     while refs:
