@@ -35,7 +35,7 @@ import numpy as np
 
 from ..errors import FerrobotError, InvalidArgumentError
 
-__all__ = ["GenerateConfig", "generate", "episode_seed", "run_episode", "FORMATS", "parse_cameras"]
+__all__ = ["GenerateConfig", "generate", "episode_seed", "run_episode", "FORMATS", "parse_cameras", "scene_from_dict"]
 
 FORMATS = ("lerobot", "hdf5")
 ROBOTS = ("panda",)
@@ -57,6 +57,25 @@ MAX_ATTEMPTS = 10
 def scene_fov(spec) -> float:
     """Horizontal field of view (degrees) of the scene's perception camera."""
     return 2 * math.degrees(math.atan(0.5 * spec.camera_size[0] / spec.camera_f))
+
+
+def scene_from_dict(d: dict):
+    """The :class:`~ferrobot.pipeline.SceneSpec` stored in an episode's metadata (LeRobot: the episodes
+    table's ``scene`` column; HDF5: ``data/demo_N`` attribute ``model_file``), for replaying its actions."""
+    from ..pipeline import ObjectSpec, SceneSpec
+
+    d = dict(d)
+    objects = [ObjectSpec(**{**o, "size": tuple(o["size"]), "color": tuple(o["color"])}) for o in d.pop("objects")]
+    return SceneSpec(
+        objects=objects,
+        **{
+            **d,
+            "place_xy": tuple(d["place_xy"]),
+            "camera_eye": tuple(d["camera_eye"]),
+            "camera_target": tuple(d["camera_target"]),
+            "camera_size": tuple(d["camera_size"]),
+        },
+    )
 
 
 def episode_spec(cfg: dict, seed: int):
