@@ -390,6 +390,12 @@ def _run_local(cfg: dict, root: str, todo: list[int], workers: int, on_done, max
 
     attempts = dict.fromkeys(todo, 0)
     pending = list(todo)
+    reported: set[int] = set()
+
+    def report(r: dict) -> None:
+        reported.add(r["index"])
+        on_done(r)
+
     while pending:
         ctx = multiprocessing.get_context("spawn")
         broken = False
@@ -402,13 +408,15 @@ def _run_local(cfg: dict, root: str, todo: list[int], workers: int, on_done, max
                 done, remaining = wait(remaining, return_when=FIRST_COMPLETED)
                 for f in done:
                     try:
-                        on_done(f.result())
+                        report(f.result())
                     except BrokenProcessPool:
                         broken = True
         if not broken:
             return
         # A worker died (killed): every episode not published is retried in a fresh pool.
         published = _published(Path(root) / STATE_DIR, max(todo) + 1)
+        for i in sorted(published & set(pending) - reported):
+            report(run_episode(cfg, i, root))  # published before the pool broke: read back, not run
         pending = [i for i in pending if i not in published]
         for i in pending:
             if attempts[i] > max_retries:
