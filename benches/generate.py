@@ -46,7 +46,7 @@ def breakdown(cameras: list[dict]) -> dict:
     spec = random_scene(0)
     world, robot, camera = build_world(spec)
     cams = make_cameras(
-        world, robot, camera.get_world_pose(), [CameraSpec(c["name"], c["width"], c["height"]) for c in cameras]
+        world, robot, camera.get_world_transform(), [CameraSpec(c["name"], c["width"], c["height"]) for c in cameras]
     )
     out = {}
     for name, cam in cams.items():

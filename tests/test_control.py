@@ -99,7 +99,7 @@ def test_observation_contract():
     cams = make_cameras(
         world,
         robot,
-        camera.get_world_pose(),
+        camera.get_world_transform(),
         [CameraSpec("scene", 64, 48), CameraSpec("wrist", 32, 24)],
         scene_fov_deg=60.0,
     )
@@ -114,7 +114,7 @@ def test_observation_contract():
     assert obs["observation.depth.scene"].dtype == np.float32 and obs["observation.depth.scene"].shape == (48, 64)
     assert obs["observation.segmentation.wrist"].dtype == np.int32
     # End-effector pose vs the simulator's own link pose moved to the base frame.
-    hand = world_to_base(robot.get_link_pose(robot.model.ee_link), robot.get_world_pose())
+    hand = world_to_base(robot.get_link_pose(robot.model.ee_link), robot.get_world_transform())
     ref = matrix_to_pose(hand)
     got = obs["observation.ee_pose"].astype(np.float64)
     np.testing.assert_allclose(got[:3], ref[:3], atol=2e-5)
@@ -132,14 +132,14 @@ def test_observation_contract():
 
 def test_wrist_camera_moves_with_the_hand():
     spec, world, robot, camera = _world(2)
-    cams = make_cameras(world, robot, camera.get_world_pose(), [CameraSpec("wrist", 32, 24)])
-    before = cams["wrist"].get_world_pose()
+    cams = make_cameras(world, robot, camera.get_world_transform(), [CameraSpec("wrist", 32, 24)])
+    before = cams["wrist"].get_world_transform()
     s = ControlStepper(world, robot)
     a = s.hold_action()
     a[0] += 0.3
     for _ in range(5):
         s.step(a)
-    after = cams["wrist"].get_world_pose()
+    after = cams["wrist"].get_world_transform()
     hand = robot.get_link_pose("panda_hand")
     assert np.linalg.norm(after[:3, 3] - before[:3, 3]) > 0.05
     # Its pose relative to the hand is the configured one.

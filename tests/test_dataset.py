@@ -38,7 +38,7 @@ def record(pp, spec, cams=CAMS):
     specs = [CameraSpec(c["name"], c["width"], c["height"]) for c in parse_cameras(cams)]
 
     def factory(world, robot, camera, arm):
-        cameras = make_cameras(world, robot, camera.get_world_pose(), specs, scene_fov_deg=scene_fov(spec))
+        cameras = make_cameras(world, robot, camera.get_world_transform(), specs, scene_fov_deg=scene_fov(spec))
         return ControlRecorder(world, robot, cameras, frames.append, arm_joint_indices=arm)
 
     result = pp.run(spec, recorder=factory)

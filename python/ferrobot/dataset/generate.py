@@ -263,7 +263,7 @@ def run_episode(cfg: dict, index: int, root: str) -> dict:
                 _fault("worker", index)
 
         def factory(world, robot, camera, arm_idx, spec=spec, sink=sink):
-            cameras = make_cameras(world, robot, camera.get_world_pose(), specs, scene_fov_deg=scene_fov(spec))
+            cameras = make_cameras(world, robot, camera.get_world_transform(), specs, scene_fov_deg=scene_fov(spec))
             return ControlRecorder(
                 world,
                 robot,
