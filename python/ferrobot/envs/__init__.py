@@ -53,7 +53,11 @@ ENV_IDS: dict[str, tuple[str, dict, int]] = {
 
 def register_envs() -> None:
     """Registers every id of :data:`ENV_IDS` with Gymnasium (idempotent)."""
+    import functools
+
     import gymnasium
+
+    from .vector import FerrobotVectorEnv
 
     for env_id, (entry, kwargs, steps) in ENV_IDS.items():
         if env_id in gymnasium.registry:
@@ -63,6 +67,7 @@ def register_envs() -> None:
             entry_point=entry,
             kwargs=dict(kwargs),
             max_episode_steps=steps,
+            vector_entry_point=functools.partial(FerrobotVectorEnv, env_id=env_id),
         )
 
 
