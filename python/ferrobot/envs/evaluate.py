@@ -6,6 +6,8 @@ keyword arguments ``env``, ``obs``, ``info``, ``seed`` its signature names. :fun
 ``"MODULE:CALLABLE"``, ``"expert"`` (:class:`ferrobot.envs.expert.ExpertPolicy`) and ``"replay:DATASET_DIR"``
 (:class:`ferrobot.envs.replay.ReplayPolicy`). A class is instantiated once per environment; an object with
 state (``reset``/``act``) is copied per environment when several run at once; a plain function is shared.
+A policy with ``reset_options(episode)`` gives the ``options`` of that episode's ``env.reset`` (a replay
+restores the recorded scene that way).
 
 Episode ``i`` resets its environment with seed ``seed + i``; with ``num_envs`` K, K environments run
 episodes side by side, stepped together by :class:`ferrobot.envs.vector.ThreadedVectorStepper` (each
@@ -188,7 +190,9 @@ def evaluate(
         s = slot[i]
         s.clear()
         s.update(episode=ep, seed=seed + ep, steps=0, ret=0.0, t0=time.perf_counter(), frames=[], cause="")
-        obs, info = envs[i].reset(seed=seed + ep)
+        hook = getattr(policies[i], "reset_options", None)  # e.g. a replay restores the recorded scene
+        options = hook(ep) if callable(hook) else None
+        obs, info = envs[i].reset(seed=seed + ep, options=options)
         s["obs"], s["info"] = obs, info
         try:
             _reset_policy(policies[i], envs[i], obs, info, seed + ep)
