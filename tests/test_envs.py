@@ -22,7 +22,7 @@ from ferrobot.envs.expert import ExpertPolicy  # noqa: E402
 from ferrobot.errors import InvalidArgumentError, NonFiniteError, ShapeError  # noqa: E402
 from ferrobot.pipeline import random_scene  # noqa: E402
 
-SMALL = (16, 12)
+SMALL = (16, 12)  # image_size of the tests: tiny frames
 
 
 def make(env_id="ferrobot/PickPlace-v0", **kw):

@@ -2,9 +2,10 @@
 
 :class:`ExpertPolicy` runs :class:`ferrobot.pipeline.PickPlace`'s own stages (perceive, detect, select, then
 pick and place with a motion plan per stage) against the environment's world, with two substitutions: the
-pipeline's recorder, instead of feeding planned trajectories to the joint drives at 240 Hz, turns them into
-joint-position actions at the environment's control rate (the trajectory sampled at the end of every
-control period), and the robot's gripper calls become the action's gripper command. The stages run in a
+pipeline's recorder, instead of feeding planned trajectories to the joint drives, turns them into
+joint-position actions at the environment's control rate exactly as the dataset recorder
+(:class:`ferrobot.pipeline.recording.ControlRecorder`) does, and its gripper commands become the action's
+gripper entry. The stages run in a
 worker thread that hands each action to :meth:`ExpertPolicy.act` and waits until the environment has
 stepped it, so planning sees the state the environment actually reached (strictly alternating: deterministic).
 
@@ -14,6 +15,7 @@ expert needs the environment: ``reset(env=...)``. It works with the ``joint_pos`
 
 from __future__ import annotations
 
+import math
 import queue
 import threading
 
@@ -49,23 +51,26 @@ class _RobotProxy:
 
 
 class _ActionRecorder:
-    """Stands in for the pipeline's recorder: trajectories and waits become actions at the control rate."""
+    """Stands in for the pipeline's recorder with the interface of
+    :class:`ferrobot.pipeline.recording.ControlRecorder` (the dataset recorder), so the expert's actions are
+    the ones a recorded dataset holds: planned motions sampled at the control period (``sample_dt``), each
+    sample after the first one action; waits hold the targets for ``ceil(seconds * control_hz)`` steps."""
 
-    def __init__(self, expert: ExpertPolicy, steps_per_action: int):
-        self.expert, self.k = expert, steps_per_action
+    def __init__(self, expert: ExpertPolicy, control_hz: float):
+        self.expert = expert
+        self.control_hz = control_hz
+        self.sample_dt = 1.0 / control_hz
+
+    def set_gripper(self, closed: bool, force: float | None = None) -> None:
+        self.expert._gripper = 1.0 if closed else 0.0
 
     def execute(self, positions, velocities, joint_indices, stage):
-        positions = np.asarray(positions)
-        rows = list(range(self.k - 1, len(positions), self.k))
-        if not rows or rows[-1] != len(positions) - 1:
-            rows.append(len(positions) - 1)
-        for r in rows:
-            self.expert._emit(positions[r])
+        for row in np.asarray(positions, dtype=np.float64)[1:]:
+            self.expert._emit(row)
         return 0.0
 
     def wait(self, seconds, stage):
-        n = max(1, int(round(seconds * self.expert.control_hz)))
-        for _ in range(n):
+        for _ in range(max(1, math.ceil(seconds * self.control_hz - 1e-9))):
             self.expert._emit(self.expert._arm)
 
     def snapshot(self, stage):
@@ -113,7 +118,7 @@ class ExpertPolicy:
         for name in list(pp.planner.attached):
             pp.planner.detach(name)
         pp.result = EpisodeResult(seed=env.spec_scene.seed, target=env.spec_scene.target)
-        pp.rec = _ActionRecorder(self, max(1, int(round(env.world.dt**-1 / env.control_hz))))
+        pp.rec = _ActionRecorder(self, env.control_hz)
         self.env = env
         self.control_hz = env.control_hz
         self.failure = ""

@@ -24,10 +24,11 @@ replay exactly.
 - ``num_objects`` (1-6, default: 3-5 drawn per scene), ``scene_fn`` (a callable ``seed -> SceneSpec`` that
   replaces :func:`ferrobot.pipeline.random_scene`), ``randomize`` (False: every reset uses
   ``scene_seed``), ``init_noise`` (rad, >= 0: uniform noise on the arm's start configuration).
-- ``cameras``: camera names (``"front"``: the scene camera, ``"side"``, ``"wrist"``: on the hand) or a dict
-  name -> ``{"eye", "target"}`` (world) or ``{"link", "pose"}`` (on a robot link), each optionally with
-  ``width``, ``height``, ``fx``; default ``["front"]`` in the image modes, none in ``"state"``.
-  ``image_size`` (width, height), default (224, 224), applies where a camera gives none.
+- ``cameras``: the recorded datasets' cameras by name (``"scene"``: the scene's perception camera, 640 x 480;
+  ``"wrist"``: on the Panda hand, 320 x 240; see :mod:`ferrobot.control`), ``"side"`` (a fixed side view,
+  320 x 240), ``"name:WxH"`` strings, or :class:`ferrobot.control.CameraSpec` objects; default
+  ``["scene", "wrist"]`` (the datasets' default) in the image modes, none in ``"state"``. ``image_size``
+  (width, height) replaces the size of every named camera (default: their own sizes).
 - ``terminate_on_success`` (default True), ``render_mode`` (``"rgb_array"``: a 320 x 240 side view).
 
 ``reset(seed=s)`` builds the scene ``random_scene(s)`` (the same scene as ``ferrobot demo --seed s``); without a
@@ -46,11 +47,11 @@ import numpy as np
 from gymnasium import spaces
 
 from .. import _core, robots, transforms
-from ..control import ControlStepper, observe
+from ..control import DEFAULT_CAMERAS, CameraSpec, ControlStepper, make_cameras, observe
 from ..errors import InvalidArgumentError, NonFiniteError, ShapeError
 from ..pipeline.scene import HOME, TABLE_TOP, ObjectSpec, SceneSpec, build_world, random_scene
 
-__all__ = ["OBS_MODES", "ACTION_MODES", "FerrobotEnv", "PickPlaceEnv", "LiftEnv", "ReachEnv", "CAMERA_PRESETS"]
+__all__ = ["OBS_MODES", "ACTION_MODES", "FerrobotEnv", "PickPlaceEnv", "LiftEnv", "ReachEnv", "EXTRA_CAMERAS"]
 
 OBS_MODES = ("state", "rgb", "rgbd")
 ACTION_MODES = ("joint_pos", "ee_delta", "ee_abs")
@@ -65,13 +66,12 @@ EE_ABS_POSITION_BOUNDS = ((-1.2, -1.2, -0.5), (1.2, 1.2, 1.5))
 #: settle a hair past a limit and contacts push joints slightly beyond it.
 STATE_MARGIN = 0.1
 
-#: Camera presets (world poses look at the table; "wrist" rides on the Panda hand, looking along its
-#: approach axis from 5 cm beside the housing).
-CAMERA_PRESETS: dict[str, dict[str, Any]] = {
-    "front": {"eye": (1.15, 0.0, 1.15), "target": (0.52, 0.0, TABLE_TOP)},
-    "side": {"eye": (1.05, -0.85, 1.05), "target": (0.42, 0.0, TABLE_TOP + 0.08)},
-    "wrist": {"link": "panda_hand", "pose": [0.05, 0.0, 0.03, 1.0, 0.0, 0.0, 0.0]},
+#: Camera names beyond ferrobot.control's ("scene", "wrist"): name -> (eye, target) in the world, size.
+EXTRA_CAMERAS: dict[str, tuple[tuple, tuple, tuple[int, int]]] = {
+    "side": ((1.05, -0.85, 1.05), (0.42, 0.0, TABLE_TOP + 0.08), (320, 240)),
 }
+#: The render camera of ``render_mode="rgb_array"`` (a fixed side view).
+RENDER_VIEW = EXTRA_CAMERAS["side"]
 
 
 def _rotvec_to_matrix(v: np.ndarray) -> np.ndarray:
@@ -133,7 +133,7 @@ class FerrobotEnv(gym.Env):
         scene_seed: int = 0,
         init_noise: float = 0.0,
         cameras: Any = None,
-        image_size: tuple[int, int] = (224, 224),
+        image_size: tuple[int, int] | None = None,
         segmentation: bool = False,
         terminate_on_success: bool = True,
         render_mode: str | None = None,
@@ -153,9 +153,11 @@ class FerrobotEnv(gym.Env):
             raise InvalidArgumentError(f"init_noise: expected a finite value >= 0 (rad), got {init_noise}")
         if render_mode not in (None, "rgb_array"):
             raise InvalidArgumentError(f"render_mode: expected None or 'rgb_array', got {render_mode!r}")
-        w, h = (int(v) for v in image_size)
-        if not (1 <= w <= 4096 and 1 <= h <= 4096):
-            raise InvalidArgumentError(f"image_size: expected (width, height) in 1..4096, got {image_size}")
+        if image_size is not None:
+            w, h = (int(v) for v in image_size)
+            if not (8 <= w <= 4096 and 8 <= h <= 4096):
+                raise InvalidArgumentError(f"image_size: expected (width, height) in 8..4096, got {image_size}")
+            image_size = (w, h)
         self.obs_mode, self.control_mode, self.reward_type = obs_mode, control_mode, reward_type
         self.control_hz = float(control_hz)
         self.num_objects = None if num_objects is None else int(num_objects)
@@ -180,7 +182,7 @@ class FerrobotEnv(gym.Env):
         self.arm_idx = [dof.index(n) for n in self.arm_names]
         self.ee_link = self.model.ee_link
         self.tcp_link = "panda_hand_tcp" if "panda_hand_tcp" in self.model.link_names else self.ee_link
-        self.camera_specs = self._camera_specs(cameras, w, h)
+        self.camera_specs = self._camera_specs(cameras, image_size)
 
         self.action_space = self._make_action_space()
         self.observation_space = self._make_observation_space()
@@ -189,32 +191,43 @@ class FerrobotEnv(gym.Env):
 
     # -- spaces -----------------------------------------------------------------------------------------------
 
-    def _camera_specs(self, cameras, w: int, h: int) -> dict[str, dict[str, Any]]:
+    def _camera_specs(self, cameras, size) -> list[CameraSpec]:
         if cameras is None:
-            cameras = [] if self.obs_mode == "state" else ["front"]
-        if isinstance(cameras, str):
+            cameras = [] if self.obs_mode == "state" else list(DEFAULT_CAMERAS)
+        if isinstance(cameras, (str, CameraSpec)):
             cameras = [cameras]
-        if not isinstance(cameras, dict):
-            out = {}
-            for name in cameras:
-                if name not in CAMERA_PRESETS:
+        specs: list[CameraSpec] = []
+        for c in cameras:
+            if isinstance(c, CameraSpec):
+                spec = CameraSpec(c.name, c.width, c.height, c.fov_deg, c.link, c.pose)
+            elif isinstance(c, str):
+                name, _, wh = c.partition(":")
+                if name in DEFAULT_CAMERAS:
+                    w, h = DEFAULT_CAMERAS[name]
+                    spec = CameraSpec(name, w, h)
+                elif name in EXTRA_CAMERAS:
+                    eye, target, (w, h) = EXTRA_CAMERAS[name]
+                    spec = CameraSpec(name, w, h, pose=_core.look_at(eye, target))
+                else:
                     raise InvalidArgumentError(
-                        f"cameras: unknown camera preset {name!r}; presets: {sorted(CAMERA_PRESETS)} "
-                        "(or pass a dict name -> {'eye', 'target'} / {'link', 'pose'})"
+                        f"cameras: unknown camera {name!r}; known: {[*DEFAULT_CAMERAS, *EXTRA_CAMERAS]} "
+                        "(or pass ferrobot.control.CameraSpec objects)"
                     )
-                out[name] = dict(CAMERA_PRESETS[name])
-            cameras = out
-        specs = {}
-        for name, c in cameras.items():
-            c = dict(c)
-            if not (("eye" in c and "target" in c) or "link" in c):
-                raise InvalidArgumentError(f"cameras[{name!r}]: expected keys 'eye' and 'target', or 'link'")
-            c.setdefault("width", w)
-            c.setdefault("height", h)
-            c.setdefault("fx", 525.0 * c["width"] / 640.0)
-            if "link" in c and c["link"] not in self.model.link_names:
-                raise InvalidArgumentError(f"cameras[{name!r}]: the robot has no link {c['link']!r}")
-            specs[str(name)] = c
+                if wh:
+                    try:
+                        spec.width, spec.height = (int(v) for v in wh.lower().split("x"))
+                    except ValueError:
+                        raise InvalidArgumentError(f"cameras: expected 'name:WxH', got {c!r}") from None
+                elif size is not None:
+                    spec.width, spec.height = size
+            else:
+                raise InvalidArgumentError(f"cameras: expected names or CameraSpec objects, got {type(c).__name__}")
+            spec.validate()
+            if spec.link is not None and spec.link not in self.model.link_names:
+                raise InvalidArgumentError(f"cameras: {spec.name}: the robot has no link {spec.link!r}")
+            if any(o.name == spec.name for o in specs):
+                raise InvalidArgumentError(f"cameras: '{spec.name}' given twice")
+            specs.append(spec)
         if self.obs_mode != "state" and not specs:
             raise InvalidArgumentError(f"cameras: obs_mode {self.obs_mode!r} needs at least one camera")
         return specs
@@ -246,8 +259,8 @@ class FerrobotEnv(gym.Env):
         }
         if self.task_state_dim:
             d["observation.environment_state"] = _box([-inf] * self.task_state_dim, [inf] * self.task_state_dim)
-        for name, c in self.camera_specs.items():
-            shape = (c["height"], c["width"])
+        for c in self.camera_specs:
+            name, shape = c.name, (c.height, c.width)
             d[f"observation.images.{name}"] = spaces.Box(0, 255, (*shape, 3), np.uint8)
             if self.obs_mode == "rgbd":
                 d[f"observation.depth.{name}"] = spaces.Box(0.0, inf, shape, np.float32)
@@ -281,17 +294,10 @@ class FerrobotEnv(gym.Env):
         raise InvalidArgumentError(f"options['scene']: expected a SceneSpec or its dict, got {type(obj).__name__}")
 
     def _build_cameras(self) -> dict[str, Any]:
-        cams = {}
-        for name, c in self.camera_specs.items():
-            w, h, f = c["width"], c["height"], c["fx"]
-            if "link" in c:
-                cams[name] = _core.Camera(
-                    self.world, w, h, f, f, (w - 1) / 2, (h - 1) / 2, c.get("pose"), robot=self.robot, link=c["link"]
-                )
-            else:
-                pose = _core.look_at(c["eye"], c["target"])
-                cams[name] = _core.Camera(self.world, w, h, f, f, (w - 1) / 2, (h - 1) / 2, pose)
-        return cams
+        specs = [CameraSpec(c.name, c.width, c.height, c.fov_deg, c.link, c.pose) for c in self.camera_specs]
+        return make_cameras(
+            self.world, self.robot, self.scene_camera.get_world_pose(), specs, scene_focal=self.spec_scene.camera_f
+        )
 
     # -- gymnasium API ----------------------------------------------------------------------------------------
 
@@ -327,7 +333,6 @@ class FerrobotEnv(gym.Env):
             self.world, self.robot, control_hz=self.control_hz, arm_joint_indices=self.arm_idx
         )
         self._arm_target = self.robot.get_joint_positions()[self.arm_idx].copy()
-        self._gripper_cmd = 0.0
         self.elapsed_steps = 0
         self._task_reset()
         obs = self._observe()
@@ -341,7 +346,6 @@ class FerrobotEnv(gym.Env):
         target, ik_failed = self._joint_action(a)
         self.stepper.step(target)
         self._arm_target = target[:-1].copy()
-        self._gripper_cmd = float(target[-1])
         self.elapsed_steps += 1
         obs = self._observe()
         success, cause, dense = self._evaluate()
@@ -354,9 +358,9 @@ class FerrobotEnv(gym.Env):
         if self.render_mode != "rgb_array" or self.world is None:
             return None
         if self._render_camera is None:
-            c = CAMERA_PRESETS["side"]
+            eye, target, (w, h) = RENDER_VIEW
             self._render_camera = _core.Camera(
-                self.world, 320, 240, 262.5, 262.5, 159.5, 119.5, _core.look_at(c["eye"], c["target"])
+                self.world, w, h, 0.82 * w, 0.82 * w, (w - 1) / 2, (h - 1) / 2, _core.look_at(eye, target)
             )
         return self._render_camera.render(rgb=True)["rgb"]
 
@@ -475,7 +479,7 @@ class PickPlaceEnv(_ObjectTask):
     """Pick the scene's target object and put it down on the place location.
 
     Success: the target's centre within 3 cm of the place location in x, y; resting upright (centre within
-    1 cm of its resting height, spheres excepted; speed under 5 cm/s); the gripper commanded open.
+    1 cm of its resting height, spheres excepted; speed under 5 cm/s); the gripper open (the last command at most 0.5).
     ``observation.environment_state`` (10,): the target's pose [x, y, z, qw, qx, qy, qz] and the place
     location [x, y, z] (on the table top), both in the robot base frame."""
 
@@ -497,7 +501,7 @@ class PickPlaceEnv(_ObjectTask):
             cause = "not_lifted" if self.max_rise < 0.02 else "not_at_place"
         elif not upright or speed > 0.05:
             cause = "not_resting"
-        elif self._gripper_cmd >= 0.5:
+        elif self.stepper.gripper_closed:
             cause = "not_released"
         else:
             cause = ""
