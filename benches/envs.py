@@ -39,7 +39,7 @@ ENV = "ferrobot/PickPlace-v0"
 
 def kwargs(camera: bool) -> dict:
     if camera:
-        return {"obs_mode": "rgb", "cameras": ["front"], "image_size": (224, 224)}
+        return {"obs_mode": "rgb", "cameras": ["scene"], "image_size": (224, 224)}
     return {"obs_mode": "state"}
 
 

@@ -15,6 +15,7 @@ expert needs the environment: ``reset(env=...)``. It works with the ``joint_pos`
 
 from __future__ import annotations
 
+import inspect
 import math
 import queue
 import threading
@@ -27,6 +28,10 @@ from ..pipeline.pick_place import EpisodeResult, PickPlace, PickPlaceConfig, Sta
 from ..pipeline.scene import TABLE_SIZE, TABLE_TOP, TABLE_XY
 
 __all__ = ["ExpertPolicy"]
+
+
+#: Whether this version of the pipeline samples planned motions at its recorder's ``sample_dt``.
+_PLANS_AT_SAMPLE_DT = "sample_dt" in inspect.getsource(PickPlace._move)
 
 
 class _Abort(BaseException):
@@ -56,17 +61,24 @@ class _ActionRecorder:
     the ones a recorded dataset holds: planned motions sampled at the control period (``sample_dt``), each
     sample after the first one action; waits hold the targets for ``ceil(seconds * control_hz)`` steps."""
 
-    def __init__(self, expert: ExpertPolicy, control_hz: float):
+    def __init__(self, expert: ExpertPolicy, control_hz: float, physics_dt: float):
         self.expert = expert
         self.control_hz = control_hz
         self.sample_dt = 1.0 / control_hz
+        # A pipeline that samples its plans at the physics rate (before it honoured ``sample_dt``): keep every
+        # stride-th sample (the samples at the control period) and the last.
+        self.stride = 1 if _PLANS_AT_SAMPLE_DT else max(1, int(round(self.sample_dt / physics_dt)))
 
     def set_gripper(self, closed: bool, force: float | None = None) -> None:
         self.expert._gripper = 1.0 if closed else 0.0
 
     def execute(self, positions, velocities, joint_indices, stage):
-        for row in np.asarray(positions, dtype=np.float64)[1:]:
-            self.expert._emit(row)
+        positions = np.asarray(positions, dtype=np.float64)
+        rows = list(range(self.stride, len(positions), self.stride))
+        if len(positions) > 1 and (not rows or rows[-1] != len(positions) - 1):
+            rows.append(len(positions) - 1)
+        for r in rows:
+            self.expert._emit(positions[r])
         return 0.0
 
     def wait(self, seconds, stage):
@@ -118,7 +130,7 @@ class ExpertPolicy:
         for name in list(pp.planner.attached):
             pp.planner.detach(name)
         pp.result = EpisodeResult(seed=env.spec_scene.seed, target=env.spec_scene.target)
-        pp.rec = _ActionRecorder(self, env.control_hz)
+        pp.rec = _ActionRecorder(self, env.control_hz, env.world.dt)
         self.env = env
         self.control_hz = env.control_hz
         self.failure = ""
