@@ -9,7 +9,9 @@ env steps/s (N x vector steps / wall time) of:
 - ``threads``: :class:`ferrobot.envs.vector.FerrobotVectorEnv` (one thread per environment; the simulation
   releases the GIL while it steps and renders),
 - ``sync``: Gymnasium's ``SyncVectorEnv`` (one after the other),
-- ``async``: Gymnasium's ``AsyncVectorEnv`` (one process per environment, shared-memory observations),
+- ``async``: Gymnasium's ``AsyncVectorEnv`` (one process per environment, shared-memory observations;
+  started with ``spawn``: a forked child inherits rayon's thread pool without its threads and hangs at
+  its first parallel render),
 
 and, for the physics alone (24 steps of each world per "step", no Python between), stepping the worlds one
 after the other with ``World.step`` against ``ferrobot._core.step_worlds`` (rayon, GIL released).
@@ -23,6 +25,7 @@ no camera and one 224 x 224 camera) when robosuite is installed.
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import statistics
 import time
@@ -49,14 +52,20 @@ def actions(single_space, n: int, k: int, q0: np.ndarray) -> np.ndarray:
     return a
 
 
+def _make(kw: dict):
+    import ferrobot.envs  # noqa: F401  (registers the ids in a spawned worker)
+
+    return gym.make(ENV, **kw)
+
+
 def make_vec(method: str, n: int, camera: bool):
     kw = kwargs(camera)
     if method == "threads":
         return FerrobotVectorEnv(n, env_id=ENV, **kw)
-    fns = [lambda: gym.make(ENV, **kw) for _ in range(n)]
+    fns = [functools.partial(_make, kw) for _ in range(n)]
     if method == "sync":
         return gym.vector.SyncVectorEnv(fns)
-    return gym.vector.AsyncVectorEnv(fns, shared_memory=True, context="fork")
+    return gym.vector.AsyncVectorEnv(fns, shared_memory=True, context="spawn")
 
 
 def time_vec(env, n: int, steps: int) -> float:

@@ -4,8 +4,9 @@ A recorded episode (``ferrobot generate``) stores its scene (the :class:`~ferrob
 randomisation), its actions (``action``: arm joint position targets + gripper, float32, one per control step)
 and its outcome. The environment, reset with ``options={"scene": ...}`` (:meth:`ReplayPolicy.reset_options`),
 builds the same world in the same state, and :mod:`ferrobot.control` steps it the same way, so the episode
-replays to the same outcome. The actions are stored as float32 while the recorder stepped the float64
-values; the difference (below 1e-7 relative) is far below what the drives resolve.
+replays to the same outcome. The actions are stored as float32 while the recorder stepped float64 values;
+Rapier's drives take float32 targets, and ``tests/test_envs.py`` replays a pipeline recording to the
+recorded simulator state after every action bit for bit.
 
 ``ferrobot evaluate --policy replay:DATASET_DIR`` replays the dataset's episodes in order (evaluation episode
 ``i`` plays dataset episode ``i``); ``replay:DATASET_DIR:K`` plays episode ``K`` every time.
