@@ -351,3 +351,24 @@ def test_replay_of_a_pipeline_recording_is_bit_exact():
         np.testing.assert_array_equal(recording.sim_state(u.world, u.robot), f["state"])
         success = success or info["is_success"]
     assert success
+
+
+def _make_in_child(q):
+    try:
+        gym.make("ferrobot/Reach-v0")
+        q.put("made")
+    except ferrobot.errors.FerrobotError as e:
+        q.put(str(e))
+
+
+def test_env_in_a_forked_child_raises_instead_of_hanging():
+    import multiprocessing
+
+    make("ferrobot/Reach-v0").reset(seed=0)  # the parent has used the thread pool
+    ctx = multiprocessing.get_context("fork")
+    q = ctx.Queue()
+    p = ctx.Process(target=_make_in_child, args=(q,))
+    p.start()
+    msg = q.get(timeout=60)
+    p.join(timeout=30)
+    assert "spawn" in msg and "fork" in msg

@@ -40,6 +40,7 @@ episode ended now, "" on success), ``scene_seed`` and ``ik_failed``.
 from __future__ import annotations
 
 import math
+import os
 from typing import Any
 
 import gymnasium as gym
@@ -48,7 +49,7 @@ from gymnasium import spaces
 
 from .. import _core, robots, transforms
 from ..control import DEFAULT_CAMERAS, CameraSpec, ControlStepper, make_cameras, observe
-from ..errors import InvalidArgumentError, NonFiniteError, ShapeError
+from ..errors import FerrobotError, InvalidArgumentError, NonFiniteError, ShapeError
 from ..pipeline.scene import HOME, TABLE_TOP, ObjectSpec, SceneSpec, build_world, random_scene
 
 __all__ = ["OBS_MODES", "ACTION_MODES", "FerrobotEnv", "PickPlaceEnv", "LiftEnv", "ReachEnv", "EXTRA_CAMERAS"]
@@ -83,6 +84,20 @@ def _rotvec_to_matrix(v: np.ndarray) -> np.ndarray:
     kx = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
     return np.eye(3) + math.sin(theta) * kx + (1.0 - math.cos(theta)) * (kx @ kx)
 
+
+# rayon's global thread pool does not survive fork(): a child forked after the parent ran ferrobot's parallel
+# code (planner construction, rendering, batch stepping) hangs at its first parallel call. Environments made
+# in such a child raise instead (Gymnasium's AsyncVectorEnv forks by default on Linux).
+_PARALLEL_USED = [False]
+_FORKED_AFTER_PARALLEL = [False]
+
+
+def _after_fork_in_child() -> None:
+    _FORKED_AFTER_PARALLEL[0] = _PARALLEL_USED[0]
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_after_fork_in_child)
 
 _PANDA: list = []
 _PLANNERS: dict[int, tuple[Any, Any]] = {}
@@ -139,6 +154,14 @@ class FerrobotEnv(gym.Env):
         render_mode: str | None = None,
     ):
         super().__init__()
+        if _FORKED_AFTER_PARALLEL[0]:
+            raise FerrobotError(
+                "ferrobot environments cannot run in a process forked after its parent built one: the simulator's "
+                "thread pool does not survive fork() and the child would hang. Start worker processes with "
+                "'spawn' (gymnasium.vector.AsyncVectorEnv(..., context='spawn')) or use "
+                "ferrobot.envs.vector.FerrobotVectorEnv (threads)."
+            )
+        _PARALLEL_USED[0] = True
         if obs_mode not in OBS_MODES:
             raise InvalidArgumentError(f"obs_mode: expected one of {OBS_MODES}, got {obs_mode!r}")
         if control_mode not in ACTION_MODES:
