@@ -101,7 +101,7 @@ def test_observation_contract():
         robot,
         camera.get_world_pose(),
         [CameraSpec("scene", 64, 48), CameraSpec("wrist", 32, 24)],
-        scene_focal=spec.camera_f * 0.1,
+        scene_fov_deg=60.0,
     )
     s = ControlStepper(world, robot)
     s.step(s.hold_action())

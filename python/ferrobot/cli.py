@@ -230,6 +230,38 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_generate(args: argparse.Namespace) -> int:
+    """Recorded pick-and-place episodes as a LeRobot v3.0 or robomimic HDF5 dataset."""
+    import json
+
+    from .dataset import GenerateConfig, generate, parse_cameras
+    from .errors import InvalidArgumentError
+
+    if args.objects is not None:
+        raise InvalidArgumentError(
+            "objects: mesh object sets are not supported by dataset generation yet "
+            "(scenes use procedural boxes, cylinders and spheres; use --clutter for their number)"
+        )
+    config = GenerateConfig(
+        episodes=args.episodes,
+        seed=args.seed,
+        format=args.format,
+        robot=args.robot,
+        clutter=args.clutter,
+        cameras=parse_cameras(args.cameras),
+        control_hz=args.fps,
+        randomize=not args.no_randomize,
+        segmentation=args.segmentation,
+    )
+    ray = "off" if args.ray == "off" else args.ray
+    summary = generate(args.out, config, workers=args.workers, ray=ray, progress=not args.quiet)
+    if summary.get("already_complete"):
+        print(f"{args.out}: already complete ({summary['episodes']} episodes); nothing to do")
+    keys = ("episodes", "successes", "success_rate", "frames", "episodes_run_now", "episodes_per_hour", "executor")
+    print(json.dumps({k: summary.get(k) for k in keys}, indent=2))
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="ferrobot", description=__doc__)
     parser.add_argument("--version", action="store_true", help="print the version and exit")
@@ -277,6 +309,26 @@ def main(argv: list[str] | None = None) -> int:
     )
     p_eval.add_argument("--quiet", action="store_true", help="no progress bar")
     p_eval.set_defaults(func=cmd_evaluate)
+    p_gen = sub.add_parser(
+        "generate", help="recorded pick-and-place episodes as a LeRobot v3.0 or robomimic HDF5 dataset"
+    )
+    p_gen.add_argument("--episodes", type=int, required=True, help="number of episodes (1 to 10,000,000)")
+    p_gen.add_argument("--seed", type=int, default=0, help="run seed; episode i's seed derives from (seed, i)")
+    p_gen.add_argument("--out", required=True, help="dataset folder (new, empty, or a run of the same command)")
+    p_gen.add_argument("--format", default="lerobot", help="lerobot (v3.0) or hdf5 (robomimic layout)")
+    p_gen.add_argument("--robot", default="panda", help="robot (only the bundled panda is supported)")
+    p_gen.add_argument("--objects", default=None, help="folder of mesh objects (not supported yet: raises)")
+    p_gen.add_argument("--clutter", type=int, default=None, help="objects on the table, 1 to 6 (default 3-5)")
+    p_gen.add_argument("--cameras", default="scene:640x480,wrist:320x240", help="NAME:WxH,... of scene and/or wrist")
+    p_gen.add_argument("--fps", type=int, default=10, help="control and recording rate (Hz), divides 240")
+    p_gen.add_argument("--segmentation", action="store_true", help="also record segmentation (HDF5 only)")
+    p_gen.add_argument("--no-randomize", action="store_true", help="no domain randomisation")
+    p_gen.add_argument(
+        "--ray", default="auto", help="auto (Ray if installed, else local processes), off, or a cluster ADDRESS"
+    )
+    p_gen.add_argument("--workers", type=int, default=None, help="local worker processes (default one per core)")
+    p_gen.add_argument("--quiet", action="store_true", help="no progress bar")
+    p_gen.set_defaults(func=cmd_generate)
     args = parser.parse_args(argv)
     if args.version:
         from . import __version__

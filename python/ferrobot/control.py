@@ -191,16 +191,19 @@ def wrist_pose() -> np.ndarray:
 DEFAULT_CAMERAS = {"scene": (640, 480), "wrist": (320, 240)}
 
 
-def make_cameras(world, robot, scene_camera_pose, specs: list[CameraSpec], scene_focal=None) -> dict:
+def make_cameras(world, robot, scene_camera_pose, specs: list[CameraSpec], scene_fov_deg=None) -> dict:
     """Creates the cameras of ``specs`` in ``world``: name -> :class:`ferrobot.Camera`. A spec named
-    ``scene`` without a pose uses ``scene_camera_pose`` (the perception camera's pose), ``wrist`` without a
-    link is on ``panda_hand`` at :func:`wrist_pose`."""
+    ``scene`` without a pose uses ``scene_camera_pose`` (the perception camera's pose) and, when given,
+    ``scene_fov_deg`` (its horizontal field of view); ``wrist`` without a link is on ``panda_hand`` at
+    :func:`wrist_pose`."""
     cams = {}
     for s in specs:
+        if s.name == "scene" and scene_fov_deg is not None:
+            s.fov_deg = float(scene_fov_deg)
         s.validate()
         if s.name in cams:
             raise InvalidArgumentError(f"cameras: '{s.name}' given twice")
-        f = s.focal if not (s.name == "scene" and scene_focal is not None) else scene_focal
+        f = s.focal
         cx, cy = (s.width - 1) / 2, (s.height - 1) / 2
         if s.link is None and s.name == "wrist":
             s.link, s.pose = "panda_hand", wrist_pose()

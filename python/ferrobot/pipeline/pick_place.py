@@ -147,6 +147,15 @@ class Recorder:
         self.frames: list[tuple[float, str, np.ndarray]] = []
         self.states: list[dict] = []  # robot and object states at the frames, for the 3D viewer
         self._since_frame = frame_every
+        #: Period (s) at which planned motions are sampled for :meth:`execute`: every physics step.
+        self.sample_dt = world.dt
+
+    def set_gripper(self, closed: bool, force: float | None = None) -> None:
+        """Closes (squeezing with ``force`` N per finger) or opens the gripper."""
+        if closed:
+            self.robot.close_gripper(force=force)
+        else:
+            self.robot.open_gripper()
 
     def _frame(self, stage: str) -> None:
         if self.camera is not None and self._since_frame >= self.every:
@@ -286,7 +295,7 @@ class PickPlace:
         plan_s = time.perf_counter() - t0
         if not res.success:
             raise StageFailure(stage, f"planning failed ({res.status}): {res.message}")
-        traj = res.interpolated(self.world.dt)
+        traj = res.interpolated(self.rec.sample_dt)
         err = self.rec.execute(traj.positions, traj.velocities, self.arm_idx, stage)
         self.rec.wait(0.1, stage)
         return {"plan_ms": 1e3 * plan_s, "duration_s": float(res.duration), "tracking_error_rad": err}
@@ -404,7 +413,7 @@ class PickPlace:
         self._stage("approach", lambda: self._move("approach", self.q_grasp, [self.spec.target, "table"]))
 
         def close():
-            self.robot.close_gripper(force=cfg.grip_force)
+            self.rec.set_gripper(True, cfg.grip_force)
             self.rec.wait(0.3, "grasp")
             width = float(np.sum(self.robot.get_gripper_positions()))
             if width < 0.004:
@@ -471,7 +480,7 @@ class PickPlace:
         self._stage("lower", lower)
 
         def release():
-            self.robot.open_gripper()
+            self.rec.set_gripper(False)
             self.rec.wait(0.3, "release")
             self.planner.detach(self.spec.target)
             return {}
@@ -540,9 +549,12 @@ class PickPlace:
 
     # -- one episode ------------------------------------------------------------------------------------------
 
-    def run(self, spec: SceneSpec, record_frames: bool = False, frame_every: int = 20) -> EpisodeResult:
+    def run(self, spec: SceneSpec, record_frames: bool = False, frame_every: int = 20, recorder=None) -> EpisodeResult:
         """Runs one episode on ``spec``. With ``record_frames``, a second camera records RGB frames for an
-        animation (``self.recorder.frames``). Never raises for a failed stage: see the result."""
+        animation (``self.recorder.frames``). ``recorder``: a callable ``(world, robot, camera, arm_indices)``
+        returning a :class:`~ferrobot.pipeline.recording.ControlRecorder` (or anything with its interface)
+        made once the scene is built: the motions then run at its control rate and it records every control
+        step (dataset generation). Never raises for a failed stage: see the result."""
         # Nothing of the previous episode may leak into this one's report.
         for name in ("world", "robot", "camera", "rec", "frame", "grasps_world", "grasps_camera", "choice"):
             self.__dict__.pop(name, None)
@@ -565,7 +577,10 @@ class PickPlace:
                 if record_frames:
                     view = _core.look_at([1.05, -0.85, 1.05], [0.42, 0.0, TABLE_TOP + 0.08])
                     cam = _core.Camera(self.world, 400, 300, 330.0, 330.0, 199.5, 149.5, view)
-                self.rec = Recorder(self.world, self.robot, cam, frame_every)
+                if recorder is not None:
+                    self.rec = recorder(self.world, self.robot, self.camera, self.arm_idx)
+                else:
+                    self.rec = Recorder(self.world, self.robot, cam, frame_every)
                 self.rec.snapshot("scene")
                 return {"objects": len(spec.objects)}
 

@@ -1,0 +1,582 @@
+"""Batch generation of recorded pick-and-place episodes into a LeRobot v3.0 or robomimic HDF5 dataset.
+
+Guarantees (tested in ``tests/test_generate.py``):
+
+* **Deterministic per episode**: episode ``i`` uses the seed ``episode_seed(seed, i)`` for its scene and its
+  domain randomisation, whatever worker runs it and in whatever order.
+* **Nothing half-written is visible**: an episode is written to ``<out>/.ferrobot/tmp/`` and published by one
+  rename into ``<out>/.ferrobot/episodes/ep-XXXXXX``; a retried episode finding itself published keeps the
+  first copy (both are the same).
+* **Nothing lost**: a worker killed mid-episode (the local pool breaks, or Ray's task fails) has its episode
+  run again (up to ``max_retries`` times); killing the whole run and re-running the same command resumes:
+  published episodes are kept, the rest are run.
+* **Metadata from the published episodes only**: finalisation reads ``.ferrobot/episodes`` in episode order,
+  builds the dataset in ``.ferrobot/work`` and moves it into place; ``.ferrobot/done.json`` marks completion
+  (a kill during finalisation leaves no marker: the next run finalises again from scratch).
+* **Existing data is never touched by a bad command**: a directory holding other files, or a ferrobot dataset
+  made with another configuration, is refused before anything is written.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import shutil
+import signal
+import sys
+import time
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import FerrobotError, InvalidArgumentError
+
+__all__ = ["GenerateConfig", "generate", "episode_seed", "run_episode", "FORMATS", "parse_cameras"]
+
+FORMATS = ("lerobot", "hdf5")
+ROBOTS = ("panda",)
+STATE_DIR = ".ferrobot"
+_KILL_ENV = "FERROBOT_GENERATE_FAULT"  # test hook: "worker:<episode>:<marker file>" or "finalize"
+
+
+def episode_seed(seed: int, index: int, attempt: int = 0) -> int:
+    """The scene seed of episode ``index`` of a run seeded ``seed`` (independent of scheduling). ``attempt``
+    counts scenes where the pipeline failed before the robot moved (nothing to record: the perception,
+    detection or grasp selection found nothing): the episode then uses the next attempt's scene."""
+    return int(np.random.SeedSequence([int(seed), int(index), int(attempt)]).generate_state(1)[0])
+
+
+#: Scenes tried per episode before giving up on recording anything.
+MAX_ATTEMPTS = 10
+
+
+def scene_fov(spec) -> float:
+    """Horizontal field of view (degrees) of the scene's perception camera."""
+    return 2 * math.degrees(math.atan(0.5 * spec.camera_size[0] / spec.camera_f))
+
+
+def episode_spec(cfg: dict, seed: int):
+    """The scene of an episode seeded ``seed`` under the generation config ``cfg``, and its randomisation."""
+    from ..pipeline import random_scene
+
+    spec = random_scene(seed, cfg["clutter"])
+    rand = randomize_scene(spec, seed) if cfg["randomize"] else {}
+    return spec, rand
+
+
+def parse_cameras(text: str) -> list[dict]:
+    """``"scene:640x480,wrist:320x240"`` -> [{"name", "width", "height"}]. Names: scene, wrist."""
+    out = []
+    for part in [p.strip() for p in text.split(",") if p.strip()]:
+        name, _, size = part.partition(":")
+        if name not in ("scene", "wrist"):
+            raise InvalidArgumentError(f"cameras: unknown camera '{name}' (supported: scene, wrist)")
+        if size:
+            try:
+                w, h = (int(x) for x in size.lower().split("x"))
+            except ValueError:
+                raise InvalidArgumentError(f"cameras: expected NAME:WIDTHxHEIGHT, got '{part}'") from None
+        else:
+            from ..control import DEFAULT_CAMERAS
+
+            w, h = DEFAULT_CAMERAS[name]
+        if not (8 <= w <= 4096 and 8 <= h <= 4096):
+            raise InvalidArgumentError(f"cameras: {name} size must be 8 to 4096 pixels a side, got {w}x{h}")
+        if any(c["name"] == name for c in out):
+            raise InvalidArgumentError(f"cameras: '{name}' given twice")
+        out.append({"name": name, "width": w, "height": h})
+    if not out:
+        raise InvalidArgumentError("cameras: at least one camera is needed")
+    return out
+
+
+@dataclass
+class GenerateConfig:
+    """What defines a dataset (stored in ``.ferrobot/config.json``; a re-run must match it)."""
+
+    episodes: int
+    seed: int = 0
+    format: str = "lerobot"
+    robot: str = "panda"
+    clutter: int | None = None
+    cameras: list = field(default_factory=lambda: parse_cameras("scene:640x480,wrist:320x240"))
+    control_hz: int = 10
+    randomize: bool = True
+    segmentation: bool = False
+
+    def validate(self) -> None:
+        if self.format not in FORMATS:
+            raise InvalidArgumentError(f"format: unknown format '{self.format}' (expected one of {', '.join(FORMATS)})")
+        if not (isinstance(self.episodes, int) and 1 <= self.episodes <= 10_000_000):
+            raise InvalidArgumentError(f"episodes: expected an integer in [1, 10000000], got {self.episodes!r}")
+        if not (isinstance(self.seed, int) and 0 <= self.seed < 2**63):
+            raise InvalidArgumentError(f"seed: expected an integer in [0, 2^63), got {self.seed!r}")
+        if self.robot not in ROBOTS:
+            raise InvalidArgumentError(
+                f"robot: '{self.robot}' is not supported by dataset generation yet (supported: {', '.join(ROBOTS)})"
+            )
+        if self.clutter is not None and not 1 <= self.clutter <= 6:
+            raise InvalidArgumentError(f"clutter: expected 1 to 6 objects on the table, got {self.clutter}")
+        if self.segmentation and self.format == "lerobot":
+            raise InvalidArgumentError(
+                "segmentation: not recorded in the LeRobot format (no lossless integer video stream for it); "
+                "use --format hdf5"
+            )
+        if self.control_hz not in (1, 2, 3, 4, 5, 6, 8, 10, 12, 15, 16, 20, 24, 30, 40, 48, 60, 80, 120, 240):
+            raise InvalidArgumentError(f"control_hz: must divide the 240 Hz physics rate, got {self.control_hz}")
+
+    def to_dict(self) -> dict:
+        return {
+            "episodes": self.episodes,
+            "seed": self.seed,
+            "format": self.format,
+            "robot": self.robot,
+            "clutter": self.clutter,
+            "cameras": self.cameras,
+            "control_hz": self.control_hz,
+            "randomize": self.randomize,
+            "segmentation": self.segmentation,
+        }
+
+
+# -- domain randomisation -----------------------------------------------------------------------------------
+
+COLOR_NAMES = {
+    "red": (0.85, 0.2, 0.2),
+    "green": (0.25, 0.7, 0.3),
+    "blue": (0.2, 0.4, 0.85),
+    "yellow": (0.92, 0.8, 0.15),
+    "purple": (0.6, 0.3, 0.8),
+    "orange": (0.95, 0.5, 0.15),
+    "white": (0.9, 0.9, 0.9),
+    "black": (0.12, 0.12, 0.12),
+}
+
+
+def color_name(rgb) -> str:
+    return min(COLOR_NAMES, key=lambda n: sum((a - b) ** 2 for a, b in zip(COLOR_NAMES[n], rgb, strict=True)))
+
+
+def randomize_scene(spec, seed: int) -> dict:
+    """Applies seeded domain randomisation to ``spec`` in place; returns what was drawn (for the episode's
+    metadata). Object colours: one of the named colours with +-0.05 jitter per channel; mass x U(0.7, 1.3);
+    friction U(0.7, 1.0); scene camera eye jitter U(-0.03, 0.03) m per axis, look-at point U(-0.02, 0.02) m.
+    Lighting is not randomised: the renderer shades by the angle to a head light and has no light sources."""
+    rng = np.random.default_rng([seed, 0xD0])
+    names = list(COLOR_NAMES)
+    objects = {}
+    for o in spec.objects:
+        base = COLOR_NAMES[names[int(rng.integers(len(names)))]]
+        o.color = tuple(float(np.clip(c + rng.uniform(-0.05, 0.05), 0, 1)) for c in base)
+        o.mass = float(o.mass * rng.uniform(0.7, 1.3))
+        o.friction = float(rng.uniform(0.7, 1.0))
+        objects[o.name] = {"color": list(o.color), "mass": o.mass, "friction": o.friction}
+    eye = np.asarray(spec.camera_eye) + rng.uniform(-0.03, 0.03, 3)
+    target = np.asarray(spec.camera_target) + rng.uniform(-0.02, 0.02, 3)
+    spec.camera_eye, spec.camera_target = tuple(eye.tolist()), tuple(target.tolist())
+    return {"objects": objects, "camera_eye": list(spec.camera_eye), "camera_target": list(spec.camera_target)}
+
+
+def task_text(spec) -> str:
+    o = spec.object(spec.target)
+    x, y = spec.place_xy
+    return f"pick up the {color_name(o.color)} {o.kind} and place it at x={x:.2f} m, y={y:.2f} m"
+
+
+# -- one episode (runs in a worker) -------------------------------------------------------------------------
+
+_PP: dict = {}
+
+
+def _fault(stage: str, index: int | None = None) -> None:
+    """Test hook: ``FERROBOT_GENERATE_FAULT`` set to ``worker:<i>:<marker>`` kills the worker (SIGKILL) in
+    the middle of episode ``i`` once (the marker file records that it happened); ``finalize`` kills the
+    process in the middle of finalisation."""
+    spec = os.environ.get(_KILL_ENV, "")
+    if stage == "worker" and spec.startswith("worker:"):
+        _, i, marker = spec.split(":", 2)
+        if int(i) == index and not os.path.exists(marker):
+            Path(marker).write_text(str(os.getpid()))
+            os.kill(os.getpid(), signal.SIGKILL)
+    if stage == "finalize" and spec == "finalize":
+        os.kill(os.getpid(), signal.SIGKILL)
+
+
+def episode_name(index: int) -> str:
+    return f"ep-{index:06d}"
+
+
+def run_episode(cfg: dict, index: int, root: str) -> dict:
+    """Runs, records and publishes episode ``index``; returns its summary. Idempotent: an episode already
+    published is not run again."""
+    from ..control import CameraSpec, make_cameras
+    from ..pipeline import PickPlace, PickPlaceConfig
+    from ..pipeline.recording import ControlRecorder
+    from .staging import Hdf5EpisodeWriter, LeRobotEpisodeWriter
+
+    staging = Path(root) / STATE_DIR
+    name = episode_name(index)
+    published = staging / "episodes" / name
+    if published.exists():
+        meta = json.loads((published / "episode.json").read_text())
+        return {"index": index, "success": meta["success"], "length": meta["length"], "cached": True}
+    t0 = time.perf_counter()
+    if "pp" not in _PP:
+        _PP["pp"] = PickPlace(PickPlaceConfig())
+    pp = _PP["pp"]
+    fps = int(cfg["control_hz"])
+    writer_cls = LeRobotEpisodeWriter if cfg["format"] == "lerobot" else Hdf5EpisodeWriter
+    specs = [CameraSpec(c["name"], c["width"], c["height"]) for c in cfg["cameras"]]
+    for attempt in range(MAX_ATTEMPTS):
+        seed = episode_seed(cfg["seed"], index, attempt)
+        spec, rand = episode_spec(cfg, seed)
+        writer = writer_cls(staging, name, fps)
+        frames = [0]
+
+        def sink(frame, writer=writer, frames=frames):
+            writer(frame)
+            frames[0] += 1
+            if frames[0] == 3:
+                _fault("worker", index)
+
+        def factory(world, robot, camera, arm_idx, spec=spec, sink=sink):
+            cameras = make_cameras(world, robot, camera.get_world_pose(), specs, scene_fov_deg=scene_fov(spec))
+            return ControlRecorder(
+                world,
+                robot,
+                cameras,
+                sink,
+                control_hz=fps,
+                arm_joint_indices=arm_idx,
+                grip_force=pp.config.grip_force,
+                segmentation=cfg["segmentation"],
+            )
+
+        try:
+            result = pp.run(spec, recorder=factory)
+            if frames[0] == 0:
+                writer.abort()
+                continue
+            meta = {
+                "episode_index": index,
+                "seed": seed,
+                "attempt": attempt,
+                "task": task_text(spec),
+                "success": bool(result.success),
+                "failed_stage": result.failed_stage,
+                "reason": result.reason,
+                "stages": pp.rec.stage_bounds,
+                "randomization": rand,
+                "scene": spec.to_dict(),
+                "result": result.to_dict(),
+            }
+            writer.finish(meta)
+        except BaseException:
+            writer.abort()
+            raise
+        return {
+            "index": index,
+            "success": bool(result.success),
+            "length": frames[0],
+            "wall_s": time.perf_counter() - t0,
+            "cached": False,
+        }
+    raise FerrobotError(
+        f"episode {index}: {MAX_ATTEMPTS} scenes in a row failed before the robot moved "
+        f"(last: {result.failed_stage}: {result.reason})"
+    )
+
+
+def _init_worker(threads: int) -> None:
+    os.environ["RAYON_NUM_THREADS"] = str(threads)
+
+
+# -- the run --------------------------------------------------------------------------------------------------
+
+
+class _Bar:
+    """Progress: episodes done, success rate, episodes per hour (a line per 10% when not a terminal)."""
+
+    def __init__(self, total: int, done: int, stream=None):
+        self.total, self.start_done = total, done
+        self.stream = sys.stderr if stream is None else stream
+        self.tty = self.stream.isatty() if hasattr(self.stream, "isatty") else False
+        self.t0 = time.perf_counter()
+        self.last = -1
+
+    def update(self, done: int, ok: int) -> None:
+        el = time.perf_counter() - self.t0
+        new = done - self.start_done
+        rate = 3600.0 * new / el if el > 0 and new > 0 else 0.0
+        fill = int(30 * done / self.total)
+        text = (
+            f"[{'#' * fill}{'.' * (30 - fill)}] {done}/{self.total} episodes, success {ok}/{max(done, 1)} "
+            f"({100.0 * ok / max(done, 1):.0f}%), {rate:.0f} episodes/h"
+        )
+        if self.tty:
+            self.stream.write("\r" + text + ("\n" if done == self.total else ""))
+            self.stream.flush()
+        elif 10 * done // self.total != self.last or done == self.total:
+            self.last = 10 * done // self.total
+            print(text, file=self.stream, flush=True)
+
+
+def _prepare(out: Path, cfg: dict) -> Path:
+    """Checks ``out`` (never modifying existing data on error) and returns the state directory."""
+    if out.exists() and not out.is_dir():
+        raise InvalidArgumentError(f"out: '{out}' exists and is not a directory")
+    state = out / STATE_DIR
+    conf = state / "config.json"
+    if out.exists():
+        if conf.exists():
+            old = json.loads(conf.read_text())
+            if old != cfg:
+                diff = {k: (old.get(k), cfg.get(k)) for k in set(old) | set(cfg) if old.get(k) != cfg.get(k)}
+                raise InvalidArgumentError(
+                    f"out: '{out}' holds a dataset generated with another configuration "
+                    f"(differences, existing vs requested: {diff}); use another directory"
+                )
+        elif any(out.iterdir()):
+            raise InvalidArgumentError(
+                f"out: '{out}' is not empty and holds no ferrobot dataset; refusing to write into it"
+            )
+    try:
+        (state / "episodes").mkdir(parents=True, exist_ok=True)
+        (state / "tmp").mkdir(exist_ok=True)
+        if not conf.exists():
+            tmp = state / "config.json.tmp"
+            tmp.write_text(json.dumps(cfg, indent=2))
+            os.replace(tmp, conf)
+    except OSError as e:
+        raise InvalidArgumentError(f"out: cannot write to '{out}': {e}") from e
+    # Leftovers of killed workers: never published, safe to remove.
+    for d in (state / "tmp").iterdir():
+        shutil.rmtree(d, ignore_errors=True)
+    return state
+
+
+def _published(state: Path, n: int) -> set[int]:
+    return {i for i in range(n) if (state / "episodes" / episode_name(i)).is_dir()}
+
+
+def _run_local(cfg: dict, root: str, todo: list[int], workers: int, on_done, max_retries: int) -> None:
+    threads = max(1, (os.cpu_count() or 1) // workers)
+    if workers == 1:
+        os.environ.setdefault("RAYON_NUM_THREADS", str(threads))
+        for i in todo:
+            on_done(run_episode(cfg, i, root))
+        return
+    import multiprocessing
+
+    attempts = dict.fromkeys(todo, 0)
+    pending = list(todo)
+    while pending:
+        ctx = multiprocessing.get_context("spawn")
+        broken = False
+        with ProcessPoolExecutor(workers, mp_context=ctx, initializer=_init_worker, initargs=(threads,)) as pool:
+            futures = {pool.submit(run_episode, cfg, i, root): i for i in pending}
+            for i in pending:
+                attempts[i] += 1
+            remaining = set(futures)
+            while remaining:
+                done, remaining = wait(remaining, return_when=FIRST_COMPLETED)
+                for f in done:
+                    try:
+                        on_done(f.result())
+                    except BrokenProcessPool:
+                        broken = True
+        if not broken:
+            return
+        # A worker died (killed): every episode not published is retried in a fresh pool.
+        published = _published(Path(root) / STATE_DIR, max(todo) + 1)
+        pending = [i for i in pending if i not in published]
+        for i in pending:
+            if attempts[i] > max_retries:
+                raise FerrobotError(f"episode {i}: its worker died {attempts[i]} times; giving up")
+
+
+def _run_ray(cfg: dict, root: str, todo: list[int], address: str | None, workers: int | None, on_done, max_retries):
+    import ray
+
+    if not ray.is_initialized():
+        kwargs = {"address": address} if address else {"num_cpus": workers} if workers else {}
+        ray.init(include_dashboard=False, log_to_driver=False, **kwargs)
+    task = ray.remote(num_cpus=1, max_retries=max_retries, retry_exceptions=False)(run_episode)
+    refs = [task.options(runtime_env={"env_vars": {"RAYON_NUM_THREADS": "1"}}).remote(cfg, i, root) for i in todo]
+    while refs:
+        ready, refs = ray.wait(refs, num_returns=1)
+        for r in ready:
+            on_done(ray.get(r))
+
+
+def generate(
+    out,
+    config: GenerateConfig,
+    *,
+    workers: int | None = None,
+    ray: str | None = "auto",
+    progress: bool = True,
+    max_retries: int = 3,
+) -> dict:
+    """Generates ``config.episodes`` recorded episodes into ``out`` (resuming a previous run of the same
+    configuration); returns the summary (also written to ``out/summary.json``).
+
+    ``ray``: "auto" (Ray when installed, else a local process pool), "off" (local pool), or a cluster
+    address ("HOST:PORT" or "auto" semantics of ``ray.init``). ``workers``: local processes (default: one per
+    core); with Ray, the number of CPUs of a local Ray instance.
+    """
+    config.validate()
+    if workers is not None and not (isinstance(workers, int) and 1 <= workers <= 4096):
+        raise InvalidArgumentError(f"workers: expected an integer in [1, 4096], got {workers!r}")
+    if not (isinstance(max_retries, int) and 0 <= max_retries <= 100):
+        raise InvalidArgumentError(f"max_retries: expected an integer in [0, 100], got {max_retries!r}")
+    needed = ("pyarrow", "av", "pandas") if config.format == "lerobot" else ("h5py",)
+    for mod in needed:
+        try:
+            __import__(mod)
+        except ImportError:
+            raise InvalidArgumentError(
+                f"format: '{config.format}' needs the Python package '{mod}': pip install 'ferrobot[dataset]'"
+            ) from None
+    use_ray, address = False, None
+    if ray not in (None, "off"):
+        try:
+            import ray as _ray  # noqa: F401
+
+            use_ray = True
+            address = None if ray == "auto" else ray
+        except ImportError:
+            if ray != "auto":
+                raise InvalidArgumentError(
+                    f"ray: '{ray}' requested but Ray is not installed (pip install 'ferrobot[ray]')"
+                ) from None
+    out = Path(out)
+    cfg = config.to_dict()
+    state = _prepare(out, cfg)
+    done_marker = state / "done.json"
+    t0 = time.perf_counter()
+    if done_marker.exists():
+        summary = json.loads(done_marker.read_text())
+        summary["already_complete"] = True
+        return summary
+    n = config.episodes
+    published = _published(state, n)
+    todo = [i for i in range(n) if i not in published]
+    results: dict[int, dict] = {}
+    bar = _Bar(n, len(published)) if progress else None
+    ok = [
+        sum(
+            json.loads((state / "episodes" / episode_name(i) / "episode.json").read_text())["success"]
+            for i in published
+        )
+    ]
+    count = [len(published)]
+
+    def on_done(r: dict) -> None:
+        results[r["index"]] = r
+        count[0] += 1
+        ok[0] += int(r["success"])
+        if bar is not None:
+            bar.update(count[0], ok[0])
+
+    if todo:
+        nw = workers or os.cpu_count() or 1
+        if use_ray:
+            _run_ray(cfg, str(out), todo, address, workers, on_done, max_retries)
+        else:
+            _run_local(cfg, str(out), todo, min(nw, len(todo)), on_done, max_retries)
+    gen_s = time.perf_counter() - t0
+    if len(_published(state, n)) != n:
+        missing = sorted(set(range(n)) - _published(state, n))
+        raise FerrobotError(f"episodes {missing[:10]} were not published; re-run the same command to resume")
+    summary = finalize(out, config)
+    new = [r for r in results.values() if not r.get("cached")]
+    frames = sum(r["length"] for r in new)
+    summary.update(
+        {
+            "episodes_run_now": len(new),
+            "resumed_from": len(published),
+            "generation_wall_s": gen_s,
+            "episodes_per_hour": 3600.0 * len(new) / gen_s if new and gen_s > 0 else None,
+            "recorded_frames_per_s": frames / gen_s if new and gen_s > 0 else None,
+            "executor": "ray" if use_ray else f"local process pool ({workers or os.cpu_count()} workers)",
+            "total_wall_s": time.perf_counter() - t0,
+        }
+    )
+    (out / "summary.json").write_text(json.dumps(summary, indent=2))
+    tmp = state / "done.json.tmp"
+    tmp.write_text(json.dumps(summary, indent=2))
+    os.replace(tmp, done_marker)
+    # The dataset is complete: the staged copies and what killed workers left are no longer needed.
+    shutil.rmtree(state / "work", ignore_errors=True)
+    for d in (state / "tmp").iterdir():
+        shutil.rmtree(d, ignore_errors=True)
+    for d in (state / "episodes").iterdir():
+        shutil.rmtree(d, ignore_errors=True)
+    return summary
+
+
+def finalize(out: Path, config: GenerateConfig) -> dict:
+    """Builds the dataset's files from the published episodes (from scratch, so a run killed here finalises
+    again next time). Returns the dataset part of the summary."""
+    from .hdf5 import finalize_hdf5
+    from .lerobot import finalize_lerobot
+
+    state = out / STATE_DIR
+    dirs = [state / "episodes" / episode_name(i) for i in range(config.episodes)]
+    metas = [json.loads((d / "episode.json").read_text()) for d in dirs]
+    work = state / "work"
+    shutil.rmtree(work, ignore_errors=True)
+    work.mkdir()
+    features = _features(config)
+    info = {
+        "fps": config.control_hz,
+        "robot_type": config.robot,
+        "features": features,
+        "ferrobot": config.to_dict(),
+    }
+    if config.format == "lerobot":
+        finalize_lerobot(out, dirs, info, work, fault=lambda: _fault("finalize"))
+    else:
+        finalize_hdf5(out, dirs, info, work, fault=lambda: _fault("finalize"))
+    ok = sum(m["success"] for m in metas)
+    fails: dict[str, int] = {}
+    for m in metas:
+        if not m["success"]:
+            fails[m["failed_stage"]] = fails.get(m["failed_stage"], 0) + 1
+    return {
+        "episodes": len(metas),
+        "successes": ok,
+        "success_rate": ok / len(metas),
+        "failures_by_stage": fails,
+        "frames": sum(m["length"] for m in metas),
+        "format": config.format,
+        "seed": config.seed,
+    }
+
+
+def _features(config: GenerateConfig) -> dict:
+    """The dataset features of ``config`` (names as in :func:`ferrobot.control.features`)."""
+    from .. import robots
+
+    model = robots.panda()
+    dof = list(model.dof_names)
+    arm = [dof[i] for i in model.group_dof_indices]
+    pose = ["x", "y", "z", "qw", "qx", "qy", "qz"]
+    f = {
+        "observation.state": {"dtype": "float32", "shape": [len(dof)], "names": dof},
+        "observation.velocity": {"dtype": "float32", "shape": [len(dof)], "names": dof},
+        "observation.ee_pose": {"dtype": "float32", "shape": [7], "names": pose},
+        "observation.gripper_opening": {"dtype": "float32", "shape": [1], "names": ["opening"]},
+        "action": {"dtype": "float32", "shape": [len(arm) + 1], "names": [*arm, "gripper"]},
+        "action.ee_pose": {"dtype": "float32", "shape": [7], "names": pose},
+    }
+    for c in config.cameras:
+        h, w = c["height"], c["width"]
+        f[f"observation.images.{c['name']}"] = {"dtype": "video", "shape": [h, w, 3], "names": None}
+        f[f"observation.depth.{c['name']}"] = {"dtype": "depth", "shape": [h, w], "names": ["height", "width"]}
+    return f
