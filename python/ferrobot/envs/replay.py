@@ -1,12 +1,13 @@
 """Replay of recorded episodes: a policy that plays back a dataset episode's actions in its recorded scene.
 
 A recorded episode (``ferrobot generate``) stores its scene (the :class:`~ferrobot.pipeline.SceneSpec` after
-randomisation), its actions (``action``: arm joint position targets + gripper, float32, one per control step)
-and its outcome. The environment, reset with ``options={"scene": ...}`` (:meth:`ReplayPolicy.reset_options`),
-builds the same world in the same state, and :mod:`ferrobot.control` steps it the same way, so the episode
-replays to the same outcome. The actions are stored as float32 while the recorder stepped float64 values;
-Rapier's drives take float32 targets, and ``tests/test_envs.py`` replays a pipeline recording to the
-recorded simulator state after every action bit for bit.
+randomisation, or the seed and config it is rebuilt from), its actions (``action``: arm joint position
+targets + gripper, float32, one per control step) and its outcome. The environment, reset with
+``options={"scene": ...}`` (:meth:`ReplayPolicy.reset_options`), builds the same world in the same state,
+and :mod:`ferrobot.control` steps it the same way, so the episode replays to the same outcome. The actions
+are stored as float32 while the recorder stepped float64 values; Rapier's drives take float32 targets, and
+``tests/test_envs.py`` replays a pipeline recording to the recorded simulator state after every action bit
+for bit.
 
 ``ferrobot evaluate --policy replay:DATASET_DIR`` replays the dataset's episodes in order (evaluation episode
 ``i`` plays dataset episode ``i``); ``replay:DATASET_DIR:K`` plays episode ``K`` every time.
@@ -37,49 +38,71 @@ class RecordedEpisode:
 
 
 def _lerobot(root: Path) -> list[RecordedEpisode]:
+    """A LeRobot v3.0 dataset written by ``ferrobot generate``: the scene of each episode is rebuilt from its
+    seed and the generation config (``info.json``'s ``ferrobot``) by the generator's own
+    :func:`ferrobot.dataset.generate.episode_spec`, and checked against the randomisation it recorded."""
+    import pyarrow as pa
     import pyarrow.parquet as pq
 
+    from ..dataset.generate import episode_spec
+
     info = json.loads((root / "meta" / "info.json").read_text())
-    fps = float(info.get("fps", 10))
-    eps = pq.read_table(sorted((root / "meta" / "episodes").rglob("*.parquet"))).to_pylist()
-    data = pq.read_table(sorted((root / "data").rglob("*.parquet")), columns=["episode_index", "action"])
+    cfg = info.get("ferrobot")
+    if not cfg:
+        raise FileFormatError(f"{root}: meta/info.json has no 'ferrobot' generation config (not a ferrobot dataset)")
+    fps = float(info.get("fps", cfg.get("control_hz", 10)))
+    eps = pa.concat_tables(
+        [pq.read_table(p) for p in sorted((root / "meta" / "episodes").rglob("*.parquet"))]
+    ).to_pylist()
+    data = pa.concat_tables(
+        [pq.read_table(p, columns=["episode_index", "action"]) for p in sorted((root / "data").rglob("*.parquet"))]
+    )
     ep_col = data.column("episode_index").to_numpy()
     actions = np.asarray(data.column("action").to_pylist(), dtype=np.float32)
     out = []
-    for row in eps:
+    for row in sorted(eps, key=lambda r: r["episode_index"]):
         i = int(row["episode_index"])
-        if "scene" not in row:
-            raise FileFormatError(f"{root}: episode {i} has no 'scene' column in meta/episodes (needed to replay)")
-        scene = row["scene"] if isinstance(row["scene"], dict) else json.loads(row["scene"])
-        out.append(RecordedEpisode(i, scene, actions[ep_col == i], bool(row["success"]), fps))
+        spec, rand = episode_spec(cfg, int(row["seed"]))
+        recorded = json.loads(row.get("randomization") or "{}")
+        if json.loads(json.dumps(rand)) != recorded:
+            raise FileFormatError(
+                f"{root}: episode {i}: the scene rebuilt from seed {row['seed']} does not match the recorded "
+                "randomisation (dataset written by another ferrobot version?)"
+            )
+        out.append(RecordedEpisode(i, spec.to_dict(), actions[ep_col == i], bool(row["success"]), fps))
     return out
 
 
 def _hdf5(path: Path) -> list[RecordedEpisode]:
+    """A robomimic-layout HDF5 file written by ``ferrobot generate``: ``data/demo_<i>`` with ``actions``, the
+    scene as JSON in the ``model_file`` attribute, ``success``; the control rate in ``data``'s ``fps``."""
     import h5py
 
     out = []
     with h5py.File(path, "r") as f:
+        if "data" not in f:
+            raise FileFormatError(f"{path}: no 'data' group (not a robomimic-layout file)")
         data = f["data"]
-        fps = float(json.loads(data.attrs.get("env_args", "{}")).get("control_hz", 10))
-        names = sorted(data.keys(), key=lambda n: int(n.split("_")[-1]))
+        fps = float(data.attrs.get("fps", 10))
+        names = sorted((n for n in data.keys() if n.startswith("demo_")), key=lambda n: int(n.split("_")[-1]))
         for n in names:
             g = data[n]
-            meta = json.loads(g.attrs["meta"]) if "meta" in g.attrs else {}
-            scene = meta.get("scene") or json.loads(g.attrs["scene"])
-            success = bool(meta.get("success", g.attrs.get("success", False)))
+            if "model_file" not in g.attrs:
+                raise FileFormatError(f"{path}: {n} has no 'model_file' (the scene) attribute")
+            scene = json.loads(g.attrs["model_file"])
+            success = bool(g.attrs.get("success", False))
             out.append(RecordedEpisode(int(n.split("_")[-1]), scene, np.asarray(g["actions"]), success, fps))
     return out
 
 
 def load_episodes(path: str | Path) -> list[RecordedEpisode]:
     """The episodes of a recorded dataset: a LeRobot v3 folder (``meta/info.json``) or a robomimic-style
-    HDF5 file (or a folder holding ``data.hdf5``)."""
+    HDF5 file (or a folder holding ``dataset.hdf5``), as ``ferrobot generate`` writes them."""
     p = Path(path)
     if (p / "meta" / "info.json").exists():
         return _lerobot(p)
-    if p.is_dir() and (p / "data.hdf5").exists():
-        p = p / "data.hdf5"
+    if p.is_dir() and (p / "dataset.hdf5").exists():
+        p = p / "dataset.hdf5"
     if p.is_file() and p.suffix in (".hdf5", ".h5"):
         return _hdf5(p)
     raise FileFormatError(f"{path}: not a recorded dataset (no meta/info.json, no .hdf5 file)")

@@ -49,6 +49,7 @@ from gymnasium import spaces
 
 from .. import _core, robots, transforms
 from ..control import DEFAULT_CAMERAS, CameraSpec, ControlStepper, make_cameras, observe
+from ..dataset.generate import scene_fov
 from ..errors import FerrobotError, InvalidArgumentError, NonFiniteError, ShapeError
 from ..pipeline.scene import HOME, TABLE_TOP, ObjectSpec, SceneSpec, build_world, random_scene
 
@@ -319,7 +320,7 @@ class FerrobotEnv(gym.Env):
     def _build_cameras(self) -> dict[str, Any]:
         specs = [CameraSpec(c.name, c.width, c.height, c.fov_deg, c.link, c.pose) for c in self.camera_specs]
         return make_cameras(
-            self.world, self.robot, self.scene_camera.get_world_pose(), specs, scene_focal=self.spec_scene.camera_f
+            self.world, self.robot, self.scene_camera.get_world_pose(), specs, scene_fov_deg=scene_fov(self.spec_scene)
         )
 
     # -- gymnasium API ----------------------------------------------------------------------------------------
