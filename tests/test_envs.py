@@ -405,3 +405,22 @@ def test_replay_policy_reproduces_a_generated_dataset(tmp_path, fmt):
     assert rc == 0
     recs = [json.loads(line) for line in (out / "episodes.jsonl").read_text().splitlines()]
     assert [r["success"] for r in sorted(recs, key=lambda r: r["episode"])] == recorded
+
+
+def test_user_robot_model_and_start_noise():
+    from ferrobot.pipeline.scene import HOME
+
+    model = ferrobot.robots.panda()
+    env = make("ferrobot/Lift-v0", robot=model, init_noise=0.05)
+    assert env.unwrapped.model is model
+    q1 = env.reset(seed=4)[0]["observation.state"]
+    q2 = env.reset(seed=4)[0]["observation.state"]
+    q3 = env.reset(seed=5)[0]["observation.state"]
+    np.testing.assert_array_equal(q1, q2)
+    assert not np.array_equal(q1, q3)
+    dev = np.abs(q1[:7] - HOME[:7])
+    assert dev.max() <= 0.05 + 2e-3 and dev.max() > 1e-3  # the arm settles within ~1 mrad of its noisy start
+    with pytest.raises(InvalidArgumentError, match="robot"):
+        make(robot="ur5")
+    with pytest.raises(InvalidArgumentError, match="cameras"):
+        make(obs_mode="rgb", cameras=["ceiling"])
