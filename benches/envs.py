@@ -8,6 +8,8 @@ env steps/s (N x vector steps / wall time) of:
 
 - ``threads``: :class:`ferrobot.envs.vector.FerrobotVectorEnv` (one thread per environment; the simulation
   releases the GIL while it steps and renders),
+- ``rust``: the same with ``batch="rust"`` (each environment's Python in turn, then the control period of
+  every world in one ``ferrobot._core.execute_trajectories`` call: rayon, GIL released),
 - ``sync``: Gymnasium's ``SyncVectorEnv`` (one after the other),
 - ``async``: Gymnasium's ``AsyncVectorEnv`` (one process per environment, shared-memory observations;
   started with ``spawn``: a forked child inherits rayon's thread pool without its threads and hangs at
@@ -60,8 +62,8 @@ def _make(kw: dict):
 
 def make_vec(method: str, n: int, camera: bool):
     kw = kwargs(camera)
-    if method == "threads":
-        return FerrobotVectorEnv(n, env_id=ENV, **kw)
+    if method in ("threads", "rust"):
+        return FerrobotVectorEnv(n, env_id=ENV, batch=method, **kw)
     fns = [functools.partial(_make, kw) for _ in range(n)]
     if method == "sync":
         return gym.vector.SyncVectorEnv(fns)
@@ -132,7 +134,7 @@ def main() -> None:
     for r in range(args.rounds):
         for camera in (False, True):
             for n in ns:
-                for method in ("threads", "sync", "async"):
+                for method in ("threads", "rust", "sync", "async"):
                     env = make_vec(method, n, camera)
                     try:
                         sps = time_vec(env, n, args.steps)

@@ -227,15 +227,23 @@ def test_cli_evaluate_writes_results_and_video(tmp_path):
     assert len(frames) == 5 and frames[0].width == 320  # reset + 4 steps
 
 
-def test_vector_env_matches_single_envs():
-    venv = gym.make_vec("ferrobot/Reach-v0", num_envs=2, vectorization_mode="vector_entry_point", max_episode_steps=3)
+@pytest.mark.parametrize("batch", ["threads", "rust"])
+def test_vector_env_matches_single_envs(batch):
+    venv = gym.make_vec(
+        "ferrobot/Reach-v0",
+        num_envs=2,
+        vectorization_mode="vector_entry_point",
+        max_episode_steps=3,
+        batch=batch,
+    )
     singles = [make("ferrobot/Reach-v0", max_episode_steps=3) for _ in range(2)]
     vobs, _ = venv.reset(seed=20)
     sobs = [e.reset(seed=20 + i)[0] for i, e in enumerate(singles)]
     rng = np.random.default_rng(0)
     for step in range(4):
         for i in range(2):
-            np.testing.assert_array_equal(vobs["observation.state"][i], sobs[i]["observation.state"])
+            for k in sobs[i]:
+                np.testing.assert_array_equal(vobs[k][i], sobs[i][k])
         acts = np.stack([hold_policy(o) for o in sobs]) + rng.uniform(-0.02, 0.02, (2, 8)).astype(np.float32)
         acts[:, -1] = 0.0
         vobs, _, vterm, vtrunc, _ = venv.step(acts)
@@ -264,6 +272,15 @@ def test_step_worlds_equals_stepping_each_world():
         np.testing.assert_array_equal(e.unwrapped.world.get_object_pose(name), r.unwrapped.world.get_object_pose(name))
     with pytest.raises(InvalidArgumentError, match="same world"):
         ferrobot._core.step_worlds([worlds[0], worlds[1], worlds[0]], 1)
+    pos = np.zeros((2, 7))
+    with pytest.raises(InvalidArgumentError, match="same world"):
+        ferrobot._core.execute_trajectories([worlds[0]] * 2, ["panda"] * 2, [pos, pos], 0.1, [list(range(7))] * 2)
+    with pytest.raises(InvalidArgumentError, match="2 worlds but 1 robots"):
+        ferrobot._core.execute_trajectories(worlds[:2], ["panda"], [pos, pos], 0.1, [list(range(7))] * 2)
+    with pytest.raises(ferrobot.errors.ShapeError):
+        ferrobot._core.execute_trajectories(worlds[:1], ["panda"], [np.zeros((2, 6))], 0.1, [list(range(7))])
+    with pytest.raises(ferrobot.errors.UnknownNameError):
+        ferrobot._core.execute_trajectories(worlds[:1], ["ur5"], [pos], 0.1, [list(range(7))])
 
 
 def _record_with_expert(seed: int, steps: int = 200):

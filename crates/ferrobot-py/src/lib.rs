@@ -70,6 +70,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(grasp::grasp_transform, m)?)?;
     m.add_function(wrap_pyfunction!(grasp::grasp_camera_to_world, m)?)?;
     m.add_function(wrap_pyfunction!(batch::step_worlds, m)?)?;
+    m.add_function(wrap_pyfunction!(batch::execute_trajectories, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

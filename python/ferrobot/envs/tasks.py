@@ -364,6 +364,13 @@ class FerrobotEnv(gym.Env):
         return obs, info
 
     def step(self, action):
+        ik_failed = self._step_begin(action)
+        return self._step_end(ik_failed)
+
+    def _step_begin(self, action) -> bool:
+        """Checks ``action`` and hands it to the control stepper (which steps the physics); returns whether
+        IK failed. Split from :meth:`_step_end` so that a vector env can defer the physics of several
+        environments to one parallel call."""
         if self.world is None:
             raise InvalidArgumentError("step: call reset() before step()")
         a = self.check_action(action)
@@ -371,6 +378,9 @@ class FerrobotEnv(gym.Env):
         self.stepper.step(target)
         self._arm_target = target[:-1].copy()
         self.elapsed_steps += 1
+        return ik_failed
+
+    def _step_end(self, ik_failed: bool):
         obs = self._observe()
         success, cause, dense = self._evaluate()
         reward = 1.0 if success else (dense if self.reward_type == "dense" else 0.0)

@@ -55,16 +55,81 @@ class ThreadedVectorStepper:
             self.pool = None
 
 
+class _DeferredRobot:
+    """The robot as the control stepper sees it, with ``execute_trajectory`` recorded instead of run."""
+
+    def __init__(self, robot, calls: list):
+        self._robot, self._calls = robot, calls
+
+    def __getattr__(self, name):
+        return getattr(self._robot, name)
+
+    def execute_trajectory(self, positions, dt, velocities=None, joint_indices=None, settle_time=0.0):
+        if velocities is not None or settle_time != 0.0 or joint_indices is None:
+            raise InvalidArgumentError("batched stepping supports execute_trajectory(positions, dt, joint_indices)")
+        self._calls.append((np.asarray(positions, dtype=np.float64), float(dt), [int(i) for i in joint_indices]))
+
+
+def rust_batch_step(envs: list, actions: dict[int, Any]) -> dict[int, Any]:
+    """Steps the environments ``envs[i]`` (``gym.make`` results) with ``actions[i]``: each control stepper
+    runs with its physics deferred, then one ``ferrobot._core.execute_trajectories`` call runs every world's
+    control period in parallel (GIL released), then the observations are taken. The same result, bit for
+    bit, as ``env.step`` one after the other. Honours each environment's time limit (``spec``); results as
+    :meth:`ThreadedVectorStepper.step`."""
+    from .. import _core
+
+    out: dict[int, Any] = {}
+    pending = []
+    for i, a in actions.items():
+        u = envs[i].unwrapped
+        calls: list = []
+        real = u.stepper.robot
+        u.stepper.robot = _DeferredRobot(real, calls)
+        try:
+            ik_failed = u._step_begin(a)
+        except Exception as e:
+            out[i] = e
+            continue
+        finally:
+            u.stepper.robot = real
+        if len(calls) != 1:
+            out[i] = InvalidArgumentError(f"batched stepping: the stepper made {len(calls)} trajectory calls, not 1")
+            continue
+        pending.append((i, u, ik_failed, calls[0]))
+    if pending:
+        dts = {c[1] for _, _, _, c in pending}
+        if len(dts) != 1:
+            raise InvalidArgumentError(f"batched stepping needs one control period, got {sorted(dts)}")
+        _core.execute_trajectories(
+            [u.world for _, u, _, _ in pending],
+            [u.robot.name for _, u, _, _ in pending],
+            [c[0] for _, _, _, c in pending],
+            dts.pop(),
+            [c[2] for _, _, _, c in pending],
+        )
+    for i, u, ik_failed, _ in pending:
+        obs, reward, terminated, truncated, info = u._step_end(ik_failed)
+        limit = envs[i].spec.max_episode_steps if envs[i].spec is not None else None
+        truncated = bool(limit is not None and u.elapsed_steps >= limit and not terminated)
+        out[i] = (obs, reward, terminated, truncated, info)
+    return out
+
+
 class FerrobotVectorEnv(VectorEnv):
     """``num_envs`` copies of ``env_id`` (made with ``gym.make(env_id, **kwargs)``, so with its time limit),
-    stepped together by :class:`ThreadedVectorStepper`; next-step auto-reset. ``reset(seed=s)`` seeds the
+    stepped together by :class:`ThreadedVectorStepper` (``batch="threads"``, the default) or by
+    :func:`rust_batch_step` (``batch="rust"``: the physics of all environments in one parallel Rust call,
+    the rest one environment after the other); next-step auto-reset. ``reset(seed=s)`` seeds the
     copies with s, s + 1, ...; an environment that raises during ``step`` re-raises here."""
 
     metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
 
-    def __init__(self, num_envs: int = 1, *, env_id: str, **kwargs):
+    def __init__(self, num_envs: int = 1, *, env_id: str, batch: str = "threads", **kwargs):
         if not isinstance(num_envs, int) or num_envs < 1:
             raise InvalidArgumentError(f"num_envs: expected an integer >= 1, got {num_envs!r}")
+        if batch not in ("threads", "rust"):
+            raise InvalidArgumentError(f"batch: expected 'threads' or 'rust', got {batch!r}")
+        self.batch = batch
         self.envs = [gym.make(env_id, **kwargs) for _ in range(num_envs)]
         self.num_envs = num_envs
         self.single_observation_space = self.envs[0].observation_space
@@ -97,7 +162,7 @@ class FerrobotVectorEnv(VectorEnv):
         if len(actions) != self.num_envs:
             raise InvalidArgumentError(f"actions: expected {self.num_envs} actions (one per environment)")
         todo = {i: actions[i] for i in range(self.num_envs) if not self._autoreset[i]}
-        results = self._stepper.step(todo)
+        results = self._stepper.step(todo) if self.batch == "threads" else rust_batch_step(self.envs, todo)
         obs = [None] * self.num_envs
         rewards = np.zeros(self.num_envs)
         terms = np.zeros(self.num_envs, dtype=bool)
