@@ -630,6 +630,7 @@ def grasp_camera_to_world(camera_pose: ArrayLike, convention: str = "opencv") ->
 # batch stepping (crates/ferrobot-py/src/batch.rs)
 def step_worlds(worlds: list[World], n: int = 1) -> None:
     """Steps each (distinct) world n times, in parallel on all cores with the GIL released."""
+
 def execute_trajectories(
     worlds: list[World],
     robots: list[str],
