@@ -160,6 +160,14 @@ def test_bad_arguments_leave_existing_data_untouched(tmp_path, capsys):
     with pytest.raises(InvalidArgumentError, match="another configuration"):
         generate(ds, GenerateConfig(episodes=1, seed=2, cameras=cams), ray="off")
     assert {p: p.read_bytes() for p in ds.rglob("*") if p.is_file()} == snapshot
+    # The same configuration while another run holds the directory: refused.
+    import fcntl
+
+    (ds / ".ferrobot/episodes").mkdir()
+    with (ds / ".ferrobot/lock").open("w") as held:
+        fcntl.flock(held, fcntl.LOCK_EX)
+        with pytest.raises(InvalidArgumentError, match="another 'ferrobot generate'"):
+            generate(ds, GenerateConfig(episodes=1, seed=1, cameras=cams), ray="off")
     for argv, what in [
         (["--format", "zarr"], "format"),
         (["--robot", "ur5"], "robot"),

@@ -99,10 +99,19 @@ def test_binary_endpoint_matches_json(client, frame):
         ({"depths": [1, 2, 3], "fx": 1, "fy": 1, "cx": 0, "cy": 0, "scale": 1}, 422, "expected 2-D"),
         ({"depths": [[1, 2]], "fy": 1, "cx": 0, "cy": 0, "scale": 1}, 422, "missing field 'fx'"),
         ({"depths": [[1, 2]], "fx": "a", "fy": 1, "cx": 0, "cy": 0, "scale": 1}, 422, "'fx': expected a number"),
-        ({"depths": [[1, 2]], "fx": 1, "fy": 1, "cx": 0, "cy": 0, "scale": 0}, 400, "depth scale must be positive"),
+        ({"depths": [[1, 2]], "fx": 1, "fy": 1, "cx": 0, "cy": 0, "scale": 0}, 422, "field 'scale': 0 is out of range"),
         ({"depths": [[1, -2]], "fx": 1, "fy": 1, "cx": 0, "cy": 0, "scale": 1}, 400, "negative depth"),
         ({"depths": [[1, 2]], "fx": 1, "fy": 1, "cx": 0, "cy": 0, "scale": 1, "colors": [[1, 2, 3]]}, 400, "colors"),
-        ({"depths": [[1, 2]], "fx": 1, "fy": 1, "cx": 0, "cy": 0, "scale": 1, "lims": [0, 1]}, 400, "workspace"),
+        (
+            {"depths": [[1, 2]], "fx": 1, "fy": 1, "cx": 0, "cy": 0, "scale": 1, "lims": [0, 1]},
+            422,
+            "'lims': expected a list of 6",
+        ),
+        (
+            {"depths": [[1, 2]], "fx": 1, "fy": 1, "cx": 0, "cy": 0, "scale": 1, "lims": [1, 0, 0, 1, 0, 1]},
+            400,
+            "workspace",
+        ),
         ({"depths": [[1, 2]], "fx": 1, "fy": 1, "cx": 0, "cy": 0, "scale": 1, "options": {"x": 1}}, 422, "unknown"),
     ],
 )
@@ -122,8 +131,8 @@ def test_transport_level_errors(client):
     big = b"0" * (8 * 1024 * 1024 + 1)
     r = client.post("/process_npz", content=big, headers={"content-type": "application/octet-stream"})
     assert r.status_code == 413 and "exceeds the limit" in r.json()["detail"]
-    r = client.post("/process_npz", content=iter([b"ab", b"cd"]))  # chunked: no Content-Length
-    assert r.status_code == 411
+    r = client.post("/process_npz", content=iter([b"ab", b"cd"]))  # chunked: read, counted, then parsed
+    assert r.status_code == 422 and ".npz" in r.json()["detail"]
 
 
 def _free_port() -> int:
@@ -176,7 +185,7 @@ def test_real_server_through_the_client_with_failover(servers, frame):
         np.testing.assert_allclose(gg.to_array(), want.to_array(), rtol=1e-6, atol=1e-7)
         js = c.process(mm, F, F, CX, CY, 1000.0, mask=labels, binary=False)
         np.testing.assert_allclose(js.translations, want.translations, atol=1e-9)
-        with pytest.raises(RequestRejectedError, match="depth scale must be positive"):
+        with pytest.raises(RequestRejectedError, match="field 'scale': 0.0 is out of range"):
             c.process(mm, F, F, CX, CY, 0.0)
 
 

@@ -75,35 +75,38 @@ def cmd_robot(args: argparse.Namespace) -> int:
 
 def cmd_serve_grasp(args: argparse.Namespace) -> int:
     try:
-        import uvicorn
+        import uvicorn  # noqa: F401
     except ImportError:
         print("ferrobot: error: serve-grasp needs the 'serve' extra: pip install 'ferrobot[serve]'", file=sys.stderr)
         return 1
-    import os
-
-    from .grasp.server import _ENV_MAX_BODY
+    from .grasp.server import ServiceLimits, serve
 
     if args.workers < 1:
         print("ferrobot: error: --workers must be >= 1", file=sys.stderr)
         return 2
-    if args.max_body_mb <= 0:
-        print("ferrobot: error: --max-body-mb must be > 0", file=sys.stderr)
+    mib = 1024 * 1024
+    try:
+        limits = ServiceLimits(
+            max_body_bytes=int(args.max_body_mb * mib),
+            max_json_bytes=int(args.max_json_mb * mib),
+            max_image_side=args.max_image_side,
+            max_decoded_bytes=int((args.max_decoded_mb or 4 * args.max_body_mb) * mib),
+            body_timeout=args.body_timeout,
+            header_timeout=args.header_timeout,
+            keep_alive=args.keep_alive,
+            max_connections=args.max_connections,
+            max_inflight=args.max_inflight,
+        )
+    except ValueError as e:
+        flag = str(e).split(".")[1].split(" ")[0].replace("_bytes", "_mb").replace("_", "-")
+        print(f"ferrobot: error: --{flag} must be > 0 ({e})", file=sys.stderr)
         return 2
-    # Worker processes build the app from the environment (uvicorn imports the factory by name).
-    os.environ[_ENV_MAX_BODY] = str(int(args.max_body_mb * 1024 * 1024))
     print(
         f"ferrobot grasp service on http://{args.host}:{args.port} ({args.workers} worker(s)); "
         "POST /process (JSON), POST /process_npz (binary), GET /health",
         flush=True,
     )
-    uvicorn.run(
-        "ferrobot.grasp.server:create_app",
-        factory=True,
-        host=args.host,
-        port=args.port,
-        workers=args.workers,
-        log_level=args.log_level,
-    )
+    serve(args.host, args.port, args.workers, limits, log_level=args.log_level)
     return 0
 
 
@@ -290,7 +293,17 @@ def main(argv: list[str] | None = None) -> int:
     p_serve.add_argument("--host", default="127.0.0.1", help="address to bind (default 127.0.0.1)")
     p_serve.add_argument("--port", type=int, default=5001, help="port (default 5001)")
     p_serve.add_argument("--workers", type=int, default=1, help="worker processes (default 1)")
-    p_serve.add_argument("--max-body-mb", type=float, default=64.0, help="request size limit in MiB (default 64)")
+    p_serve.add_argument("--max-body-mb", type=float, default=64.0, help="/process_npz body limit in MiB (default 64)")
+    p_serve.add_argument("--max-json-mb", type=float, default=32.0, help="/process JSON body limit in MiB (default 32)")
+    p_serve.add_argument(
+        "--max-decoded-mb", type=float, default=None, help="decoded .npz arrays limit in MiB (default 4x --max-body-mb)"
+    )
+    p_serve.add_argument("--max-image-side", type=int, default=4096, help="rows and columns of an image (default 4096)")
+    p_serve.add_argument("--body-timeout", type=float, default=30.0, help="seconds to receive a body (default 30)")
+    p_serve.add_argument("--header-timeout", type=float, default=10.0, help="seconds to receive headers (default 10)")
+    p_serve.add_argument("--keep-alive", type=float, default=5.0, help="idle keep-alive seconds (default 5)")
+    p_serve.add_argument("--max-connections", type=int, default=64, help="open connections; more get 503 (default 64)")
+    p_serve.add_argument("--max-inflight", type=int, default=2, help="requests detected at once (default 2)")
     p_serve.add_argument("--log-level", default="info", choices=["critical", "error", "warning", "info", "debug"])
     p_serve.set_defaults(func=cmd_serve_grasp)
     p_eval = sub.add_parser("evaluate", help="roll a policy out in a ferrobot Gymnasium environment, report success")

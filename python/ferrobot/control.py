@@ -262,11 +262,16 @@ def action_features(robot, stepper: ControlStepper, action, ee_link: str | None 
     }
 
 
-def features(robot, stepper: ControlStepper, cameras: dict, *, segmentation: bool = False) -> dict:
+def features(robot, stepper: ControlStepper | None, cameras: dict, *, segmentation: bool = False) -> dict:
     """The dataset features: name -> {"dtype", "shape", "names"} (LeRobot's ``info.json`` style; images as
-    dtype "video", depth "depth")."""
+    dtype "video", depth "depth"). ``robot``: a Robot or RobotModel; ``stepper``: the ControlStepper (None:
+    the model's planning group as the arm, with a gripper entry); ``cameras``: name -> Camera or
+    (width, height)."""
     dof = list(robot.dof_names)
-    arm = [dof[i] for i in stepper.arm]
+    model = robot.model if hasattr(robot, "model") else robot
+    arm_idx = stepper.arm if stepper is not None else list(model.group_dof_indices)
+    gripper = stepper.gripper if stepper is not None else True
+    arm = [dof[i] for i in arm_idx]
     pose_names = ["x", "y", "z", "qw", "qx", "qy", "qz"]
     out = {
         "observation.state": {"dtype": "float32", "shape": [len(dof)], "names": dof},
@@ -275,7 +280,7 @@ def features(robot, stepper: ControlStepper, cameras: dict, *, segmentation: boo
         "observation.gripper_opening": {"dtype": "float32", "shape": [1], "names": ["opening"]},
     }
     for name, cam in cameras.items():
-        h, w = cam.height, cam.width
+        w, h = (cam.width, cam.height) if hasattr(cam, "width") else (int(cam[0]), int(cam[1]))
         out[f"observation.images.{name}"] = {
             "dtype": "video",
             "shape": [h, w, 3],
@@ -290,8 +295,8 @@ def features(robot, stepper: ControlStepper, cameras: dict, *, segmentation: boo
             }
     out["action"] = {
         "dtype": "float32",
-        "shape": [len(arm) + (1 if stepper.gripper else 0)],
-        "names": arm + (["gripper"] if stepper.gripper else []),
+        "shape": [len(arm) + (1 if gripper else 0)],
+        "names": arm + (["gripper"] if gripper else []),
     }
     out["action.ee_pose"] = {"dtype": "float32", "shape": [7], "names": pose_names}
     return out

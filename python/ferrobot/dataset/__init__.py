@@ -9,6 +9,6 @@ See :mod:`ferrobot.dataset.generate` (guarantees), :mod:`ferrobot.dataset.lerobo
 
 from __future__ import annotations
 
-from .generate import FORMATS, GenerateConfig, episode_seed, generate, parse_cameras
+from .generate import FORMATS, GenerateConfig, episode_seed, generate, parse_cameras, scene_from_dict
 
-__all__ = ["FORMATS", "GenerateConfig", "episode_seed", "generate", "parse_cameras"]
+__all__ = ["FORMATS", "GenerateConfig", "episode_seed", "generate", "parse_cameras", "scene_from_dict"]

@@ -35,7 +35,7 @@ import numpy as np
 
 from ..errors import FerrobotError, InvalidArgumentError
 
-__all__ = ["GenerateConfig", "generate", "episode_seed", "run_episode", "FORMATS", "parse_cameras"]
+__all__ = ["GenerateConfig", "generate", "episode_seed", "run_episode", "FORMATS", "parse_cameras", "scene_from_dict"]
 
 FORMATS = ("lerobot", "hdf5")
 ROBOTS = ("panda",)
@@ -57,6 +57,25 @@ MAX_ATTEMPTS = 10
 def scene_fov(spec) -> float:
     """Horizontal field of view (degrees) of the scene's perception camera."""
     return 2 * math.degrees(math.atan(0.5 * spec.camera_size[0] / spec.camera_f))
+
+
+def scene_from_dict(d: dict):
+    """The :class:`~ferrobot.pipeline.SceneSpec` stored in an episode's metadata (LeRobot: the episodes
+    table's ``scene`` column; HDF5: ``data/demo_N`` attribute ``model_file``), for replaying its actions."""
+    from ..pipeline import ObjectSpec, SceneSpec
+
+    d = dict(d)
+    objects = [ObjectSpec(**{**o, "size": tuple(o["size"]), "color": tuple(o["color"])}) for o in d.pop("objects")]
+    return SceneSpec(
+        objects=objects,
+        **{
+            **d,
+            "place_xy": tuple(d["place_xy"]),
+            "camera_eye": tuple(d["camera_eye"]),
+            "camera_target": tuple(d["camera_target"]),
+            "camera_size": tuple(d["camera_size"]),
+        },
+    )
 
 
 def episode_spec(cfg: dict, seed: int):
@@ -353,9 +372,6 @@ def _prepare(out: Path, cfg: dict) -> Path:
             os.replace(tmp, conf)
     except OSError as e:
         raise InvalidArgumentError(f"out: cannot write to '{out}': {e}") from e
-    # Leftovers of killed workers: never published, safe to remove.
-    for d in (state / "tmp").iterdir():
-        shutil.rmtree(d, ignore_errors=True)
     return state
 
 
@@ -374,6 +390,12 @@ def _run_local(cfg: dict, root: str, todo: list[int], workers: int, on_done, max
 
     attempts = dict.fromkeys(todo, 0)
     pending = list(todo)
+    reported: set[int] = set()
+
+    def report(r: dict) -> None:
+        reported.add(r["index"])
+        on_done(r)
+
     while pending:
         ctx = multiprocessing.get_context("spawn")
         broken = False
@@ -386,13 +408,15 @@ def _run_local(cfg: dict, root: str, todo: list[int], workers: int, on_done, max
                 done, remaining = wait(remaining, return_when=FIRST_COMPLETED)
                 for f in done:
                     try:
-                        on_done(f.result())
+                        report(f.result())
                     except BrokenProcessPool:
                         broken = True
         if not broken:
             return
         # A worker died (killed): every episode not published is retried in a fresh pool.
         published = _published(Path(root) / STATE_DIR, max(todo) + 1)
+        for i in sorted(published & set(pending) - reported):
+            report(run_episode(cfg, i, root))  # published before the pool broke: read back, not run
         pending = [i for i in pending if i not in published]
         for i in pending:
             if attempts[i] > max_retries:
@@ -404,7 +428,11 @@ def _run_ray(cfg: dict, root: str, todo: list[int], address: str | None, workers
 
     if not ray.is_initialized():
         kwargs = {"address": address} if address else {"num_cpus": workers} if workers else {}
-        ray.init(include_dashboard=False, log_to_driver=False, **kwargs)
+        try:
+            ray.init(include_dashboard=False, log_to_driver=False, **kwargs)
+        except Exception as e:  # Ray raises ConnectionError, ValueError, RuntimeError... for a bad address
+            where = f"the cluster at '{address}'" if address else "a local Ray instance"
+            raise FerrobotError(f"ray: could not start or join {where}: {type(e).__name__}: {e}") from e
     task = ray.remote(num_cpus=1, max_retries=max_retries, retry_exceptions=False)(run_episode)
     refs = [task.options(runtime_env={"env_vars": {"RAYON_NUM_THREADS": "1"}}).remote(cfg, i, root) for i in todo]
     while refs:
@@ -457,6 +485,24 @@ def generate(
     out = Path(out)
     cfg = config.to_dict()
     state = _prepare(out, cfg)
+    import fcntl
+
+    lock = (state / "lock").open("w")
+    try:
+        fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        lock.close()
+        raise InvalidArgumentError(f"out: another 'ferrobot generate' is writing to '{out}'") from None
+    try:
+        return _generate(out, config, cfg, state, workers, use_ray, address, progress, max_retries)
+    finally:
+        lock.close()
+
+
+def _generate(out, config, cfg, state, workers, use_ray, address, progress, max_retries) -> dict:
+    # Leftovers of killed workers (this directory's run holds the lock): never published, safe to remove.
+    for d in (state / "tmp").iterdir():
+        shutil.rmtree(d, ignore_errors=True)
     done_marker = state / "done.json"
     t0 = time.perf_counter()
     if done_marker.exists():
@@ -502,6 +548,7 @@ def generate(
             "resumed_from": len(published),
             "generation_wall_s": gen_s,
             "episodes_per_hour": 3600.0 * len(new) / gen_s if new and gen_s > 0 else None,
+            "median_episode_wall_s": float(np.median([r["wall_s"] for r in new])) if new else None,
             "recorded_frames_per_s": frames / gen_s if new and gen_s > 0 else None,
             "executor": "ray" if use_ray else f"local process pool ({workers or os.cpu_count()} workers)",
             "total_wall_s": time.perf_counter() - t0,
@@ -560,23 +607,9 @@ def finalize(out: Path, config: GenerateConfig) -> dict:
 
 
 def _features(config: GenerateConfig) -> dict:
-    """The dataset features of ``config`` (names as in :func:`ferrobot.control.features`)."""
+    """The dataset features of ``config`` (:func:`ferrobot.control.features`, the shared contract)."""
     from .. import robots
+    from ..control import features
 
-    model = robots.panda()
-    dof = list(model.dof_names)
-    arm = [dof[i] for i in model.group_dof_indices]
-    pose = ["x", "y", "z", "qw", "qx", "qy", "qz"]
-    f = {
-        "observation.state": {"dtype": "float32", "shape": [len(dof)], "names": dof},
-        "observation.velocity": {"dtype": "float32", "shape": [len(dof)], "names": dof},
-        "observation.ee_pose": {"dtype": "float32", "shape": [7], "names": pose},
-        "observation.gripper_opening": {"dtype": "float32", "shape": [1], "names": ["opening"]},
-        "action": {"dtype": "float32", "shape": [len(arm) + 1], "names": [*arm, "gripper"]},
-        "action.ee_pose": {"dtype": "float32", "shape": [7], "names": pose},
-    }
-    for c in config.cameras:
-        h, w = c["height"], c["width"]
-        f[f"observation.images.{c['name']}"] = {"dtype": "video", "shape": [h, w, 3], "names": None}
-        f[f"observation.depth.{c['name']}"] = {"dtype": "depth", "shape": [h, w], "names": ["height", "width"]}
-    return f
+    cams = {c["name"]: (c["width"], c["height"]) for c in config.cameras}
+    return features(robots.panda(), None, cams, segmentation=config.segmentation)

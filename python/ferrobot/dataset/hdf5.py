@@ -5,7 +5,7 @@ Layout (robomimic's ``get_dataset`` conventions, as MimicGen-style generators wr
     data                      attrs: total (frames), env_args (JSON: env_name, type, env_kwargs), fps,
                                      ferrobot (JSON: generation config)
     data/demo_<i>             attrs: num_samples, seed, success, task, stages (JSON), randomization (JSON),
-                                     model_file (JSON scene)
+                                     model_file (JSON scene: ``scene_from_dict`` rebuilds it)
         obs/<key>             key = the observation name without "observation.": state, velocity, ee_pose,
                               gripper_opening, images.<camera> (T, H, W, 3) uint8, depth.<camera> (T, H, W)
                               float32 metres (0 = no reading), segmentation.<camera> (T, H, W) int32

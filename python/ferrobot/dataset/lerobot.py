@@ -9,7 +9,8 @@ Layout (checked against huggingface/lerobot's ``datasets/utils.py`` and ``lerobo
                                                  dataset_from_index/to_index, data/chunk_index, data/file_index,
                                                  videos/<key>/{chunk_index,file_index,from_timestamp,to_timestamp},
                                                  meta/episodes/{chunk_index,file_index}, stats/<feature>/<stat>,
-                                                 plus ferrobot's success, seed, stages (JSON), randomization (JSON)
+                                                 plus ferrobot's success, seed, stages, randomization and scene
+                                                 (JSON; ``scene_from_dict`` rebuilds the SceneSpec for a replay)
     data/chunk-XXX/file-XXX.parquet              frames of several episodes: the low-dimensional features,
                                                  timestamp, frame_index, episode_index, index, task_index,
                                                  next.reward, next.done
@@ -192,6 +193,7 @@ def finalize_lerobot(root: Path, episode_dirs: list[Path], info_extra: dict, wor
         row["seed"] = int(m["seed"])
         row["stages"] = json.dumps(m["stages"])
         row["randomization"] = json.dumps(m.get("randomization", {}))
+        row["scene"] = json.dumps(m.get("scene", {}))
         rows.append(row)
         index += n
 

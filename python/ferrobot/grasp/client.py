@@ -15,16 +15,32 @@ from ._group import GraspGroup
 
 __all__ = ["GraspClient"]
 
+#: Answers another server (or a later try) may not give: overloaded (503), bad gateway (502), gateway timeout (504).
+_RETRYABLE = frozenset({502, 503, 504})
+
+
+def _detail(r) -> str:
+    """The server's reason: the JSON ``detail`` if there is one, else the body's text (cut at 500 characters)."""
+    try:
+        body = r.json()
+        detail = body.get("detail", r.text) if isinstance(body, dict) else r.text
+    except ValueError:
+        detail = r.text
+    detail = detail if isinstance(detail, str) else str(detail)
+    return detail if len(detail) <= 500 else detail[:500] + "..."
+
 
 class GraspClient:
     """A client of ``ferrobot serve-grasp`` (or any server speaking its ``/process`` protocol).
 
-    Requests go round-robin over ``addresses`` (``"http://host:port"``). A request that fails on one address
-    (connection refused, timeout, 5xx) is sent to the next; an address that failed is skipped for
-    ``cooldown`` seconds unless every address has failed. After ``retries`` full rounds (waiting ``backoff``
-    seconds, doubling) a :class:`ferrobot.errors.ServiceError` is raised listing each address's error.
-    A 4xx answer is the request's fault and raises :class:`ferrobot.errors.RequestRejectedError` at once.
-    Thread-safe.
+    Requests go round-robin over ``addresses`` (``"http://host:port"``). Only what another server could answer
+    is sent to the next address: transport errors (connection refused or reset, timeouts) and 502, 503 (the
+    server is at its connection limit) and 504 answers; such an address is skipped for ``cooldown`` seconds
+    unless every address has failed. After ``retries`` full rounds (waiting ``backoff`` seconds, doubling) a
+    :class:`ferrobot.errors.ServiceError` is raised listing each address's error.
+    An answer about the request itself is never replayed and never marks a server dead: a 4xx raises
+    :class:`ferrobot.errors.RequestRejectedError` at once, any other 5xx (the server failed on this request)
+    :class:`ferrobot.errors.ServiceError`, both with the server's message. Thread-safe.
     """
 
     def __init__(
@@ -85,21 +101,23 @@ class GraspClient:
             for address in self._order():
                 try:
                     r = self._http.request(method, address + path, **kwargs)
-                except httpx.HTTPError as e:
+                except httpx.TransportError as e:  # unreachable, reset, timed out: another server may answer
                     errors[address] = f"{type(e).__name__}: {e}"
                     self._mark(address, False)
                     continue
-                if r.status_code >= 500:
-                    errors[address] = f"HTTP {r.status_code}: {r.text[:200]}"
+                except httpx.HTTPError as e:  # not the network's fault (e.g. an undecodable answer)
+                    raise ServiceError(f"{address}{path}: {type(e).__name__}: {e}") from None
+                if r.status_code in _RETRYABLE:  # overloaded, or a proxy with no server behind it
+                    errors[address] = f"HTTP {r.status_code}: {_detail(r)}"
                     self._mark(address, False)
                     continue
-                self._mark(address, True)
+                self._mark(address, True)  # it answered: alive, whatever it thinks of the request
+                if r.status_code >= 500:  # the server failed on this request: replaying it elsewhere won't help
+                    raise ServiceError(f"{address}{path} failed on the request (HTTP {r.status_code}): {_detail(r)}")
                 if r.status_code >= 400:
-                    try:
-                        detail = r.json().get("detail", r.text)
-                    except ValueError:
-                        detail = r.text
-                    raise RequestRejectedError(f"{address}{path} rejected the request (HTTP {r.status_code}): {detail}")
+                    raise RequestRejectedError(
+                        f"{address}{path} rejected the request (HTTP {r.status_code}): {_detail(r)}"
+                    )
                 return r
             if attempt < self.retries:
                 time.sleep(delay)
@@ -145,8 +163,11 @@ class GraspClient:
             r = self._request(
                 "POST", "/process_npz", content=buf.getvalue(), headers={"content-type": "application/octet-stream"}
             )
-            with np.load(io.BytesIO(r.content), allow_pickle=False) as z:
-                return GraspGroup(z["grasps"].astype(np.float64))
+            try:
+                with np.load(io.BytesIO(r.content), allow_pickle=False) as z:
+                    return GraspGroup(z["grasps"].astype(np.float64))
+            except Exception as e:  # noqa: BLE001 - whatever is wrong with the answer, it is the server's
+                raise ServiceError(f"{r.url}: unreadable answer ({type(e).__name__}: {e})") from None
         body = {"depths": depths.tolist(), "fx": fx, "fy": fy, "cx": cx, "cy": cy, "scale": scale}
         if colors is not None:
             body["colors"] = np.asarray(colors).tolist()
@@ -159,4 +180,7 @@ class GraspClient:
         if max_grasps is not None:
             body["max_grasps"] = int(max_grasps)
         r = self._request("POST", "/process", json=body)
-        return GraspGroup.from_dicts(r.json()["grasp_groups"])
+        try:
+            return GraspGroup.from_dicts(r.json()["grasp_groups"])
+        except Exception as e:  # noqa: BLE001 - whatever is wrong with the answer, it is the server's
+            raise ServiceError(f"{r.url}: unreadable answer ({type(e).__name__}: {e})") from None
