@@ -38,9 +38,10 @@ class RecordedEpisode:
 
 
 def _lerobot(root: Path) -> list[RecordedEpisode]:
-    """A LeRobot v3.0 dataset written by ``ferrobot generate``: the scene of each episode is rebuilt from its
-    seed and the generation config (``info.json``'s ``ferrobot``) by the generator's own
-    :func:`ferrobot.dataset.generate.episode_spec`, and checked against the randomisation it recorded."""
+    """A LeRobot v3.0 dataset written by ``ferrobot generate``: each episode's scene is its ``scene`` column
+    or, in datasets written before that column existed, rebuilt from its seed and the generation config
+    (``info.json``'s ``ferrobot``) by the generator's :func:`ferrobot.dataset.generate.episode_spec` and
+    checked against the randomisation it recorded."""
     import pyarrow as pa
     import pyarrow.parquet as pq
 
@@ -62,6 +63,10 @@ def _lerobot(root: Path) -> list[RecordedEpisode]:
     out = []
     for row in sorted(eps, key=lambda r: r["episode_index"]):
         i = int(row["episode_index"])
+        stored = json.loads(row.get("scene") or "{}")
+        if stored:  # datasets that store the scene (the episodes table's ``scene`` column)
+            out.append(RecordedEpisode(i, stored, actions[ep_col == i], bool(row["success"]), fps))
+            continue
         spec, rand = episode_spec(cfg, int(row["seed"]))
         recorded = json.loads(row.get("randomization") or "{}")
         if json.loads(json.dumps(rand)) != recorded:

@@ -49,9 +49,9 @@ from gymnasium import spaces
 
 from .. import _core, robots, transforms
 from ..control import DEFAULT_CAMERAS, CameraSpec, ControlStepper, make_cameras, observe
-from ..dataset.generate import scene_fov
+from ..dataset.generate import scene_fov, scene_from_dict
 from ..errors import FerrobotError, InvalidArgumentError, NonFiniteError, ShapeError
-from ..pipeline.scene import HOME, TABLE_TOP, ObjectSpec, SceneSpec, build_world, random_scene
+from ..pipeline.scene import HOME, TABLE_TOP, SceneSpec, build_world, random_scene
 
 __all__ = ["OBS_MODES", "ACTION_MODES", "FerrobotEnv", "PickPlaceEnv", "LiftEnv", "ReachEnv", "EXTRA_CAMERAS"]
 
@@ -309,12 +309,7 @@ class FerrobotEnv(gym.Env):
         if isinstance(obj, SceneSpec):
             return obj
         if isinstance(obj, dict):
-            d = dict(obj)
-            d["objects"] = [o if isinstance(o, ObjectSpec) else ObjectSpec(**o) for o in d["objects"]]
-            for k in ("place_xy", "camera_eye", "camera_target", "camera_size"):
-                if k in d:
-                    d[k] = tuple(d[k])
-            return SceneSpec(**d)
+            return scene_from_dict(obj)
         raise InvalidArgumentError(f"options['scene']: expected a SceneSpec or its dict, got {type(obj).__name__}")
 
     def _build_cameras(self) -> dict[str, Any]:
