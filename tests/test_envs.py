@@ -441,3 +441,21 @@ def test_user_robot_model_and_start_noise():
         make(robot="ur5")
     with pytest.raises(InvalidArgumentError, match="cameras"):
         make(obs_mode="rgb", cameras=["ceiling"])
+
+
+def test_spaces_match_the_dataset_features_name_for_name():
+    """Every observation feature the dataset recorder declares (ferrobot.control.features) is in the
+    observation space with its shape and dtype, and the joint_pos action space has the recorded action's."""
+    from ferrobot.control import features
+
+    env = make(obs_mode="rgbd", segmentation=True, cameras=["scene:32x24", "wrist:16x12"])
+    env.reset(seed=0)
+    u = env.unwrapped
+    feats = features(u.robot, u.stepper, u.cameras, segmentation=True)
+    dtypes = {"float32": np.float32, "video": np.uint8, "depth": np.float32, "segmentation": np.int32}
+    space = env.observation_space.spaces
+    obs_feats = {k: f for k, f in feats.items() if k.startswith("observation.")}
+    assert set(obs_feats) == set(space) - {"observation.environment_state"}
+    for k, f in obs_feats.items():
+        assert space[k].shape == tuple(f["shape"]) and space[k].dtype == dtypes[f["dtype"]], k
+    assert env.action_space.shape == tuple(feats["action"]["shape"]) and env.action_space.dtype == np.float32
