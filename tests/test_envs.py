@@ -343,7 +343,7 @@ def test_replay_reproduces_recorded_outcomes():
 def test_replay_of_a_pipeline_recording_is_bit_exact():
     """An episode recorded by the dataset recorder (the pick-and-place pipeline through
     ferrobot.pipeline.recording.ControlRecorder) replays in the environment to the recorded simulator state
-    after every action, bit for bit."""
+    after every action, bit for bit; the expert policy emits the same actions."""
     recording = pytest.importorskip("ferrobot.pipeline.recording")
     from ferrobot.envs.replay import RecordedEpisode, ReplayPolicy
     from ferrobot.pipeline import PickPlace
@@ -368,6 +368,15 @@ def test_replay_of_a_pipeline_recording_is_bit_exact():
         np.testing.assert_array_equal(recording.sim_state(u.world, u.robot), f["state"])
         success = success or info["is_success"]
     assert success
+    # The expert, run in the environment on the same scene, emits exactly the recorded actions.
+    obs, _ = env.reset(seed=1)
+    expert = ExpertPolicy()
+    expert.reset(env)
+    acts = []
+    for _ in range(len(actions)):
+        acts.append(expert.act(obs))
+        obs, *_ = env.step(acts[-1])
+    np.testing.assert_array_equal(np.stack(acts), actions)
 
 
 def _make_in_child(q):

@@ -15,7 +15,6 @@ expert needs the environment: ``reset(env=...)``. It works with the ``joint_pos`
 
 from __future__ import annotations
 
-import inspect
 import math
 import queue
 import threading
@@ -30,29 +29,8 @@ from ..pipeline.scene import TABLE_SIZE, TABLE_TOP, TABLE_XY
 __all__ = ["ExpertPolicy"]
 
 
-#: Whether this version of the pipeline samples planned motions at its recorder's ``sample_dt``.
-_PLANS_AT_SAMPLE_DT = "sample_dt" in inspect.getsource(PickPlace._move)
-
-
 class _Abort(BaseException):
     """Ends a worker whose episode was abandoned (reset or close before the script finished)."""
-
-
-class _RobotProxy:
-    """The simulated robot as the pipeline sees it: reads go to the robot; gripper commands set the expert's
-    gripper action instead of actuating."""
-
-    def __init__(self, robot, expert: ExpertPolicy):
-        self._robot, self._expert = robot, expert
-
-    def __getattr__(self, name):
-        return getattr(self._robot, name)
-
-    def close_gripper(self, force=None):
-        self._expert._gripper = 1.0
-
-    def open_gripper(self, force=None):
-        self._expert._gripper = 0.0
 
 
 class _ActionRecorder:
@@ -61,24 +39,17 @@ class _ActionRecorder:
     the ones a recorded dataset holds: planned motions sampled at the control period (``sample_dt``), each
     sample after the first one action; waits hold the targets for ``ceil(seconds * control_hz)`` steps."""
 
-    def __init__(self, expert: ExpertPolicy, control_hz: float, physics_dt: float):
+    def __init__(self, expert: ExpertPolicy, control_hz: float):
         self.expert = expert
         self.control_hz = control_hz
         self.sample_dt = 1.0 / control_hz
-        # A pipeline that samples its plans at the physics rate (before it honoured ``sample_dt``): keep every
-        # stride-th sample (the samples at the control period) and the last.
-        self.stride = 1 if _PLANS_AT_SAMPLE_DT else max(1, int(round(self.sample_dt / physics_dt)))
 
     def set_gripper(self, closed: bool, force: float | None = None) -> None:
         self.expert._gripper = 1.0 if closed else 0.0
 
     def execute(self, positions, velocities, joint_indices, stage):
-        positions = np.asarray(positions, dtype=np.float64)
-        rows = list(range(self.stride, len(positions), self.stride))
-        if len(positions) > 1 and (not rows or rows[-1] != len(positions) - 1):
-            rows.append(len(positions) - 1)
-        for r in rows:
-            self.expert._emit(positions[r])
+        for row in np.asarray(positions, dtype=np.float64)[1:]:
+            self.expert._emit(row)
         return 0.0
 
     def wait(self, seconds, stage):
@@ -119,7 +90,7 @@ class ExpertPolicy:
         for name in ("frame", "grasps_world", "grasps_camera", "choice"):
             pp.__dict__.pop(name, None)
         pp.spec, pp.world, pp.camera = env.spec_scene, env.world, env.scene_camera
-        pp.robot = _RobotProxy(env.robot, self)
+        pp.robot = env.robot
         pp.base = env.base_pose
         (tx, ty), (sx, sy, _) = TABLE_XY, TABLE_SIZE
         pp.workspace = [tx - sx / 2, tx + sx / 2, ty - sy / 2, ty + sy / 2, TABLE_TOP - 0.02, TABLE_TOP + 0.3]
@@ -130,7 +101,7 @@ class ExpertPolicy:
         for name in list(pp.planner.attached):
             pp.planner.detach(name)
         pp.result = EpisodeResult(seed=env.spec_scene.seed, target=env.spec_scene.target)
-        pp.rec = _ActionRecorder(self, env.control_hz, env.world.dt)
+        pp.rec = _ActionRecorder(self, env.control_hz)
         self.env = env
         self.control_hz = env.control_hz
         self.failure = ""
