@@ -652,3 +652,16 @@ def grasp_transform(grasps: ArrayLike, pose: ArrayLike) -> F64:
 
 def grasp_camera_to_world(camera_pose: ArrayLike, convention: str = "opencv") -> F64:
     """4x4 transform from OpenCV-optical camera coordinates to the world."""
+
+# batch stepping (crates/ferrobot-py/src/batch.rs)
+def step_worlds(worlds: list[World], n: int = 1) -> None:
+    """Steps each (distinct) world n times, in parallel on all cores with the GIL released."""
+
+def execute_trajectories(
+    worlds: list[World],
+    robots: list[str],
+    positions: list[ArrayLike],
+    dt: float,
+    joint_indices: list[list[int]],
+) -> None:
+    """Robot.execute_trajectory once per (distinct) world, in parallel with the GIL released."""

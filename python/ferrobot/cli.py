@@ -197,6 +197,71 @@ def cmd_view(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_evaluate(args: argparse.Namespace) -> int:
+    try:
+        import gymnasium  # noqa: F401
+    except ImportError:
+        print("ferrobot: error: evaluate needs the 'gym' extra: pip install 'ferrobot[gym]'", file=sys.stderr)
+        return 1
+    import json
+
+    from .envs.evaluate import evaluate, load_policy
+
+    if args.episodes < 1:
+        print("ferrobot: error: --episodes must be >= 1", file=sys.stderr)
+        return 2
+    if args.num_envs < 1:
+        print("ferrobot: error: --num-envs must be >= 1", file=sys.stderr)
+        return 2
+    videos: list[int] = []
+    for part in args.video_episodes.split(",") if args.video_episodes else []:
+        try:
+            if "-" in part:
+                a, b = part.split("-", 1)
+                videos.extend(range(int(a), int(b) + 1))
+            elif part.strip():
+                videos.append(int(part))
+        except ValueError:
+            print(f"ferrobot: error: --video-episodes: bad item {part!r} (e.g. 0,3,5-7)", file=sys.stderr)
+            return 2
+    env_kwargs = {}
+    for item in args.env_kwarg or []:
+        if "=" not in item:
+            print(f"ferrobot: error: --env-kwarg expects KEY=VALUE (JSON value), got {item!r}", file=sys.stderr)
+            return 2
+        k, v = item.split("=", 1)
+        try:
+            env_kwargs[k] = json.loads(v)
+        except json.JSONDecodeError:
+            env_kwargs[k] = v
+    policy = load_policy(args.policy)
+    print(
+        f"ferrobot evaluate: {args.policy} on {args.env}, {args.episodes} episodes "
+        f"(seeds {args.seed}..{args.seed + args.episodes - 1}), {args.num_envs} environment(s)"
+    )
+    s = evaluate(
+        args.env,
+        policy,
+        args.episodes,
+        seed=args.seed,
+        num_envs=args.num_envs,
+        out=args.out,
+        video_episodes=videos,
+        env_kwargs=env_kwargs,
+        max_episode_steps=args.max_steps,
+        progress=not args.quiet,
+    )
+    lo, hi = s["success_rate_ci95"]
+    print(
+        f"{s['successes']}/{s['episodes']} succeeded: {100 * s['success_rate']:.1f}% "
+        f"(95% CI {100 * lo:.1f}-{100 * hi:.1f}%), {s['episodes_per_second']:.2f} episodes/s"
+    )
+    if s["failures_by_cause"]:
+        print("failures by cause: " + ", ".join(f"{k} {v}" for k, v in s["failures_by_cause"].items()))
+    print(f"wrote {args.out}/episodes.jsonl and {args.out}/summary.json")
+    return 0
+
+
 def cmd_generate(args: argparse.Namespace) -> int:
     """Recorded pick-and-place episodes as a LeRobot v3.0 or robomimic HDF5 dataset."""
     import json
@@ -277,6 +342,22 @@ def main(argv: list[str] | None = None) -> int:
     p_view.add_argument("--host", default="127.0.0.1", help="live view address (default 127.0.0.1)")
     p_view.add_argument("--port", type=int, default=8080, help="live view port (default 8080)")
     p_view.set_defaults(func=cmd_view)
+    p_eval = sub.add_parser("evaluate", help="roll a policy out in a ferrobot Gymnasium environment, report success")
+    p_eval.add_argument("--env", default="ferrobot/PickPlace-v0", help="environment id (default ferrobot/PickPlace-v0)")
+    p_eval.add_argument(
+        "--policy", required=True, help="MODULE:CALLABLE, 'expert' (scripted baseline) or 'replay:DATASET_DIR'"
+    )
+    p_eval.add_argument("--episodes", type=int, default=10, help="number of episodes (default 10)")
+    p_eval.add_argument("--seed", type=int, default=0, help="episode i uses seed + i (default 0)")
+    p_eval.add_argument("--num-envs", type=int, default=1, help="environments stepped together (default 1)")
+    p_eval.add_argument("--out", default="ferrobot-eval", help="output folder (default ./ferrobot-eval)")
+    p_eval.add_argument("--video-episodes", default="", help="episodes to film, e.g. 0,3,5-7 (mp4 in OUT/videos)")
+    p_eval.add_argument("--max-steps", type=int, default=None, help="episode length in control steps")
+    p_eval.add_argument(
+        "--env-kwarg", action="append", help='KEY=VALUE passed to gym.make (JSON value), e.g. control_mode="ee_delta"'
+    )
+    p_eval.add_argument("--quiet", action="store_true", help="no progress bar")
+    p_eval.set_defaults(func=cmd_evaluate)
     p_gen = sub.add_parser(
         "generate", help="recorded pick-and-place episodes as a LeRobot v3.0 or robomimic HDF5 dataset"
     )

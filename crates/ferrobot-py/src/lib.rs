@@ -4,6 +4,7 @@
 //! catches panics ([`errors::guard`]); heavy work releases the GIL.
 
 mod arrays;
+mod batch;
 mod collision;
 mod errors;
 mod grasp;
@@ -68,6 +69,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(grasp::grasp_nms, m)?)?;
     m.add_function(wrap_pyfunction!(grasp::grasp_transform, m)?)?;
     m.add_function(wrap_pyfunction!(grasp::grasp_camera_to_world, m)?)?;
+    m.add_function(wrap_pyfunction!(batch::step_worlds, m)?)?;
+    m.add_function(wrap_pyfunction!(batch::execute_trajectories, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }
