@@ -315,7 +315,7 @@ class FerrobotEnv(gym.Env):
     def _build_cameras(self) -> dict[str, Any]:
         specs = [CameraSpec(c.name, c.width, c.height, c.fov_deg, c.link, c.pose) for c in self.camera_specs]
         return make_cameras(
-            self.world, self.robot, self.scene_camera.get_world_pose(), specs, scene_fov_deg=scene_fov(self.spec_scene)
+            self.world, self.robot, self.scene_camera.get_world_transform(), specs, scene_fov_deg=scene_fov(self.spec_scene)
         )
 
     # -- gymnasium API ----------------------------------------------------------------------------------------
@@ -335,7 +335,7 @@ class FerrobotEnv(gym.Env):
             spec = self._scene(scene_seed)
         self.spec_scene = spec
         self.world, self.robot, self.scene_camera = build_world(spec, self.model)
-        self.base_pose = self.robot.get_world_pose()
+        self.base_pose = self.robot.get_world_transform()
         self.to_base = transforms.world_to_base(np.eye(4), self.base_pose)
         if self.init_noise > 0.0:
             rng = np.random.default_rng([spec.seed, 7])
