@@ -412,7 +412,7 @@ fn check_link(
                     name,
                     format!("link '{name}': mass '{text}' is not a number"),
                 ),
-                Some((_, Some(m))) if m == 0.0 => report.push(
+                Some((_, Some(0.0))) => report.push(
                     Severity::Warning,
                     "zero-mass",
                     iline,
@@ -642,7 +642,7 @@ fn check_joint(
                 name,
                 format!("joint '{name}': '{attr}' is not a number"),
             ),
-            Some(Some(v)) if !(v > 0.0) => report.push(
+            Some(Some(v)) if v.is_nan() || v <= 0.0 => report.push(
                 Severity::Warning,
                 if attr == "effort" {
                     "missing-effort"

@@ -266,7 +266,7 @@ fn solve(a: DMatrix<f64>, b: DVector<f64>) -> Result<(DVector<f64>, FitQuality)>
     let svd = a.clone().svd(true, true);
     let smax = svd.singular_values.max();
     let smin = svd.singular_values.min();
-    if !(smax > 0.0) || smin <= smax * 1e-12 {
+    if smax.is_nan() || smax <= 0.0 || smin <= smax * 1e-12 {
         return Err(SimError::InvalidArgument(format!(
             "the measurements do not determine the parameters (regressor rank deficient, \
              singular values {:.3e}..{:.3e}): use more varied configurations or speeds",
@@ -289,7 +289,7 @@ fn solve(a: DMatrix<f64>, b: DVector<f64>) -> Result<(DVector<f64>, FitQuality)>
 
 fn check_measurements(model: &RobotModel, qs: &[f64], efforts: &[f64]) -> Result<usize> {
     let n = model.num_dof();
-    if n == 0 || qs.len() % n != 0 || qs.is_empty() {
+    if n == 0 || !qs.len().is_multiple_of(n) || qs.is_empty() {
         return Err(SimError::Shape {
             what: "qs".into(),
             expected: format!("(N, {n})"),

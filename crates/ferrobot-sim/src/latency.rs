@@ -143,7 +143,7 @@ impl LinearPredictor {
 /// from time 0) at time `t`, linearly interpolated; held at the ends.
 /// Trajectory look-ahead sends `sample(t + delay)` at time `t`.
 pub fn trajectory_sample(positions: &[f64], n: usize, dt: f64, t: f64) -> Result<Vec<f64>> {
-    if n == 0 || positions.is_empty() || positions.len() % n != 0 {
+    if n == 0 || positions.is_empty() || !positions.len().is_multiple_of(n) {
         return Err(SimError::Shape {
             what: "positions".into(),
             expected: format!("(N, {n}) with N >= 1"),
