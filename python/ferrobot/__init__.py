@@ -11,20 +11,23 @@ Conventions (everywhere in the public API):
 
 from __future__ import annotations
 
-from . import errors, grasp, pipeline, robots, transforms
+from . import calibration, errors, grasp, pipeline, robots, scenarios, transforms
 from ._core import (
     Camera,
     CollisionChecker,
     CollisionWorld,
+    CommandDelay,
     IkResult,
     JointPID,
     JointTrajectory,
+    LinearPredictor,
     Planner,
     PlanResult,
     ResolvedRateController,
     Robot,
     RobotModel,
     SphereModel,
+    StreamGuard,
     World,
     __version__,
     depth_to_points,
@@ -34,6 +37,11 @@ from ._core import (
 )
 
 __all__ = [
+    "CommandDelay",
+    "LinearPredictor",
+    "StreamGuard",
+    "calibration",
+    "scenarios",
     "Camera",
     "CollisionChecker",
     "CollisionWorld",

@@ -368,6 +368,17 @@ class Robot:
         """Keys: times, desired, actual, max_error, rms_error, final_error."""
     def execute(self, trajectory: JointTrajectory | PlanResult, settle_time: float = 0.0) -> dict[str, F64]:
         """Runs a planned motion (joints matched by name; a PlanResult is sampled at the world's dt)."""
+    # Sim-to-real additions.
+    def set_link_inertial(self, link: str, mass: float, com: ArrayLike, inertia: ArrayLike) -> None:
+        """Replaces a link's mass, centre of mass (3,) and inertia (3, 3) at run time."""
+    def get_link_inertial(self, link: str) -> dict[str, Any]:
+        """The simulated link's mass, com (3,) and inertia (3, 3) in the link frame."""
+    def set_joint_dynamics(self, joint: str, damping: float, friction: float) -> None:
+        """Sets a DOF's viscous damping and dry (Coulomb) friction."""
+    def get_joint_dynamics(self, joint: str) -> tuple[float, float]:
+        """A DOF's (damping, friction)."""
+    def get_measured_joint_efforts(self) -> F64:
+        """Efforts the drives apply now (drive law at the current state, plus set efforts)."""
 
 class Camera:
     """Pinhole camera (OpenCV frame: x right, y down, z forward) fixed to the world or a robot link."""
@@ -665,3 +676,64 @@ def execute_trajectories(
     joint_indices: list[list[int]],
 ) -> None:
     """Robot.execute_trajectory once per (distinct) world, in parallel with the GIL released."""
+
+# Sim-to-real tools (crates/ferrobot-py/src/sim2real.rs).
+
+def urdf_check(
+    path: str | PathLike[str],
+    srdf: str | PathLike[str] | None = None,
+    package_dirs: list[str] | None = None,
+    skip_coverage: bool = False,
+) -> dict[str, Any]:
+    """Checks a URDF: robot, source, tree (text) and findings (severity, code, line, element, message)."""
+
+def gravity_torques(model: RobotModel, q: ArrayLike, gravity: ArrayLike) -> F64:
+    """Joint efforts holding the model still at q against gravity (base frame)."""
+
+def payload_regressor(model: RobotModel, q: ArrayLike, link: str, gravity: ArrayLike) -> F64:
+    """(num_dof, 4) regressor: efforts = Y @ [m, m cx, m cy, m cz]."""
+
+def identify_payload(
+    model: RobotModel,
+    link: str,
+    qs: ArrayLike,
+    efforts: ArrayLike,
+    gravity: ArrayLike,
+    dofs: list[int] | None = None,
+) -> dict[str, Any]:
+    """Payload (mass, com) on a link from static efforts, with the fit quality."""
+
+def identify_link_masses(
+    model: RobotModel, links: list[str], qs: ArrayLike, efforts: ArrayLike, gravity: ArrayLike
+) -> dict[str, Any]:
+    """Mass offsets of links from static efforts, with the fit quality."""
+
+def identify_friction(velocities: ArrayLike, efforts: ArrayLike, min_speed: float = 1e-3) -> dict[str, float]:
+    """Coulomb and viscous friction fitted to (velocity, effort) samples."""
+
+def trajectory_sample(positions: ArrayLike, dt: float, t: float) -> F64:
+    """A trajectory (N, n) sampled every dt, at time t (interpolated, held at the ends)."""
+
+class CommandDelay:
+    """Commands issued at t take effect at t + delay."""
+
+    def __init__(self, delay: float, width: int) -> None: ...
+    @property
+    def delay(self) -> float: ...
+    @property
+    def pending(self) -> int: ...
+    def push(self, t: float, command: ArrayLike) -> None: ...
+    def pop_due(self, t: float) -> F64 | None: ...
+    def clear(self) -> None: ...
+
+class LinearPredictor:
+    """Linear extrapolation of a command stream by a horizon."""
+
+    def __init__(self, horizon: float) -> None: ...
+    def update(self, t: float, c: ArrayLike) -> F64: ...
+
+class StreamGuard:
+    """Holds on a command dropout and rate-limits the resume."""
+
+    def __init__(self, timeout: float, max_velocity: ArrayLike) -> None: ...
+    def update(self, t: float, command: ArrayLike | None, current: ArrayLike) -> dict[str, Any]: ...

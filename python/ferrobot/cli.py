@@ -294,6 +294,40 @@ def cmd_generate(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_check(args: argparse.Namespace) -> int:
+    """``ferrobot check``: the tree and the findings; exit 1 on errors (--strict: on warnings too)."""
+    import json
+    import tempfile
+    from pathlib import Path
+
+    from ._core import bundled_robot, urdf_check
+
+    with tempfile.TemporaryDirectory() as tmp:
+        path, srdf = args.urdf, args.srdf
+        if args.urdf == "panda" and not Path("panda").exists():
+            urdf_text, srdf_text, _ = bundled_robot("panda")
+            path = str(Path(tmp) / "panda.urdf")
+            Path(path).write_text(urdf_text)
+            if srdf is None:
+                srdf = str(Path(tmp) / "panda.srdf")
+                Path(srdf).write_text(srdf_text)
+        report = urdf_check(path, srdf=srdf, package_dirs=args.package_dir, skip_coverage=args.no_coverage)
+    findings = report["findings"]
+    count = {s: sum(f["severity"] == s for f in findings) for s in ("error", "warning", "info")}
+    failed = count["error"] > 0 or (args.strict and count["warning"] > 0)
+    if args.json:
+        print(json.dumps({**report, "counts": count, "ok": not failed}, indent=2))
+    else:
+        print(report["tree"], end="")
+        print()
+        shown = [f for f in findings if args.verbose or f["severity"] != "info" or f["code"] == "sphere-coverage"]
+        for f in shown:
+            where = f"{report['source']}:{f['line']}" if f["line"] else report["source"]
+            print(f"{where}: {f['severity']}: [{f['code']}] {f['message']}")
+        print(f"{count['error']} error(s), {count['warning']} warning(s), {count['info']} info")
+    return 1 if failed else 0
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="ferrobot", description=__doc__)
     parser.add_argument("--version", action="store_true", help="print the version and exit")
@@ -318,6 +352,15 @@ def main(argv: list[str] | None = None) -> int:
         "--workers", type=int, default=None, help="batch: episodes run in this many processes (default: one per core)"
     )
     p_demo.set_defaults(func=cmd_demo)
+    p_check = sub.add_parser("check", help="check a URDF: tree, inertials, limits, meshes, axes, self-collision")
+    p_check.add_argument("urdf", help="URDF file ('panda': the bundled Panda)")
+    p_check.add_argument("--srdf", default=None, help="SRDF: named states and disabled collision pairs")
+    p_check.add_argument("--package-dir", action="append", default=None, help="root for package:// (repeatable)")
+    p_check.add_argument("--json", action="store_true", help="print the report as JSON")
+    p_check.add_argument("--strict", action="store_true", help="exit 1 on warnings too")
+    p_check.add_argument("--no-coverage", action="store_true", help="skip the sphere-model coverage check")
+    p_check.add_argument("--verbose", action="store_true", help="print info findings too")
+    p_check.set_defaults(func=cmd_check)
     p_serve = sub.add_parser("serve-grasp", help="serve grasp detection over HTTP (FastAPI + uvicorn)")
     p_serve.add_argument("--host", default="127.0.0.1", help="address to bind (default 127.0.0.1)")
     p_serve.add_argument("--port", type=int, default=5001, help="port (default 5001)")

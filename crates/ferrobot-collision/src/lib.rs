@@ -26,6 +26,7 @@ pub mod single;
 pub mod sphere;
 pub mod spherize;
 pub mod trimesh;
+pub mod urdf_check;
 pub mod world;
 pub mod world_grid;
 

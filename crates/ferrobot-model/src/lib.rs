@@ -10,6 +10,7 @@
 //! matrices; everything expressed in the base link's frame.
 
 pub mod chain;
+pub mod check;
 pub mod error;
 pub mod geometry;
 mod groups;

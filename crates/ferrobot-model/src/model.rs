@@ -8,6 +8,7 @@ use nalgebra::Isometry3;
 
 use crate::chain::KinematicChain;
 use crate::error::{ModelError, Result, SourceLocation};
+use crate::geometry::Inertial;
 use crate::joint::{Joint, JointCoupling};
 use crate::link::Link;
 use crate::srdf::Srdf;
@@ -477,5 +478,26 @@ impl RobotModel {
             });
         }
         crate::error::check_finite(what, q)
+    }
+
+    /// Replaces the mass properties of link `link` (run-time calibration;
+    /// see [`crate::check::inertial_problem`] for what is accepted: finite
+    /// pose, mass >= 0, and for mass > 0 a symmetric, positive definite
+    /// inertia meeting the triangle inequality).
+    pub fn set_link_inertial(&mut self, link: usize, inertial: Inertial) -> Result<()> {
+        let name = self
+            .links
+            .get(link)
+            .map(|l| l.name.clone())
+            .ok_or_else(|| {
+                ModelError::InvalidArgument(format!("link index {link} out of range"))
+            })?;
+        if let Some(problem) = crate::check::inertial_problem(&inertial) {
+            return Err(ModelError::InvalidArgument(format!(
+                "link '{name}': {problem}"
+            )));
+        }
+        self.links[link].inertial = inertial;
+        Ok(())
     }
 }

@@ -12,6 +12,7 @@ mod model;
 mod planning;
 mod scene;
 mod sim;
+mod sim2real;
 
 use pyo3::prelude::*;
 
@@ -71,6 +72,22 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(grasp::grasp_camera_to_world, m)?)?;
     m.add_function(wrap_pyfunction!(batch::step_worlds, m)?)?;
     m.add_function(wrap_pyfunction!(batch::execute_trajectories, m)?)?;
+    sim2real_register(m)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}
+
+/// Registers the sim-to-real tools (`sim2real.rs`).
+fn sim2real_register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<sim2real::PyCommandDelay>()?;
+    m.add_class::<sim2real::PyLinearPredictor>()?;
+    m.add_class::<sim2real::PyStreamGuard>()?;
+    m.add_function(wrap_pyfunction!(sim2real::urdf_check, m)?)?;
+    m.add_function(wrap_pyfunction!(sim2real::gravity_torques, m)?)?;
+    m.add_function(wrap_pyfunction!(sim2real::payload_regressor, m)?)?;
+    m.add_function(wrap_pyfunction!(sim2real::identify_payload, m)?)?;
+    m.add_function(wrap_pyfunction!(sim2real::identify_link_masses, m)?)?;
+    m.add_function(wrap_pyfunction!(sim2real::identify_friction, m)?)?;
+    m.add_function(wrap_pyfunction!(sim2real::trajectory_sample, m)?)?;
     Ok(())
 }

@@ -597,6 +597,16 @@ fn indices_arg(ix: Option<Vec<i64>>) -> PyResult<Option<Vec<usize>>> {
 }
 
 impl PyRobot {
+    pub(crate) fn with_robot<T>(
+        &self,
+        f: impl FnOnce(
+            &mut ferrobot_sim::Robot,
+            &mut ferrobot_sim::state::PhysState,
+        ) -> ferrobot_sim::Result<T>,
+    ) -> PyResult<T> {
+        self.with(f)
+    }
+
     fn with<T>(
         &self,
         f: impl FnOnce(
@@ -1120,6 +1130,43 @@ impl PyRobot {
         let (p, v) = (pick(s.positions), pick(s.velocities));
         let dt = s.dt;
         self.run_trajectory(py, p, Some(v), dt, Some(ix), settle_time)
+    }
+
+    // Sim-to-real additions (bodies in sim2real.rs).
+
+    /// Replaces `link`'s mass (kg, >= 0), centre of mass (3,) and inertia
+    /// about it (3, 3; link axes) at run time; the next step uses them.
+    fn set_link_inertial(
+        &self,
+        link: &str,
+        mass: f64,
+        com: &Bound<'_, PyAny>,
+        inertia: &Bound<'_, PyAny>,
+    ) -> PyResult<()> {
+        crate::sim2real::set_link_inertial(self, link, mass, com, inertia)
+    }
+
+    /// `link`'s simulated mass properties: dict with mass, com, inertia.
+    fn get_link_inertial<'py>(&self, py: Python<'py>, link: &str) -> PyResult<Bound<'py, PyDict>> {
+        crate::sim2real::get_link_inertial(py, self, link)
+    }
+
+    /// Sets a DOF's viscous damping (N·m·s/rad) and dry friction (N·m).
+    fn set_joint_dynamics(&self, joint: &str, damping: f64, friction: f64) -> PyResult<()> {
+        crate::sim2real::set_joint_dynamics(self, joint, damping, friction)
+    }
+
+    /// A DOF's (damping, friction).
+    fn get_joint_dynamics(&self, joint: &str) -> PyResult<(f64, f64)> {
+        crate::sim2real::get_joint_dynamics(self, joint)
+    }
+
+    /// Efforts the drives apply now (DOF order; plus `set_joint_efforts`).
+    fn get_measured_joint_efforts<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        crate::sim2real::applied_efforts(py, self)
     }
 }
 

@@ -15,6 +15,7 @@
 //! API (Rapier's `f32` glam types stay inside). Stepping is deterministic:
 //! the same inputs give the same states bit for bit.
 
+pub mod calibration;
 pub mod camera;
 pub mod controllers;
 pub mod conventions;
@@ -23,6 +24,7 @@ pub mod drives;
 pub mod error;
 pub mod gripper;
 pub mod hooks;
+pub mod latency;
 pub mod objects;
 pub mod robot;
 pub mod state;

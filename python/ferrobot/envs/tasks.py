@@ -315,7 +315,11 @@ class FerrobotEnv(gym.Env):
     def _build_cameras(self) -> dict[str, Any]:
         specs = [CameraSpec(c.name, c.width, c.height, c.fov_deg, c.link, c.pose) for c in self.camera_specs]
         return make_cameras(
-            self.world, self.robot, self.scene_camera.get_world_transform(), specs, scene_fov_deg=scene_fov(self.spec_scene)
+            self.world,
+            self.robot,
+            self.scene_camera.get_world_transform(),
+            specs,
+            scene_fov_deg=scene_fov(self.spec_scene),
         )
 
     # -- gymnasium API ----------------------------------------------------------------------------------------
