@@ -144,7 +144,10 @@ impl VelocitySolver {
 
             if !is_last_substep {
                 multibody.update_velocities(bodies);
-                multibody.update_mass_matrix(params.dt, bodies);
+                // The mass matrix and its factorisations are kept from the
+                // start of the step (as the contact jacobians, which are
+                // frozen for the whole step): only the free accelerations
+                // are recomputed at the new configuration and velocities.
                 multibody.update_acceleration(params.dt, bodies);
 
                 let mut solver_vels_incr = self
