@@ -367,6 +367,25 @@ impl Multibody {
         &self.inv_augmented_mass
     }
 
+    /// Solves `M · x = b` in place, `M` being the augmented mass matrix, for a
+    /// vector `b` over all the generalized coordinates (length [`Self::ndofs`]).
+    ///
+    /// The factorisation only covers the non-kinematic DoFs, in the order
+    /// given by the kinematic-DoF rearrangement; this moves `b` into that
+    /// order, solves, and moves the result back (kinematic entries read 0).
+    /// Calling `inv_augmented_mass().solve_mut` on a full-length vector
+    /// instead fails ("LU solve matrix dimension mismatch") as soon as the
+    /// multibody has a kinematic joint.
+    pub fn solve_augmented_mass_mut<S: StorageMut<Real, Dyn>>(
+        &self,
+        b: &mut na::Matrix<Real, Dyn, na::U1, S>,
+    ) {
+        self.augmented_mass_indices
+            .with_rearranged_rows_mut(b, |b| {
+                self.inv_augmented_mass.solve_mut(b);
+            });
+    }
+
     /// The first link of this multibody.
     #[inline]
     pub fn root(&self) -> &MultibodyLink {
@@ -1200,8 +1219,7 @@ impl Multibody {
             for k in 0..ndofs {
                 jacobians[j_id + ndofs + k] = jacobians[j_id + k];
             }
-            self.inv_augmented_mass
-                .solve_mut(&mut jacobians.rows_mut(j_id + ndofs, ndofs));
+            self.solve_augmented_mass_mut(&mut jacobians.rows_mut(j_id + ndofs, ndofs));
 
             // lhs = Jᵀ M⁻¹ J = Σ J[k]·WJ[k]; only g1/g2 entries of J are nonzero.
             let lhs = jacobians[j_id + ndofs + g2] - c.coeff * jacobians[j_id + ndofs + g1];

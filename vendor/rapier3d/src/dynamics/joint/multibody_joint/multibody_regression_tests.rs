@@ -648,3 +648,64 @@ fn joint_friction_bounds_the_joint_force() {
         "an oversized friction bound must stay inert, not chatter: {extreme}"
     );
 }
+
+/// A kinematic multibody joint ahead of joints with a motor, a limit, dry
+/// friction and a DoF coupling: each of these rows solves `M⁻¹·J` over all
+/// the DoFs while the factorisation excludes the kinematic one; the solves
+/// used to skip the kinematic-DoF rearrangement `fill_jacobians` applies and
+/// panicked ("LU solve matrix dimension mismatch").
+#[test]
+#[cfg(feature = "dim3")]
+fn kinematic_joint_with_motor_limit_friction_and_coupling() {
+    let mut world = PhysicsWorld::new();
+    world.gravity = Vector::ZERO;
+    let body = |world: &mut PhysicsWorld, x: Real| {
+        world.insert_body(
+            RigidBodyBuilder::dynamic()
+                .translation(Vector::new(x, 0.0, 0.0))
+                .additional_mass(1.0),
+        )
+    };
+    let base = world.insert_body(RigidBodyBuilder::fixed());
+    let (a, b, c) = (body(&mut world, 0.5), body(&mut world, 1.0), body(&mut world, 1.5));
+    let hinge = || {
+        RevoluteJointBuilder::new(Vector::Z).local_anchor2(Vector::new(-0.5, 0.0, 0.0))
+    };
+    world
+        .multibody_joints
+        .insert_kinematic(base, a, hinge(), true)
+        .unwrap();
+    world.insert_multibody_joint(
+        a,
+        b,
+        hinge().motor_position(0.5, 100.0, 20.0).limits([-1.0, 1.0]),
+    );
+    world.insert_multibody_joint(b, c, hinge());
+    let (lb, lc) = (
+        *world.multibody_joints.rigid_body_link(b).unwrap(),
+        *world.multibody_joints.rigid_body_link(c).unwrap(),
+    );
+    let mb = world.multibody_joints.get_multibody_mut(lb.multibody).unwrap();
+    let fb = mb.link(lb.id).unwrap().assembly_id();
+    mb.frictions_mut()[fb] = 0.01;
+    mb.add_dof_coupling(MultibodyDofCoupling {
+        link1: lb.id,
+        dof1: 0,
+        axis1: 3,
+        link2: lc.id,
+        dof2: 0,
+        axis2: 3,
+        coeff: -1.0,
+        offset: 0.0,
+    });
+
+    for _ in 0..240 {
+        world.step();
+    }
+
+    let mb = world.multibody_joints.get_multibody(lb.multibody).unwrap();
+    let qb = mb.link(lb.id).unwrap().joint().coords()[3];
+    let qc = mb.link(lc.id).unwrap().joint().coords()[3];
+    assert!((qb - 0.5).abs() < 0.02, "the motor reaches its target: {qb}");
+    assert!((qc + qb).abs() < 0.02, "the coupling holds: {qb} {qc}");
+}
