@@ -118,6 +118,13 @@ pub struct Multibody {
     acc_augmented_mass: DMatrix<Real>,
     acc_inv_augmented_mass: LU<Real, Dyn, Dyn>,
 
+    // `M⁻¹·eᵢ` (full length, kinematic entries 0) for every DoF `i` with a
+    // motor, limit, dry-friction or coupling row, computed with each
+    // factorisation: these rows are rebuilt at every substep while `M` is
+    // kept for the whole step, so their solves are done once per step.
+    inv_mass_columns: DMatrix<Real>,
+    inv_mass_column_valid: Vec<bool>,
+
     ndofs: usize,
     pub(crate) root_is_dynamic: bool,
     pub(crate) solver_id: u32,
@@ -160,6 +167,8 @@ impl Multibody {
             inv_augmented_mass: LU::new(DMatrix::zeros(0, 0)),
             acc_augmented_mass: DMatrix::zeros(0, 0),
             acc_inv_augmented_mass: LU::new(DMatrix::zeros(0, 0)),
+            inv_mass_columns: DMatrix::zeros(0, 0),
+            inv_mass_column_valid: Vec::new(),
             augmented_mass_indices: IndexSequence::new(),
             ndofs: 0,
             solver_id: 0,
@@ -384,6 +393,81 @@ impl Multibody {
             .with_rearranged_rows_mut(b, |b| {
                 self.inv_augmented_mass.solve_mut(b);
             });
+    }
+
+    /// Writes `M⁻¹·eᵢ` (the `dof`-th column of the inverse augmented mass
+    /// matrix, over all the generalized coordinates) into `out`: copied from
+    /// the columns computed with the last factorisation for the DoFs that
+    /// carry a motor, limit, dry-friction or coupling row, solved otherwise.
+    pub fn inv_augmented_mass_column<S: StorageMut<Real, Dyn>>(
+        &self,
+        dof: usize,
+        out: &mut na::Matrix<Real, Dyn, na::U1, S>,
+    ) {
+        if self.inv_mass_columns.nrows() == out.nrows()
+            && self.inv_mass_column_valid.get(dof).copied().unwrap_or(false)
+        {
+            out.copy_from(&self.inv_mass_columns.column(dof));
+        } else {
+            out.fill(0.0);
+            out[dof] = 1.0;
+            self.solve_augmented_mass_mut(out);
+        }
+    }
+
+    /// Computes the cached `M⁻¹·eᵢ` columns (see
+    /// [`Self::inv_augmented_mass_column`]) after a factorisation.
+    fn update_inv_mass_columns(&mut self) {
+        let n = self.ndofs;
+        if self.inv_mass_columns.nrows() != n {
+            self.inv_mass_columns = DMatrix::zeros(n, n);
+        }
+        self.inv_mass_column_valid.clear();
+        self.inv_mass_column_valid.resize(n, false);
+        for link in self.links.iter() {
+            let data = &link.joint.data;
+            let (locked, limits, motors) = (
+                data.locked_axes.bits(),
+                data.limit_axes.bits(),
+                data.motor_axes.bits(),
+            );
+            let mut dof = link.assembly_id;
+            for a in 0..SPATIAL_DIM {
+                if (locked >> a) & 1 == 0 {
+                    // A limit row needs `M⁻¹·eᵢ` only once its limit is
+                    // crossed (see `unit_joint_limit_constraint`); one crossed
+                    // later in the step is solved when it happens.
+                    let q = link.joint.coords[a];
+                    let limit_active = (limits >> a) & 1 != 0
+                        && (q < data.limits[a].min || q > data.limits[a].max);
+                    if limit_active || (motors >> a) & 1 != 0 || self.frictions[dof] > 0.0 {
+                        self.inv_mass_column_valid[dof] = true;
+                    }
+                    dof += 1;
+                }
+            }
+        }
+        for c in &self.couplings {
+            for g in [
+                self.links[c.link1].assembly_id + c.dof1,
+                self.links[c.link2].assembly_id + c.dof2,
+            ] {
+                if g < n {
+                    self.inv_mass_column_valid[g] = true;
+                }
+            }
+        }
+        for i in 0..n {
+            if self.inv_mass_column_valid[i] {
+                let mut col = self.inv_mass_columns.column_mut(i);
+                col.fill(0.0);
+                col[i] = 1.0;
+                self.augmented_mass_indices
+                    .with_rearranged_rows_mut(&mut col, |b| {
+                        self.inv_augmented_mass.solve_mut(b);
+                    });
+            }
+        }
     }
 
     /// The first link of this multibody.
@@ -1101,6 +1185,7 @@ impl Multibody {
                 .view((0, 0), (effective_dim, effective_dim))
                 .into_owned(),
         );
+        self.update_inv_mass_columns();
     }
 
     /// Per-DoF inverse joint-space inertia `diag(M⁻¹)` at the current configuration, where `M`
@@ -1212,14 +1297,28 @@ impl Multibody {
             let q1 = self.links[c.link1].joint().coords()[c.axis1];
             let q2 = self.links[c.link2].joint().coords()[c.axis2];
 
-            // Jacobian J = e_{g2} − coeff·e_{g1}, then WJ = M⁻¹ J.
-            jacobians.rows_mut(j_id, ndofs * 2).fill(0.0);
+            // Jacobian J = e_{g2} − coeff·e_{g1}, then WJ = M⁻¹ J = M⁻¹e_{g2} − coeff·M⁻¹e_{g1}.
+            jacobians.rows_mut(j_id, ndofs).fill(0.0);
             jacobians[j_id + g2] += 1.0;
             jacobians[j_id + g1] -= c.coeff;
-            for k in 0..ndofs {
-                jacobians[j_id + ndofs + k] = jacobians[j_id + k];
+            let cached = |g: usize| {
+                self.inv_mass_columns.nrows() == ndofs
+                    && self.inv_mass_column_valid.get(g).copied().unwrap_or(false)
+            };
+            if cached(g1) && cached(g2) {
+                let (col1, col2) = (
+                    self.inv_mass_columns.column(g1),
+                    self.inv_mass_columns.column(g2),
+                );
+                for k in 0..ndofs {
+                    jacobians[j_id + ndofs + k] = col2[k] - c.coeff * col1[k];
+                }
+            } else {
+                for k in 0..ndofs {
+                    jacobians[j_id + ndofs + k] = jacobians[j_id + k];
+                }
+                self.solve_augmented_mass_mut(&mut jacobians.rows_mut(j_id + ndofs, ndofs));
             }
-            self.solve_augmented_mass_mut(&mut jacobians.rows_mut(j_id + ndofs, ndofs));
 
             // lhs = Jᵀ M⁻¹ J = Σ J[k]·WJ[k]; only g1/g2 entries of J are nonzero.
             let lhs = jacobians[j_id + ndofs + g2] - c.coeff * jacobians[j_id + ndofs + g1];
