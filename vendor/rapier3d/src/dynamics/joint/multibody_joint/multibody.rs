@@ -38,30 +38,6 @@ impl Force {
     }
 }
 
-#[cfg(feature = "dim2")]
-fn concat_rb_mass_matrix(mass: Vector, inertia: Real) -> SMatrix<Real, SPATIAL_DIM, SPATIAL_DIM> {
-    let mut result = SMatrix::<Real, SPATIAL_DIM, SPATIAL_DIM>::zeros();
-    result[(0, 0)] = mass.x;
-    result[(1, 1)] = mass.y;
-    result[(2, 2)] = inertia;
-    result
-}
-
-#[cfg(feature = "dim3")]
-fn concat_rb_mass_matrix(
-    mass: Vector,
-    inertia: na::Matrix3<Real>,
-) -> SMatrix<Real, SPATIAL_DIM, SPATIAL_DIM> {
-    let mut result = SMatrix::<Real, SPATIAL_DIM, SPATIAL_DIM>::zeros();
-    result[(0, 0)] = mass.x;
-    result[(1, 1)] = mass.y;
-    result[(2, 2)] = mass.z;
-    result
-        .fixed_view_mut::<ANG_DIM, ANG_DIM>(DIM, DIM)
-        .copy_from(&inertia);
-    result
-}
-
 /// A holonomic coupling between two generalized coordinates of a single
 /// [`Multibody`], `q2 = coeff · q1 + offset`, enforced as a velocity-level
 /// equality constraint. This is how MuJoCo's `<equality><joint>` (a polynomial
@@ -141,6 +117,8 @@ pub struct Multibody {
     coriolis_v: Vec<OMatrix<Real, Dim, Dyn>>,
     coriolis_w: Vec<OMatrix<Real, AngDim, Dyn>>,
     i_coriolis_dt: Jacobian<Real>,
+    // `B·J` of the link being assembled (body mass matrix times jacobian).
+    mass_times_jacobian: Jacobian<Real>,
 }
 impl Default for Multibody {
     fn default() -> Self {
@@ -176,6 +154,7 @@ impl Multibody {
             coriolis_v: Vec::new(),
             coriolis_w: Vec::new(),
             i_coriolis_dt: Jacobian::zeros(0),
+            mass_times_jacobian: Jacobian::zeros(0),
             root_is_dynamic: false,
             self_contacts_enabled,
             couplings: Vec::new(),
@@ -942,6 +921,7 @@ impl Multibody {
             self.coriolis_w =
                 vec![OMatrix::<Real, AngDim, Dyn>::zeros(self.ndofs); self.links.len()];
             self.i_coriolis_dt = Jacobian::zeros(self.ndofs);
+            self.mass_times_jacobian = Jacobian::zeros(self.ndofs);
         }
 
         let mut curr_assembly_id = 0;
@@ -972,28 +952,43 @@ impl Multibody {
                 }
             }
 
-            #[allow(unused_mut)] // mut is needed for 3D but not for 2D.
-            let mut augmented_inertia = rb_inertia;
-
+            // Derivative of gyroscopic forces.
             #[cfg(feature = "dim3")]
+            let gyroscopic_matrix = rb.vels.angvel.gcross_matrix() * rb_inertia
+                - (rb_inertia * rb.vels.angvel).gcross_matrix();
+
+            // The link's jacobian is zero outside the DoFs of its ancestors
+            // and its own, which all come before the end of its own DoFs
+            // (parents precede children, assembly ids are contiguous): the
+            // products below are restricted to those `end` columns. The body
+            // mass matrix `B = diag(m, I)` is applied by its structure
+            // (`BJ = [m∘Jv; I·Jw]`), without a 6x6 product nor the temporary
+            // `quadform` allocates, and `Jᵀ·BJ` goes to both matrices.
+            let end = link.assembly_id + link.joint.ndofs();
             {
-                // Derivative of gyroscopic forces.
-                let gyroscopic_matrix = rb.vels.angvel.gcross_matrix() * rb_inertia
-                    - (rb_inertia * rb.vels.angvel).gcross_matrix();
-
-                augmented_inertia += gyroscopic_matrix * dt;
+                let jac = body_jacobian.columns(0, end);
+                let mut bj = self.mass_times_jacobian.columns_mut(0, end);
+                let rb_mass_na = vect_to_na(rb_mass);
+                for (mut out, col) in bj.column_iter_mut().zip(jac.column_iter()) {
+                    for k in 0..DIM {
+                        out[k] = rb_mass_na[k] * col[k];
+                    }
+                }
+                #[cfg(feature = "dim3")]
+                bj.fixed_rows_mut::<ANG_DIM>(DIM).gemm(
+                    1.0,
+                    &mat_to_na(rb_inertia),
+                    &jac.fixed_rows::<ANG_DIM>(DIM),
+                    0.0,
+                );
+                #[cfg(feature = "dim2")]
+                for (mut out, col) in bj.column_iter_mut().zip(jac.column_iter()) {
+                    out[DIM] = rb_inertia * col[DIM];
+                }
+                self.augmented_mass
+                    .view_mut((0, 0), (end, end))
+                    .gemm_tr(1.0, &jac, &bj, 1.0);
             }
-
-            // TODO: optimize that (knowing the structure of the augmented inertia matrix).
-            // TODO: this could be better optimized in 2D.
-            #[allow(clippy::useless_conversion)] // Needed in 3D, no-op in 2D
-            let rb_mass_matrix_wo_gyro = concat_rb_mass_matrix(rb_mass, rb_inertia.into());
-            #[allow(clippy::useless_conversion)] // Needed in 3D, no-op in 2D
-            let rb_mass_matrix = concat_rb_mass_matrix(rb_mass, augmented_inertia.into());
-            self.augmented_mass
-                .quadform(1.0, &rb_mass_matrix_wo_gyro, body_jacobian, 1.0);
-            self.acc_augmented_mass
-                .quadform(1.0, &rb_mass_matrix, body_jacobian, 1.0);
 
             /*
              *
@@ -1120,8 +1115,23 @@ impl Multibody {
                 i_coriolis_dt_w.gemm(dt, &mat_to_na(rb_inertia), coriolis_w, 0.0);
             }
 
-            self.acc_augmented_mass
-                .gemm_tr(1.0, rb_j, &self.i_coriolis_dt, 1.0);
+            // acc += Jᵀ·(B·J + dt·[0; G·Jw] + dt·I·C) over the `end` first
+            // columns (the body mass, gyroscopic and Coriolis terms at once).
+            {
+                let jac = rb_j.columns(0, end);
+                let mut rhs = self.i_coriolis_dt.columns_mut(0, end);
+                rhs += &self.mass_times_jacobian.columns(0, end);
+                #[cfg(feature = "dim3")]
+                rhs.fixed_rows_mut::<ANG_DIM>(DIM).gemm(
+                    dt,
+                    &mat_to_na(gyroscopic_matrix),
+                    &jac.fixed_rows::<ANG_DIM>(DIM),
+                    1.0,
+                );
+                self.acc_augmented_mass
+                    .view_mut((0, 0), (end, end))
+                    .gemm_tr(1.0, &jac, &rhs, 1.0);
+            }
         }
 
         /*
