@@ -8,9 +8,8 @@ use ferrobot_model::{JointCoupling, JointKind, RobotModel, Shape};
 use nalgebra::{Isometry3, Matrix3, Unit, UnitQuaternion, Vector3};
 use rapier3d::math::{Matrix, Vector};
 use rapier3d::prelude::{
-    ActiveHooks, ColliderBuilder, GenericJoint, Group, InteractionGroups, InteractionTestMode,
-    JointAxesMask, JointAxis, MassProperties, MultibodyDofCoupling, MultibodyLinkId,
-    RigidBodyBuilder, RigidBodyHandle, SharedShape,
+    ActiveHooks, ColliderBuilder, GenericJoint, JointAxesMask, JointAxis, MassProperties,
+    MultibodyDofCoupling, MultibodyLinkId, RigidBodyBuilder, RigidBodyHandle, SharedShape,
 };
 
 use crate::convert::{from_pose, to_pose};
@@ -116,9 +115,6 @@ pub struct Robot {
     pub(crate) applied_substeps: usize,
     /// The world's substeps (for dynamic objects), as of the last step.
     pub(crate) world_substeps: usize,
-    /// Whether its links' allowed pairs are excluded by collision groups
-    /// (else by the world's contact-filter hook).
-    pub(crate) uses_groups: bool,
 }
 
 /// The rotation taking the x axis to `axis`.
@@ -161,44 +157,6 @@ fn link_shape(shape: &Shape) -> Option<(SharedShape, Isometry3<f64>)> {
     })
 }
 
-/// Collision groups excluding a robot's allowed-collision pairs, one per
-/// model link (link `l` is a member of group `l` and filters out the groups
-/// of the links it may not collide with, itself included), or None when the
-/// model has more links than there are groups (32). Objects and the ground
-/// keep the default groups (member of all, filter all), so they collide with
-/// every link. Only one robot of a world can use them (another robot's link
-/// in group `k` would be filtered out by this robot's links that exclude
-/// link `k`): the others use the contact-filter hook, which costs more
-/// (Rapier calls it on every pair at every step and does not recycle the
-/// contacts of hooked pairs).
-pub(crate) fn link_collision_groups(model: &RobotModel) -> Option<Vec<InteractionGroups>> {
-    let n = model.links().len();
-    if n > 32 {
-        return None;
-    }
-    let mut filters = vec![Group::ALL; n];
-    for (l, f) in filters.iter_mut().enumerate() {
-        *f &= !Group::from_bits_truncate(1 << l);
-    }
-    for (a, b, _) in ferrobot_collision::AllowedCollisions::from_model(model).pairs() {
-        filters[a] &= !Group::from_bits_truncate(1 << b);
-        filters[b] &= !Group::from_bits_truncate(1 << a);
-    }
-    Some(
-        filters
-            .into_iter()
-            .enumerate()
-            .map(|(l, f)| {
-                InteractionGroups::new(
-                    Group::from_bits_truncate(1 << l),
-                    f,
-                    InteractionTestMode::And,
-                )
-            })
-            .collect(),
-    )
-}
-
 /// Minimum mass and inertia given to a movable body whose links carry no
 /// inertial (a multibody needs positive inertia on every DOF).
 const MIN_MASS: f32 = 1e-2;
@@ -208,17 +166,12 @@ impl Robot {
     /// Builds the articulation of `model` in `state`. `robot_index` and
     /// `seg_base` tag the colliders (robot link `l` gets segmentation id
     /// `seg_base + l`).
-    ///
-    /// `link_groups` (one per model link, from [`link_collision_groups`]):
-    /// the links' allowed-collision pairs are excluded by collision groups
-    /// instead of the contact-filter hook.
     pub(crate) fn build(
         state: &mut PhysState,
         model: Arc<RobotModel>,
         options: &RobotOptions,
         robot_index: usize,
         seg_base: u32,
-        link_groups: Option<&[InteractionGroups]>,
     ) -> Result<Self> {
         if !crate::convert::pose_is_finite(&options.pose) {
             return Err(SimError::NonFinite(format!(
@@ -326,11 +279,8 @@ impl Robot {
                     .density(0.0)
                     .friction(options.friction as f32)
                     .position(to_pose(&(offset[l] * geom.origin * shape_frame)))
+                    .active_hooks(ActiveHooks::FILTER_CONTACT_PAIRS)
                     .user_data(user_data(seg_base + l as u32, Some(robot_index), l));
-                let collider = match link_groups {
-                    Some(groups) => collider.collision_groups(groups[l]),
-                    None => collider.active_hooks(ActiveHooks::FILTER_CONTACT_PAIRS),
-                };
                 let body = bodies[body_of[l]];
                 state
                     .colliders
@@ -442,7 +392,6 @@ impl Robot {
             applied_iterations: 0,
             applied_substeps: 0,
             world_substeps: 1,
-            uses_groups: link_groups.is_some(),
         };
         if let Some(mb) = robot.multibody_mut(state) {
             // Joint damping and friction from the URDF's <dynamics> (Rapier

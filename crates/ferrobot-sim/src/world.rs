@@ -352,21 +352,7 @@ impl World {
         let seg_base = self.next_seg();
         // Work on a copy so that a failure leaves the world untouched.
         let mut state = self.state.clone();
-        // Collision groups for the first robot with at most 32 links, the
-        // contact-filter hook for the others (see `link_collision_groups`).
-        let groups = if self.robots.iter().any(|r| r.uses_groups) {
-            None
-        } else {
-            crate::robot::link_collision_groups(&model)
-        };
-        let robot = Robot::build(
-            &mut state,
-            model.clone(),
-            options,
-            index,
-            seg_base,
-            groups.as_deref(),
-        )?;
+        let robot = Robot::build(&mut state, model.clone(), options, index, seg_base)?;
         self.state = state;
         for (l, link) in model.links().iter().enumerate() {
             self.labels.push(SegLabel {
