@@ -175,14 +175,19 @@ def main() -> None:
             "mujoco_integrator": "implicitfast",
             "mujoco_solver": "Newton (default), pyramidal cones (default)",
             "mujoco_sleep": "enabled for 'mujoco_*' figures (Rapier sleeps resting bodies), off for 'mujoco_default_*'",
-            "ferrobot_robot_extra_substeps": "4 while the robot touches something or nears a joint limit, else 0",
+            "ferrobot_substeps": (
+                "base step 1 substep; dynamic objects solver_iterations (4); the robot 4 + 4 while it touches "
+                "something or nears a joint limit, 4 while it moves, 1 while it holds still"
+            ),
+            "ferrobot_rapier": "vendored rapier3d 0.36.1 with the patches in vendor/rapier3d/FERROBOT.md",
             "load_average_start": load,
             "cpus": os.cpu_count(),
         }
     }
     print(
         f"Settings: dt = 1/{round(1 / s.dt)} s, gravity {s.gravity} m/s^2, {s.solver_iterations} solver iterations "
-        f"(ferrobot: world substeps, +4 for the robot while it touches something or nears a limit; "
+        f"(ferrobot: substeps per body: objects {s.solver_iterations}, the robot {s.solver_iterations}+4 while it "
+        f"touches something or nears a limit, {s.solver_iterations} while it moves, 1 while it holds still; "
         f"MuJoCo: iterations={s.solver_iterations}, Newton, implicitfast), "
         f"drives kp {s.stiffness:g} kd {s.damping:g} clamped to URDF efforts, robot gravity-compensated; "
         f"MuJoCo {mujoco.__version__}; load average {load[0]:.2f} on {os.cpu_count()} CPUs"

@@ -270,12 +270,14 @@ def test_mimic_fingers_stay_coupled_under_load():
     r.close_gripper(force=40.0)
     # The fingers slam shut at about 2 m/s; at the impacts the coupling, solved as a
     # constraint, lags by up to 1 mm for a step. Once squeezing, it holds to 0.1 mm.
+    # The impacts fall in steps 8-13 (the second finger's moves by a step or two with
+    # the solver's settings): the first 16 steps (67 ms) count as the transient.
     transient, worst, opening = 0.0, 0.0, []
     for k in range(180):
         w.step()
         a, left = asymmetry()
         opening.append(left)
-        if k < 12:
+        if k < 16:
             transient = max(transient, a)
         else:
             worst = max(worst, a)

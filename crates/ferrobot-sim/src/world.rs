@@ -26,9 +26,21 @@ pub struct WorldConfig {
     pub dt: f64,
     /// Gravity (m/s², world frame; z is up).
     pub gravity: Vector3<f64>,
-    /// Solver iterations per step.
+    /// Solver substeps per step (>= 1) for dynamic objects and for robots
+    /// while they touch something or near a joint limit (plus the robot's
+    /// own extra substeps, see `Robot::set_solver_iterations`). A robot that
+    /// touches nothing runs at these while it moves and at 1 while it holds
+    /// still, and the world's base step is 1 substep:
+    /// substeps are spent only on the bodies that need them. (Rapier solves
+    /// every awake body of a world with a multibody at the largest count
+    /// among them.)
     pub solver_iterations: usize,
-    /// Whether the world has a ground plane at z = 0.
+    /// Whether the world has a ground at z = 0: a fixed box
+    /// [`GROUND_HALF_SIZE`] m either side of the origin in x and y,
+    /// [`GROUND_THICKNESS`] m thick, its top face at z = 0 (a box rather
+    /// than a half-space: a half-space's infinite bounds pair it with every
+    /// body in the broad phase, so every robot link costs a narrow-phase
+    /// test at every step).
     pub ground: bool,
     /// Friction coefficient of the ground.
     pub ground_friction: f64,
@@ -71,6 +83,11 @@ pub const CONTACT_DAMPING_RATIO: f64 = 1.0;
 /// Default allowed penetration (m); Rapier's own default is 5 mm at a
 /// length unit of 1 m, too much for grasping centimetre-sized objects.
 pub const ALLOWED_PENETRATION: f64 = 0.001;
+
+/// Half the side (m) of the ground box in x and y.
+pub const GROUND_HALF_SIZE: f32 = 1000.0;
+/// Thickness (m) of the ground box (its top face is at z = 0).
+pub const GROUND_THICKNESS: f32 = 1.0;
 
 /// Segmentation id of "no object" (background).
 pub const SEG_NONE: u32 = 0;
@@ -183,7 +200,9 @@ impl World {
                 )));
             }
         }
-        params.num_solver_iterations = config.solver_iterations;
+        // One base substep; dynamic objects and busy robots get theirs as
+        // per-body additional substeps (see `WorldConfig::solver_iterations`).
+        params.num_solver_iterations = 1;
         params.contact_softness.natural_frequency = config.contact_frequency as f32;
         params.static_contact_softness.natural_frequency = 2.0 * config.contact_frequency as f32;
         params.normalized_allowed_linear_error = config.allowed_penetration as f32;
@@ -213,10 +232,23 @@ impl World {
             touching: Vec::new(),
         };
         if world.config.ground {
-            let body = world.state.bodies.insert(RigidBodyBuilder::fixed());
-            let collider = ColliderBuilder::new(SharedShape::halfspace(rapier3d::math::Vector::Z))
-                .friction(world.config.ground_friction as f32)
-                .user_data(user_data(SEG_GROUND, None, 0));
+            let body = world
+                .state
+                .bodies
+                .insert(
+                    RigidBodyBuilder::fixed().translation(rapier3d::math::Vector::new(
+                        0.0,
+                        0.0,
+                        -0.5 * GROUND_THICKNESS,
+                    )),
+                );
+            let collider = ColliderBuilder::new(SharedShape::cuboid(
+                GROUND_HALF_SIZE,
+                GROUND_HALF_SIZE,
+                0.5 * GROUND_THICKNESS,
+            ))
+            .friction(world.config.ground_friction as f32)
+            .user_data(user_data(SEG_GROUND, None, 0));
             world
                 .state
                 .colliders
@@ -275,6 +307,7 @@ impl World {
             RigidBodyBuilder::fixed()
         } else {
             RigidBodyBuilder::dynamic()
+                .additional_solver_iterations(self.config.solver_iterations - 1)
         };
         let body = self.state.bodies.insert(builder.pose(to_pose(&desc.pose)));
         let collider = collider_for(&desc, shape)?.user_data(user_data(seg, None, 0));
@@ -534,7 +567,12 @@ impl World {
             }
         }
         for (r, &t) in self.robots.iter_mut().zip(&touching) {
-            r.update_solver_iterations(&mut self.state, t, self.config.dt);
+            r.update_solver_iterations(
+                &mut self.state,
+                t,
+                self.config.dt,
+                self.config.solver_iterations,
+            );
         }
         self.touching = touching;
     }

@@ -133,6 +133,20 @@ fn extra_substeps_only_while_touching_or_near_a_limit() {
         .unwrap();
     w.step(20).unwrap();
     assert_eq!(w.robot(r).unwrap().active_solver_iterations(), 0);
+    // Holding still and touching nothing: one substep.
+    assert_eq!(w.robot(r).unwrap().active_substeps(), 1);
+    // Moving towards a new target (away from the limits): the world's 4.
+    let mut moved = Q;
+    moved[0] = 0.3;
+    w.with_robot(r, |robot, s| robot.set_position_targets(s, &moved, None))
+        .unwrap();
+    w.step(2).unwrap();
+    assert_eq!(w.robot(r).unwrap().active_substeps(), 4);
+    assert_eq!(w.robot(r).unwrap().active_solver_iterations(), 0);
+    w.with_robot(r, |robot, s| robot.set_position_targets(s, &Q, None))
+        .unwrap();
+    w.step(480).unwrap();
+    assert_eq!(w.robot(r).unwrap().active_substeps(), 1);
     // Driven beyond joint 4's upper limit (-0.0698 rad): on once it gets near.
     let mut beyond = Q;
     beyond[3] = 0.3;
@@ -140,6 +154,8 @@ fn extra_substeps_only_while_touching_or_near_a_limit() {
         .unwrap();
     w.step(240).unwrap();
     assert_eq!(w.robot(r).unwrap().active_solver_iterations(), 4);
+    // The world's 4 substeps plus the robot's 4 extra.
+    assert_eq!(w.robot(r).unwrap().active_substeps(), 8);
     // Back to the free pose: off again.
     w.with_robot(r, |robot, s| robot.set_position_targets(s, &Q, None))
         .unwrap();
