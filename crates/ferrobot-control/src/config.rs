@@ -188,22 +188,22 @@ config_struct! {
     /// obstacle distances come from voxelised signed distance fields.
     PotentialFieldConfig {
         /// Attractive stiffness (1/s²) of the end-effector position, [0, 1e4].
-        attract_gain: 30.0, [0.0, 1e4],
+        attract_gain: 150.0, [0.0, 1e4],
         /// Distance (m) beyond which the attractive force stops growing
         /// (conic potential outside, quadratic inside), [1e-3, 2].
         attract_radius: 0.15, [1e-3, 2.0],
         /// Attractive stiffness (1/s²) of the orientation error; 0 leaves it free, [0, 1e4].
-        orientation_gain: 8.0, [0.0, 1e4],
+        orientation_gain: 30.0, [0.0, 1e4],
         /// Angle (rad) beyond which the orientation force stops growing, [1e-3, 3.2].
         orientation_radius: 0.5, [1e-3, 3.2],
         /// Repulsive gain `eta` of `U = eta/2 (1/d - 1/d0)²` per robot sphere, [0, 100].
-        repulse_gain: 0.02, [0.0, 100.0],
+        repulse_gain: 0.005, [0.0, 100.0],
         /// Influence distance `d0` (m) of the world repulsion, [1e-3, 1].
         repulse_distance: 0.2, [1e-3, 1.0],
         /// Repulsive gain between robot spheres of checked link pairs, [0, 100].
-        self_gain: 0.005, [0.0, 100.0],
+        self_gain: 1e-5, [0.0, 100.0],
         /// Influence distance (m) of the self repulsion, [1e-3, 1].
-        self_distance: 0.05, [1e-3, 1.0],
+        self_distance: 0.02, [1e-3, 1.0],
         /// Repulsive gain of the joint limits, [0, 100].
         limit_gain: 0.002, [0.0, 100.0],
         /// Influence distance (rad or m) of the joint limits, [1e-3, 3].
@@ -211,9 +211,9 @@ config_struct! {
         /// Smallest distance (m) used in `1/d` terms (keeps them finite), [1e-4, 0.1].
         min_distance: 0.005, [1e-4, 0.1],
         /// Joint velocity damping (1/s), [0, 1e3].
-        damping: 12.0, [0.0, 1e3],
+        damping: 6.0, [0.0, 1e3],
         /// Stiffness towards the posture (1/s²), [0, 1e3].
-        posture_gain: 0.2, [0.0, 1e3],
+        posture_gain: 0.05, [0.0, 1e3],
         /// Voxel edge length (m) of the distance fields, [1e-3, 0.2].
         field_resolution: 0.01, [1e-3, 0.2],
         /// Extent (m) of each object's field beyond the object; must be at
