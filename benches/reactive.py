@@ -133,7 +133,7 @@ def make_episode(rng, model, judge, base_spheres, q_ready):
         return q0, qg, sc, rejected
 
 
-def run_episode(method, model, spheres, sc, q0, qg, judge, planner):
+def run_episode(method, model, spheres, sc, q0, qg, judge, planner, configs=None):
     target = model.fk(qg)
     n = model.num_dof
     q, qd = q0.copy(), np.zeros(n)
@@ -145,7 +145,7 @@ def run_episode(method, model, spheres, sc, q0, qg, judge, planner):
     idx = [model.dof_names.index(j) for j in names]
     if method in ("reactive", "potential"):
         cls = ferrobot.ReactiveController if method == "reactive" else ferrobot.PotentialFieldController
-        ctl = cls(model, sc.world(0.0), spheres)
+        ctl = cls(model, sc.world(0.0), spheres, config=(configs or {}).get(method))
         ctl.set_target(target)
     elif method == "plan_once":
         planner.update_world(sc.world(0.0))
@@ -191,7 +191,10 @@ def run_episode(method, model, spheres, sc, q0, qg, judge, planner):
             if np.linalg.norm(T[:3, 3] - target[:3, 3]) < POS_TOL and rot_err(T, target) < ROT_TOL:
                 reached_at = tn
     per_step = float(np.sum(ctrl_times) / steps) if ctrl_times else 0.0
+    T = model.fk(q)
     return {
+        "final_position_error": float(np.linalg.norm(T[:3, 3] - target[:3, 3])),
+        "final_rotation_error": rot_err(T, target),
         "reached": reached_at is not None,
         "time_to_target": reached_at,
         "contact_spheres": bool(contact_sphere),
@@ -229,6 +232,8 @@ def main() -> None:
     ap.add_argument("--robot", choices=["panda", "ur5"], default="panda")
     ap.add_argument("--methods", nargs="+", default=["reactive", "potential", "plan_once", "replan"])
     ap.add_argument("--json", type=Path, default=None)
+    ap.add_argument("--reactive-config", type=json.loads, default=None, help="gain overrides (JSON dict)")
+    ap.add_argument("--potential-config", type=json.loads, default=None, help="gain overrides (JSON dict)")
     args = ap.parse_args()
     model, spheres, base_links = load_robot(args.robot)
     judge = ferrobot.ReactiveController(model, None, spheres)
@@ -240,6 +245,10 @@ def main() -> None:
             base.append(list(T[:3, :3] @ s[:3] + T[:3, 3]) + [s[3]])
     base_spheres = np.array(base)
     planner = ferrobot.Planner(model, spheres=spheres)
+    # Re-planning plans around the obstacles' current poses (no margin: the checker's margin also
+    # inflates self-collision, which makes the Panda's start states invalid).
+    replanner = planner
+    configs = {"reactive": args.reactive_config, "potential": args.potential_config}
     rng = np.random.default_rng(args.seed)
     episodes, rejected = [], {}
     for _ in range(args.episodes):
@@ -252,7 +261,8 @@ def main() -> None:
     for m in args.methods:
         rows = []
         for q0, qg, sc in episodes:
-            rows.append(run_episode(m, model, spheres, sc, q0, qg, judge, planner))
+            p = replanner if m == "replan" else planner
+            rows.append(run_episode(m, model, spheres, sc, q0, qg, judge, p, configs))
         results[m] = {"summary": summarise(rows), "episodes": rows}
         s = results[m]["summary"]
         print(
