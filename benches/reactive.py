@@ -225,6 +225,34 @@ def summarise(rows):
     }
 
 
+def time_one_step(model, spheres, q_ready, repeats: int = 5000) -> dict[str, float]:
+    """Median time (us) of one ``step`` call from Python with 10 obstacles around the arm, per controller."""
+    world = ferrobot.CollisionWorld()
+    for i in range(10):
+        a = 0.63 * i
+        p = [0.45 * np.cos(a), 0.45 * np.sin(a), 0.2 + 0.06 * i, 1, 0, 0, 0]
+        if i % 2 == 0:
+            world.add_sphere(f"obs{i}", 0.06, p)
+        else:
+            world.add_box(f"obs{i}", [0.1, 0.08, 0.12], p)
+    out = {}
+    for name, cls in (("reactive", ferrobot.ReactiveController), ("potential", ferrobot.PotentialFieldController)):
+        ctl = cls(model, world, spheres)
+        target = model.fk(q_ready).copy()
+        target[:3, 3] += 0.05  # 5 cm away in x, y and z: the attractor is active too
+        ctl.set_target(target)
+        qd = np.full(model.num_dof, 0.05)
+        ctl.step(q_ready, qd, 0.001)
+        ts = []
+        for _ in range(repeats):
+            t = time.perf_counter()
+            ctl.step(q_ready, qd, 0.001)
+            ts.append(time.perf_counter() - t)
+        out[name] = 1e6 * float(np.median(ts))
+        out[name + "_active_terms"] = ctl.last_step["active_avoidance"]
+    return out
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--episodes", type=int, default=200)
@@ -249,6 +277,13 @@ def main() -> None:
     # inflates self-collision, which makes the Panda's start states invalid).
     replanner = planner
     configs = {"reactive": args.reactive_config, "potential": args.potential_config}
+    timing = time_one_step(model, spheres, q_ready)
+    print(
+        f"one step from Python, {judge.num_spheres} spheres, 10 obstacles: reactive "
+        f"{timing['reactive']:.1f} us ({timing['reactive_active_terms']} avoidance terms active), potential field "
+        f"{timing['potential']:.1f} us",
+        flush=True,
+    )
     rng = np.random.default_rng(args.seed)
     episodes, rejected = [], {}
     for _ in range(args.episodes):
@@ -280,7 +315,15 @@ def main() -> None:
     )
     if args.json:
         args.json.write_text(
-            json.dumps({"robot": args.robot, "episodes": args.episodes, "rejected": rejected, "results": results})
+            json.dumps(
+                {
+                    "robot": args.robot,
+                    "episodes": args.episodes,
+                    "rejected": rejected,
+                    "step_timing_us": timing,
+                    "results": results,
+                }
+            )
         )
 
 
