@@ -196,7 +196,11 @@ impl Core {
     /// Hard velocity limit of controlled DOF number `col`.
     pub(crate) fn velocity_limit(&self, col: usize, scale: f64, default: f64) -> f64 {
         let v = self.vmax_urdf[col];
-        if v.is_finite() && v > 0.0 { v * scale } else { default }
+        if v.is_finite() && v > 0.0 {
+            v * scale
+        } else {
+            default
+        }
     }
 
     /// The model.

@@ -105,7 +105,8 @@ impl VoxelField {
         }
         let (nx, nxy) = (self.dims[0], self.dims[0] * self.dims[1]);
         let base = idx[0] + idx[1] * nx + idx[2] * nxy;
-        let v = |dx: usize, dy: usize, dz: usize| self.values[base + dx + dy * nx + dz * nxy] as f64;
+        let v =
+            |dx: usize, dy: usize, dz: usize| self.values[base + dx + dy * nx + dz * nxy] as f64;
         let (c000, c100, c010, c110) = (v(0, 0, 0), v(1, 0, 0), v(0, 1, 0), v(1, 1, 0));
         let (c001, c101, c011, c111) = (v(0, 0, 1), v(1, 0, 1), v(0, 1, 1), v(1, 1, 1));
         let [tx, ty, tz] = t;
@@ -123,7 +124,11 @@ impl VoxelField {
             lerp(c101 - c001, c111 - c011, ty),
             tz,
         );
-        let dy = lerp(lerp(c010 - c000, c110 - c100, tx), lerp(c011 - c001, c111 - c101, tx), tz);
+        let dy = lerp(
+            lerp(c010 - c000, c110 - c100, tx),
+            lerp(c011 - c001, c111 - c101, tx),
+            tz,
+        );
         let dz = c1 - c0;
         Some((d, Vector3::new(dx, dy, dz) / self.resolution))
     }

@@ -198,7 +198,11 @@ impl PotentialFieldController {
             let len = delta.norm();
             let d = len - a.radius - b.radius;
             info.self_clearance = info.self_clearance.min(d);
-            let n = if len > 1e-12 { delta / len } else { Vector3::z() };
+            let n = if len > 1e-12 {
+                delta / len
+            } else {
+                Vector3::z()
+            };
             let m = repulse(cfg.self_gain, d, cfg.self_distance, cfg.min_distance);
             if m > 0.0 {
                 info.active_avoidance += 1;
@@ -216,10 +220,20 @@ impl PotentialFieldController {
             let lo = core.lower_limit(col);
             let hi = core.upper_limit(col);
             if lo.is_finite() {
-                a += repulse(cfg.limit_gain, qi - lo, cfg.limit_distance, cfg.min_distance);
+                a += repulse(
+                    cfg.limit_gain,
+                    qi - lo,
+                    cfg.limit_distance,
+                    cfg.min_distance,
+                );
             }
             if hi.is_finite() {
-                a -= repulse(cfg.limit_gain, hi - qi, cfg.limit_distance, cfg.min_distance);
+                a -= repulse(
+                    cfg.limit_gain,
+                    hi - qi,
+                    cfg.limit_distance,
+                    cfg.min_distance,
+                );
             }
             qdd[col] = a;
         }

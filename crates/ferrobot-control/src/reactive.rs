@@ -361,7 +361,11 @@ impl ReactiveController {
             let len = len2.sqrt();
             let d = len - a.radius - b.radius;
             info.self_clearance = info.self_clearance.min(d);
-            let n = if len > 1e-12 { delta / len } else { Vector3::z() };
+            let n = if len > 1e-12 {
+                delta / len
+            } else {
+                Vector3::z()
+            };
             core.point_jacobian(a.link, &core.centers[i], &mut self.jp);
             core.point_jacobian(b.link, &core.centers[j], &mut self.jq);
             for (col, r) in self.row.iter_mut().enumerate() {

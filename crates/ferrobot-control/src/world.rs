@@ -35,8 +35,6 @@ pub struct ControlWorld {
     /// Per object: linear velocity of its frame origin (m/s) and angular
     /// velocity (rad/s), base frame.
     velocities: Vec<(Vector3<f64>, Vector3<f64>)>,
-    /// Resolution and padding of the fields, when they are kept.
-    fields: Option<(f64, f64)>,
 }
 
 impl ControlWorld {
@@ -60,16 +58,19 @@ impl ControlWorld {
             world,
             parts,
             velocities,
-            fields: None,
         }
     }
 
-    /// Builds (and keeps building on later changes) a voxel field per shape.
+    /// Builds a voxel field per shape (in the shape's frame, so moving an
+    /// object keeps its field valid).
     pub fn build_fields(&mut self, resolution: f64, padding: f64) -> Result<()> {
         for part in &mut self.parts {
-            part.field = Some(Arc::new(VoxelField::build(&part.shape, resolution, padding)?));
+            part.field = Some(Arc::new(VoxelField::build(
+                &part.shape,
+                resolution,
+                padding,
+            )?));
         }
-        self.fields = Some((resolution, padding));
         Ok(())
     }
 
@@ -109,7 +110,10 @@ impl ControlWorld {
             part.pose = pose * part.local;
         }
         let v = velocity.unwrap_or([0.0; 6]);
-        self.velocities[i] = (Vector3::new(v[0], v[1], v[2]), Vector3::new(v[3], v[4], v[5]));
+        self.velocities[i] = (
+            Vector3::new(v[0], v[1], v[2]),
+            Vector3::new(v[3], v[4], v[5]),
+        );
         Ok(())
     }
 
@@ -146,8 +150,6 @@ impl ControlWorld {
     pub fn field_distance(part: &Part, p: &Point3<f64>) -> Option<(f64, Vector3<f64>)> {
         let field = part.field.as_ref()?;
         let lp = part.pose.inverse_transform_point(p);
-        field
-            .lookup(&lp)
-            .map(|(d, g)| (d, part.pose.rotation * g))
+        field.lookup(&lp).map(|(d, g)| (d, part.pose.rotation * g))
     }
 }

@@ -69,7 +69,11 @@ fn run(
 fn sphere_distances_match_parry_and_finite_differences() {
     let mut world = CollisionWorld::new();
     world
-        .add_shape("ball", ObstacleShape::Sphere { radius: 0.07 }, at(0.45, 0.2, 0.45))
+        .add_shape(
+            "ball",
+            ObstacleShape::Sphere { radius: 0.07 },
+            at(0.45, 0.2, 0.45),
+        )
         .unwrap();
     world
         .add_shape(
@@ -109,14 +113,16 @@ fn sphere_distances_match_parry_and_finite_differences() {
             let c = poses[l] * s.center;
             assert!((c - centers[i]).norm() < 1e-9);
             let me = parry3d::shape::Ball::new(s.radius as f32);
-            let mp = to_pose(&Isometry3::from_parts(c.coords.into(), UnitQuaternion::identity()));
+            let mp = to_pose(&Isometry3::from_parts(
+                c.coords.into(),
+                UnitQuaternion::identity(),
+            ));
             let d1 = parry3d::query::distance(&mp, &me, &to_pose(&world.objects()[0].pose), &ball)
                 .unwrap()
                 .distance as f64;
-            let d2 =
-                parry3d::query::distance(&mp, &me, &to_pose(&world.objects()[1].pose), &cuboid)
-                    .unwrap()
-                    .distance as f64;
+            let d2 = parry3d::query::distance(&mp, &me, &to_pose(&world.objects()[1].pose), &cuboid)
+                .unwrap()
+                .distance as f64;
             let reference = d1.min(d2);
             if reference > 0.0 {
                 assert!(
@@ -142,7 +148,11 @@ fn sphere_distances_match_parry_and_finite_differences() {
             let dp = core.sphere_distances(&qp, 10.0).unwrap().0[s];
             let dm = core.sphere_distances(&qm, 10.0).unwrap().0[s];
             let fd = (dp - dm) / (2.0 * h);
-            assert!((g[dof] - fd).abs() < 1e-4, "sphere {s} dof {dof}: {} vs {fd}", g[dof]);
+            assert!(
+                (g[dof] - fd).abs() < 1e-4,
+                "sphere {s} dof {dof}: {} vs {fd}",
+                g[dof]
+            );
         }
     }
 }
@@ -183,12 +193,22 @@ fn joint_limits_and_velocity_limits_are_respected() {
     ctl.core_mut()
         .set_target(at(1.6, 0.9, -0.2), false)
         .unwrap();
-    let (lo, hi, vmax) = (model.lower_limits(), model.upper_limits(), model.velocity_limits());
+    let (lo, hi, vmax) = (
+        model.lower_limits(),
+        model.upper_limits(),
+        model.velocity_limits(),
+    );
     let mut q = ready(&model);
     let mut qd = vec![0.0; q.len()];
     run(&mut ctl, &mut q, &mut qd, 0.01, 400, |_, _, q| {
         for d in 0..7 {
-            assert!(q[d] >= lo[d] && q[d] <= hi[d], "joint {d} at {} outside [{}, {}]", q[d], lo[d], hi[d]);
+            assert!(
+                q[d] >= lo[d] && q[d] <= hi[d],
+                "joint {d} at {} outside [{}, {}]",
+                q[d],
+                lo[d],
+                hi[d]
+            );
         }
     });
     for d in 0..7 {
@@ -218,7 +238,11 @@ fn never_enters_obstacles_in_scripted_approaches() {
         let start = aim - dir * 0.6;
         let mut world = CollisionWorld::new();
         world
-            .add_shape("ball", ObstacleShape::Sphere { radius: 0.05 }, at(start.x, start.y, start.z))
+            .add_shape(
+                "ball",
+                ObstacleShape::Sphere { radius: 0.05 },
+                at(start.x, start.y, start.z),
+            )
             .unwrap();
         let ck = checker(world.clone());
         let mut ctl = ReactiveController::new(&ck, None, ReactiveConfig::default()).unwrap();
@@ -229,15 +253,22 @@ fn never_enters_obstacles_in_scripted_approaches() {
         let dt = 0.005;
         let (d0, ..) = ctl.core().clone().sphere_distances(&q, 10.0).unwrap();
         let start_clear = d0.iter().cloned().fold(f64::INFINITY, f64::min);
-        assert!(start_clear > 0.25, "case {k} starts {start_clear} m from the arm");
+        assert!(
+            start_clear > 0.25,
+            "case {k} starts {start_clear} m from the arm"
+        );
         let mut worst = f64::INFINITY;
         let mut worst_exact = f64::INFINITY;
         for i in 0..400 {
             // The ball flies through the aim point and on for 1.2 m in total.
             let t = (i as f64 * dt).min(2.4);
             let c = start + dir * speed * t;
-            ctl.set_obstacle_pose("ball", at(c.x, c.y, c.z), Some([dir.x * speed, dir.y * speed, dir.z * speed, 0.0, 0.0, 0.0]))
-                .unwrap();
+            ctl.set_obstacle_pose(
+                "ball",
+                at(c.x, c.y, c.z),
+                Some([dir.x * speed, dir.y * speed, dir.z * speed, 0.0, 0.0, 0.0]),
+            )
+            .unwrap();
             world.set_pose("ball", at(c.x, c.y, c.z)).unwrap();
             let out = ctl.step(&q, &qd, dt).unwrap();
             q = out.q_target;
@@ -286,7 +317,11 @@ fn potential_field_converges_without_obstacles() {
 fn potential_field_distances_follow_the_exact_ones() {
     let mut world = CollisionWorld::new();
     world
-        .add_shape("ball", ObstacleShape::Sphere { radius: 0.08 }, at(0.5, 0.0, 0.5))
+        .add_shape(
+            "ball",
+            ObstacleShape::Sphere { radius: 0.08 },
+            at(0.5, 0.0, 0.5),
+        )
         .unwrap();
     let ck = checker(world);
     let ctl = PotentialFieldController::new(&ck, None, PotentialFieldConfig::default()).unwrap();
@@ -299,7 +334,11 @@ fn potential_field_distances_follow_the_exact_ones() {
         let (d, g) = ferrobot_control::ControlWorld::field_distance(part, &p).unwrap();
         let exact = (p - Point3::new(0.5, 0.0, 0.5)).norm() - 0.08;
         assert!((d - exact).abs() < 2e-3, "{d} vs {exact}");
-        assert!(g.normalize().dot(&(p - Point3::new(0.5, 0.0, 0.5)).normalize()) > 0.99);
+        assert!(
+            g.normalize()
+                .dot(&(p - Point3::new(0.5, 0.0, 0.5)).normalize())
+                > 0.99
+        );
     }
 }
 
@@ -322,7 +361,10 @@ fn bad_inputs_are_errors() {
     let mut bad = q.clone();
     bad[2] = f64::NAN;
     assert!(ctl.step(&bad, &qd, 0.01).is_err());
-    assert!(ctl.set_obstacle_pose("nothing", at(0.0, 0.0, 0.0), None).is_err());
+    assert!(
+        ctl.set_obstacle_pose("nothing", at(0.0, 0.0, 0.0), None)
+            .is_err()
+    );
     let mut pf = PotentialFieldConfig::default();
     pf.field_padding = 0.05;
     assert!(PotentialFieldController::new(&ck, None, pf).is_err());
