@@ -365,7 +365,9 @@ fn bad_inputs_are_errors() {
         ctl.set_obstacle_pose("nothing", at(0.0, 0.0, 0.0), None)
             .is_err()
     );
-    let mut pf = PotentialFieldConfig::default();
-    pf.field_padding = 0.05;
+    let pf = PotentialFieldConfig {
+        field_padding: 0.05,
+        ..Default::default()
+    };
     assert!(PotentialFieldController::new(&ck, None, pf).is_err());
 }
