@@ -186,3 +186,23 @@ def test_bad_inputs_raise_ferrobot_errors(panda):
         ferrobot.PotentialFieldController(model, None, spheres, config={"field_padding": 0.05})
     lo, hi = ferrobot.ReactiveController.config_ranges()["target_gain"]
     assert lo <= ctl.config["target_gain"] <= hi
+
+
+def test_closed_loop_with_the_simulator(panda):
+    """The controller drives the simulated Panda through its position drives (state in, targets out)."""
+    model, spheres = panda
+    world = ferrobot.World(dt=1 / 240)
+    q0 = model.named_state("ready")
+    robot = world.add_robot(model, q=q0)
+    goal = q0.copy()
+    goal[:7] += [0.3, 0.2, -0.2, -0.3, 0.1, 0.2, -0.2]
+    target = model.fk(goal)
+    ctl = ferrobot.ReactiveController(model, None, spheres)
+    ctl.set_target(target)
+    dt = 4 / 240  # 60 Hz control, 4 physics steps per control step
+    for _ in range(240):
+        q_t, _, _ = ctl.step(robot.get_joint_positions(), robot.get_joint_velocities(), dt)
+        robot.set_joint_position_targets(q_t)
+        world.step(4)
+    T = model.fk(robot.get_joint_positions())
+    assert np.linalg.norm(T[:3, 3] - target[:3, 3]) < 0.01
