@@ -170,12 +170,7 @@ fn converges_to_a_reachable_target_without_obstacles() {
     ctl.core_mut().set_target(target, true).unwrap();
     let mut q = ready(&model);
     let mut qd = vec![0.0; q.len()];
-    run(&mut ctl, &mut q, &mut qd, 0.01, 600, |c, i, q| {
-        if i % 50 == 0 && std::env::var("DBG").is_ok() {
-            let o = c.clone().step(q, &vec![0.0; q.len()], 0.01).unwrap();
-            eprintln!("{i} {:?}", o.info);
-        }
-    });
+    run(&mut ctl, &mut q, &mut qd, 0.01, 600, |_, _, _| {});
     let ee = model.fk(&q, None).unwrap();
     let dp = (ee.translation.vector - target.translation.vector).norm();
     let dr = ee.rotation.angle_to(&target.rotation);
@@ -274,11 +269,7 @@ fn never_enters_obstacles_in_scripted_approaches() {
             q = out.q_target;
             qd = out.qd_target;
             let (d, ..) = ctl.core().clone().sphere_distances(&q, 10.0).unwrap();
-            let dmin = d.iter().cloned().fold(f64::INFINITY, f64::min);
-            if std::env::var("DBG").is_ok() && i % 10 == 0 {
-                eprintln!("case {k} step {i} dmin {dmin:.4} {:?}", out.info);
-            }
-            worst = worst.min(dmin);
+            worst = worst.min(d.iter().cloned().fold(f64::INFINITY, f64::min));
             worst_exact = worst_exact.min(clear.clearance(&q, &world).unwrap().distance);
         }
         assert!(worst > 0.0, "case {k}: spheres reached {worst}");
@@ -300,11 +291,8 @@ fn potential_field_converges_without_obstacles() {
     ctl.core_mut().set_target(target, true).unwrap();
     let mut q = ready(&model);
     let mut qd = vec![0.0; q.len()];
-    for i in 0..2000 {
+    for _ in 0..2000 {
         let out = ctl.step(&q, &qd, 0.01).unwrap();
-        if std::env::var("DBG").is_ok() && i % 100 == 0 {
-            eprintln!("pf {i} {:?}", out.info);
-        }
         q = out.q_target;
         qd = out.qd_target;
     }
