@@ -737,3 +737,55 @@ class StreamGuard:
 
     def __init__(self, timeout: float, max_velocity: ArrayLike) -> None: ...
     def update(self, t: float, command: ArrayLike | None, current: ArrayLike) -> dict[str, Any]: ...
+
+# --- reactive control (ferrobot-control) ---
+
+class _ControllerBase:  # stub-only: the methods both controller classes define
+    def __init__(
+        self,
+        model: RobotModel,
+        world: CollisionWorld | None = None,
+        spheres: SphereModel | None = None,
+        *,
+        ee_link: str | None = None,
+        config: dict[str, float] | None = None,
+        self_collision_samples: int = 2000,
+    ) -> None: ...
+    @staticmethod
+    def config_ranges() -> dict[str, tuple[float, float]]:
+        """Every gain's accepted range {name: (low, high)}, inclusive."""
+    @property
+    def config(self) -> dict[str, float]: ...
+    def set_config(self, config: dict[str, float]) -> None: ...
+    @property
+    def dof_names(self) -> list[str]: ...
+    @property
+    def active_joints(self) -> list[str]: ...
+    @property
+    def num_spheres(self) -> int: ...
+    @property
+    def num_self_pairs(self) -> int: ...
+    def set_target(self, pose: Pose, orientation: bool = True) -> None: ...
+    def clear_target(self) -> None: ...
+    @property
+    def target(self) -> F64 | None: ...
+    def set_posture(self, q: ArrayLike) -> None: ...
+    def update_world(self, world: CollisionWorld) -> None: ...
+    def set_obstacle_pose(self, name: str, pose: Pose, velocity: ArrayLike | None = None) -> None:
+        """Moves an obstacle; ``velocity`` (3,) m/s or (6,) with angular rad/s, base frame."""
+    def step(
+        self, q: ArrayLike, qd: ArrayLike, dt: float, joint_names: list[str] | None = None
+    ) -> tuple[F64, F64, F64]:
+        """One control step: ``(q_target, qd_target, qdd)`` from the measured ``q``, ``qd``."""
+    @property
+    def last_step(self) -> dict[str, Any] | None: ...
+    def sphere_distances(self, q: ArrayLike, reach: float = 1.0) -> dict[str, F64]:
+        """Per sphere: ``distance``, ``direction`` (S, 3), ``gradient`` (S, num_dof), ``centers``, ``radii``."""
+    def exact_clearance(self, q: ArrayLike) -> dict[str, Any]:
+        """Exact link-to-obstacle clearance (parry): ``distance`` and ``closest`` (link, object)."""
+
+class ReactiveController(_ControllerBase):
+    """Reactive (RMPflow-style) control towards an end-effector target around obstacles."""
+
+class PotentialFieldController(_ControllerBase):
+    """Potential-field control over voxelised distance fields of the obstacles."""

@@ -6,6 +6,7 @@
 mod arrays;
 mod batch;
 mod collision;
+mod control;
 mod errors;
 mod grasp;
 mod model;
@@ -64,6 +65,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sim::opengl_to_opencv, m)?)?;
     m.add_function(wrap_pyfunction!(sim::look_at, m)?)?;
     m.add_function(wrap_pyfunction!(bundled_robot, m)?)?;
+    m.add_class::<control::PyReactiveController>()?;
+    m.add_class::<control::PyPotentialFieldController>()?;
     m.add_function(wrap_pyfunction!(grasp::grasp_backproject, m)?)?;
     m.add_function(wrap_pyfunction!(grasp::grasp_detect, m)?)?;
     m.add_function(wrap_pyfunction!(grasp::grasp_detect_rgbd, m)?)?;

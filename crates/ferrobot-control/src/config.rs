@@ -1,0 +1,244 @@
+//! Controller parameters: plain structs of `f64` fields, each with a
+//! documented, validated range, readable and writable by name (the Python
+//! bindings pass them as dictionaries).
+
+use crate::error::{ControlError, Result};
+
+macro_rules! config_struct {
+    (
+        $(#[$meta:meta])*
+        $name:ident {
+            $(
+                $(#[doc = $doc:expr])*
+                $field:ident : $default:expr, [$lo:expr, $hi:expr]
+            ),* $(,)?
+        }
+    ) => {
+        $(#[$meta])*
+        #[derive(Debug, Clone, PartialEq)]
+        pub struct $name {
+            $(
+                $(#[doc = $doc])*
+                pub $field: f64,
+            )*
+        }
+
+        impl Default for $name {
+            fn default() -> Self {
+                Self { $($field: $default,)* }
+            }
+        }
+
+        impl $name {
+            /// Every parameter: name, lowest and highest accepted value
+            /// (inclusive).
+            pub const FIELDS: &'static [(&'static str, f64, f64)] =
+                &[$((stringify!($field), $lo, $hi),)*];
+
+            /// The value of parameter `name`.
+            pub fn get(&self, name: &str) -> Result<f64> {
+                match name {
+                    $(stringify!($field) => Ok(self.$field),)*
+                    _ => Err(unknown(stringify!($name), name, Self::FIELDS)),
+                }
+            }
+
+            /// Sets parameter `name` to `value`, checking its range.
+            pub fn set(&mut self, name: &str, value: f64) -> Result<()> {
+                let (_, lo, hi) = *Self::FIELDS
+                    .iter()
+                    .find(|f| f.0 == name)
+                    .ok_or_else(|| unknown(stringify!($name), name, Self::FIELDS))?;
+                check_range(name, value, lo, hi)?;
+                match name {
+                    $(stringify!($field) => self.$field = value,)*
+                    _ => unreachable!("name checked above"),
+                }
+                Ok(())
+            }
+
+            /// Checks every parameter against its range.
+            pub fn validate(&self) -> Result<()> {
+                for &(name, lo, hi) in Self::FIELDS {
+                    check_range(name, self.get(name)?, lo, hi)?;
+                }
+                Ok(())
+            }
+        }
+    };
+}
+
+fn unknown(what: &str, name: &str, fields: &[(&str, f64, f64)]) -> ControlError {
+    let known: Vec<&str> = fields.iter().map(|f| f.0).collect();
+    ControlError::UnknownName(format!(
+        "{what}: unknown parameter '{name}'; known: {}",
+        known.join(", ")
+    ))
+}
+
+fn check_range(name: &str, v: f64, lo: f64, hi: f64) -> Result<()> {
+    if !v.is_finite() {
+        return Err(ControlError::NonFinite(format!(
+            "config '{name}': value {v} is not finite"
+        )));
+    }
+    if v < lo || v > hi {
+        return Err(ControlError::InvalidArgument(format!(
+            "config '{name}': {v} is outside its range [{lo}, {hi}]"
+        )));
+    }
+    Ok(())
+}
+
+config_struct! {
+    /// Gains of [`crate::ReactiveController`]. Every policy is an
+    /// acceleration in its task space plus a metric (its weight); the
+    /// ranges below are inclusive. Defaults were tuned on the bundled Panda
+    /// and the UR5 in `../shared/robots/ur5` (benches/reactive.py).
+    ReactiveConfig {
+        /// End-effector position attractor: acceleration magnitude far from
+        /// the target (m/s²), [0, 200]. The attractor is soft-normalised:
+        /// `a = -gain x / (|x| + length) - damping v`.
+        target_gain: 12.0, [0.0, 200.0],
+        /// Length (m) below which the attractor becomes a linear spring of
+        /// stiffness `gain / length`, [1e-3, 1].
+        target_length: 0.08, [1e-3, 1.0],
+        /// Damping of the end-effector velocity (1/s), [0, 200].
+        target_damping: 14.0, [0.0, 200.0],
+        /// Metric of the position attractor far from the target, [0, 1e4].
+        target_metric_far: 1.0, [0.0, 1e4],
+        /// Metric of the position attractor at the target (it stiffens
+        /// towards it over `target_metric_radius`), [0, 1e4].
+        target_metric_near: 10.0, [0.0, 1e4],
+        /// Distance (m) over which the attractor's metric blends from far to
+        /// near (a Gaussian in the distance), [1e-3, 2].
+        target_metric_radius: 0.1, [1e-3, 2.0],
+        /// Orientation attractor: angular acceleration far from the target
+        /// orientation (rad/s²), [0, 200]; 0 leaves orientation free.
+        orientation_gain: 15.0, [0.0, 200.0],
+        /// Angle (rad) below which the orientation attractor is linear, [1e-3, 3].
+        orientation_length: 0.15, [1e-3, 3.0],
+        /// Damping of the end-effector angular velocity (1/s), [0, 200].
+        orientation_damping: 12.0, [0.0, 200.0],
+        /// Metric of the orientation attractor far from the position target, [0, 1e4].
+        orientation_metric_far: 0.1, [0.0, 1e4],
+        /// Metric of the orientation attractor at the position target, [0, 1e4].
+        orientation_metric_near: 2.0, [0.0, 1e4],
+        /// Robot sphere to world obstacle: distance (m) below which the
+        /// avoidance policy acts; its metric vanishes at and beyond it, [1e-3, 2].
+        collision_distance: 0.25, [1e-3, 2.0],
+        /// Repulsive acceleration at contact (m/s²): `gain exp(-d / length)`, [0, 1e4].
+        collision_gain: 40.0, [0.0, 1e4],
+        /// Decay length (m) of the repulsion, [1e-3, 1].
+        collision_length: 0.04, [1e-3, 1.0],
+        /// Braking factor: when a sphere approaches an obstacle at speed
+        /// `v` at distance `d`, the policy adds `brake v² / (2 d)`, the
+        /// deceleration that stops it before contact, [0, 100].
+        collision_brake: 2.0, [0.0, 100.0],
+        /// Scale of the avoidance metric, [0, 1e6]: `metric (1 - d/D)² / (d/D + eps) (1 + approach / speed)`.
+        collision_metric: 20.0, [0.0, 1e6],
+        /// `eps` of the avoidance metric (bounds it at contact), [1e-4, 10].
+        collision_metric_eps: 0.05, [1e-4, 10.0],
+        /// Approach speed (m/s) at which the avoidance metric doubles, [1e-3, 10].
+        collision_speed: 0.2, [1e-3, 10.0],
+        /// Safety distance (m) used as the braking floor: the braking term
+        /// plans to stop `collision_margin` away from the obstacle, [0, 0.5].
+        collision_margin: 0.01, [0.0, 0.5],
+        /// Self-collision: distance (m) between robot spheres of checked link
+        /// pairs below which the policy acts, [1e-3, 1].
+        self_distance: 0.015, [1e-3, 1.0],
+        /// Self-collision repulsion at contact (m/s²), [0, 1e4].
+        self_gain: 10.0, [0.0, 1e4],
+        /// Self-collision metric scale, [0, 1e6].
+        self_metric: 5.0, [0.0, 1e6],
+        /// Joint limits: distance to a limit (rad or m) below which the
+        /// limit policy acts, [1e-3, 3].
+        limit_distance: 0.15, [1e-3, 3.0],
+        /// Joint-limit repulsion at the limit (rad/s²), [0, 1e4].
+        limit_gain: 30.0, [0.0, 1e4],
+        /// Joint-limit metric scale, [0, 1e6].
+        limit_metric: 10.0, [0.0, 1e6],
+        /// Fraction of each joint's velocity limit above which the
+        /// velocity-limit policy damps the joint, [0.05, 1].
+        velocity_soft_fraction: 0.8, [0.05, 1.0],
+        /// Velocity-limit policy damping (1/s) and metric scale, [0, 1e4].
+        velocity_gain: 20.0, [0.0, 1e4],
+        /// C-space policy: stiffness towards the posture (1/s²), [0, 1e3].
+        posture_gain: 4.0, [0.0, 1e3],
+        /// C-space policy: joint velocity damping (1/s), [0, 1e3].
+        joint_damping: 6.0, [0.0, 1e3],
+        /// Metric of the c-space policy (resolves redundancy), [0, 1e3].
+        posture_metric: 0.02, [0.0, 1e3],
+        /// Ridge added to the summed metric before the solve, [1e-9, 10].
+        regularization: 1e-4, [1e-9, 10.0],
+        /// Hard acceleration limit per joint (rad/s² or m/s²); the
+        /// acceleration vector is scaled down uniformly to respect it, [1e-2, 1e4].
+        max_acceleration: 20.0, [1e-2, 1e4],
+        /// Fraction of the URDF velocity limits used as hard limits (the
+        /// velocity vector is scaled uniformly to respect them), [0.01, 1].
+        velocity_scale: 1.0, [0.01, 1.0],
+        /// Velocity limit (rad/s or m/s) for joints whose URDF states none, [1e-2, 100].
+        default_velocity_limit: 2.0, [1e-2, 100.0],
+    }
+}
+
+config_struct! {
+    /// Gains of [`crate::PotentialFieldController`]: attractive and
+    /// repulsive potentials mapped to joint space by Jacobian transposes;
+    /// obstacle distances come from voxelised signed distance fields.
+    PotentialFieldConfig {
+        /// Attractive stiffness (1/s²) of the end-effector position, [0, 1e4].
+        attract_gain: 150.0, [0.0, 1e4],
+        /// Distance (m) beyond which the attractive force stops growing
+        /// (conic potential outside, quadratic inside), [1e-3, 2].
+        attract_radius: 0.15, [1e-3, 2.0],
+        /// Attractive stiffness (1/s²) of the orientation error; 0 leaves it free, [0, 1e4].
+        orientation_gain: 30.0, [0.0, 1e4],
+        /// Angle (rad) beyond which the orientation force stops growing, [1e-3, 3.2].
+        orientation_radius: 0.5, [1e-3, 3.2],
+        /// Repulsive gain `eta` of `U = eta/2 (1/d - 1/d0)²` per robot sphere, [0, 100].
+        repulse_gain: 0.005, [0.0, 100.0],
+        /// Influence distance `d0` (m) of the world repulsion, [1e-3, 1].
+        repulse_distance: 0.2, [1e-3, 1.0],
+        /// Repulsive gain between robot spheres of checked link pairs, [0, 100].
+        self_gain: 1e-5, [0.0, 100.0],
+        /// Influence distance (m) of the self repulsion, [1e-3, 1].
+        self_distance: 0.02, [1e-3, 1.0],
+        /// Repulsive gain of the joint limits, [0, 100].
+        limit_gain: 0.002, [0.0, 100.0],
+        /// Influence distance (rad or m) of the joint limits, [1e-3, 3].
+        limit_distance: 0.15, [1e-3, 3.0],
+        /// Smallest distance (m) used in `1/d` terms (keeps them finite), [1e-4, 0.1].
+        min_distance: 0.005, [1e-4, 0.1],
+        /// Joint velocity damping (1/s), [0, 1e3].
+        damping: 6.0, [0.0, 1e3],
+        /// Stiffness towards the posture (1/s²), [0, 1e3].
+        posture_gain: 0.05, [0.0, 1e3],
+        /// Voxel edge length (m) of the distance fields, [1e-3, 0.2].
+        field_resolution: 0.01, [1e-3, 0.2],
+        /// Extent (m) of each object's field beyond the object; must be at
+        /// least `repulse_distance` plus one voxel, [1e-3, 2].
+        field_padding: 0.25, [1e-3, 2.0],
+        /// Hard acceleration limit per joint (rad/s² or m/s²), [1e-2, 1e4].
+        max_acceleration: 20.0, [1e-2, 1e4],
+        /// Fraction of the URDF velocity limits used as hard limits, [0.01, 1].
+        velocity_scale: 1.0, [0.01, 1.0],
+        /// Velocity limit for joints whose URDF states none, [1e-2, 100].
+        default_velocity_limit: 2.0, [1e-2, 100.0],
+    }
+}
+
+impl PotentialFieldConfig {
+    /// Checks the ranges and that the fields reach past the influence distance.
+    pub fn validate_all(&self) -> Result<()> {
+        self.validate()?;
+        if self.field_padding < self.repulse_distance + self.field_resolution {
+            return Err(ControlError::InvalidArgument(format!(
+                "config 'field_padding' ({}) must be at least repulse_distance + field_resolution ({})",
+                self.field_padding,
+                self.repulse_distance + self.field_resolution
+            )));
+        }
+        Ok(())
+    }
+}

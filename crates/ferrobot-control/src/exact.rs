@@ -1,0 +1,173 @@
+//! Exact clearance between the robot's link geometry and the world, with
+//! parry: link primitives exactly, link meshes as their convex hulls (which
+//! contain them, so a contact is never missed); world boxes, spheres,
+//! cylinders and capsules exactly. For judging controllers (benchmarks,
+//! tests) independently of the sphere model they steer by.
+
+use std::sync::Arc;
+
+use ferrobot_collision::{CollisionWorld, ObstacleShape};
+use ferrobot_model::{RobotModel, Shape};
+use nalgebra::Isometry3;
+use parry3d::math::{Pose, Rot3, Vector};
+use parry3d::shape::SharedShape;
+
+use crate::error::{ControlError, Result};
+
+/// Parry's cylinders run along y, URDF and world cylinders along z.
+fn y_to_z() -> Isometry3<f64> {
+    Isometry3::rotation(nalgebra::Vector3::x() * std::f64::consts::FRAC_PI_2)
+}
+
+fn to_pose(iso: &Isometry3<f64>) -> Pose {
+    let t = iso.translation.vector;
+    let r = iso.rotation.coords; // x, y, z, w
+    Pose::from_parts(
+        Vector::new(t.x as f32, t.y as f32, t.z as f32),
+        Rot3::from_xyzw(r[0] as f32, r[1] as f32, r[2] as f32, r[3] as f32).normalize(),
+    )
+}
+
+fn link_shape(shape: &Shape) -> Option<(SharedShape, Isometry3<f64>)> {
+    Some(match shape {
+        Shape::Box { half_extents: h } => (
+            SharedShape::cuboid(h.x as f32, h.y as f32, h.z as f32),
+            Isometry3::identity(),
+        ),
+        Shape::Sphere { radius } => (SharedShape::ball(*radius as f32), Isometry3::identity()),
+        Shape::Cylinder { radius, length } => (
+            SharedShape::cylinder((*length / 2.0) as f32, *radius as f32),
+            y_to_z(),
+        ),
+        Shape::Capsule { radius, length } => (
+            SharedShape::capsule_z((*length / 2.0) as f32, *radius as f32),
+            Isometry3::identity(),
+        ),
+        Shape::Mesh { scale, mesh, .. } => {
+            let pts: Vec<Vector> = mesh
+                .vertices
+                .iter()
+                .map(|p| {
+                    Vector::new(
+                        (p.x * scale.x) as f32,
+                        (p.y * scale.y) as f32,
+                        (p.z * scale.z) as f32,
+                    )
+                })
+                .collect();
+            (SharedShape::convex_hull(&pts)?, Isometry3::identity())
+        }
+    })
+}
+
+fn world_shape(shape: &ObstacleShape) -> Option<(SharedShape, Isometry3<f64>)> {
+    Some(match shape {
+        ObstacleShape::Box { half_extents: h } => (
+            SharedShape::cuboid(h.x as f32, h.y as f32, h.z as f32),
+            Isometry3::identity(),
+        ),
+        ObstacleShape::Sphere { radius } => {
+            (SharedShape::ball(*radius as f32), Isometry3::identity())
+        }
+        ObstacleShape::Cylinder {
+            radius,
+            half_length,
+        } => (
+            SharedShape::cylinder(*half_length as f32, *radius as f32),
+            y_to_z(),
+        ),
+        ObstacleShape::Capsule {
+            radius,
+            half_length,
+        } => (
+            SharedShape::capsule_z(*half_length as f32, *radius as f32),
+            Isometry3::identity(),
+        ),
+        ObstacleShape::Mesh(_) | ObstacleShape::PointCloud(_) => return None,
+    })
+}
+
+/// The closest pair found by [`LinkClearance::clearance`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct Clearance {
+    /// Smallest distance (m) between a link's geometry and a world shape;
+    /// 0 when they touch or overlap; `inf` with no geometry to compare.
+    pub distance: f64,
+    /// The link and the world object of the closest pair.
+    pub closest: Option<(String, String)>,
+}
+
+/// Exact link geometry of a robot, for clearance queries against worlds of
+/// primitives.
+#[derive(Debug, Clone)]
+pub struct LinkClearance {
+    model: Arc<RobotModel>,
+    /// Per link: shapes and their poses in the link frame.
+    links: Vec<Vec<(SharedShape, Isometry3<f64>)>>,
+}
+
+impl LinkClearance {
+    /// The collision geometry of every link of `model` (meshes as convex hulls).
+    pub fn new(model: Arc<RobotModel>) -> Result<Self> {
+        let mut links = Vec::new();
+        for link in model.links() {
+            let mut parts = Vec::new();
+            for g in &link.collisions {
+                let (s, fix) = link_shape(&g.shape).ok_or_else(|| {
+                    ControlError::InvalidArgument(format!(
+                        "link '{}': cannot make a convex hull of its mesh",
+                        link.name
+                    ))
+                })?;
+                parts.push((s, g.origin * fix));
+            }
+            links.push(parts);
+        }
+        Ok(Self { model, links })
+    }
+
+    /// Smallest distance between the links (at `q`) and the objects of
+    /// `world`. Meshes and point clouds in the world are refused.
+    pub fn clearance(&self, q: &[f64], world: &CollisionWorld) -> Result<Clearance> {
+        let poses = self.model.fk_all(q)?;
+        let mut obstacles = Vec::new();
+        for obj in world.objects() {
+            for (shape, local) in &obj.parts {
+                let (s, fix) = world_shape(shape).ok_or_else(|| {
+                    ControlError::InvalidArgument(format!(
+                        "world object '{}': exact clearance supports boxes, spheres, cylinders and capsules, not {}",
+                        obj.name,
+                        shape.kind()
+                    ))
+                })?;
+                obstacles.push((obj.name.as_str(), s, to_pose(&(obj.pose * local * fix))));
+            }
+        }
+        let mut best = Clearance {
+            distance: f64::INFINITY,
+            closest: None,
+        };
+        for (l, parts) in self.links.iter().enumerate() {
+            for (s, local) in parts {
+                let pose = to_pose(&(poses[l] * local));
+                for (name, o, opose) in &obstacles {
+                    let d = parry3d::query::distance(&pose, s.as_ref(), opose, o.as_ref())
+                        .map_err(|_| {
+                            ControlError::InvalidArgument(format!(
+                                "parry cannot measure link '{}' against '{name}'",
+                                self.model.links()[l].name
+                            ))
+                        })?
+                        .distance as f64;
+                    if d < best.distance {
+                        best = Clearance {
+                            distance: d,
+                            closest: Some((self.model.links()[l].name.clone(), name.to_string())),
+                        };
+                    }
+                }
+            }
+        }
+        Ok(best)
+    }
+}

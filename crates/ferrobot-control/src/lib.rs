@@ -1,0 +1,35 @@
+//! Reactive motion control for ferrobot.
+//!
+//! Two controllers share one kinematic core ([`core::Core`]: the robot's
+//! collision spheres, point Jacobians, joint and velocity limits and the
+//! integration of accelerations into position/velocity targets for a
+//! position-driven robot):
+//!
+//! * [`ReactiveController`]: Riemannian motion policies in the manner of
+//!   RMPflow. Each policy is an acceleration in its own task space with a
+//!   metric saying how much it matters; they are pulled back to joint space
+//!   (`sum Jᵀ M J`, `sum Jᵀ M a`) and resolved with a damped solve.
+//! * [`PotentialFieldController`]: a classical attractive/repulsive
+//!   potential field whose obstacle term reads a voxelised signed distance
+//!   field of the world (trilinear lookup of distance and gradient).
+//!
+//! Both take `step(q, qd, dt) -> (q_target, qd_target, qdd)`, so they run in
+//! a closed loop with the simulator or a real robot's state stream.
+
+pub mod config;
+pub mod core;
+pub mod error;
+pub mod exact;
+pub mod field;
+pub mod potential;
+pub mod reactive;
+pub mod world;
+
+pub use config::{PotentialFieldConfig, ReactiveConfig};
+pub use core::{Core, StepInfo, StepOutput};
+pub use error::{ControlError, Result};
+pub use exact::LinkClearance;
+pub use field::VoxelField;
+pub use potential::PotentialFieldController;
+pub use reactive::ReactiveController;
+pub use world::ControlWorld;

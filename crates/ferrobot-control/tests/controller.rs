@@ -1,0 +1,361 @@
+//! Behaviour of the controllers against independent references: parry's
+//! exact distances, hand geometry, finite differences of forward
+//! kinematics, and closed-loop runs on the bundled Panda.
+
+use std::sync::{Arc, OnceLock};
+
+use ferrobot_collision::acm::AllowedCollisions;
+use ferrobot_collision::spherize::{SpherizeOptions, spherize_robot};
+use ferrobot_collision::{CollisionChecker, CollisionWorld, ObstacleShape, RobotSpheres};
+use ferrobot_control::{
+    LinkClearance, PotentialFieldConfig, PotentialFieldController, ReactiveConfig,
+    ReactiveController,
+};
+use ferrobot_model::RobotModel;
+use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
+
+/// The bundled Panda and its 59-sphere model (made once).
+fn panda() -> (Arc<RobotModel>, RobotSpheres, AllowedCollisions) {
+    static CELL: OnceLock<(Arc<RobotModel>, RobotSpheres, AllowedCollisions)> = OnceLock::new();
+    CELL.get_or_init(|| {
+        let model = Arc::new(ferrobot_model::robots::panda().unwrap());
+        let options = SpherizeOptions {
+            total_budget: Some(59),
+            ..Default::default()
+        };
+        let (links, _) = spherize_robot(&model, &options).unwrap();
+        let spheres = RobotSpheres::new(&model, links).unwrap();
+        // Link pairs never or always touching over sampled configurations
+        // are not checked (MoveIt setup-assistant style), as the bindings do.
+        let mut acm = AllowedCollisions::from_model(&model);
+        acm.analyze(&model, &spheres, 2000, 0).unwrap();
+        (model, spheres, acm)
+    })
+    .clone()
+}
+
+fn checker(world: CollisionWorld) -> CollisionChecker {
+    let (model, spheres, acm) = panda();
+    CollisionChecker::new(model, spheres, acm, world).unwrap()
+}
+
+fn ready(model: &RobotModel) -> Vec<f64> {
+    model.named_state("ready", None).unwrap()
+}
+
+fn at(x: f64, y: f64, z: f64) -> Isometry3<f64> {
+    Isometry3::from_parts(Translation3::new(x, y, z), UnitQuaternion::identity())
+}
+
+/// Runs the closed loop kinematically (the robot follows the targets
+/// exactly) for `steps` steps of `dt`; calls `each` after every step.
+fn run(
+    ctl: &mut ReactiveController,
+    q: &mut Vec<f64>,
+    qd: &mut Vec<f64>,
+    dt: f64,
+    steps: usize,
+    mut each: impl FnMut(&mut ReactiveController, usize, &[f64]),
+) {
+    for i in 0..steps {
+        let out = ctl.step(q, qd, dt).unwrap();
+        *q = out.q_target;
+        *qd = out.qd_target;
+        each(ctl, i, q);
+    }
+}
+
+#[test]
+fn sphere_distances_match_parry_and_finite_differences() {
+    let mut world = CollisionWorld::new();
+    world
+        .add_shape(
+            "ball",
+            ObstacleShape::Sphere { radius: 0.07 },
+            at(0.45, 0.2, 0.45),
+        )
+        .unwrap();
+    world
+        .add_shape(
+            "crate",
+            ObstacleShape::Box {
+                half_extents: Vector3::new(0.1, 0.15, 0.05),
+            },
+            Isometry3::from_parts(
+                Translation3::new(0.4, -0.3, 0.3),
+                UnitQuaternion::from_euler_angles(0.3, -0.2, 0.7),
+            ),
+        )
+        .unwrap();
+    let ck = checker(world.clone());
+    let ctl = ReactiveController::new(&ck, None, ReactiveConfig::default()).unwrap();
+    let model = ctl.model().clone();
+    let q = ready(&model);
+    let mut core = ctl.core().clone();
+    let (dist, _dirs, grads, centers) = core.sphere_distances(&q, 10.0).unwrap();
+    // Reference: parry's ball-ball and ball-cuboid distances (f32) between
+    // each robot sphere, placed by the model's own FK, and each obstacle.
+    let poses = model.fk_all(&q).unwrap();
+    let to_pose = |iso: &Isometry3<f64>| {
+        let t = iso.translation.vector;
+        let r = iso.rotation.coords;
+        parry3d::math::Pose::from_parts(
+            parry3d::math::Vector::new(t.x as f32, t.y as f32, t.z as f32),
+            parry3d::math::Rot3::from_xyzw(r[0] as f32, r[1] as f32, r[2] as f32, r[3] as f32),
+        )
+    };
+    let ball = parry3d::shape::Ball::new(0.07);
+    let cuboid = parry3d::shape::Cuboid::new(parry3d::math::Vector::new(0.1, 0.15, 0.05));
+    let mut i = 0;
+    let mut checked = 0;
+    for (l, spheres) in ck.spheres().links.iter().enumerate() {
+        for s in spheres {
+            let c = poses[l] * s.center;
+            assert!((c - centers[i]).norm() < 1e-9);
+            let me = parry3d::shape::Ball::new(s.radius as f32);
+            let mp = to_pose(&Isometry3::from_parts(
+                c.coords.into(),
+                UnitQuaternion::identity(),
+            ));
+            let d1 = parry3d::query::distance(&mp, &me, &to_pose(&world.objects()[0].pose), &ball)
+                .unwrap()
+                .distance as f64;
+            let d2 = parry3d::query::distance(&mp, &me, &to_pose(&world.objects()[1].pose), &cuboid)
+                .unwrap()
+                .distance as f64;
+            let reference = d1.min(d2);
+            if reference > 0.0 {
+                assert!(
+                    (dist[i] - reference).abs() < 1e-5,
+                    "sphere {i}: {} vs parry {reference}",
+                    dist[i]
+                );
+                checked += 1;
+            }
+            i += 1;
+        }
+    }
+    assert_eq!(i, 59);
+    assert!(checked > 50);
+    // Gradients in q against central differences of the distance itself.
+    let h = 1e-6;
+    for (s, g) in grads.iter().enumerate().step_by(5) {
+        for dof in 0..7 {
+            let mut qp = q.clone();
+            let mut qm = q.clone();
+            qp[dof] += h;
+            qm[dof] -= h;
+            let dp = core.sphere_distances(&qp, 10.0).unwrap().0[s];
+            let dm = core.sphere_distances(&qm, 10.0).unwrap().0[s];
+            let fd = (dp - dm) / (2.0 * h);
+            assert!(
+                (g[dof] - fd).abs() < 1e-4,
+                "sphere {s} dof {dof}: {} vs {fd}",
+                g[dof]
+            );
+        }
+    }
+}
+
+#[test]
+fn converges_to_a_reachable_target_without_obstacles() {
+    let ck = checker(CollisionWorld::new());
+    let mut ctl = ReactiveController::new(&ck, None, ReactiveConfig::default()).unwrap();
+    let model = ctl.model().clone();
+    let mut goal = ready(&model);
+    for (i, v) in [0.5, 0.3, -0.4, -0.4, 0.3, 0.4, -0.5].iter().enumerate() {
+        goal[i] += v;
+    }
+    let target = model.fk(&goal, None).unwrap();
+    ctl.core_mut().set_target(target, true).unwrap();
+    let mut q = ready(&model);
+    let mut qd = vec![0.0; q.len()];
+    run(&mut ctl, &mut q, &mut qd, 0.01, 600, |_, _, _| {});
+    let ee = model.fk(&q, None).unwrap();
+    let dp = (ee.translation.vector - target.translation.vector).norm();
+    let dr = ee.rotation.angle_to(&target.rotation);
+    assert!(dp < 2e-3, "position error {dp}");
+    assert!(dr < 1e-2, "rotation error {dr}");
+    assert!(qd.iter().all(|v| v.abs() < 1e-2), "not at rest: {qd:?}");
+}
+
+#[test]
+fn joint_limits_and_velocity_limits_are_respected() {
+    let ck = checker(CollisionWorld::new());
+    let mut ctl = ReactiveController::new(&ck, None, ReactiveConfig::default()).unwrap();
+    let model = ctl.model().clone();
+    // A target far out of reach pulls the arm into its limits.
+    ctl.core_mut()
+        .set_target(at(1.6, 0.9, -0.2), false)
+        .unwrap();
+    let (lo, hi, vmax) = (
+        model.lower_limits(),
+        model.upper_limits(),
+        model.velocity_limits(),
+    );
+    let mut q = ready(&model);
+    let mut qd = vec![0.0; q.len()];
+    run(&mut ctl, &mut q, &mut qd, 0.01, 400, |_, _, q| {
+        for d in 0..7 {
+            assert!(
+                q[d] >= lo[d] && q[d] <= hi[d],
+                "joint {d} at {} outside [{}, {}]",
+                q[d],
+                lo[d],
+                hi[d]
+            );
+        }
+    });
+    for d in 0..7 {
+        assert!(qd[d].abs() <= vmax[d] + 1e-9);
+    }
+}
+
+/// A ball flying at the arm at 0.5 m/s while it holds its pose: the
+/// sphere model never touches it, nor does the exact link geometry.
+#[test]
+fn never_enters_obstacles_in_scripted_approaches() {
+    let (model, ..) = panda();
+    let clear = LinkClearance::new(model.clone()).unwrap();
+    let q0 = ready(&model);
+    let poses = model.fk_all(&q0).unwrap();
+    let link = |n: &str| poses[model.link(n).unwrap()].translation.vector;
+    // Aim at the hand, the elbow (link 4) and the forearm (link 5), from
+    // the side, from the front and from above.
+    let cases = [
+        (link("panda_hand"), Vector3::new(0.0, -1.0, 0.0)),
+        (link("panda_link4"), Vector3::new(0.0, -1.0, 0.0)),
+        (link("panda_link5"), Vector3::new(0.0, 0.0, -1.0)),
+        (link("panda_hand"), Vector3::new(-0.6, 0.8, 0.0)),
+    ];
+    for (k, (aim, dir)) in cases.iter().enumerate() {
+        let speed = 0.5;
+        let start = aim - dir * 0.6;
+        let mut world = CollisionWorld::new();
+        world
+            .add_shape(
+                "ball",
+                ObstacleShape::Sphere { radius: 0.05 },
+                at(start.x, start.y, start.z),
+            )
+            .unwrap();
+        let ck = checker(world.clone());
+        let mut ctl = ReactiveController::new(&ck, None, ReactiveConfig::default()).unwrap();
+        let target = model.fk(&q0, None).unwrap();
+        ctl.core_mut().set_target(target, true).unwrap();
+        let mut q = q0.clone();
+        let mut qd = vec![0.0; q.len()];
+        let dt = 0.005;
+        let (d0, ..) = ctl.core().clone().sphere_distances(&q, 10.0).unwrap();
+        let start_clear = d0.iter().cloned().fold(f64::INFINITY, f64::min);
+        assert!(
+            start_clear > 0.25,
+            "case {k} starts {start_clear} m from the arm"
+        );
+        let mut worst = f64::INFINITY;
+        let mut worst_exact = f64::INFINITY;
+        for i in 0..400 {
+            // The ball flies through the aim point and on for 1.2 m in total.
+            let t = (i as f64 * dt).min(2.4);
+            let c = start + dir * speed * t;
+            ctl.set_obstacle_pose(
+                "ball",
+                at(c.x, c.y, c.z),
+                Some([dir.x * speed, dir.y * speed, dir.z * speed, 0.0, 0.0, 0.0]),
+            )
+            .unwrap();
+            world.set_pose("ball", at(c.x, c.y, c.z)).unwrap();
+            let out = ctl.step(&q, &qd, dt).unwrap();
+            q = out.q_target;
+            qd = out.qd_target;
+            let (d, ..) = ctl.core().clone().sphere_distances(&q, 10.0).unwrap();
+            worst = worst.min(d.iter().cloned().fold(f64::INFINITY, f64::min));
+            worst_exact = worst_exact.min(clear.clearance(&q, &world).unwrap().distance);
+        }
+        assert!(worst > 0.0, "case {k}: spheres reached {worst}");
+        assert!(worst_exact > 0.0, "case {k}: links reached {worst_exact}");
+    }
+}
+
+#[test]
+fn potential_field_converges_without_obstacles() {
+    let ck = checker(CollisionWorld::new());
+    let mut ctl =
+        PotentialFieldController::new(&ck, None, PotentialFieldConfig::default()).unwrap();
+    let model = ctl.model().clone();
+    let mut goal = ready(&model);
+    for (i, v) in [0.4, 0.2, -0.3, -0.4, 0.2, 0.3, -0.3].iter().enumerate() {
+        goal[i] += v;
+    }
+    let target = model.fk(&goal, None).unwrap();
+    ctl.core_mut().set_target(target, true).unwrap();
+    let mut q = ready(&model);
+    let mut qd = vec![0.0; q.len()];
+    for _ in 0..2000 {
+        let out = ctl.step(&q, &qd, 0.01).unwrap();
+        q = out.q_target;
+        qd = out.qd_target;
+    }
+    let ee = model.fk(&q, None).unwrap();
+    let dp = (ee.translation.vector - target.translation.vector).norm();
+    assert!(dp < 1e-2, "position error {dp}");
+}
+
+#[test]
+fn potential_field_distances_follow_the_exact_ones() {
+    let mut world = CollisionWorld::new();
+    world
+        .add_shape(
+            "ball",
+            ObstacleShape::Sphere { radius: 0.08 },
+            at(0.5, 0.0, 0.5),
+        )
+        .unwrap();
+    let ck = checker(world);
+    let ctl = PotentialFieldController::new(&ck, None, PotentialFieldConfig::default()).unwrap();
+    let part = &ctl.core().world().parts()[0];
+    for p in [
+        Point3::new(0.6, 0.05, 0.52),
+        Point3::new(0.4, -0.1, 0.62),
+        Point3::new(0.5, 0.0, 0.33),
+    ] {
+        let (d, g) = ferrobot_control::ControlWorld::field_distance(part, &p).unwrap();
+        let exact = (p - Point3::new(0.5, 0.0, 0.5)).norm() - 0.08;
+        assert!((d - exact).abs() < 2e-3, "{d} vs {exact}");
+        assert!(
+            g.normalize()
+                .dot(&(p - Point3::new(0.5, 0.0, 0.5)).normalize())
+                > 0.99
+        );
+    }
+}
+
+#[test]
+fn bad_inputs_are_errors() {
+    let ck = checker(CollisionWorld::new());
+    let mut cfg = ReactiveConfig::default();
+    assert!(cfg.set("target_gain", -1.0).is_err());
+    assert!(cfg.set("target_gain", f64::NAN).is_err());
+    assert!(cfg.set("no_such_gain", 1.0).is_err());
+    cfg.collision_distance = 0.0;
+    assert!(ReactiveController::new(&ck, None, cfg).is_err());
+    let mut ctl = ReactiveController::new(&ck, None, ReactiveConfig::default()).unwrap();
+    let q = ready(ctl.model());
+    let qd = vec![0.0; q.len()];
+    assert!(ctl.step(&q[..7], &qd, 0.01).is_err());
+    assert!(ctl.step(&q, &qd[..3], 0.01).is_err());
+    assert!(ctl.step(&q, &qd, 0.0).is_err());
+    assert!(ctl.step(&q, &qd, f64::NAN).is_err());
+    let mut bad = q.clone();
+    bad[2] = f64::NAN;
+    assert!(ctl.step(&bad, &qd, 0.01).is_err());
+    assert!(
+        ctl.set_obstacle_pose("nothing", at(0.0, 0.0, 0.0), None)
+            .is_err()
+    );
+    let pf = PotentialFieldConfig {
+        field_padding: 0.05,
+        ..Default::default()
+    };
+    assert!(PotentialFieldController::new(&ck, None, pf).is_err());
+}

@@ -1,0 +1,208 @@
+"""Reactive and potential-field controllers: distances against hand geometry, closed-loop behaviour, validation.
+
+References are independent of the controllers: sphere centres are placed with ``RobotModel.fk`` (checked against
+Pinocchio elsewhere) and ``SphereModel.spheres``; distances to spheres and boxes are written out by hand; gradients
+are central finite differences of those hand distances.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import ferrobot
+from ferrobot import errors
+
+
+@pytest.fixture(scope="module")
+def panda():
+    model = ferrobot.robots.panda()
+    return model, ferrobot.SphereModel.automatic(model, total_budget=59)
+
+
+def placed_spheres(model, spheres, q):
+    """(S, 4) sphere centres (base frame) and radii, placed by the model's FK."""
+    out = []
+    for link in model.link_names:
+        s = spheres.spheres(link)
+        if len(s) == 0:
+            continue
+        T = model.fk(q, link)
+        out.extend(np.c_[(T[:3, :3] @ s[:, :3].T).T + T[:3, 3], s[:, 3]])
+    return np.array(out)
+
+
+def box_distance(p, center, half):
+    d = np.abs(p - center) - half
+    outside = np.linalg.norm(np.maximum(d, 0.0))
+    return outside + min(max(d.max(), -np.inf), 0.0)
+
+
+def hand_distances(P, ball_c, ball_r, box_c, box_h):
+    """Signed distance of each sphere (rows of P: x, y, z, r) to the nearer of a ball and an axis-aligned box."""
+    db = np.linalg.norm(P[:, :3] - ball_c, axis=1) - ball_r
+    dx = np.array([box_distance(p, box_c, box_h) for p in P[:, :3]])
+    return np.minimum(db, dx) - P[:, 3]
+
+
+def test_sphere_distances_and_gradients_match_hand_geometry(panda):
+    model, spheres = panda
+    ball_c, ball_r = np.array([0.45, 0.25, 0.45]), 0.07
+    box_c, box_h = np.array([0.4, -0.3, 0.3]), np.array([0.1, 0.15, 0.05])
+    world = ferrobot.CollisionWorld()
+    world.add_sphere("ball", ball_r, [*ball_c, 1, 0, 0, 0])
+    world.add_box("crate", 2 * box_h, [*box_c, 1, 0, 0, 0])
+    ctl = ferrobot.ReactiveController(model, world, spheres)
+    q = model.named_state("ready")
+    got = ctl.sphere_distances(q, reach=10.0)
+    P = placed_spheres(model, spheres, q)
+    assert len(P) == ctl.num_spheres == 59
+    # Match the controller's spheres to the independently placed ones.
+    order = []
+    for c, r in zip(got["centers"], got["radii"], strict=True):
+        i = int(np.argmin(np.linalg.norm(P[:, :3] - c, axis=1) + np.abs(P[:, 3] - r)))
+        assert np.linalg.norm(P[i, :3] - c) < 1e-9 and abs(P[i, 3] - r) < 1e-12
+        order.append(i)
+    expect = hand_distances(P[order], ball_c, ball_r, box_c, box_h)
+    np.testing.assert_allclose(got["distance"], expect, atol=1e-9)
+    h = 1e-6
+    for dof in range(7):
+        qp, qm = q.copy(), q.copy()
+        qp[dof] += h
+        qm[dof] -= h
+        fd = (
+            hand_distances(placed_spheres(model, spheres, qp)[order], ball_c, ball_r, box_c, box_h)
+            - hand_distances(placed_spheres(model, spheres, qm)[order], ball_c, ball_r, box_c, box_h)
+        ) / (2 * h)
+        np.testing.assert_allclose(got["gradient"][:, dof], fd, atol=1e-5)
+
+
+def run(ctl, q, n, dt=0.01, each=None):
+    qd = np.zeros_like(q)
+    for k in range(n):
+        if each is not None:
+            each(ctl, k * dt)
+        q, qd, _ = ctl.step(q, qd, dt)
+    return q, qd
+
+
+@pytest.mark.parametrize("cls", [ferrobot.ReactiveController, ferrobot.PotentialFieldController])
+def test_converges_to_a_reachable_target_without_obstacles(panda, cls):
+    model, spheres = panda
+    q0 = model.named_state("ready")
+    goal = q0.copy()
+    goal[:7] += [0.4, 0.2, -0.3, -0.4, 0.2, 0.3, -0.3]
+    target = model.fk(goal)
+    ctl = cls(model, None, spheres)
+    ctl.set_target(target)
+    q, _ = run(ctl, q0, 600 if cls is ferrobot.ReactiveController else 2000)
+    T = model.fk(q)
+    assert np.linalg.norm(T[:3, 3] - target[:3, 3]) < 0.01
+    r = T[:3, :3].T @ target[:3, :3]
+    assert np.arccos(np.clip((np.trace(r) - 1) / 2, -1, 1)) < 0.05
+
+
+def test_never_enters_a_ball_flying_at_the_hand(panda):
+    model, spheres = panda
+    q0 = model.named_state("ready")
+    hand = model.fk(q0)[:3, 3]
+    for direction in ([0.0, -1.0, 0.0], [-0.6, 0.8, 0.0], [0.0, 0.0, -1.0]):
+        v = 0.5 * np.asarray(direction)
+        start = hand - 1.2 * v  # reaches the hand after 1.2 s
+        world = ferrobot.CollisionWorld()
+        world.add_sphere("ball", 0.05, [*start, 1, 0, 0, 0])
+        ctl = ferrobot.ReactiveController(model, world, spheres)
+        ctl.set_target(model.fk(q0))
+        q, qd = q0.copy(), np.zeros(8)
+        worst = np.inf
+        for k in range(300):
+            c = start + v * k * 0.01
+            ctl.set_obstacle_pose("ball", [*c, 1, 0, 0, 0], v)
+            q, qd, _ = ctl.step(q, qd, 0.01)
+            P = placed_spheres(model, spheres, q)
+            worst = min(worst, (np.linalg.norm(P[:, :3] - c, axis=1) - 0.05 - P[:, 3]).min())
+            assert ctl.exact_clearance(q)["distance"] > 0.0
+        assert worst > 0.0, direction
+
+
+def test_joint_limits_and_velocities_are_respected(panda):
+    model, spheres = panda
+    ctl = ferrobot.ReactiveController(model, None, spheres)
+    ctl.set_target([1.6, 0.9, -0.2, 1, 0, 0, 0], orientation=False)  # out of reach
+    q, qd = model.named_state("ready"), np.zeros(8)
+    lo, hi, vmax = model.lower_limits, model.upper_limits, model.velocity_limits
+    for _ in range(300):
+        q, qd, _ = ctl.step(q, qd, 0.01)
+        assert np.all(q >= lo) and np.all(q <= hi)
+        assert np.all(np.abs(qd) <= vmax + 1e-12)
+
+
+def test_joint_names_reorder_inputs_and_outputs(panda):
+    model, spheres = panda
+    a = ferrobot.ReactiveController(model, None, spheres)
+    b = ferrobot.ReactiveController(model, None, spheres)
+    target = [0.4, 0.2, 0.4, 0, 1, 0, 0]
+    a.set_target(target)
+    b.set_target(target)
+    q = model.named_state("ready")
+    qd = np.linspace(-0.1, 0.1, 8)
+    perm = np.arange(8)[::-1]
+    names = [model.dof_names[i] for i in perm]
+    ref = a.step(q, qd, 0.01)
+    got = b.step(q[perm], qd[perm], 0.01, joint_names=names)
+    for x, y in zip(ref, got, strict=True):
+        np.testing.assert_allclose(x[perm], y, atol=1e-12)
+
+
+def test_bad_inputs_raise_ferrobot_errors(panda):
+    model, spheres = panda
+    world = ferrobot.CollisionWorld()
+    world.add_sphere("ball", 0.05, [0.5, 0, 0.5, 1, 0, 0, 0])
+    ctl = ferrobot.ReactiveController(model, world, spheres)
+    q, qd = model.named_state("ready"), np.zeros(8)
+    with pytest.raises(errors.NonFiniteError, match="pose"):
+        ctl.set_target([np.nan, 0, 0.5, 1, 0, 0, 0])
+    with pytest.raises(errors.ShapeError, match="q"):
+        ctl.step(q[:7], qd, 0.01)
+    with pytest.raises(errors.NonFiniteError, match="qd"):
+        ctl.step(q, np.full(8, np.nan), 0.01)
+    with pytest.raises(errors.InvalidArgumentError, match="dt"):
+        ctl.step(q, qd, 0.0)
+    with pytest.raises(errors.UnknownNameError, match="elbow"):
+        ctl.step(q, qd, 0.01, joint_names=["elbow", *model.dof_names[1:]])
+    with pytest.raises(errors.InvalidArgumentError, match="missing"):
+        ctl.step(q, qd, 0.01, joint_names=model.dof_names[:7])
+    with pytest.raises(errors.UnknownNameError, match="nothing"):
+        ctl.set_obstacle_pose("nothing", [0, 0, 0, 1, 0, 0, 0])
+    with pytest.raises(errors.ShapeError, match="velocity"):
+        ctl.set_obstacle_pose("ball", [0, 0, 0, 1, 0, 0, 0], [1.0, 2.0])
+    with pytest.raises(errors.UnknownNameError, match="target_gian"):
+        ferrobot.ReactiveController(model, None, spheres, config={"target_gian": 1.0})
+    with pytest.raises(errors.InvalidArgumentError, match="collision_distance"):
+        ctl.set_config({"collision_distance": -1.0})
+    with pytest.raises(errors.UnknownNameError, match="no_link"):
+        ferrobot.ReactiveController(model, None, spheres, ee_link="no_link")
+    with pytest.raises(errors.InvalidArgumentError, match="field_padding"):
+        ferrobot.PotentialFieldController(model, None, spheres, config={"field_padding": 0.05})
+    lo, hi = ferrobot.ReactiveController.config_ranges()["target_gain"]
+    assert lo <= ctl.config["target_gain"] <= hi
+
+
+def test_closed_loop_with_the_simulator(panda):
+    """The controller drives the simulated Panda through its position drives (state in, targets out)."""
+    model, spheres = panda
+    world = ferrobot.World(dt=1 / 240)
+    q0 = model.named_state("ready")
+    robot = world.add_robot(model, q=q0)
+    goal = q0.copy()
+    goal[:7] += [0.3, 0.2, -0.2, -0.3, 0.1, 0.2, -0.2]
+    target = model.fk(goal)
+    ctl = ferrobot.ReactiveController(model, None, spheres)
+    ctl.set_target(target)
+    dt = 4 / 240  # 60 Hz control, 4 physics steps per control step
+    for _ in range(240):
+        q_t, _, _ = ctl.step(robot.get_joint_positions(), robot.get_joint_velocities(), dt)
+        robot.set_joint_position_targets(q_t)
+        world.step(4)
+    T = model.fk(robot.get_joint_positions())
+    assert np.linalg.norm(T[:3, 3] - target[:3, 3]) < 0.01
