@@ -110,39 +110,43 @@ impl PyJointTrajectory {
 impl PyJointTrajectory {
     /// Sample times (s), shape (T,); the last is the trajectory's end.
     #[getter]
-    fn times<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        vec1(py, self.times.clone())
+    fn times<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        guard(|| Ok(vec1(py, self.times.clone())))
     }
 
     /// Positions, shape (T, len(joint_names)).
     #[getter]
-    fn positions<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
-        rows(py, self.positions.clone(), self.width)
+    fn positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        guard(|| Ok(rows(py, self.positions.clone(), self.width)))
     }
 
     /// Velocities, shape (T, len(joint_names)).
     #[getter]
-    fn velocities<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
-        rows(py, self.velocities.clone(), self.width)
+    fn velocities<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        guard(|| Ok(rows(py, self.velocities.clone(), self.width)))
     }
 
     /// Accelerations, shape (T, len(joint_names)).
     #[getter]
-    fn accelerations<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
-        rows(py, self.accelerations.clone(), self.width)
+    fn accelerations<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        guard(|| Ok(rows(py, self.accelerations.clone(), self.width)))
     }
 
-    fn __len__(&self) -> usize {
-        self.times.len()
+    fn __len__(&self) -> PyResult<usize> {
+        guard(|| Ok(self.times.len()))
     }
 
-    fn __repr__(&self) -> String {
-        format!(
-            "JointTrajectory({} samples, dt={}, {:.3} s)",
-            self.times.len(),
-            self.dt,
-            self.times.last().copied().unwrap_or(0.0)
-        )
+    fn __repr__(&self) -> PyResult<String> {
+        guard(|| {
+            Ok({
+                format!(
+                    "JointTrajectory({} samples, dt={}, {:.3} s)",
+                    self.times.len(),
+                    self.dt,
+                    self.times.last().copied().unwrap_or(0.0)
+                )
+            })
+        })
     }
 }
 
@@ -157,146 +161,162 @@ pub struct PyPlanResult {
 impl PyPlanResult {
     /// Whether a collision-free path was found.
     #[getter]
-    fn success(&self) -> bool {
-        self.inner.success()
+    fn success(&self) -> PyResult<bool> {
+        guard(|| Ok(self.inner.success()))
     }
 
     /// "solved", "start_in_collision", "goal_in_collision",
     /// "start_out_of_limits", "goal_out_of_limits", "ik_failed", "timeout"
     /// or "sample_limit".
     #[getter]
-    fn status(&self) -> &'static str {
-        self.inner.status.name()
+    fn status(&self) -> PyResult<&'static str> {
+        guard(|| Ok(self.inner.status.name()))
     }
 
     /// Why the plan failed (empty when solved).
     #[getter]
-    fn message(&self) -> &str {
-        &self.inner.message
+    fn message(&self) -> PyResult<&str> {
+        guard(|| Ok(self.inner.message.as_str()))
     }
 
     /// Joint order of `path`, `goal` and the interpolated trajectory.
     #[getter]
-    fn joint_names(&self) -> Vec<String> {
-        self.out.names()
+    fn joint_names(&self) -> PyResult<Vec<String>> {
+        guard(|| Ok(self.out.names()))
     }
 
     /// The geometric path, shape (K, len(joint_names)); empty if failed.
     #[getter]
-    fn path<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
-        let data: Vec<f64> = self
-            .inner
-            .path
-            .iter()
-            .flat_map(|q| self.out.positions(q))
-            .collect();
-        rows(py, data, self.out.width())
+    fn path<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        guard(|| {
+            Ok({
+                let data: Vec<f64> = self
+                    .inner
+                    .path
+                    .iter()
+                    .flat_map(|q| self.out.positions(q))
+                    .collect();
+                rows(py, data, self.out.width())
+            })
+        })
     }
 
     /// The goal configuration reached (the IK solution for pose goals).
     #[getter]
-    fn goal<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray1<f64>>> {
-        self.inner
-            .goal
-            .as_ref()
-            .map(|g| vec1(py, self.out.positions(g)))
+    fn goal<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyArray1<f64>>>> {
+        guard(|| {
+            Ok({
+                self.inner
+                    .goal
+                    .as_ref()
+                    .map(|g| vec1(py, self.out.positions(g)))
+            })
+        })
     }
 
     /// Stage wall-clock times (s): ik, planning, simplify, trajectory, total.
     #[getter]
     fn times<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let d = PyDict::new(py);
-        let t = self.inner.times;
-        for (k, v) in [
-            ("ik", t.ik),
-            ("planning", t.planning),
-            ("simplify", t.simplify),
-            ("trajectory", t.trajectory),
-            ("total", t.total),
-        ] {
-            d.set_item(k, v)?;
-        }
-        Ok(d)
+        guard(|| {
+            let d = PyDict::new(py);
+            let t = self.inner.times;
+            for (k, v) in [
+                ("ik", t.ik),
+                ("planning", t.planning),
+                ("simplify", t.simplify),
+                ("trajectory", t.trajectory),
+                ("total", t.total),
+            ] {
+                d.set_item(k, v)?;
+            }
+            Ok(d)
+        })
     }
 
     /// RRT-Connect samples drawn.
     #[getter]
-    fn samples(&self) -> usize {
-        self.inner.samples
+    fn samples(&self) -> PyResult<usize> {
+        guard(|| Ok(self.inner.samples))
     }
 
     /// True when the smooth spline kept colliding and the trajectory stops
     /// at every waypoint instead (it then follows the checked path exactly).
     #[getter]
-    fn stops_at_waypoints(&self) -> bool {
-        self.inner.stops_at_waypoints
+    fn stops_at_waypoints(&self) -> PyResult<bool> {
+        guard(|| Ok(self.inner.stops_at_waypoints))
     }
 
     /// Length of the path in joint space (Euclidean over planned joints).
     #[getter]
-    fn path_length(&self) -> f64 {
-        self.inner.path_length()
+    fn path_length(&self) -> PyResult<f64> {
+        guard(|| Ok(self.inner.path_length()))
     }
 
     /// Duration of the trajectory (s), or None.
     #[getter]
-    fn duration(&self) -> Option<f64> {
-        self.inner.trajectory.as_ref().map(Trajectory::duration)
+    fn duration(&self) -> PyResult<Option<f64>> {
+        guard(|| Ok(self.inner.trajectory.as_ref().map(Trajectory::duration)))
     }
 
     /// The trajectory sampled every `dt` seconds (the last sample at its
     /// end): positions, velocities and accelerations.
     #[pyo3(signature = (dt=0.01))]
     pub(crate) fn interpolated(&self, dt: f64) -> PyResult<PyJointTrajectory> {
-        if !(dt.is_finite() && dt > 0.0) {
-            return Err(InvalidArgumentError::new_err(format!(
-                "dt must be a positive number of seconds, got {dt}"
-            )));
-        }
-        let traj = self.inner.trajectory.as_ref().ok_or_else(|| {
-            InvalidArgumentError::new_err(format!(
-                "no trajectory: the plan's status is '{}'{}",
-                self.inner.status.name(),
-                if self.inner.success() {
-                    " (planned with trajectory=False)"
-                } else {
-                    ""
-                }
-            ))
-        })?;
-        let k = traj.dim();
-        let (times, q, v, a) = traj.interpolated(dt);
-        let map = |src: &[f64], f: &dyn Fn(&[f64]) -> Vec<f64>| -> Vec<f64> {
-            src.chunks_exact(k).flat_map(f).collect()
-        };
-        Ok(PyJointTrajectory {
-            dt,
-            joint_names: self.out.names(),
-            positions: map(&q, &|r| self.out.positions(r)),
-            velocities: map(&v, &|r| self.out.derivatives(r)),
-            accelerations: map(&a, &|r| self.out.derivatives(r)),
-            times,
-            width: self.out.width(),
+        guard(|| {
+            if !(dt.is_finite() && dt > 0.0) {
+                return Err(InvalidArgumentError::new_err(format!(
+                    "dt must be a positive number of seconds, got {dt}"
+                )));
+            }
+            let traj = self.inner.trajectory.as_ref().ok_or_else(|| {
+                InvalidArgumentError::new_err(format!(
+                    "no trajectory: the plan's status is '{}'{}",
+                    self.inner.status.name(),
+                    if self.inner.success() {
+                        " (planned with trajectory=False)"
+                    } else {
+                        ""
+                    }
+                ))
+            })?;
+            let k = traj.dim();
+            let (times, q, v, a) = traj.interpolated(dt);
+            let map = |src: &[f64], f: &dyn Fn(&[f64]) -> Vec<f64>| -> Vec<f64> {
+                src.chunks_exact(k).flat_map(f).collect()
+            };
+            Ok(PyJointTrajectory {
+                dt,
+                joint_names: self.out.names(),
+                positions: map(&q, &|r| self.out.positions(r)),
+                velocities: map(&v, &|r| self.out.derivatives(r)),
+                accelerations: map(&a, &|r| self.out.derivatives(r)),
+                times,
+                width: self.out.width(),
+            })
         })
     }
 
-    fn __bool__(&self) -> bool {
-        self.inner.success()
+    fn __bool__(&self) -> PyResult<bool> {
+        guard(|| Ok(self.inner.success()))
     }
 
-    fn __repr__(&self) -> String {
-        let t = self.inner.times;
-        format!(
-            "PlanResult(status='{}', waypoints={}, total={:.3} ms{})",
-            self.inner.status.name(),
-            self.inner.path.len(),
-            t.total * 1e3,
-            if self.inner.message.is_empty() {
-                String::new()
-            } else {
-                format!(", message={:?}", self.inner.message)
-            }
-        )
+    fn __repr__(&self) -> PyResult<String> {
+        guard(|| {
+            Ok({
+                let t = self.inner.times;
+                format!(
+                    "PlanResult(status='{}', waypoints={}, total={:.3} ms{})",
+                    self.inner.status.name(),
+                    self.inner.path.len(),
+                    t.total * 1e3,
+                    if self.inner.message.is_empty() {
+                        String::new()
+                    } else {
+                        format!(", message={:?}", self.inner.message)
+                    }
+                )
+            })
+        })
     }
 }
 
@@ -313,81 +333,95 @@ impl PyIkResult {
     /// Success flag(s).
     #[getter]
     fn success<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        if self.batched {
-            let v: Vec<bool> = self.solutions.iter().map(|s| s.success).collect();
-            Ok(Array1::from_vec(v).into_pyarray(py).into_any())
-        } else {
-            Ok(pyo3::types::PyBool::new(py, self.solutions[0].success)
-                .to_owned()
-                .into_any())
-        }
+        guard(|| {
+            if self.batched {
+                let v: Vec<bool> = self.solutions.iter().map(|s| s.success).collect();
+                Ok(Array1::from_vec(v).into_pyarray(py).into_any())
+            } else {
+                Ok(pyo3::types::PyBool::new(py, self.solutions[0].success)
+                    .to_owned()
+                    .into_any())
+            }
+        })
     }
 
     /// Solution(s) (or best attempts where `success` is false), shape
     /// (len(joint_names),) or (N, len(joint_names)).
     #[getter]
-    fn q<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
-        let data: Vec<f64> = self
-            .solutions
-            .iter()
-            .flat_map(|s| self.out.positions(&s.q))
-            .collect();
-        if self.batched {
-            rows(py, data, self.out.width()).into_any()
-        } else {
-            vec1(py, data).into_any()
-        }
+    fn q<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        guard(|| {
+            Ok({
+                let data: Vec<f64> = self
+                    .solutions
+                    .iter()
+                    .flat_map(|s| self.out.positions(&s.q))
+                    .collect();
+                if self.batched {
+                    rows(py, data, self.out.width()).into_any()
+                } else {
+                    vec1(py, data).into_any()
+                }
+            })
+        })
     }
 
     /// Position error(s) (m).
     #[getter]
     fn position_error<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        self.scalars(py, |s| s.position_error)
+        guard(|| self.scalars(py, |s| s.position_error))
     }
 
     /// Rotation error(s) (rad).
     #[getter]
     fn rotation_error<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        self.scalars(py, |s| s.rotation_error)
+        guard(|| self.scalars(py, |s| s.rotation_error))
     }
 
     /// Index of the goal reached in a goal set (0 for single goals).
     #[getter]
     fn goal_index<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        self.scalars(py, |s| s.goal_index as f64).and_then(|v| {
-            if self.batched {
-                v.call_method1("astype", ("int64",))
-            } else {
-                v.call_method0("__int__")
-            }
+        guard(|| {
+            self.scalars(py, |s| s.goal_index as f64).and_then(|v| {
+                if self.batched {
+                    v.call_method1("astype", ("int64",))
+                } else {
+                    v.call_method0("__int__")
+                }
+            })
         })
     }
 
     /// Seeds tried (per solve).
     #[getter]
     fn seeds_tried<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        self.scalars(py, |s| s.seeds_tried as f64).and_then(|v| {
-            if self.batched {
-                v.call_method1("astype", ("int64",))
-            } else {
-                v.call_method0("__int__")
-            }
+        guard(|| {
+            self.scalars(py, |s| s.seeds_tried as f64).and_then(|v| {
+                if self.batched {
+                    v.call_method1("astype", ("int64",))
+                } else {
+                    v.call_method0("__int__")
+                }
+            })
         })
     }
 
     /// Joint order of `q`.
     #[getter]
-    fn joint_names(&self) -> Vec<String> {
-        self.out.names()
+    fn joint_names(&self) -> PyResult<Vec<String>> {
+        guard(|| Ok(self.out.names()))
     }
 
-    fn __len__(&self) -> usize {
-        self.solutions.len()
+    fn __len__(&self) -> PyResult<usize> {
+        guard(|| Ok(self.solutions.len()))
     }
 
-    fn __repr__(&self) -> String {
-        let ok = self.solutions.iter().filter(|s| s.success).count();
-        format!("IkResult({ok}/{} solved)", self.solutions.len())
+    fn __repr__(&self) -> PyResult<String> {
+        guard(|| {
+            Ok({
+                let ok = self.solutions.iter().filter(|s| s.success).count();
+                format!("IkResult({ok}/{} solved)", self.solutions.len())
+            })
+        })
     }
 }
 
@@ -544,28 +578,32 @@ impl PyPlanner {
     /// The planned joints, in the planner's own order (a subset of
     /// `dof_names`, in the same order).
     #[getter]
-    fn joint_names(&self) -> Vec<String> {
-        self.inner.space().names.clone()
+    fn joint_names(&self) -> PyResult<Vec<String>> {
+        guard(|| Ok(self.inner.space().names.clone()))
     }
 
     /// All DOF names of the model.
     #[getter]
-    fn dof_names(&self) -> Vec<String> {
-        self.inner.model().dof_names().to_vec()
+    fn dof_names(&self) -> PyResult<Vec<String>> {
+        guard(|| Ok(self.inner.model().dof_names().to_vec()))
     }
 
     /// The IK link's name.
     #[getter]
-    fn ee_link(&self) -> String {
-        self.inner.model().links()[self.inner.ik_link()]
-            .name
-            .clone()
+    fn ee_link(&self) -> PyResult<String> {
+        guard(|| {
+            Ok({
+                self.inner.model().links()[self.inner.ik_link()]
+                    .name
+                    .clone()
+            })
+        })
     }
 
     /// Values of the joints the planner does not move, `dof_names` order.
     #[getter]
-    fn locked_positions<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        vec1(py, self.inner.space().locked.clone())
+    fn locked_positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        guard(|| Ok(vec1(py, self.inner.space().locked.clone())))
     }
 
     /// Sets the joints the planner does not move (fingers, say) from a full
@@ -582,14 +620,16 @@ impl PyPlanner {
     /// jerk (arrays in `joint_names` order).
     #[getter]
     fn limits<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let l = self.inner.limits();
-        let d = PyDict::new(py);
-        d.set_item("lower", vec1(py, l.lower.clone()))?;
-        d.set_item("upper", vec1(py, l.upper.clone()))?;
-        d.set_item("velocity", vec1(py, l.velocity.clone()))?;
-        d.set_item("acceleration", vec1(py, l.acceleration.clone()))?;
-        d.set_item("jerk", vec1(py, l.jerk.clone()))?;
-        Ok(d)
+        guard(|| {
+            let l = self.inner.limits();
+            let d = PyDict::new(py);
+            d.set_item("lower", vec1(py, l.lower.clone()))?;
+            d.set_item("upper", vec1(py, l.upper.clone()))?;
+            d.set_item("velocity", vec1(py, l.velocity.clone()))?;
+            d.set_item("acceleration", vec1(py, l.acceleration.clone()))?;
+            d.set_item("jerk", vec1(py, l.jerk.clone()))?;
+            Ok(d)
+        })
     }
 
     /// Replaces velocity, acceleration and/or jerk limits (positive, one per
@@ -716,32 +756,44 @@ impl PyPlanner {
     /// The robot's sphere model used by this planner (automatic unless one
     /// was given); its `report` is empty.
     #[getter]
-    fn sphere_model(&self) -> PySphereModel {
-        let c = self.inner.checker();
-        PySphereModel {
-            model: c.model().clone(),
-            inner: c.spheres().clone(),
-            report: Vec::new(),
-        }
+    fn sphere_model(&self) -> PyResult<PySphereModel> {
+        guard(|| {
+            Ok({
+                let c = self.inner.checker();
+                PySphereModel {
+                    model: c.model().clone(),
+                    inner: c.spheres().clone(),
+                    report: Vec::new(),
+                }
+            })
+        })
     }
 
     /// Names of the objects attached to the robot.
     #[getter]
-    fn attached(&self) -> Vec<String> {
-        self.inner
-            .checker()
-            .attached()
-            .iter()
-            .map(|a| a.name.clone())
-            .collect()
+    fn attached(&self) -> PyResult<Vec<String>> {
+        guard(|| {
+            Ok({
+                self.inner
+                    .checker()
+                    .attached()
+                    .iter()
+                    .map(|a| a.name.clone())
+                    .collect()
+            })
+        })
     }
 
     /// A copy of the planner's world.
     #[getter]
-    fn world(&self) -> PyCollisionWorld {
-        PyCollisionWorld {
-            inner: self.inner.checker().world().clone(),
-        }
+    fn world(&self) -> PyResult<PyCollisionWorld> {
+        guard(|| {
+            Ok({
+                PyCollisionWorld {
+                    inner: self.inner.checker().world().clone(),
+                }
+            })
+        })
     }
 
     /// Whether configuration `q` collides (world or self).
@@ -1004,13 +1056,17 @@ impl PyPlanner {
         })
     }
 
-    fn __repr__(&self) -> String {
-        format!(
-            "Planner(robot='{}', joints={:?}, ee_link='{}')",
-            self.inner.model().name(),
-            self.inner.space().names,
-            self.ee_link()
-        )
+    fn __repr__(&self) -> PyResult<String> {
+        guard(|| {
+            Ok({
+                format!(
+                    "Planner(robot='{}', joints={:?}, ee_link='{}')",
+                    self.inner.model().name(),
+                    self.inner.space().names,
+                    self.ee_link()?
+                )
+            })
+        })
     }
 }
 
