@@ -1,6 +1,7 @@
 //! Python bindings of the planning crate: `ferrobot.Planner`, its IK and
 //! plan results, and the interpolated joint trajectory.
 
+use std::sync::Arc;
 use std::time::Duration;
 
 use ferrobot_planning::{
@@ -263,11 +264,10 @@ impl PyPlanResult {
     #[pyo3(signature = (dt=0.01))]
     pub(crate) fn interpolated(&self, dt: f64) -> PyResult<PyJointTrajectory> {
         guard(|| {
-            if !(dt.is_finite() && dt > 0.0) {
-                return Err(InvalidArgumentError::new_err(format!(
-                    "dt must be a positive number of seconds, got {dt}"
-                )));
-            }
+            use ferrobot_model::ranges::{MAX_TRAJECTORY_SAMPLES, SAMPLE_DT, step_count};
+            SAMPLE_DT
+                .check(dt)
+                .map_err(|e| InvalidArgumentError::new_err(e.0))?;
             let traj = self.inner.trajectory.as_ref().ok_or_else(|| {
                 InvalidArgumentError::new_err(format!(
                     "no trajectory: the plan's status is '{}'{}",
@@ -280,6 +280,8 @@ impl PyPlanResult {
                 ))
             })?;
             let k = traj.dim();
+            step_count("interpolated", traj.duration(), dt, MAX_TRAJECTORY_SAMPLES)
+                .map_err(|e| InvalidArgumentError::new_err(e.0))?;
             let (times, q, v, a) = traj.interpolated(dt);
             let map = |src: &[f64], f: &dyn Fn(&[f64]) -> Vec<f64>| -> Vec<f64> {
                 src.chunks_exact(k).flat_map(f).collect()
@@ -444,13 +446,42 @@ impl PyIkResult {
 /// checks, shortcutting and smooth time-parametrised trajectories.
 #[pyclass(name = "Planner", module = "ferrobot")]
 pub struct PyPlanner {
-    inner: Planner,
+    /// The planner, swapped atomically: a plan works on a snapshot (an
+    /// `Arc` clone) with the lock released, and a change (`update_world`,
+    /// `attach_world_object`, ...) edits a copy when a plan holds the
+    /// current one, so concurrent plans always see one consistent world.
+    inner: std::sync::RwLock<Arc<Planner>>,
 }
 
 impl PyPlanner {
+    fn from_planner(p: Planner) -> Self {
+        Self {
+            inner: std::sync::RwLock::new(Arc::new(p)),
+        }
+    }
+
+    /// The current planner (a snapshot unaffected by later changes).
+    fn snap(&self) -> Arc<Planner> {
+        self.inner
+            .read()
+            .unwrap_or_else(|poisoned| poisoned.into_inner())
+            .clone()
+    }
+
+    /// Applies `f` to the planner (copy-on-write if a plan holds it).
+    fn edit<T>(&self, f: impl FnOnce(&mut Planner) -> PyResult<T>) -> PyResult<T> {
+        let mut g = self
+            .inner
+            .write()
+            .unwrap_or_else(|poisoned| poisoned.into_inner());
+        // In place when no plan holds the planner, else on a copy.
+        f(Arc::make_mut(&mut g))
+    }
+
     fn order(&self, joint_names: Option<Vec<String>>) -> PyResult<Option<JointOrder>> {
+        let inner = self.snap();
         joint_names
-            .map(|n| JointOrder::new(self.inner.model(), self.inner.space(), &n))
+            .map(|n| JointOrder::new(inner.model(), inner.space(), &n))
             .transpose()
             .map_err(planning_err)
     }
@@ -462,11 +493,12 @@ impl PyPlanner {
         q: &Bound<'_, PyAny>,
         joint_names: Option<Vec<String>>,
     ) -> PyResult<Vec<f64>> {
+        let inner = self.snap();
         let order = self.order(joint_names)?;
         let (active, full) = self.config(q, "q", order.as_ref())?;
         Ok(match full {
             Some(f) => f,
-            None => self.inner.space().expand(&active),
+            None => inner.space().expand(&active),
         })
     }
 
@@ -480,10 +512,11 @@ impl PyPlanner {
         what: &str,
         order: Option<&JointOrder>,
     ) -> PyResult<(Vec<f64>, Option<Vec<f64>>)> {
+        let inner = self.snap();
         let arr = read_array(obj, what, 1, &[None])?;
         let v = arr.data();
-        let space = self.inner.space();
-        let n = self.inner.model().num_dof();
+        let space = inner.space();
+        let n = inner.model().num_dof();
         if let Some(o) = order {
             let active = o.to_active(what, v).map_err(planning_err)?;
             // Values for joints the planner does not move (a simulator's
@@ -542,7 +575,8 @@ impl PyPlanner {
     }
 
     fn link(&self, link: Option<&str>) -> PyResult<Option<usize>> {
-        link.map(|l| self.inner.model().link(l).map_err(model_err))
+        let inner = self.snap();
+        link.map(|l| inner.model().link(l).map_err(model_err))
             .transpose()
     }
 }
@@ -570,7 +604,9 @@ impl PyPlanner {
                 .map(|l| model.inner.link(l).map_err(model_err))
                 .transpose()?;
             Ok(Self {
-                inner: Planner::new(checker, link).map_err(planning_err)?,
+                inner: std::sync::RwLock::new(Arc::new(
+                    Planner::new(checker, link).map_err(planning_err)?,
+                )),
             })
         })
     }
@@ -579,40 +615,40 @@ impl PyPlanner {
     /// `dof_names`, in the same order).
     #[getter]
     fn joint_names(&self) -> PyResult<Vec<String>> {
-        guard(|| Ok(self.inner.space().names.clone()))
+        let inner = self.snap();
+        guard(|| Ok(inner.space().names.clone()))
     }
 
     /// All DOF names of the model.
     #[getter]
     fn dof_names(&self) -> PyResult<Vec<String>> {
-        guard(|| Ok(self.inner.model().dof_names().to_vec()))
+        let inner = self.snap();
+        guard(|| Ok(inner.model().dof_names().to_vec()))
     }
 
     /// The IK link's name.
     #[getter]
     fn ee_link(&self) -> PyResult<String> {
         guard(|| {
-            Ok({
-                self.inner.model().links()[self.inner.ik_link()]
-                    .name
-                    .clone()
-            })
+            let inner = self.snap();
+            Ok(inner.model().links()[inner.ik_link()].name.clone())
         })
     }
 
     /// Values of the joints the planner does not move, `dof_names` order.
     #[getter]
     fn locked_positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        guard(|| Ok(vec1(py, self.inner.space().locked.clone())))
+        let inner = self.snap();
+        guard(|| Ok(vec1(py, inner.space().locked.clone())))
     }
 
     /// Sets the joints the planner does not move (fingers, say) from a full
     /// configuration in `dof_names` order.
-    fn set_locked_positions(&mut self, q: &Bound<'_, PyAny>) -> PyResult<()> {
+    fn set_locked_positions(&self, q: &Bound<'_, PyAny>) -> PyResult<()> {
         guard(|| {
-            let n = self.inner.model().num_dof();
+            let n = self.snap().model().num_dof();
             let arr = read_array(q, "q", 1, &[Some(n)])?;
-            self.inner.set_locked(arr.data()).map_err(planning_err)
+            self.edit(|p| p.set_locked(arr.data()).map_err(planning_err))
         })
     }
 
@@ -621,7 +657,8 @@ impl PyPlanner {
     #[getter]
     fn limits<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         guard(|| {
-            let l = self.inner.limits();
+            let inner = self.snap();
+            let l = inner.limits();
             let d = PyDict::new(py);
             d.set_item("lower", vec1(py, l.lower.clone()))?;
             d.set_item("upper", vec1(py, l.upper.clone()))?;
@@ -636,14 +673,15 @@ impl PyPlanner {
     /// planned joint).
     #[pyo3(signature = (*, velocity=None, acceleration=None, jerk=None))]
     fn set_limits(
-        &mut self,
+        &self,
         velocity: Option<&Bound<'_, PyAny>>,
         acceleration: Option<&Bound<'_, PyAny>>,
         jerk: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<()> {
         guard(|| {
-            let k = self.inner.space().len();
-            let mut next = self.inner.limits().clone();
+            let inner = self.snap();
+            let k = inner.space().len();
+            let mut next = inner.limits().clone();
             for (what, v) in [
                 ("velocity", velocity),
                 ("acceleration", acceleration),
@@ -654,8 +692,10 @@ impl PyPlanner {
                     next.set(what, arr.data()).map_err(planning_err)?;
                 }
             }
-            *self.inner.limits_mut() = next;
-            Ok(())
+            self.edit(|p| {
+                *p.limits_mut() = next;
+                Ok(())
+            })
         })
     }
 
@@ -668,7 +708,7 @@ impl PyPlanner {
     /// so are objects attached to the robot (by name).
     #[pyo3(signature = (world, ignore=None, base_pose=None))]
     fn update_world(
-        &mut self,
+        &self,
         world: &Bound<'_, PyAny>,
         ignore: Option<&Bound<'_, PyAny>>,
         base_pose: Option<&Bound<'_, PyAny>>,
@@ -676,15 +716,17 @@ impl PyPlanner {
         guard(|| {
             let ignore = crate::scene::ignore_list(ignore)?;
             let attached: Vec<String> = self
-                .inner
+                .snap()
                 .checker()
                 .attached()
                 .iter()
                 .map(|a| a.name.clone())
                 .collect();
             let w = crate::scene::world_from_any(world, ignore, base_pose, &attached)?;
-            self.inner.update_world(w);
-            Ok(())
+            self.edit(|p| {
+                p.update_world(w);
+                Ok(())
+            })
         })
     }
 
@@ -695,7 +737,7 @@ impl PyPlanner {
     /// `link` and every link below it, e.g. the fingers).
     #[pyo3(signature = (name, q, link=None, touch_links=None, joint_names=None))]
     fn attach_world_object(
-        &mut self,
+        &self,
         name: &str,
         q: &Bound<'_, PyAny>,
         link: Option<&str>,
@@ -704,10 +746,11 @@ impl PyPlanner {
     ) -> PyResult<()> {
         guard(|| {
             let full = self.full_config(q, joint_names)?;
-            let model = self.inner.model().clone();
+            let inner = self.snap();
+            let model = inner.model().clone();
             let li = match link {
                 Some(l) => model.link(l).map_err(model_err)?,
-                None => self.inner.ik_link(),
+                None => inner.ik_link(),
             };
             let touch = match touch_links {
                 Some(t) => t,
@@ -727,10 +770,11 @@ impl PyPlanner {
             };
             let touch: Vec<&str> = touch.iter().map(String::as_str).collect();
             let link_name = model.links()[li].name.clone();
-            self.inner
-                .checker_mut()
-                .attach_world_object(name, &link_name, &full, &touch)
-                .map_err(collision_err)
+            self.edit(|p| {
+                p.checker_mut()
+                    .attach_world_object(name, &link_name, &full, &touch)
+                    .map_err(collision_err)
+            })
         })
     }
 
@@ -738,18 +782,19 @@ impl PyPlanner {
     /// without it is dropped.
     #[pyo3(signature = (name, q=None, joint_names=None))]
     fn detach(
-        &mut self,
+        &self,
         name: &str,
         q: Option<&Bound<'_, PyAny>>,
         joint_names: Option<Vec<String>>,
     ) -> PyResult<()> {
         guard(|| {
             let full = q.map(|q| self.full_config(q, joint_names)).transpose()?;
-            self.inner
-                .checker_mut()
-                .detach(name, full.as_deref())
-                .map(|_| ())
-                .map_err(collision_err)
+            self.edit(|p| {
+                p.checker_mut()
+                    .detach(name, full.as_deref())
+                    .map(|_| ())
+                    .map_err(collision_err)
+            })
         })
     }
 
@@ -758,8 +803,9 @@ impl PyPlanner {
     #[getter]
     fn sphere_model(&self) -> PyResult<PySphereModel> {
         guard(|| {
+            let inner = self.snap();
             Ok({
-                let c = self.inner.checker();
+                let c = inner.checker();
                 PySphereModel {
                     model: c.model().clone(),
                     inner: c.spheres().clone(),
@@ -773,8 +819,9 @@ impl PyPlanner {
     #[getter]
     fn attached(&self) -> PyResult<Vec<String>> {
         guard(|| {
+            let inner = self.snap();
             Ok({
-                self.inner
+                inner
                     .checker()
                     .attached()
                     .iter()
@@ -788,9 +835,10 @@ impl PyPlanner {
     #[getter]
     fn world(&self) -> PyResult<PyCollisionWorld> {
         guard(|| {
+            let inner = self.snap();
             Ok({
                 PyCollisionWorld {
-                    inner: self.inner.checker().world().clone(),
+                    inner: inner.checker().world().clone(),
                 }
             })
         })
@@ -804,14 +852,14 @@ impl PyPlanner {
         joint_names: Option<Vec<String>>,
     ) -> PyResult<bool> {
         guard(|| {
+            let inner = self.snap();
             let order = self.order(joint_names)?;
             let (active, full) = self.config(q, "q", order.as_ref())?;
-            let mut space = self.inner.space().clone();
+            let mut space = inner.space().clone();
             if let Some(f) = full {
                 space.lock_from(&f);
             }
-            Ok(self
-                .inner
+            Ok(inner
                 .checker()
                 .in_collision_unchecked(&space.expand(&active)))
         })
@@ -924,6 +972,7 @@ impl PyPlanner {
         random_seed: u64,
     ) -> PyResult<PyIkResult> {
         guard(|| {
+            let inner = self.snap();
             let opts = Self::ik_opts(
                 position_tolerance,
                 rotation_tolerance,
@@ -955,13 +1004,13 @@ impl PyPlanner {
                 }
             };
             let link = self.link(link)?;
-            let solver = self.inner.ik_solver(link).map_err(planning_err)?;
+            let solver = inner.ik_solver(link).map_err(planning_err)?;
             let solutions = py
                 .detach(|| solver.solve_batch(&goals, seeds.as_deref(), &opts))
                 .map_err(planning_err)?;
             Ok(PyIkResult {
                 solutions,
-                out: self.output(order, self.inner.space()),
+                out: self.output(order, inner.space()),
                 batched: true,
             })
         })
@@ -998,11 +1047,10 @@ impl PyPlanner {
         coarse_factor: f64,
     ) -> PyResult<PyPlanResult> {
         guard(|| {
-            if !(time_limit.is_finite() && time_limit > 0.0) {
-                return Err(InvalidArgumentError::new_err(format!(
-                    "time_limit must be a positive number of seconds, got {time_limit}"
-                )));
-            }
+            let inner = self.snap();
+            ferrobot_model::ranges::TIME_LIMIT
+                .check(time_limit)
+                .map_err(|e| InvalidArgumentError::new_err(e.0))?;
             let mut opts = PlanOptions::default();
             opts.rrt.time_limit = Duration::from_secs_f64(time_limit);
             opts.rrt.max_samples = max_samples;
@@ -1016,7 +1064,7 @@ impl PyPlanner {
             opts.goal_solutions = goal_solutions;
             opts.coarse_factor = coarse_factor;
             opts.validate().map_err(planning_err)?;
-            self.inner
+            inner
                 .limits()
                 .scaled(velocity_scale, acceleration_scale)
                 .map_err(planning_err)?;
@@ -1025,13 +1073,13 @@ impl PyPlanner {
             // A full start sets the locked joints for this plan.
             let local;
             let planner = match full {
-                Some(f) if f != self.inner.space().locked => {
-                    let mut p = self.inner.clone();
+                Some(f) if f != inner.space().locked => {
+                    let mut p = (*inner).clone();
                     p.set_locked(&f).map_err(planning_err)?;
                     local = p;
                     &local
                 }
-                _ => &self.inner,
+                _ => &*inner,
             };
             let result = match (goal_q, goal_pose) {
                 (Some(g), None) => {
@@ -1058,11 +1106,12 @@ impl PyPlanner {
 
     fn __repr__(&self) -> PyResult<String> {
         guard(|| {
+            let inner = self.snap();
             Ok({
                 format!(
                     "Planner(robot='{}', joints={:?}, ee_link='{}')",
-                    self.inner.model().name(),
-                    self.inner.space().names,
+                    inner.model().name(),
+                    inner.space().names,
                     self.ee_link()?
                 )
             })
@@ -1080,19 +1129,20 @@ impl PyPlanner {
         joint_names: Option<Vec<String>>,
         opts: IkOptions,
     ) -> PyResult<PyIkResult> {
+        let inner = self.snap();
         let order = self.order(joint_names)?;
         let seeds = match seed {
             Some(s) => vec![self.config(s, "seed", order.as_ref())?.0],
             None => Vec::new(),
         };
         let link = self.link(link)?;
-        let solver = self.inner.ik_solver(link).map_err(planning_err)?;
+        let solver = inner.ik_solver(link).map_err(planning_err)?;
         let solution = py
             .detach(|| solver.solve(&goals, &seeds, &opts))
             .map_err(planning_err)?;
         Ok(PyIkResult {
             solutions: vec![solution],
-            out: self.output(order, self.inner.space()),
+            out: self.output(order, inner.space()),
             batched: false,
         })
     }
