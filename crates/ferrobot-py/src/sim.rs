@@ -17,11 +17,15 @@ use pyo3::types::PyDict;
 
 use crate::arrays::{Finite, read_array, read_array_with, read_pose};
 use crate::errors::{
-    DuplicateNameError, InternalError, InvalidArgumentError, NonFiniteError, ShapeError,
-    SimulationDiverged, UnknownNameError, guard, model_err,
+    DuplicateNameError, InvalidArgumentError, NonFiniteError, ShapeError, SimulationDiverged,
+    UnknownNameError, guard, model_err,
 };
 use crate::model::PyRobotModel;
 use crate::planning::{PyJointTrajectory, PyPlanResult};
+use ferrobot_sim::validate::{
+    COEFFICIENT, COORDINATE, EFFORT, GAIN, GRAVITY, MASS, MAX_FORCE, POSITION, VELOCITY, check_all,
+    check_all_or_inf,
+};
 
 /// Converts a simulation error to the matching Python exception.
 pub fn sim_err(e: SimError) -> PyErr {
@@ -43,9 +47,45 @@ type VecPair<'py> = (Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>);
 /// Points (N, 3) and their flat pixel indices (N,).
 type PointsAndPixels<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray1<i64>>);
 
+/// Locks the world. A panic while the lock was held (caught at the
+/// boundary and reported) poisons it; the poison is cleared here so that
+/// the world stays usable (`reset()` restores a consistent state).
 pub(crate) fn lock(w: &Shared) -> PyResult<MutexGuard<'_, World>> {
-    w.lock()
-        .map_err(|_| InternalError::new_err("the world's lock is poisoned by an earlier panic"))
+    Ok(lock_world(w))
+}
+
+/// [`lock`] without the `PyResult` (for closures run without the GIL).
+pub(crate) fn lock_world(w: &Shared) -> MutexGuard<'_, World> {
+    w.lock().unwrap_or_else(|poisoned| {
+        w.clear_poison();
+        poisoned.into_inner()
+    })
+}
+
+/// Runs physics steps (`f`) with the world locked, turning a panic inside
+/// the physics engine into `SimulationDiverged` (the world stays usable:
+/// `reset()` restores its initial state).
+fn run_steps<T>(
+    w: &Shared,
+    f: impl FnOnce(&mut World) -> ferrobot_sim::Result<T>,
+) -> Result<ferrobot_sim::Result<T>, String> {
+    let mut guard = lock_world(w);
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| f(&mut guard))).map_err(|p| {
+        p.downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| p.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "unknown panic".into())
+    })
+}
+
+fn sim_err_range(e: ferrobot_model::ranges::RangeError) -> PyErr {
+    InvalidArgumentError::new_err(e.0)
+}
+
+fn diverged(what: String) -> PyErr {
+    SimulationDiverged::new_err(format!(
+        "the physics engine failed during the step ({what}); the world's state is undefined until reset()"
+    ))
 }
 
 fn matrix<'py>(py: Python<'py>, pose: &Isometry3<f64>) -> Bound<'py, PyArray2<f64>> {
@@ -106,7 +146,24 @@ fn object_desc(
     is_static: bool,
     color: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<ObjectDesc> {
-    let mut d = ObjectDesc::new(name, shape, pose_arg(pose, "pose")?);
+    let pose = pose_arg(pose, "pose")?;
+    check_all(
+        &COORDINATE,
+        "pose translation",
+        pose.translation.vector.as_slice(),
+    )
+    .map_err(sim_err)?;
+    if !is_static {
+        MASS.check(mass)
+            .map_err(|e| InvalidArgumentError::new_err(e.0))?;
+    }
+    COEFFICIENT
+        .check_as("friction", friction)
+        .map_err(|e| InvalidArgumentError::new_err(e.0))?;
+    COEFFICIENT
+        .check_as("restitution", restitution)
+        .map_err(|e| InvalidArgumentError::new_err(e.0))?;
+    let mut d = ObjectDesc::new(name, shape, pose);
     d.mass = mass;
     d.friction = friction;
     d.restitution = restitution;
@@ -157,7 +214,11 @@ impl PyWorld {
     ) -> PyResult<Self> {
         guard(|| {
             let gravity = match gravity {
-                Some(g) => vec3_arg(g, "gravity")?,
+                Some(g) => {
+                    let g = vec3_arg(g, "gravity")?;
+                    check_all(&GRAVITY, "gravity", g.as_slice()).map_err(sim_err)?;
+                    g
+                }
                 None => Vector3::new(0.0, 0.0, -9.81),
             };
             let w = World::new(WorldConfig {
@@ -408,7 +469,7 @@ impl PyWorld {
         guard(|| {
             let name = desc.name.clone();
             py.detach(|| -> Result<(), SimError> {
-                let mut w = inner.lock().expect("world lock");
+                let mut w = lock_world(&inner);
                 w.add_object(desc).map(|_| ())
             })
             .map_err(sim_err)?;
@@ -466,6 +527,8 @@ impl PyWorld {
                 .map(|a| vec3_arg(a, "angular"))
                 .transpose()?
                 .unwrap_or_else(Vector3::zeros);
+            check_all(&VELOCITY, "linear", l.as_slice()).map_err(sim_err)?;
+            check_all(&VELOCITY, "angular", a.as_slice()).map_err(sim_err)?;
             let mut w = lock(&self.inner)?;
             let i = self.object(&w, name)?;
             w.set_object_velocity(i, &l, &a).map_err(sim_err)
@@ -500,7 +563,7 @@ impl PyWorld {
         let m = model.inner.clone();
         guard(|| {
             let index = py
-                .detach(|| inner.lock().expect("world lock").add_robot(m, &opts))
+                .detach(|| lock_world(&inner).add_robot(m, &opts))
                 .map_err(sim_err)?;
             Ok(PyRobot {
                 world: self.inner.clone(),
@@ -516,7 +579,9 @@ impl PyWorld {
     fn step(&self, py: Python<'_>, n: usize) -> PyResult<()> {
         let inner = self.inner.clone();
         guard(|| {
-            py.detach(|| inner.lock().expect("world lock").step(n))
+            ferrobot_sim::validate::steps_for("step(n)", n as f64, 1.0).map_err(sim_err)?;
+            py.detach(|| run_steps(&inner, |w| w.step(n)))
+                .map_err(diverged)?
                 .map_err(sim_err)
         })
     }
@@ -632,6 +697,7 @@ impl PyRobot {
             let q = read_array(q, "q", 1, &[Some(self.model.num_dof())])?
                 .data()
                 .to_vec();
+            check_all(&POSITION, "q", &q).map_err(sim_err)?;
             self.with(|r, s| r.set_joint_positions(s, &q))
         })
     }
@@ -642,6 +708,7 @@ impl PyRobot {
             let qd = read_array(qd, "qd", 1, &[Some(self.model.num_dof())])?
                 .data()
                 .to_vec();
+            check_all(&VELOCITY, "qd", &qd).map_err(sim_err)?;
             self.with(|r, s| r.set_joint_velocities(s, &qd))
         })
     }
@@ -658,6 +725,7 @@ impl PyRobot {
             let t = read_array(targets, "targets", 1, &[self.targets_len(&ix)])?
                 .data()
                 .to_vec();
+            check_all(&POSITION, "targets", &t).map_err(sim_err)?;
             self.with(|r, s| r.set_position_targets(s, &t, ix.as_deref()))
         })
     }
@@ -674,6 +742,7 @@ impl PyRobot {
             let t = read_array(targets, "targets", 1, &[self.targets_len(&ix)])?
                 .data()
                 .to_vec();
+            check_all(&VELOCITY, "targets", &t).map_err(sim_err)?;
             self.with(|r, s| r.set_velocity_targets(s, &t, ix.as_deref()))
         })
     }
@@ -690,6 +759,7 @@ impl PyRobot {
             let e = read_array(efforts, "efforts", 1, &[self.targets_len(&ix)])?
                 .data()
                 .to_vec();
+            check_all(&EFFORT, "efforts", &e).map_err(sim_err)?;
             self.with(|r, _| r.set_efforts(&e, ix.as_deref()))
         })
     }
@@ -749,6 +819,11 @@ impl PyRobot {
                         .to_vec(),
                 ),
             };
+            check_all(&GAIN, "stiffness", &k).map_err(sim_err)?;
+            check_all(&GAIN, "damping", &d).map_err(sim_err)?;
+            if let Some(m) = &m {
+                check_all_or_inf(&MAX_FORCE, "max_force", m).map_err(sim_err)?;
+            }
             self.with(|r, s| r.set_drive_gains(s, &k, &d, m.as_deref(), ix.as_deref()))
         })
     }
@@ -796,13 +871,23 @@ impl PyRobot {
     /// Opens the gripper (force limit default: the finger effort limits).
     #[pyo3(signature = (force=None))]
     fn open_gripper(&self, force: Option<f64>) -> PyResult<()> {
-        guard(|| self.with(|r, s| r.open_gripper(s, force)))
+        guard(|| {
+            if let Some(f) = force {
+                MAX_FORCE.check_as("force", f).map_err(sim_err_range)?;
+            }
+            self.with(|r, s| r.open_gripper(s, force))
+        })
     }
 
     /// Closes the gripper, squeezing with `force` N per finger.
     #[pyo3(signature = (force=None))]
     fn close_gripper(&self, force: Option<f64>) -> PyResult<()> {
-        guard(|| self.with(|r, s| r.close_gripper(s, force)))
+        guard(|| {
+            if let Some(f) = force {
+                MAX_FORCE.check_as("force", f).map_err(sim_err_range)?;
+            }
+            self.with(|r, s| r.close_gripper(s, force))
+        })
     }
 
     /// Describes a parallel gripper: finger DOF names with open and closed positions.
@@ -945,18 +1030,30 @@ impl PyRobot {
         let world = self.world.clone();
         let index = self.index;
         let rep = guard(|| {
+            use ferrobot_sim::validate::{
+                POSITION, SETTLE_TIME, TRAJECTORY_DT, VELOCITY, check_all, steps_for,
+            };
+            TRAJECTORY_DT
+                .check(dt)
+                .map_err(|e| InvalidArgumentError::new_err(e.0))?;
+            SETTLE_TIME
+                .check(settle_time)
+                .map_err(|e| InvalidArgumentError::new_err(e.0))?;
+            check_all(&POSITION, "positions", &p).map_err(sim_err)?;
+            if let Some(v) = &v {
+                check_all(&VELOCITY, "velocities", v).map_err(sim_err)?;
+            }
+            let rows = p.len() / ix.as_ref().map_or(self.model.num_dof(), Vec::len).max(1);
+            let h = lock(&world)?.config().dt;
+            let duration = rows.saturating_sub(1) as f64 * dt + settle_time;
+            steps_for("execute_trajectory (duration + settle_time)", duration, h)
+                .map_err(sim_err)?;
             py.detach(|| {
-                let mut w = world.lock().expect("world lock");
-                execute_trajectory(
-                    &mut w,
-                    index,
-                    &p,
-                    dt,
-                    v.as_deref(),
-                    ix.as_deref(),
-                    settle_time,
-                )
+                run_steps(&world, |w| {
+                    execute_trajectory(w, index, &p, dt, v.as_deref(), ix.as_deref(), settle_time)
+                })
             })
+            .map_err(diverged)?
             .map_err(sim_err)
         })?;
         let d = PyDict::new(py);
@@ -1118,7 +1215,7 @@ impl PyCamera {
         let world = self.world.clone();
         let cam = self.camera.clone();
         let frame = guard(|| {
-            py.detach(|| world.lock().expect("world lock").render(&cam, rgb))
+            py.detach(|| lock_world(&world).render(&cam, rgb))
                 .map_err(sim_err)
         })?;
         let (h, w) = (frame.height, frame.width);
