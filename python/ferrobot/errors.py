@@ -74,11 +74,20 @@ class DuplicateNameError(FerrobotError, ValueError):
 
 
 class InternalError(FerrobotError, RuntimeError):
-    """A bug inside ferrobot (a Rust panic caught at the boundary); please report it."""
+    """A bug inside ferrobot (a Rust panic caught at the boundary); please report it.
+
+    Every entry point of the extension (functions, methods, constructors, getters) runs behind a
+    panic guard, so pyo3's ``PanicException`` (a ``BaseException`` that ``except Exception`` misses)
+    never reaches Python.
+    """
 
 
 class SimulationDiverged(FerrobotError, RuntimeError):
-    """A simulation blew up (non-finite or runaway body states); the message names the body, step and time."""
+    """A simulation blew up (non-finite or runaway body states); the message names the body, step and time.
+
+    Also raised when the physics engine fails inside a step. The ``World`` stays usable: ``reset()``
+    returns it to its initial state.
+    """
 
 
 class ServiceError(FerrobotError):

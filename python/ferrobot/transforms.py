@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .errors import NonFiniteError, ShapeError
+from .errors import InvalidArgumentError, NonFiniteError, ShapeError
 
 __all__ = [
     "matrix_to_pose",
@@ -20,7 +20,39 @@ __all__ = [
     "world_to_base",
     "base_to_world",
     "as_matrix",
+    "ROTATION_TOLERANCE",
 ]
+
+#: Largest deviation ``max |R^T R - I|`` accepted for a rotation matrix (the
+#: same tolerance as the pose arguments of the Rust bindings); the
+#: determinant must also be positive. Anything else (zeros, a scaled or
+#: singular matrix, a reflection) raises ``InvalidArgumentError``.
+ROTATION_TOLERANCE = 1e-6
+
+
+def _check_rotation(r: np.ndarray, name: str) -> None:
+    """Raises unless every (..., 3, 3) matrix is a rotation within ROTATION_TOLERANCE."""
+    flat = r.reshape(-1, 3, 3)
+    if flat.shape[0] == 0:
+        return
+    err = np.abs(np.swapaxes(flat, -1, -2) @ flat - np.eye(3)).max(axis=(-1, -2))
+    det = np.linalg.det(flat)
+    bad = np.flatnonzero((err > ROTATION_TOLERANCE) | (det <= 0))
+    if bad.size:
+        i = int(bad[0])
+        raise InvalidArgumentError(
+            f"{name}: matrix {i} is not a rotation (max |R^T R - I| = {err[i]:.2e}, "
+            f"det = {det[i]:.3g}; tolerance {ROTATION_TOLERANCE:g})"
+        )
+
+
+def _check_homogeneous(m: np.ndarray, name: str) -> None:
+    """Raises unless every (..., 4, 4) matrix is a rigid transform."""
+    flat = m.reshape(-1, 4, 4)
+    bad = np.flatnonzero(np.any(flat[:, 3, :] != np.array([0.0, 0.0, 0.0, 1.0]), axis=-1))
+    if bad.size:
+        raise InvalidArgumentError(f"{name}: matrix {int(bad[0])}: the last row of a 4x4 pose must be [0, 0, 0, 1]")
+    _check_rotation(flat[:, :3, :3], name)
 
 
 def _array(x, name: str, shape_tail: tuple[int, ...]) -> np.ndarray:
@@ -54,8 +86,13 @@ def quat_to_matrix(q) -> np.ndarray:
 
 
 def matrix_to_quat(r) -> np.ndarray:
-    """Quaternions (..., 4) ``(w, x, y, z)`` with ``w >= 0`` from rotation matrices (..., 3, 3)."""
+    """Quaternions (..., 4) ``(w, x, y, z)`` with ``w >= 0`` from rotation matrices (..., 3, 3).
+
+    Each matrix must be a rotation (orthonormal within :data:`ROTATION_TOLERANCE`, determinant > 0):
+    anything else raises ``InvalidArgumentError``.
+    """
     r = _array(r, "rotation", (3, 3))
+    _check_rotation(r, "rotation")
     flat = r.reshape(-1, 3, 3)
     out = np.empty((flat.shape[0], 4))
     for i, m in enumerate(flat):
@@ -90,6 +127,7 @@ def pose_to_matrix(pose) -> np.ndarray:
 def matrix_to_pose(m) -> np.ndarray:
     """7-vectors (..., 7) ``[x, y, z, qw, qx, qy, qz]`` from 4x4 matrices (..., 4, 4)."""
     m = _array(m, "pose matrix", (4, 4))
+    _check_homogeneous(m, "pose matrix")
     return np.concatenate([m[..., :3, 3], matrix_to_quat(m[..., :3, :3])], axis=-1)
 
 
@@ -113,6 +151,7 @@ def as_matrix(pose, name: str) -> tuple[np.ndarray, bool]:
     if a.shape[-1:] == (7,):
         return pose_to_matrix(a), True
     if a.shape[-2:] == (4, 4):
+        _check_homogeneous(a, name)
         return a, False
     raise ShapeError(f"{name}: expected (..., 7) [x, y, z, qw, qx, qy, qz] or (..., 4, 4), got {a.shape}")
 
@@ -127,7 +166,13 @@ def world_to_base(pose_world, base_pose_world) -> np.ndarray:
     """
     p, as7 = as_matrix(pose_world, "pose_world")
     b, _ = as_matrix(base_pose_world, "base_pose_world")
-    out = np.linalg.inv(b) @ p
+    # The rigid inverse [R^T, -R^T t] (as_matrix checked b is rigid).
+    inv = np.zeros_like(b)
+    rt = np.swapaxes(b[..., :3, :3], -1, -2)
+    inv[..., :3, :3] = rt
+    inv[..., :3, 3] = -(rt @ b[..., :3, 3:4])[..., 0]
+    inv[..., 3, 3] = 1.0
+    out = inv @ p
     return matrix_to_pose(out) if as7 else out
 
 

@@ -293,11 +293,7 @@ impl CollisionChecker {
 
     /// Sets the margin (finite, may be negative to allow slight contact).
     pub fn set_margin(&mut self, margin: f64) -> Result<()> {
-        if !margin.is_finite() {
-            return Err(CollisionError::InvalidArgument(format!(
-                "margin must be finite, got {margin}"
-            )));
-        }
+        ferrobot_model::ranges::MARGIN.check(margin)?;
         self.margin = margin;
         self.update_pair_maps();
         self.update_static();
@@ -427,11 +423,14 @@ impl CollisionChecker {
     pub fn motion_valid(&self, q0: &[f64], q1: &[f64], resolution: f64) -> Result<bool> {
         self.check_q("q0", q0)?;
         self.check_q("q1", q1)?;
-        if !(resolution.is_finite() && resolution > 0.0) {
-            return Err(CollisionError::InvalidArgument(format!(
-                "resolution must be positive, got {resolution}"
-            )));
-        }
+        use ferrobot_model::ranges::{MAX_MOTION_CHECKS, RESOLUTION, step_count};
+        RESOLUTION.check(resolution)?;
+        let span = q0
+            .iter()
+            .zip(q1)
+            .map(|(a, b)| (b - a).abs())
+            .fold(0.0, f64::max);
+        step_count("motion_valid", span, resolution, MAX_MOTION_CHECKS)?;
         Ok(self.motion_valid_unchecked(q0, q1, resolution))
     }
 
@@ -446,8 +445,9 @@ impl CollisionChecker {
             .zip(q1)
             .map(|(a, b)| (b - a).abs())
             .fold(0.0, f64::max);
+        // `as` saturates; callers bound the resolution (ranges::RESOLUTION).
         let steps = ((span / resolution).ceil() as usize).max(1);
-        let points = steps + 1;
+        let points = steps.saturating_add(1);
         let packs = points.div_ceil(8);
         // Up to 64 DOFs on the stack (no allocation on the hot path).
         let mut stack = [f32x8::splat(0.0); 64];

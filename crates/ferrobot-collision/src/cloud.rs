@@ -35,9 +35,18 @@ impl PointCloud {
                 "point cloud: point {i} is not finite"
             )));
         }
+        // kiddo's fixed-size leaf buckets cannot hold more than 32 points
+        // at exactly the same position (it panics): insert each distinct
+        // position once. Duplicates are the same ball, so every distance
+        // answer is unchanged.
         let mut tree: KdTree<f64, 3> = KdTree::with_capacity(points.len());
+        let mut seen = std::collections::HashSet::with_capacity(points.len());
         for (i, p) in points.iter().enumerate() {
-            tree.add(&[p.x, p.y, p.z], i as u64);
+            // +0.0 for -0.0 so that equal positions have equal bits.
+            let key = [p.x + 0.0, p.y + 0.0, p.z + 0.0].map(f64::to_bits);
+            if seen.insert(key) {
+                tree.add(&[p.x, p.y, p.z], i as u64);
+            }
         }
         let bounding_radius = points.iter().map(|p| p.coords.norm()).fold(0.0, f64::max) + radius;
         Ok(Self {

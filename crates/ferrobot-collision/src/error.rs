@@ -30,5 +30,11 @@ pub enum CollisionError {
     InvalidArgument(String),
 }
 
+impl From<ferrobot_model::ranges::RangeError> for CollisionError {
+    fn from(e: ferrobot_model::ranges::RangeError) -> Self {
+        CollisionError::InvalidArgument(e.0)
+    }
+}
+
 /// Result alias of the collision crate.
 pub type Result<T, E = CollisionError> = std::result::Result<T, E>;

@@ -147,7 +147,22 @@ fn mesh(v: &Value, loc: &str) -> Result<ObstacleShape> {
         .map(|t| {
             let idx = t.get("vertex_indices").unwrap_or(t);
             let ids = floats(idx, 3, loc, "triangle vertex_indices")?;
-            Ok([ids[0] as u32, ids[1] as u32, ids[2] as u32])
+            // Indices must be whole numbers naming a vertex: a negative or
+            // fractional index was silently cast before.
+            let mut out = [0u32; 3];
+            for (o, &id) in out.iter_mut().zip(&ids) {
+                if !(id.fract() == 0.0 && id >= 0.0 && id < vertices.len() as f64) {
+                    return Err(err(
+                        loc,
+                        format!(
+                            "triangle vertex index {id} is not an integer in [0, {})",
+                            vertices.len()
+                        ),
+                    ));
+                }
+                *o = id as u32;
+            }
+            Ok(out)
         })
         .collect::<Result<Vec<_>>>()?;
     let m = MeshShape::new(&vertices, &triangles).map_err(|e| err(loc, e.to_string()))?;

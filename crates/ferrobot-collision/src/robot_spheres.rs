@@ -52,6 +52,27 @@ impl RobotSpheres {
                 check_sphere(&format!("link '{}'", model.links()[l].name), s)?;
             }
         }
+        // A link with collision geometry but no sphere would never collide:
+        // collision checking silently switched off for it.
+        let bare: Vec<&str> = model
+            .links()
+            .iter()
+            .zip(&links)
+            .filter(|(link, s)| !link.collisions.is_empty() && s.is_empty())
+            .map(|(link, _)| link.name.as_str())
+            .collect();
+        if !bare.is_empty() {
+            return Err(CollisionError::InvalidArgument(format!(
+                "sphere model has no sphere on link(s) with collision geometry: {}",
+                bare.join(", ")
+            )));
+        }
+        if links.iter().all(Vec::is_empty) {
+            return Err(CollisionError::InvalidArgument(format!(
+                "sphere model of robot '{}' has no sphere at all (the robot has no collision geometry): every configuration would be collision-free",
+                model.name()
+            )));
+        }
         Ok(Self { links })
     }
 

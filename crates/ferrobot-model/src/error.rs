@@ -97,6 +97,12 @@ pub enum ModelError {
     InvalidArgument(String),
 }
 
+impl From<crate::ranges::RangeError> for ModelError {
+    fn from(e: crate::ranges::RangeError) -> Self {
+        ModelError::InvalidArgument(e.0)
+    }
+}
+
 impl ModelError {
     /// A URDF error at `location`.
     pub fn urdf(location: SourceLocation, message: impl Into<String>) -> Self {

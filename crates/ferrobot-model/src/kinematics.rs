@@ -33,7 +33,7 @@ impl RobotModel {
     /// Pose of `link` (default: the end effector) in the base frame.
     pub fn fk(&self, q: &[f64], link: Option<usize>) -> Result<Isometry3<f64>> {
         self.check_configuration("q", q)?;
-        Ok(self.chains[link.unwrap_or(self.ee)].pose(q))
+        Ok(self.chain(link.unwrap_or(self.ee)).pose(q))
     }
 
     /// Pose of every link in the base frame, in link order.
@@ -73,7 +73,7 @@ impl RobotModel {
     /// If `out.len() / 7 != qs.len() / num_dof`.
     pub fn fk_batch_into(&self, qs: &[f64], link: Option<usize>, out: &mut [f64]) {
         let dof = self.num_dof();
-        let chain = &self.chains[link.unwrap_or(self.ee)];
+        let chain = self.chain(link.unwrap_or(self.ee));
         if dof == 0 {
             let pose = pose_to_array(&chain.pose(&[]));
             out.chunks_exact_mut(7)
@@ -95,7 +95,8 @@ impl RobotModel {
     pub fn jacobian(&self, q: &[f64], link: Option<usize>) -> Result<Vec<f64>> {
         self.check_configuration("q", q)?;
         let mut out = vec![0.0; 6 * self.num_dof()];
-        self.chains[link.unwrap_or(self.ee)].jacobian_into(q, self.num_dof(), &mut out);
+        self.chain(link.unwrap_or(self.ee))
+            .jacobian_into(q, self.num_dof(), &mut out);
         Ok(out)
     }
 }

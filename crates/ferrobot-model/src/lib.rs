@@ -19,10 +19,12 @@ pub mod kinematics;
 pub mod link;
 pub mod mesh;
 pub mod model;
+pub mod ranges;
 pub mod resolve;
 pub mod robots;
 pub mod srdf;
 pub mod urdf;
+pub mod xml;
 
 pub use chain::KinematicChain;
 pub use error::{ModelError, Result, SourceLocation};

@@ -61,7 +61,10 @@ pub struct RobotModel {
     pub(crate) ee: usize,
     /// Pose of the root in the base frame (constant: the base is fixed to the root).
     pub(crate) root_in_base: Isometry3<f64>,
-    pub(crate) chains: Vec<KinematicChain>,
+    /// Compiled chain of each link, made on first use: compiling all of
+    /// them at load took memory quadratic in the depth of the tree (a
+    /// 10,000-joint chain needed gigabytes).
+    pub(crate) chains: Vec<std::sync::OnceLock<KinematicChain>>,
     pub(crate) group_name: Option<String>,
     pub(crate) group_dofs: Vec<usize>,
     pub(crate) srdf: Option<Srdf>,
@@ -252,7 +255,7 @@ impl RobotModel {
             });
         model.root_in_base = base_pose.inverse();
         model.chains = (0..model.links.len())
-            .map(|l| KinematicChain::compile(&model.joints, &model.path_to(l), model.root_in_base))
+            .map(|_| std::sync::OnceLock::new())
             .collect();
 
         model.group_name = options.group.clone();
@@ -453,7 +456,9 @@ impl RobotModel {
 
     /// The compiled chain of link `link`.
     pub fn chain(&self, link: usize) -> &KinematicChain {
-        &self.chains[link]
+        self.chains[link].get_or_init(|| {
+            KinematicChain::compile(&self.joints, &self.path_to(link), self.root_in_base)
+        })
     }
 
     /// The neutral configuration: 0 for each DOF, or the nearest limit when

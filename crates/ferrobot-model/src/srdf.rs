@@ -78,6 +78,8 @@ pub struct Srdf {
 impl Srdf {
     /// Parses SRDF text; `source` names it in errors.
     pub fn parse(text: &str, source: &str) -> Result<Self> {
+        crate::xml::check_limits(text)
+            .map_err(|e| ModelError::srdf(SourceLocation::new(source, e.line), e.message))?;
         let doc = roxmltree::Document::parse(text).map_err(|e| {
             ModelError::srdf(
                 SourceLocation::new(source, Some(e.pos().row)),

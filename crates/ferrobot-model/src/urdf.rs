@@ -60,6 +60,8 @@ fn line_of(doc: &roxmltree::Document, node: roxmltree::Node) -> u32 {
 }
 
 fn pre_pass(text: &str, source: &str) -> Result<PrePass> {
+    crate::xml::check_limits(text)
+        .map_err(|e| ModelError::urdf(SourceLocation::new(source, e.line), e.message))?;
     let doc = roxmltree::Document::parse(text).map_err(|e| {
         ModelError::urdf(
             SourceLocation::new(source, Some(e.pos().row)),

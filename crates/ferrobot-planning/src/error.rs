@@ -18,6 +18,12 @@ pub enum PlanningError {
     InvalidArgument(String),
 }
 
+impl From<ferrobot_model::ranges::RangeError> for PlanningError {
+    fn from(e: ferrobot_model::ranges::RangeError) -> Self {
+        PlanningError::InvalidArgument(e.0)
+    }
+}
+
 /// Result alias of the planning crate.
 pub type Result<T, E = PlanningError> = std::result::Result<T, E>;
 

@@ -16,7 +16,7 @@ use rand::rngs::SmallRng;
 use rand::{Rng, SeedableRng};
 use rayon::prelude::*;
 
-use crate::error::{PlanningError, Result, check_positive};
+use crate::error::{PlanningError, Result};
 use crate::limits::KinematicLimits;
 use crate::space::ActiveSpace;
 
@@ -53,13 +53,13 @@ impl Default for IkOptions {
 impl IkOptions {
     /// Checks the tolerances and counts.
     pub fn validate(&self) -> Result<()> {
-        check_positive("position_tolerance", self.position_tolerance)?;
-        check_positive("rotation_tolerance", self.rotation_tolerance)?;
-        if self.num_seeds == 0 || self.max_iterations == 0 {
-            return Err(PlanningError::InvalidArgument(
-                "num_seeds and max_iterations must be at least 1".into(),
-            ));
-        }
+        use ferrobot_model::ranges::{
+            MAX_IK_ITERATIONS, MAX_IK_SEEDS, POSITION_TOLERANCE, ROTATION_TOLERANCE, check_count,
+        };
+        POSITION_TOLERANCE.check(self.position_tolerance)?;
+        ROTATION_TOLERANCE.check(self.rotation_tolerance)?;
+        check_count("num_seeds", self.num_seeds, 1, MAX_IK_SEEDS)?;
+        check_count("max_iterations", self.max_iterations, 1, MAX_IK_ITERATIONS)?;
         Ok(())
     }
 }

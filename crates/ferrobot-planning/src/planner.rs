@@ -12,7 +12,7 @@ use nalgebra::Isometry3;
 use rand::SeedableRng;
 use rand::rngs::SmallRng;
 
-use crate::error::{PlanningError, Result, check_finite, check_positive};
+use crate::error::{Result, check_finite};
 use crate::ik::{IkOptions, IkSolution, IkSolver};
 use crate::limits::KinematicLimits;
 use crate::rrt::{Edges, RrtFailure, RrtOptions, rrt_connect};
@@ -76,21 +76,24 @@ impl Default for PlanOptions {
 impl PlanOptions {
     /// Checks every option.
     pub fn validate(&self) -> Result<()> {
-        check_positive("range", self.rrt.range)?;
-        check_positive("resolution", self.rrt.resolution)?;
-        check_positive("time_limit", self.rrt.time_limit.as_secs_f64())?;
-        check_positive("coarse_factor", self.coarse_factor)?;
-        if self.coarse_factor < 1.0 {
-            return Err(PlanningError::InvalidArgument(format!(
-                "coarse_factor must be at least 1, got {}",
-                self.coarse_factor
-            )));
-        }
-        if self.rrt.max_samples == 0 || self.goal_solutions == 0 {
-            return Err(PlanningError::InvalidArgument(
-                "max_samples and goal_solutions must be at least 1".into(),
-            ));
-        }
+        use ferrobot_model::ranges::{
+            COARSE_FACTOR, MAX_GOAL_SOLUTIONS, MAX_RRT_SAMPLES, RESOLUTION, RRT_RANGE, SPEED_SCALE,
+            TIME_LIMIT, check_count,
+        };
+        RRT_RANGE.check(self.rrt.range)?;
+        RESOLUTION.check(self.rrt.resolution)?;
+        TIME_LIMIT.check(self.rrt.time_limit.as_secs_f64())?;
+        COARSE_FACTOR.check(self.coarse_factor)?;
+        // The coarse search resolution stays a valid resolution too.
+        RESOLUTION.check_as(
+            "resolution * coarse_factor",
+            self.rrt.resolution * self.coarse_factor,
+        )?;
+        SPEED_SCALE.check_as("velocity_scale", self.velocity_scale)?;
+        SPEED_SCALE.check_as("acceleration_scale", self.acceleration_scale)?;
+        check_count("max_samples", self.rrt.max_samples, 1, MAX_RRT_SAMPLES)?;
+        check_count("goal_solutions", self.goal_solutions, 1, MAX_GOAL_SOLUTIONS)?;
+        check_count("refinements", self.refinements, 0, 64)?;
         self.ik.validate()
     }
 }
@@ -541,11 +544,23 @@ impl Planner {
 
     /// Samples `traj` so that no joint moves more than `resolution` between
     /// samples and returns the waypoint segment of the first colliding one.
+    /// Samples are checked in chunks (bounded memory at any resolution,
+    /// early exit at the first collision).
     pub fn first_collision(&self, traj: &Trajectory, resolution: f64) -> Option<usize> {
+        const CHUNK: usize = 4096;
         let dim = traj.dim();
         let n = self.model().num_dof();
-        let mut configs = Vec::new();
-        let mut seg_of = Vec::new();
+        let mut configs = Vec::with_capacity(CHUNK * n);
+        let mut seg_of = Vec::with_capacity(CHUNK);
+        let mut hits = vec![false; CHUNK];
+        let mut flush = |configs: &mut Vec<f64>, seg_of: &mut Vec<usize>| -> Option<usize> {
+            let hits = &mut hits[..seg_of.len()];
+            self.checker.in_collision_batch_into(configs, hits);
+            let found = hits.iter().position(|&h| h).map(|k| seg_of[k]);
+            configs.clear();
+            seg_of.clear();
+            found
+        };
         let (mut q, mut v, mut a) = (vec![0.0; dim], vec![0.0; dim], vec![0.0; dim]);
         let mut full = self.space.locked.clone();
         for i in 0..traj.times.len() - 1 {
@@ -563,11 +578,14 @@ impl Planner {
                 self.space.expand_into(&q, &mut full);
                 configs.extend_from_slice(&full);
                 seg_of.push(traj.segment_of[i]);
+                if seg_of.len() == CHUNK
+                    && let Some(seg) = flush(&mut configs, &mut seg_of)
+                {
+                    return Some(seg);
+                }
             }
         }
-        let mut hits = vec![false; seg_of.len()];
-        debug_assert_eq!(configs.len(), hits.len() * n);
-        self.checker.in_collision_batch_into(&configs, &mut hits);
-        hits.iter().position(|&h| h).map(|k| seg_of[k])
+        debug_assert_eq!(configs.len(), seg_of.len() * n);
+        flush(&mut configs, &mut seg_of)
     }
 }

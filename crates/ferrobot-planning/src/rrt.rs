@@ -203,7 +203,10 @@ pub fn rrt_connect(
         if stats.samples >= opts.max_samples {
             break RrtFailure::SampleLimit;
         }
-        if stats.samples % 16 == 0 && began.elapsed() > opts.time_limit {
+        // Checked every sample (a clock read is small next to one motion
+        // check), so that fine resolutions cannot overrun the limit by
+        // many edges.
+        if began.elapsed() > opts.time_limit {
             break RrtFailure::Timeout;
         }
         stats.samples += 1;

@@ -194,6 +194,8 @@ impl Trajectory {
     pub fn interpolated(&self, dt: f64) -> (Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>) {
         let dim = self.dim();
         let total = self.duration();
+        // `as` saturates; callers bound the count (ranges::SAMPLE_DT and
+        // ranges::MAX_TRAJECTORY_SAMPLES) before sampling.
         let steps = ((total / dt) - 1e-9).ceil().max(0.0) as usize;
         let mut times: Vec<f64> = (0..steps).map(|k| k as f64 * dt).collect();
         times.push(total);

@@ -1,6 +1,15 @@
-//! Reading numpy arrays (or anything numpy converts) with shape checks.
+//! Reading numpy arrays (or anything numpy converts) with shape checks: the
+//! one reader every array argument of every binding goes through.
+//!
+//! Any layout (C- or Fortran-ordered, transposed or strided views) and any
+//! real dtype (float32, integers, bools are converted to float64) gives the
+//! values in logical C order: the array is borrowed only when it is already
+//! C-contiguous float64, copied otherwise. Complex arrays are refused
+//! rather than silently losing their imaginary part.
 
-use numpy::{AllowTypeChange, PyArrayLikeDyn, PyUntypedArrayMethods};
+use numpy::{
+    AllowTypeChange, PyArrayDescrMethods, PyArrayLikeDyn, PyUntypedArray, PyUntypedArrayMethods,
+};
 use pyo3::prelude::*;
 
 use crate::errors::{InvalidArgumentError, NonFiniteError, ShapeError};
@@ -38,6 +47,16 @@ fn shape_str(shape: &[usize]) -> String {
     }
 }
 
+/// Which non-finite values an array argument may hold.
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub enum Finite {
+    /// Every value finite (the default for every argument).
+    All,
+    /// Infinities allowed (e.g. "no reading" in a depth image, unbounded
+    /// limits), NaN refused.
+    NoNan,
+}
+
 /// Reads `obj` as a float64 array of `ndim` dimensions whose trailing
 /// dimensions equal `trailing` (None: any), checking all values are finite.
 pub fn read_array<'py>(
@@ -46,6 +65,26 @@ pub fn read_array<'py>(
     ndim: usize,
     trailing: &[Option<usize>],
 ) -> PyResult<Array<'py>> {
+    read_array_with(obj, what, ndim, trailing, Finite::All)
+}
+
+/// [`read_array`] with a choice of which non-finite values are allowed.
+pub fn read_array_with<'py>(
+    obj: &Bound<'py, PyAny>,
+    what: &str,
+    ndim: usize,
+    trailing: &[Option<usize>],
+    finite: Finite,
+) -> PyResult<Array<'py>> {
+    if let Ok(a) = obj.cast::<PyUntypedArray>() {
+        let kind = a.dtype().kind();
+        if !matches!(kind, b'f' | b'i' | b'u' | b'b') {
+            return Err(InvalidArgumentError::new_err(format!(
+                "{what}: expected an array of real numbers, got dtype {}",
+                a.dtype()
+            )));
+        }
+    }
     let array: PyArrayLikeDyn<'py, f64, AllowTypeChange> = obj.extract().map_err(|_| {
         InvalidArgumentError::new_err(format!(
             "{what}: expected an array of numbers, got {}",
@@ -78,9 +117,12 @@ pub fn read_array<'py>(
             shape_str(&shape)
         )));
     }
-    let owned = match array.as_slice() {
-        Ok(_) => None,
-        Err(_) => Some(array.as_array().iter().copied().collect()),
+    // `as_slice` also accepts Fortran-contiguous arrays (in memory order):
+    // borrow only C-contiguous data, copy everything else in logical order.
+    let owned = if array.is_c_contiguous() {
+        None
+    } else {
+        Some(array.as_array().iter().copied().collect())
     };
     let out = Array {
         shape,
@@ -88,7 +130,11 @@ pub fn read_array<'py>(
         owned,
     };
     let data = out.data();
-    if let Some(i) = data.iter().position(|v| !v.is_finite()) {
+    let bad = |v: &f64| match finite {
+        Finite::All => !v.is_finite(),
+        Finite::NoNan => v.is_nan(),
+    };
+    if let Some(i) = data.iter().position(bad) {
         let mut idx = Vec::with_capacity(out.shape.len());
         let mut rest = i;
         for &d in out.shape.iter().rev() {
@@ -181,11 +227,24 @@ fn pose_from(v: &[f64], what: &str) -> PyResult<nalgebra::Isometry3<f64>> {
 
 /// Reads a finite float64 array of any shape.
 pub fn read_array_any<'py>(obj: &Bound<'py, PyAny>, what: &str) -> PyResult<Array<'py>> {
-    let array: PyArrayLikeDyn<'py, f64, AllowTypeChange> = obj.extract().map_err(|_| {
-        InvalidArgumentError::new_err(format!("{what}: expected an array of numbers"))
-    })?;
-    let ndim = array.ndim();
+    read_array_any_with(obj, what, Finite::All)
+}
+
+/// [`read_array_any`] with a choice of which non-finite values are allowed.
+pub fn read_array_any_with<'py>(
+    obj: &Bound<'py, PyAny>,
+    what: &str,
+    finite: Finite,
+) -> PyResult<Array<'py>> {
+    let ndim = match obj.cast::<PyUntypedArray>() {
+        Ok(a) => a.ndim(),
+        Err(_) => {
+            let array: PyArrayLikeDyn<'_, f64, AllowTypeChange> = obj.extract().map_err(|_| {
+                InvalidArgumentError::new_err(format!("{what}: expected an array of numbers"))
+            })?;
+            array.ndim()
+        }
+    };
     let trailing: Vec<Option<usize>> = vec![None; ndim];
-    drop(array);
-    read_array(obj, what, ndim, &trailing)
+    read_array_with(obj, what, ndim, &trailing, finite)
 }

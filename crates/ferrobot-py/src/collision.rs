@@ -115,8 +115,8 @@ impl PyCollisionWorld {
 impl PyCollisionWorld {
     /// An empty world.
     #[new]
-    fn new() -> Self {
-        Self::default()
+    fn new() -> PyResult<Self> {
+        guard(|| Ok(Self::default()))
     }
 
     /// The obstacles of a simulated `World` at their current poses, in the
@@ -161,15 +161,17 @@ impl PyCollisionWorld {
         size: &Bound<'_, PyAny>,
         pose: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<()> {
-        let s = read_array(size, "size", 1, &[Some(3)])?;
-        let s = s.data();
-        self.add(
-            name,
-            ObstacleShape::Box {
-                half_extents: Vector3::new(s[0], s[1], s[2]) / 2.0,
-            },
-            pose,
-        )
+        guard(|| {
+            let s = read_array(size, "size", 1, &[Some(3)])?;
+            let s = s.data();
+            self.add(
+                name,
+                ObstacleShape::Box {
+                    half_extents: Vector3::new(s[0], s[1], s[2]) / 2.0,
+                },
+                pose,
+            )
+        })
     }
 
     /// Adds a sphere.
@@ -180,7 +182,7 @@ impl PyCollisionWorld {
         radius: f64,
         pose: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<()> {
-        self.add(name, ObstacleShape::Sphere { radius }, pose)
+        guard(|| self.add(name, ObstacleShape::Sphere { radius }, pose))
     }
 
     /// Adds a cylinder along the pose's z axis.
@@ -192,14 +194,16 @@ impl PyCollisionWorld {
         length: f64,
         pose: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<()> {
-        self.add(
-            name,
-            ObstacleShape::Cylinder {
-                radius,
-                half_length: length / 2.0,
-            },
-            pose,
-        )
+        guard(|| {
+            self.add(
+                name,
+                ObstacleShape::Cylinder {
+                    radius,
+                    half_length: length / 2.0,
+                },
+                pose,
+            )
+        })
     }
 
     /// Adds a capsule along the pose's z axis (`length` of the cylindrical part).
@@ -211,14 +215,16 @@ impl PyCollisionWorld {
         length: f64,
         pose: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<()> {
-        self.add(
-            name,
-            ObstacleShape::Capsule {
-                radius,
-                half_length: length / 2.0,
-            },
-            pose,
-        )
+        guard(|| {
+            self.add(
+                name,
+                ObstacleShape::Capsule {
+                    radius,
+                    half_length: length / 2.0,
+                },
+                pose,
+            )
+        })
     }
 
     /// Adds a triangle mesh: `vertices` (N, 3) and `faces` (M, 3) vertex indices.
@@ -230,27 +236,29 @@ impl PyCollisionWorld {
         faces: &Bound<'_, PyAny>,
         pose: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<()> {
-        let v = read_array(vertices, "vertices", 2, &[Some(3)])?;
-        let f = read_array(faces, "faces", 2, &[Some(3)])?;
-        let verts: Vec<Point3<f64>> = v
-            .data()
-            .chunks(3)
-            .map(|c| Point3::new(c[0], c[1], c[2]))
-            .collect();
-        let mut tris = Vec::with_capacity(f.shape[0]);
-        for t in f.data().chunks(3) {
-            if t.iter()
-                .any(|&i| i < 0.0 || i.fract() != 0.0 || i >= verts.len() as f64)
-            {
-                return Err(InvalidArgumentError::new_err(format!(
-                    "faces: {t:?} are not vertex indices below {}",
-                    verts.len()
-                )));
+        guard(|| {
+            let v = read_array(vertices, "vertices", 2, &[Some(3)])?;
+            let f = read_array(faces, "faces", 2, &[Some(3)])?;
+            let verts: Vec<Point3<f64>> = v
+                .data()
+                .chunks(3)
+                .map(|c| Point3::new(c[0], c[1], c[2]))
+                .collect();
+            let mut tris = Vec::with_capacity(f.shape[0]);
+            for t in f.data().chunks(3) {
+                if t.iter()
+                    .any(|&i| i < 0.0 || i.fract() != 0.0 || i >= verts.len() as f64)
+                {
+                    return Err(InvalidArgumentError::new_err(format!(
+                        "faces: {t:?} are not vertex indices below {}",
+                        verts.len()
+                    )));
+                }
+                tris.push([t[0] as u32, t[1] as u32, t[2] as u32]);
             }
-            tris.push([t[0] as u32, t[1] as u32, t[2] as u32]);
-        }
-        let mesh = MeshShape::new(&verts, &tris).map_err(collision_err)?;
-        self.add(name, ObstacleShape::Mesh(Arc::new(mesh)), pose)
+            let mesh = MeshShape::new(&verts, &tris).map_err(collision_err)?;
+            self.add(name, ObstacleShape::Mesh(Arc::new(mesh)), pose)
+        })
     }
 
     /// Adds a point cloud (N, 3) whose points are balls of `radius`.
@@ -262,54 +270,66 @@ impl PyCollisionWorld {
         radius: f64,
         pose: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<()> {
-        let p = read_array(points, "points", 2, &[Some(3)])?;
-        let pts = p
-            .data()
-            .chunks(3)
-            .map(|c| Point3::new(c[0], c[1], c[2]))
-            .collect();
-        let cloud = PointCloud::new(pts, radius).map_err(collision_err)?;
-        self.add(name, ObstacleShape::PointCloud(Arc::new(cloud)), pose)
+        guard(|| {
+            let p = read_array(points, "points", 2, &[Some(3)])?;
+            let pts = p
+                .data()
+                .chunks(3)
+                .map(|c| Point3::new(c[0], c[1], c[2]))
+                .collect();
+            let cloud = PointCloud::new(pts, radius).map_err(collision_err)?;
+            self.add(name, ObstacleShape::PointCloud(Arc::new(cloud)), pose)
+        })
     }
 
     /// Removes object `name`.
     fn remove(&mut self, name: &str) -> PyResult<()> {
-        self.inner.remove(name).map(|_| ()).map_err(collision_err)
+        guard(|| self.inner.remove(name).map(|_| ()).map_err(collision_err))
     }
 
     /// Moves object `name` to `pose`.
     fn set_pose(&mut self, name: &str, pose: &Bound<'_, PyAny>) -> PyResult<()> {
-        let pose = read_pose(pose, "pose")?;
-        self.inner.set_pose(name, pose).map_err(collision_err)
+        guard(|| {
+            let pose = read_pose(pose, "pose")?;
+            self.inner.set_pose(name, pose).map_err(collision_err)
+        })
     }
 
     /// Pose (4x4) of object `name`.
     fn get_pose<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        let obj = self.inner.get(name).map_err(collision_err)?;
-        let m = ferrobot_model::pose_to_matrix(&obj.pose);
-        Ok(Array2::from_shape_vec((4, 4), m.to_vec())
-            .expect("4x4")
-            .into_pyarray(py))
+        guard(|| {
+            let obj = self.inner.get(name).map_err(collision_err)?;
+            let m = ferrobot_model::pose_to_matrix(&obj.pose);
+            Ok(Array2::from_shape_vec((4, 4), m.to_vec())
+                .expect("4x4")
+                .into_pyarray(py))
+        })
     }
 
     /// Object names in insertion order.
     #[getter]
-    fn names(&self) -> Vec<String> {
-        self.inner
-            .objects()
-            .iter()
-            .map(|o| o.name.clone())
-            .collect()
+    fn names(&self) -> PyResult<Vec<String>> {
+        guard(|| {
+            Ok({
+                self.inner
+                    .objects()
+                    .iter()
+                    .map(|o| o.name.clone())
+                    .collect()
+            })
+        })
     }
 
     /// Shape kinds of object `name` (one per part).
     fn kinds(&self, name: &str) -> PyResult<Vec<String>> {
-        let obj = self.inner.get(name).map_err(collision_err)?;
-        Ok(obj
-            .parts
-            .iter()
-            .map(|(s, _)| s.kind().to_string())
-            .collect())
+        guard(|| {
+            let obj = self.inner.get(name).map_err(collision_err)?;
+            Ok(obj
+                .parts
+                .iter()
+                .map(|(s, _)| s.kind().to_string())
+                .collect())
+        })
     }
 
     /// Signed distance (m) from each point (N, 3) to the nearest object (inf if empty).
@@ -318,33 +338,39 @@ impl PyCollisionWorld {
         py: Python<'py>,
         points: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        let p = read_array(points, "points", 2, &[Some(3)])?;
-        let d: Vec<f64> = p
-            .data()
-            .chunks(3)
-            .map(|c| {
-                self.inner
-                    .signed_distance(&Point3::new(c[0], c[1], c[2]))
-                    .map_or(f64::INFINITY, |r| r.0)
+        guard(|| {
+            let p = read_array(points, "points", 2, &[Some(3)])?;
+            let d: Vec<f64> = p
+                .data()
+                .chunks(3)
+                .map(|c| {
+                    self.inner
+                        .signed_distance(&Point3::new(c[0], c[1], c[2]))
+                        .map_or(f64::INFINITY, |r| r.0)
+                })
+                .collect();
+            Ok(Array1::from_vec(d).into_pyarray(py))
+        })
+    }
+
+    fn __len__(&self) -> PyResult<usize> {
+        guard(|| Ok(self.inner.len()))
+    }
+
+    fn __contains__(&self, name: &str) -> PyResult<bool> {
+        guard(|| Ok(self.inner.contains(name)))
+    }
+
+    fn __repr__(&self) -> PyResult<String> {
+        guard(|| {
+            Ok({
+                format!(
+                    "CollisionWorld({} objects: {})",
+                    self.inner.len(),
+                    self.names()?.join(", ")
+                )
             })
-            .collect();
-        Ok(Array1::from_vec(d).into_pyarray(py))
-    }
-
-    fn __len__(&self) -> usize {
-        self.inner.len()
-    }
-
-    fn __contains__(&self, name: &str) -> bool {
-        self.inner.contains(name)
-    }
-
-    fn __repr__(&self) -> String {
-        format!(
-            "CollisionWorld({} objects: {})",
-            self.inner.len(),
-            self.names().join(", ")
-        )
+        })
     }
 }
 
@@ -436,57 +462,65 @@ impl PySphereModel {
 
     /// Writes cuRobo's YAML format.
     fn save(&self, path: std::path::PathBuf) -> PyResult<()> {
-        self.inner.save(&self.model, &path).map_err(collision_err)
+        guard(|| self.inner.save(&self.model, &path).map_err(collision_err))
     }
 
     /// cuRobo's YAML format as text.
-    fn to_yaml(&self) -> String {
-        self.inner.to_curobo_yaml(&self.model)
+    fn to_yaml(&self) -> PyResult<String> {
+        guard(|| Ok(self.inner.to_curobo_yaml(&self.model)))
     }
 
     /// Total number of spheres.
     #[getter]
-    fn count(&self) -> usize {
-        self.inner.count()
+    fn count(&self) -> PyResult<usize> {
+        guard(|| Ok(self.inner.count()))
     }
 
     /// Spheres of `link` as (N, 4): x, y, z (link frame), radius.
     fn spheres<'py>(&self, py: Python<'py>, link: &str) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        let l = self.model.link(link).map_err(crate::errors::model_err)?;
-        let s = &self.inner.links[l];
-        let flat: Vec<f64> = s
-            .iter()
-            .flat_map(|s| [s.center.x, s.center.y, s.center.z, s.radius])
-            .collect();
-        Ok(Array2::from_shape_vec((s.len(), 4), flat)
-            .expect("N x 4")
-            .into_pyarray(py))
+        guard(|| {
+            let l = self.model.link(link).map_err(crate::errors::model_err)?;
+            let s = &self.inner.links[l];
+            let flat: Vec<f64> = s
+                .iter()
+                .flat_map(|s| [s.center.x, s.center.y, s.center.z, s.radius])
+                .collect();
+            Ok(Array2::from_shape_vec((s.len(), 4), flat)
+                .expect("N x 4")
+                .into_pyarray(py))
+        })
     }
 
     /// Per-link report of the automatic spherizer: dicts with `link`,
     /// `spheres`, `coverage`, `mean_protrusion`, `max_protrusion` (m).
     #[getter]
     fn report<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
-        self.report
-            .iter()
-            .map(|(l, n, c, mean, max)| {
-                let d = PyDict::new(py);
-                d.set_item("link", l)?;
-                d.set_item("spheres", n)?;
-                d.set_item("coverage", c)?;
-                d.set_item("mean_protrusion", mean)?;
-                d.set_item("max_protrusion", max)?;
-                Ok(d)
-            })
-            .collect()
+        guard(|| {
+            self.report
+                .iter()
+                .map(|(l, n, c, mean, max)| {
+                    let d = PyDict::new(py);
+                    d.set_item("link", l)?;
+                    d.set_item("spheres", n)?;
+                    d.set_item("coverage", c)?;
+                    d.set_item("mean_protrusion", mean)?;
+                    d.set_item("max_protrusion", max)?;
+                    Ok(d)
+                })
+                .collect()
+        })
     }
 
-    fn __repr__(&self) -> String {
-        format!(
-            "SphereModel({} spheres on {})",
-            self.inner.count(),
-            self.model.name()
-        )
+    fn __repr__(&self) -> PyResult<String> {
+        guard(|| {
+            Ok({
+                format!(
+                    "SphereModel({} spheres on {})",
+                    self.inner.count(),
+                    self.model.name()
+                )
+            })
+        })
     }
 }
 
@@ -575,27 +609,34 @@ impl PyCollisionChecker {
     }
 
     /// Replaces the world (a copy is taken).
-    fn update_world(&mut self, world: &PyCollisionWorld) {
-        self.inner.set_world(world.inner.clone());
+    fn update_world(&mut self, world: &PyCollisionWorld) -> PyResult<()> {
+        guard(|| {
+            self.inner.set_world(world.inner.clone());
+            Ok(())
+        })
     }
 
     /// A copy of the current world.
     #[getter]
-    fn world(&self) -> PyCollisionWorld {
-        PyCollisionWorld {
-            inner: self.inner.world().clone(),
-        }
+    fn world(&self) -> PyResult<PyCollisionWorld> {
+        guard(|| {
+            Ok({
+                PyCollisionWorld {
+                    inner: self.inner.world().clone(),
+                }
+            })
+        })
     }
 
     /// Clearance (m) added to every sphere.
     #[getter]
-    fn margin(&self) -> f64 {
-        self.inner.margin()
+    fn margin(&self) -> PyResult<f64> {
+        guard(|| Ok(self.inner.margin()))
     }
 
     #[setter]
     fn set_margin(&mut self, margin: f64) -> PyResult<()> {
-        self.inner.set_margin(margin).map_err(collision_err)
+        guard(|| self.inner.set_margin(margin).map_err(collision_err))
     }
 
     /// Whether `q` collides with the world or itself.
@@ -724,18 +765,22 @@ impl PyCollisionChecker {
 
     /// Excluded self-collision pairs as (link1, link2, reason).
     #[getter]
-    fn allowed_collision_pairs(&self) -> Vec<(String, String, String)> {
-        let links = self.inner.model().links();
-        self.inner
-            .allowed_collisions()
-            .pairs()
-            .map(|(a, b, r)| (links[a].name.clone(), links[b].name.clone(), r.to_string()))
-            .collect()
+    fn allowed_collision_pairs(&self) -> PyResult<Vec<(String, String, String)>> {
+        guard(|| {
+            Ok({
+                let links = self.inner.model().links();
+                self.inner
+                    .allowed_collisions()
+                    .pairs()
+                    .map(|(a, b, r)| (links[a].name.clone(), links[b].name.clone(), r.to_string()))
+                    .collect()
+            })
+        })
     }
 
     /// The excluded pairs as SRDF `disable_collisions` text, to save beside the robot.
-    fn allowed_collisions_srdf(&self) -> String {
-        self.inner.allowed_collisions().to_srdf(self.inner.model())
+    fn allowed_collisions_srdf(&self) -> PyResult<String> {
+        guard(|| Ok(self.inner.allowed_collisions().to_srdf(self.inner.model())))
     }
 
     /// Attaches a shape ("box", [sx, sy, sz]) / ("sphere", r) / ("cylinder", r, length) /
@@ -797,17 +842,21 @@ impl PyCollisionChecker {
 
     /// Names of attached objects.
     #[getter]
-    fn attached(&self) -> Vec<String> {
-        self.inner
-            .attached()
-            .iter()
-            .map(|a| a.name.clone())
-            .collect()
+    fn attached(&self) -> PyResult<Vec<String>> {
+        guard(|| {
+            Ok({
+                self.inner
+                    .attached()
+                    .iter()
+                    .map(|a| a.name.clone())
+                    .collect()
+            })
+        })
     }
 
     /// Number of spheres (robot and attached objects).
     #[getter]
-    fn num_spheres(&self) -> usize {
-        self.inner.compiled().0.centers.len()
+    fn num_spheres(&self) -> PyResult<usize> {
+        guard(|| Ok(self.inner.compiled().0.centers.len()))
     }
 }

@@ -20,7 +20,7 @@ use pyo3::prelude::*;
 /// Bundled robot descriptions by name: (URDF text, SRDF text, ee link).
 #[pyfunction]
 fn bundled_robot(name: &str) -> PyResult<(&'static str, &'static str, &'static str)> {
-    match name {
+    errors::guard(|| match name {
         "panda" => Ok((
             ferrobot_model::robots::PANDA_URDF,
             ferrobot_model::robots::PANDA_SRDF,
@@ -29,7 +29,7 @@ fn bundled_robot(name: &str) -> PyResult<(&'static str, &'static str, &'static s
         other => Err(errors::UnknownNameError::new_err(format!(
             "unknown bundled robot '{other}'; known: panda"
         ))),
-    }
+    })
 }
 
 /// The extension module.

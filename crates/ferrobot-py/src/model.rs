@@ -153,6 +153,9 @@ impl PyRobotModel {
     }
 }
 
+/// A mimic joint: (name, (driver, multiplier, offset)).
+type MimicEntry = (String, (String, f64, f64));
+
 #[pymethods]
 impl PyRobotModel {
     /// Loads a URDF file. See the class documentation for the options.
@@ -167,8 +170,10 @@ impl PyRobotModel {
         ee_link: Option<String>,
         group: Option<String>,
     ) -> PyResult<Self> {
-        let opts = options(srdf, package_dirs, base_link, ee_link, group)?;
-        Self::load(py, |o| RobotModel::from_urdf_file(&path, o), &opts)
+        guard(|| {
+            let opts = options(srdf, package_dirs, base_link, ee_link, group)?;
+            Self::load(py, |o| RobotModel::from_urdf_file(&path, o), &opts)
+        })
     }
 
     /// Loads URDF text; relative and package:// meshes resolve against
@@ -184,8 +189,10 @@ impl PyRobotModel {
         ee_link: Option<String>,
         group: Option<String>,
     ) -> PyResult<Self> {
-        let opts = options(srdf, package_dirs, base_link, ee_link, group)?;
-        Self::load(py, |o| RobotModel::from_urdf_str(&text, o), &opts)
+        guard(|| {
+            let opts = options(srdf, package_dirs, base_link, ee_link, group)?;
+            Self::load(py, |o| RobotModel::from_urdf_str(&text, o), &opts)
+        })
     }
 
     /// Reads a UsdPhysics articulation from a USD file (through PyPI
@@ -225,152 +232,170 @@ impl PyRobotModel {
 
     /// The robot's name.
     #[getter]
-    fn name(&self) -> String {
-        self.inner.name().to_string()
+    fn name(&self) -> PyResult<String> {
+        guard(|| Ok(self.inner.name().to_string()))
     }
 
     /// Names of the independent joints, in DOF-vector order (the URDF tree,
     /// depth first; mimic and fixed joints excluded).
     #[getter]
-    fn dof_names(&self) -> Vec<String> {
-        self.inner.dof_names().to_vec()
+    fn dof_names(&self) -> PyResult<Vec<String>> {
+        guard(|| Ok(self.inner.dof_names().to_vec()))
     }
 
     /// Number of independent joints.
     #[getter]
-    fn num_dof(&self) -> usize {
-        self.inner.num_dof()
+    fn num_dof(&self) -> PyResult<usize> {
+        guard(|| Ok(self.inner.num_dof()))
     }
 
     /// All link names, depth first from the root.
     #[getter]
-    fn link_names(&self) -> Vec<String> {
-        self.inner.links().iter().map(|l| l.name.clone()).collect()
+    fn link_names(&self) -> PyResult<Vec<String>> {
+        guard(|| Ok(self.inner.links().iter().map(|l| l.name.clone()).collect()))
     }
 
     /// All joint names (fixed and mimic included); joint k is the parent
     /// joint of link k + 1.
     #[getter]
-    fn joint_names(&self) -> Vec<String> {
-        self.inner.joints().iter().map(|j| j.name.clone()).collect()
+    fn joint_names(&self) -> PyResult<Vec<String>> {
+        guard(|| Ok(self.inner.joints().iter().map(|j| j.name.clone()).collect()))
     }
 
     /// Lower position limits per DOF (-inf for continuous joints).
     #[getter]
-    fn lower_limits<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        Self::vec1(py, self.inner.lower_limits())
+    fn lower_limits<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        guard(|| Ok(Self::vec1(py, self.inner.lower_limits())))
     }
 
     /// Upper position limits per DOF (+inf for continuous joints).
     #[getter]
-    fn upper_limits<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        Self::vec1(py, self.inner.upper_limits())
+    fn upper_limits<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        guard(|| Ok(Self::vec1(py, self.inner.upper_limits())))
     }
 
     /// Velocity limits per DOF (inf where the URDF states none).
     #[getter]
-    fn velocity_limits<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        Self::vec1(py, self.inner.velocity_limits())
+    fn velocity_limits<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        guard(|| Ok(Self::vec1(py, self.inner.velocity_limits())))
     }
 
     /// Effort limits per DOF (inf where the URDF states none).
     #[getter]
-    fn effort_limits<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        Self::vec1(py, self.inner.effort_limits())
+    fn effort_limits<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        guard(|| Ok(Self::vec1(py, self.inner.effort_limits())))
     }
 
     /// The link all poses are expressed in.
     #[getter]
-    fn base_link(&self) -> String {
-        self.inner.links()[self.inner.base_link()].name.clone()
+    fn base_link(&self) -> PyResult<String> {
+        guard(|| Ok(self.inner.links()[self.inner.base_link()].name.clone()))
     }
 
     /// The default link of `fk`, `fk_batch` and `jacobian`.
     #[getter]
-    fn ee_link(&self) -> String {
-        self.inner.links()[self.inner.ee_link()].name.clone()
+    fn ee_link(&self) -> PyResult<String> {
+        guard(|| Ok(self.inner.links()[self.inner.ee_link()].name.clone()))
     }
 
     /// The SRDF group planned for, or None (joints from base to ee).
     #[getter]
-    fn group_name(&self) -> Option<String> {
-        self.inner.group_name().map(str::to_string)
+    fn group_name(&self) -> PyResult<Option<String>> {
+        guard(|| Ok(self.inner.group_name().map(str::to_string)))
     }
 
     /// DOF indices of the planning group.
     #[getter]
-    fn group_dof_indices(&self) -> Vec<usize> {
-        self.inner.group_dofs().to_vec()
+    fn group_dof_indices(&self) -> PyResult<Vec<usize>> {
+        guard(|| Ok(self.inner.group_dofs().to_vec()))
     }
 
     /// DOF names of the planning group.
     #[getter]
-    fn group_dof_names(&self) -> Vec<String> {
-        self.inner
-            .group_dofs()
-            .iter()
-            .map(|&d| self.inner.dof_names()[d].clone())
-            .collect()
+    fn group_dof_names(&self) -> PyResult<Vec<String>> {
+        guard(|| {
+            Ok({
+                self.inner
+                    .group_dofs()
+                    .iter()
+                    .map(|&d| self.inner.dof_names()[d].clone())
+                    .collect()
+            })
+        })
     }
 
     /// Mimic joints: name -> (driving DOF name, multiplier, offset).
     #[getter]
-    fn mimic_joints(&self) -> Vec<(String, (String, f64, f64))> {
-        self.inner
-            .joints()
-            .iter()
-            .filter_map(|j| match j.coupling {
-                JointCoupling::Mimic {
-                    dof,
-                    multiplier,
-                    offset,
-                } => Some((
-                    j.name.clone(),
-                    (self.inner.dof_names()[dof].clone(), multiplier, offset),
-                )),
-                _ => None,
+    fn mimic_joints(&self) -> PyResult<Vec<MimicEntry>> {
+        guard(|| {
+            Ok({
+                self.inner
+                    .joints()
+                    .iter()
+                    .filter_map(|j| match j.coupling {
+                        JointCoupling::Mimic {
+                            dof,
+                            multiplier,
+                            offset,
+                        } => Some((
+                            j.name.clone(),
+                            (self.inner.dof_names()[dof].clone(), multiplier, offset),
+                        )),
+                        _ => None,
+                    })
+                    .collect()
             })
-            .collect()
+        })
     }
 
     /// SRDF group names.
     #[getter]
-    fn group_names(&self) -> Vec<String> {
-        self.inner.group_names()
+    fn group_names(&self) -> PyResult<Vec<String>> {
+        guard(|| Ok(self.inner.group_names()))
     }
 
     /// SRDF named states as (group, name) pairs.
     #[getter]
-    fn named_states(&self) -> Vec<(String, String)> {
-        self.inner
-            .srdf()
-            .map(|s| {
-                s.group_states
-                    .iter()
-                    .map(|g| (g.group.clone(), g.name.clone()))
-                    .collect()
+    fn named_states(&self) -> PyResult<Vec<(String, String)>> {
+        guard(|| {
+            Ok({
+                self.inner
+                    .srdf()
+                    .map(|s| {
+                        s.group_states
+                            .iter()
+                            .map(|g| (g.group.clone(), g.name.clone()))
+                            .collect()
+                    })
+                    .unwrap_or_default()
             })
-            .unwrap_or_default()
+        })
     }
 
     /// SRDF `disable_collisions` pairs as (link1, link2, reason).
     #[getter]
-    fn disabled_collision_pairs(&self) -> Vec<(String, String, String)> {
-        let links = self.inner.links();
-        self.inner
-            .disabled_collision_pairs()
-            .into_iter()
-            .map(|(a, b, r)| (links[a].name.clone(), links[b].name.clone(), r))
-            .collect()
+    fn disabled_collision_pairs(&self) -> PyResult<Vec<(String, String, String)>> {
+        guard(|| {
+            Ok({
+                let links = self.inner.links();
+                self.inner
+                    .disabled_collision_pairs()
+                    .into_iter()
+                    .map(|(a, b, r)| (links[a].name.clone(), links[b].name.clone(), r))
+                    .collect()
+            })
+        })
     }
 
     /// Joint names of an SRDF group (all kinds), in model order.
     fn group_joint_names(&self, group: &str) -> PyResult<Vec<String>> {
-        let joints = self.inner.group_joints(group).map_err(model_err)?;
-        Ok(joints
-            .into_iter()
-            .map(|j| self.inner.joints()[j].name.clone())
-            .collect())
+        guard(|| {
+            let joints = self.inner.group_joints(group).map_err(model_err)?;
+            Ok(joints
+                .into_iter()
+                .map(|j| self.inner.joints()[j].name.clone())
+                .collect())
+        })
     }
 
     /// The DOF vector of SRDF named state `name` (others at neutral).
@@ -381,40 +406,44 @@ impl PyRobotModel {
         name: &str,
         group: Option<&str>,
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        let q = self.inner.named_state(name, group).map_err(model_err)?;
-        Ok(Self::vec1(py, q))
+        guard(|| {
+            let q = self.inner.named_state(name, group).map_err(model_err)?;
+            Ok(Self::vec1(py, q))
+        })
     }
 
     /// 0 for every DOF, or the nearest limit where 0 is outside the limits.
-    fn neutral_configuration<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        Self::vec1(py, self.inner.neutral_configuration())
+    fn neutral_configuration<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        guard(|| Ok(Self::vec1(py, self.inner.neutral_configuration())))
     }
 
     /// A joint's description: type, parent and child links, origin (4x4),
     /// axis, limits, mimic and dynamics.
     fn joint_info<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyDict>> {
-        let j = &self.inner.joints()[self.inner.joint(name).map_err(model_err)?];
-        let links = self.inner.links();
-        let d = PyDict::new(py);
-        d.set_item("name", &j.name)?;
-        d.set_item("type", j.kind.as_str())?;
-        d.set_item("parent", &links[j.parent].name)?;
-        d.set_item("child", &links[j.child].name)?;
-        d.set_item("origin", matrix(py, &j.origin))?;
-        d.set_item("axis", j.axis.as_slice().to_vec())?;
-        d.set_item("lower", j.limits.lower)?;
-        d.set_item("upper", j.limits.upper)?;
-        d.set_item("velocity", j.limits.velocity)?;
-        d.set_item("effort", j.limits.effort)?;
-        d.set_item("damping", j.damping)?;
-        d.set_item("friction", j.friction)?;
-        d.set_item(
-            "mimic",
-            j.mimic
-                .as_ref()
-                .map(|m| (m.joint.clone(), m.multiplier, m.offset)),
-        )?;
-        Ok(d)
+        guard(|| {
+            let j = &self.inner.joints()[self.inner.joint(name).map_err(model_err)?];
+            let links = self.inner.links();
+            let d = PyDict::new(py);
+            d.set_item("name", &j.name)?;
+            d.set_item("type", j.kind.as_str())?;
+            d.set_item("parent", &links[j.parent].name)?;
+            d.set_item("child", &links[j.child].name)?;
+            d.set_item("origin", matrix(py, &j.origin))?;
+            d.set_item("axis", j.axis.as_slice().to_vec())?;
+            d.set_item("lower", j.limits.lower)?;
+            d.set_item("upper", j.limits.upper)?;
+            d.set_item("velocity", j.limits.velocity)?;
+            d.set_item("effort", j.limits.effort)?;
+            d.set_item("damping", j.damping)?;
+            d.set_item("friction", j.friction)?;
+            d.set_item(
+                "mimic",
+                j.mimic
+                    .as_ref()
+                    .map(|m| (m.joint.clone(), m.multiplier, m.offset)),
+            )?;
+            Ok(d)
+        })
     }
 
     /// Collision geometry of `link`: a list of dicts with `type` (box,
@@ -422,31 +451,37 @@ impl PyRobotModel {
     /// the shape's parameters (`size`; `radius`, `length`; `path`, `scale`,
     /// `vertices`, `faces` for meshes).
     fn collision_geometry<'py>(&self, py: Python<'py>, link: &str) -> PyResult<Bound<'py, PyList>> {
-        let l = self.inner.link(link).map_err(model_err)?;
-        geometry_dicts(py, &self.inner.links()[l].collisions)
+        guard(|| {
+            let l = self.inner.link(link).map_err(model_err)?;
+            geometry_dicts(py, &self.inner.links()[l].collisions)
+        })
     }
 
     /// Visual geometry of `link`, as `collision_geometry`, plus `rgba`.
     fn visual_geometry<'py>(&self, py: Python<'py>, link: &str) -> PyResult<Bound<'py, PyList>> {
-        let l = self.inner.link(link).map_err(model_err)?;
-        geometry_dicts(py, &self.inner.links()[l].visuals)
+        guard(|| {
+            let l = self.inner.link(link).map_err(model_err)?;
+            geometry_dicts(py, &self.inner.links()[l].visuals)
+        })
     }
 
     /// Mass, centre-of-mass origin (4x4) and inertia (3x3) of `link`.
     fn inertial<'py>(&self, py: Python<'py>, link: &str) -> PyResult<Bound<'py, PyDict>> {
-        let l = self.inner.link(link).map_err(model_err)?;
-        let i = &self.inner.links()[l].inertial;
-        let d = PyDict::new(py);
-        d.set_item("mass", i.mass)?;
-        d.set_item("origin", matrix(py, &i.origin))?;
-        let flat: Vec<f64> = i.inertia.iter().flatten().copied().collect();
-        d.set_item(
-            "inertia",
-            Array2::from_shape_vec((3, 3), flat)
-                .expect("3x3")
-                .into_pyarray(py),
-        )?;
-        Ok(d)
+        guard(|| {
+            let l = self.inner.link(link).map_err(model_err)?;
+            let i = &self.inner.links()[l].inertial;
+            let d = PyDict::new(py);
+            d.set_item("mass", i.mass)?;
+            d.set_item("origin", matrix(py, &i.origin))?;
+            let flat: Vec<f64> = i.inertia.iter().flatten().copied().collect();
+            d.set_item(
+                "inertia",
+                Array2::from_shape_vec((3, 3), flat)
+                    .expect("3x3")
+                    .into_pyarray(py),
+            )?;
+            Ok(d)
+        })
     }
 
     /// Pose (4x4) of `link` (default: the end effector) in the base frame
@@ -525,13 +560,17 @@ impl PyRobotModel {
         })
     }
 
-    fn __repr__(&self) -> String {
-        format!(
-            "RobotModel(name='{}', num_dof={}, base_link='{}', ee_link='{}')",
-            self.inner.name(),
-            self.inner.num_dof(),
-            self.base_link(),
-            self.ee_link()
-        )
+    fn __repr__(&self) -> PyResult<String> {
+        guard(|| {
+            Ok({
+                format!(
+                    "RobotModel(name='{}', num_dof={}, base_link='{}', ee_link='{}')",
+                    self.inner.name(),
+                    self.inner.num_dof(),
+                    self.base_link()?,
+                    self.ee_link()?
+                )
+            })
+        })
     }
 }

@@ -1,6 +1,7 @@
 //! Python bindings of the planning crate: `ferrobot.Planner`, its IK and
 //! plan results, and the interpolated joint trajectory.
 
+use std::sync::Arc;
 use std::time::Duration;
 
 use ferrobot_planning::{
@@ -110,39 +111,43 @@ impl PyJointTrajectory {
 impl PyJointTrajectory {
     /// Sample times (s), shape (T,); the last is the trajectory's end.
     #[getter]
-    fn times<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        vec1(py, self.times.clone())
+    fn times<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        guard(|| Ok(vec1(py, self.times.clone())))
     }
 
     /// Positions, shape (T, len(joint_names)).
     #[getter]
-    fn positions<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
-        rows(py, self.positions.clone(), self.width)
+    fn positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        guard(|| Ok(rows(py, self.positions.clone(), self.width)))
     }
 
     /// Velocities, shape (T, len(joint_names)).
     #[getter]
-    fn velocities<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
-        rows(py, self.velocities.clone(), self.width)
+    fn velocities<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        guard(|| Ok(rows(py, self.velocities.clone(), self.width)))
     }
 
     /// Accelerations, shape (T, len(joint_names)).
     #[getter]
-    fn accelerations<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
-        rows(py, self.accelerations.clone(), self.width)
+    fn accelerations<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        guard(|| Ok(rows(py, self.accelerations.clone(), self.width)))
     }
 
-    fn __len__(&self) -> usize {
-        self.times.len()
+    fn __len__(&self) -> PyResult<usize> {
+        guard(|| Ok(self.times.len()))
     }
 
-    fn __repr__(&self) -> String {
-        format!(
-            "JointTrajectory({} samples, dt={}, {:.3} s)",
-            self.times.len(),
-            self.dt,
-            self.times.last().copied().unwrap_or(0.0)
-        )
+    fn __repr__(&self) -> PyResult<String> {
+        guard(|| {
+            Ok({
+                format!(
+                    "JointTrajectory({} samples, dt={}, {:.3} s)",
+                    self.times.len(),
+                    self.dt,
+                    self.times.last().copied().unwrap_or(0.0)
+                )
+            })
+        })
     }
 }
 
@@ -157,146 +162,163 @@ pub struct PyPlanResult {
 impl PyPlanResult {
     /// Whether a collision-free path was found.
     #[getter]
-    fn success(&self) -> bool {
-        self.inner.success()
+    fn success(&self) -> PyResult<bool> {
+        guard(|| Ok(self.inner.success()))
     }
 
     /// "solved", "start_in_collision", "goal_in_collision",
     /// "start_out_of_limits", "goal_out_of_limits", "ik_failed", "timeout"
     /// or "sample_limit".
     #[getter]
-    fn status(&self) -> &'static str {
-        self.inner.status.name()
+    fn status(&self) -> PyResult<&'static str> {
+        guard(|| Ok(self.inner.status.name()))
     }
 
     /// Why the plan failed (empty when solved).
     #[getter]
-    fn message(&self) -> &str {
-        &self.inner.message
+    fn message(&self) -> PyResult<&str> {
+        guard(|| Ok(self.inner.message.as_str()))
     }
 
     /// Joint order of `path`, `goal` and the interpolated trajectory.
     #[getter]
-    fn joint_names(&self) -> Vec<String> {
-        self.out.names()
+    fn joint_names(&self) -> PyResult<Vec<String>> {
+        guard(|| Ok(self.out.names()))
     }
 
     /// The geometric path, shape (K, len(joint_names)); empty if failed.
     #[getter]
-    fn path<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
-        let data: Vec<f64> = self
-            .inner
-            .path
-            .iter()
-            .flat_map(|q| self.out.positions(q))
-            .collect();
-        rows(py, data, self.out.width())
+    fn path<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        guard(|| {
+            Ok({
+                let data: Vec<f64> = self
+                    .inner
+                    .path
+                    .iter()
+                    .flat_map(|q| self.out.positions(q))
+                    .collect();
+                rows(py, data, self.out.width())
+            })
+        })
     }
 
     /// The goal configuration reached (the IK solution for pose goals).
     #[getter]
-    fn goal<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray1<f64>>> {
-        self.inner
-            .goal
-            .as_ref()
-            .map(|g| vec1(py, self.out.positions(g)))
+    fn goal<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyArray1<f64>>>> {
+        guard(|| {
+            Ok({
+                self.inner
+                    .goal
+                    .as_ref()
+                    .map(|g| vec1(py, self.out.positions(g)))
+            })
+        })
     }
 
     /// Stage wall-clock times (s): ik, planning, simplify, trajectory, total.
     #[getter]
     fn times<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let d = PyDict::new(py);
-        let t = self.inner.times;
-        for (k, v) in [
-            ("ik", t.ik),
-            ("planning", t.planning),
-            ("simplify", t.simplify),
-            ("trajectory", t.trajectory),
-            ("total", t.total),
-        ] {
-            d.set_item(k, v)?;
-        }
-        Ok(d)
+        guard(|| {
+            let d = PyDict::new(py);
+            let t = self.inner.times;
+            for (k, v) in [
+                ("ik", t.ik),
+                ("planning", t.planning),
+                ("simplify", t.simplify),
+                ("trajectory", t.trajectory),
+                ("total", t.total),
+            ] {
+                d.set_item(k, v)?;
+            }
+            Ok(d)
+        })
     }
 
     /// RRT-Connect samples drawn.
     #[getter]
-    fn samples(&self) -> usize {
-        self.inner.samples
+    fn samples(&self) -> PyResult<usize> {
+        guard(|| Ok(self.inner.samples))
     }
 
     /// True when the smooth spline kept colliding and the trajectory stops
     /// at every waypoint instead (it then follows the checked path exactly).
     #[getter]
-    fn stops_at_waypoints(&self) -> bool {
-        self.inner.stops_at_waypoints
+    fn stops_at_waypoints(&self) -> PyResult<bool> {
+        guard(|| Ok(self.inner.stops_at_waypoints))
     }
 
     /// Length of the path in joint space (Euclidean over planned joints).
     #[getter]
-    fn path_length(&self) -> f64 {
-        self.inner.path_length()
+    fn path_length(&self) -> PyResult<f64> {
+        guard(|| Ok(self.inner.path_length()))
     }
 
     /// Duration of the trajectory (s), or None.
     #[getter]
-    fn duration(&self) -> Option<f64> {
-        self.inner.trajectory.as_ref().map(Trajectory::duration)
+    fn duration(&self) -> PyResult<Option<f64>> {
+        guard(|| Ok(self.inner.trajectory.as_ref().map(Trajectory::duration)))
     }
 
     /// The trajectory sampled every `dt` seconds (the last sample at its
     /// end): positions, velocities and accelerations.
     #[pyo3(signature = (dt=0.01))]
     pub(crate) fn interpolated(&self, dt: f64) -> PyResult<PyJointTrajectory> {
-        if !(dt.is_finite() && dt > 0.0) {
-            return Err(InvalidArgumentError::new_err(format!(
-                "dt must be a positive number of seconds, got {dt}"
-            )));
-        }
-        let traj = self.inner.trajectory.as_ref().ok_or_else(|| {
-            InvalidArgumentError::new_err(format!(
-                "no trajectory: the plan's status is '{}'{}",
-                self.inner.status.name(),
-                if self.inner.success() {
-                    " (planned with trajectory=False)"
-                } else {
-                    ""
-                }
-            ))
-        })?;
-        let k = traj.dim();
-        let (times, q, v, a) = traj.interpolated(dt);
-        let map = |src: &[f64], f: &dyn Fn(&[f64]) -> Vec<f64>| -> Vec<f64> {
-            src.chunks_exact(k).flat_map(f).collect()
-        };
-        Ok(PyJointTrajectory {
-            dt,
-            joint_names: self.out.names(),
-            positions: map(&q, &|r| self.out.positions(r)),
-            velocities: map(&v, &|r| self.out.derivatives(r)),
-            accelerations: map(&a, &|r| self.out.derivatives(r)),
-            times,
-            width: self.out.width(),
+        guard(|| {
+            use ferrobot_model::ranges::{MAX_TRAJECTORY_SAMPLES, SAMPLE_DT, step_count};
+            SAMPLE_DT
+                .check(dt)
+                .map_err(|e| InvalidArgumentError::new_err(e.0))?;
+            let traj = self.inner.trajectory.as_ref().ok_or_else(|| {
+                InvalidArgumentError::new_err(format!(
+                    "no trajectory: the plan's status is '{}'{}",
+                    self.inner.status.name(),
+                    if self.inner.success() {
+                        " (planned with trajectory=False)"
+                    } else {
+                        ""
+                    }
+                ))
+            })?;
+            let k = traj.dim();
+            step_count("interpolated", traj.duration(), dt, MAX_TRAJECTORY_SAMPLES)
+                .map_err(|e| InvalidArgumentError::new_err(e.0))?;
+            let (times, q, v, a) = traj.interpolated(dt);
+            let map = |src: &[f64], f: &dyn Fn(&[f64]) -> Vec<f64>| -> Vec<f64> {
+                src.chunks_exact(k).flat_map(f).collect()
+            };
+            Ok(PyJointTrajectory {
+                dt,
+                joint_names: self.out.names(),
+                positions: map(&q, &|r| self.out.positions(r)),
+                velocities: map(&v, &|r| self.out.derivatives(r)),
+                accelerations: map(&a, &|r| self.out.derivatives(r)),
+                times,
+                width: self.out.width(),
+            })
         })
     }
 
-    fn __bool__(&self) -> bool {
-        self.inner.success()
+    fn __bool__(&self) -> PyResult<bool> {
+        guard(|| Ok(self.inner.success()))
     }
 
-    fn __repr__(&self) -> String {
-        let t = self.inner.times;
-        format!(
-            "PlanResult(status='{}', waypoints={}, total={:.3} ms{})",
-            self.inner.status.name(),
-            self.inner.path.len(),
-            t.total * 1e3,
-            if self.inner.message.is_empty() {
-                String::new()
-            } else {
-                format!(", message={:?}", self.inner.message)
-            }
-        )
+    fn __repr__(&self) -> PyResult<String> {
+        guard(|| {
+            Ok({
+                let t = self.inner.times;
+                format!(
+                    "PlanResult(status='{}', waypoints={}, total={:.3} ms{})",
+                    self.inner.status.name(),
+                    self.inner.path.len(),
+                    t.total * 1e3,
+                    if self.inner.message.is_empty() {
+                        String::new()
+                    } else {
+                        format!(", message={:?}", self.inner.message)
+                    }
+                )
+            })
+        })
     }
 }
 
@@ -313,81 +335,95 @@ impl PyIkResult {
     /// Success flag(s).
     #[getter]
     fn success<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        if self.batched {
-            let v: Vec<bool> = self.solutions.iter().map(|s| s.success).collect();
-            Ok(Array1::from_vec(v).into_pyarray(py).into_any())
-        } else {
-            Ok(pyo3::types::PyBool::new(py, self.solutions[0].success)
-                .to_owned()
-                .into_any())
-        }
+        guard(|| {
+            if self.batched {
+                let v: Vec<bool> = self.solutions.iter().map(|s| s.success).collect();
+                Ok(Array1::from_vec(v).into_pyarray(py).into_any())
+            } else {
+                Ok(pyo3::types::PyBool::new(py, self.solutions[0].success)
+                    .to_owned()
+                    .into_any())
+            }
+        })
     }
 
     /// Solution(s) (or best attempts where `success` is false), shape
     /// (len(joint_names),) or (N, len(joint_names)).
     #[getter]
-    fn q<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
-        let data: Vec<f64> = self
-            .solutions
-            .iter()
-            .flat_map(|s| self.out.positions(&s.q))
-            .collect();
-        if self.batched {
-            rows(py, data, self.out.width()).into_any()
-        } else {
-            vec1(py, data).into_any()
-        }
+    fn q<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        guard(|| {
+            Ok({
+                let data: Vec<f64> = self
+                    .solutions
+                    .iter()
+                    .flat_map(|s| self.out.positions(&s.q))
+                    .collect();
+                if self.batched {
+                    rows(py, data, self.out.width()).into_any()
+                } else {
+                    vec1(py, data).into_any()
+                }
+            })
+        })
     }
 
     /// Position error(s) (m).
     #[getter]
     fn position_error<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        self.scalars(py, |s| s.position_error)
+        guard(|| self.scalars(py, |s| s.position_error))
     }
 
     /// Rotation error(s) (rad).
     #[getter]
     fn rotation_error<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        self.scalars(py, |s| s.rotation_error)
+        guard(|| self.scalars(py, |s| s.rotation_error))
     }
 
     /// Index of the goal reached in a goal set (0 for single goals).
     #[getter]
     fn goal_index<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        self.scalars(py, |s| s.goal_index as f64).and_then(|v| {
-            if self.batched {
-                v.call_method1("astype", ("int64",))
-            } else {
-                v.call_method0("__int__")
-            }
+        guard(|| {
+            self.scalars(py, |s| s.goal_index as f64).and_then(|v| {
+                if self.batched {
+                    v.call_method1("astype", ("int64",))
+                } else {
+                    v.call_method0("__int__")
+                }
+            })
         })
     }
 
     /// Seeds tried (per solve).
     #[getter]
     fn seeds_tried<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        self.scalars(py, |s| s.seeds_tried as f64).and_then(|v| {
-            if self.batched {
-                v.call_method1("astype", ("int64",))
-            } else {
-                v.call_method0("__int__")
-            }
+        guard(|| {
+            self.scalars(py, |s| s.seeds_tried as f64).and_then(|v| {
+                if self.batched {
+                    v.call_method1("astype", ("int64",))
+                } else {
+                    v.call_method0("__int__")
+                }
+            })
         })
     }
 
     /// Joint order of `q`.
     #[getter]
-    fn joint_names(&self) -> Vec<String> {
-        self.out.names()
+    fn joint_names(&self) -> PyResult<Vec<String>> {
+        guard(|| Ok(self.out.names()))
     }
 
-    fn __len__(&self) -> usize {
-        self.solutions.len()
+    fn __len__(&self) -> PyResult<usize> {
+        guard(|| Ok(self.solutions.len()))
     }
 
-    fn __repr__(&self) -> String {
-        let ok = self.solutions.iter().filter(|s| s.success).count();
-        format!("IkResult({ok}/{} solved)", self.solutions.len())
+    fn __repr__(&self) -> PyResult<String> {
+        guard(|| {
+            Ok({
+                let ok = self.solutions.iter().filter(|s| s.success).count();
+                format!("IkResult({ok}/{} solved)", self.solutions.len())
+            })
+        })
     }
 }
 
@@ -410,13 +446,42 @@ impl PyIkResult {
 /// checks, shortcutting and smooth time-parametrised trajectories.
 #[pyclass(name = "Planner", module = "ferrobot")]
 pub struct PyPlanner {
-    inner: Planner,
+    /// The planner, swapped atomically: a plan works on a snapshot (an
+    /// `Arc` clone) with the lock released, and a change (`update_world`,
+    /// `attach_world_object`, ...) edits a copy when a plan holds the
+    /// current one, so concurrent plans always see one consistent world.
+    inner: std::sync::RwLock<Arc<Planner>>,
 }
 
 impl PyPlanner {
+    fn from_planner(p: Planner) -> Self {
+        Self {
+            inner: std::sync::RwLock::new(Arc::new(p)),
+        }
+    }
+
+    /// The current planner (a snapshot unaffected by later changes).
+    fn snap(&self) -> Arc<Planner> {
+        self.inner
+            .read()
+            .unwrap_or_else(|poisoned| poisoned.into_inner())
+            .clone()
+    }
+
+    /// Applies `f` to the planner (copy-on-write if a plan holds it).
+    fn edit<T>(&self, f: impl FnOnce(&mut Planner) -> PyResult<T>) -> PyResult<T> {
+        let mut g = self
+            .inner
+            .write()
+            .unwrap_or_else(|poisoned| poisoned.into_inner());
+        // In place when no plan holds the planner, else on a copy.
+        f(Arc::make_mut(&mut g))
+    }
+
     fn order(&self, joint_names: Option<Vec<String>>) -> PyResult<Option<JointOrder>> {
+        let inner = self.snap();
         joint_names
-            .map(|n| JointOrder::new(self.inner.model(), self.inner.space(), &n))
+            .map(|n| JointOrder::new(inner.model(), inner.space(), &n))
             .transpose()
             .map_err(planning_err)
     }
@@ -428,11 +493,12 @@ impl PyPlanner {
         q: &Bound<'_, PyAny>,
         joint_names: Option<Vec<String>>,
     ) -> PyResult<Vec<f64>> {
+        let inner = self.snap();
         let order = self.order(joint_names)?;
         let (active, full) = self.config(q, "q", order.as_ref())?;
         Ok(match full {
             Some(f) => f,
-            None => self.inner.space().expand(&active),
+            None => inner.space().expand(&active),
         })
     }
 
@@ -446,10 +512,11 @@ impl PyPlanner {
         what: &str,
         order: Option<&JointOrder>,
     ) -> PyResult<(Vec<f64>, Option<Vec<f64>>)> {
+        let inner = self.snap();
         let arr = read_array(obj, what, 1, &[None])?;
         let v = arr.data();
-        let space = self.inner.space();
-        let n = self.inner.model().num_dof();
+        let space = inner.space();
+        let n = inner.model().num_dof();
         if let Some(o) = order {
             let active = o.to_active(what, v).map_err(planning_err)?;
             // Values for joints the planner does not move (a simulator's
@@ -508,7 +575,8 @@ impl PyPlanner {
     }
 
     fn link(&self, link: Option<&str>) -> PyResult<Option<usize>> {
-        link.map(|l| self.inner.model().link(l).map_err(model_err))
+        let inner = self.snap();
+        link.map(|l| inner.model().link(l).map_err(model_err))
             .transpose()
     }
 }
@@ -536,7 +604,9 @@ impl PyPlanner {
                 .map(|l| model.inner.link(l).map_err(model_err))
                 .transpose()?;
             Ok(Self {
-                inner: Planner::new(checker, link).map_err(planning_err)?,
+                inner: std::sync::RwLock::new(Arc::new(
+                    Planner::new(checker, link).map_err(planning_err)?,
+                )),
             })
         })
     }
@@ -544,37 +614,41 @@ impl PyPlanner {
     /// The planned joints, in the planner's own order (a subset of
     /// `dof_names`, in the same order).
     #[getter]
-    fn joint_names(&self) -> Vec<String> {
-        self.inner.space().names.clone()
+    fn joint_names(&self) -> PyResult<Vec<String>> {
+        let inner = self.snap();
+        guard(|| Ok(inner.space().names.clone()))
     }
 
     /// All DOF names of the model.
     #[getter]
-    fn dof_names(&self) -> Vec<String> {
-        self.inner.model().dof_names().to_vec()
+    fn dof_names(&self) -> PyResult<Vec<String>> {
+        let inner = self.snap();
+        guard(|| Ok(inner.model().dof_names().to_vec()))
     }
 
     /// The IK link's name.
     #[getter]
-    fn ee_link(&self) -> String {
-        self.inner.model().links()[self.inner.ik_link()]
-            .name
-            .clone()
+    fn ee_link(&self) -> PyResult<String> {
+        guard(|| {
+            let inner = self.snap();
+            Ok(inner.model().links()[inner.ik_link()].name.clone())
+        })
     }
 
     /// Values of the joints the planner does not move, `dof_names` order.
     #[getter]
-    fn locked_positions<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        vec1(py, self.inner.space().locked.clone())
+    fn locked_positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let inner = self.snap();
+        guard(|| Ok(vec1(py, inner.space().locked.clone())))
     }
 
     /// Sets the joints the planner does not move (fingers, say) from a full
     /// configuration in `dof_names` order.
-    fn set_locked_positions(&mut self, q: &Bound<'_, PyAny>) -> PyResult<()> {
+    fn set_locked_positions(&self, q: &Bound<'_, PyAny>) -> PyResult<()> {
         guard(|| {
-            let n = self.inner.model().num_dof();
+            let n = self.snap().model().num_dof();
             let arr = read_array(q, "q", 1, &[Some(n)])?;
-            self.inner.set_locked(arr.data()).map_err(planning_err)
+            self.edit(|p| p.set_locked(arr.data()).map_err(planning_err))
         })
     }
 
@@ -582,28 +656,32 @@ impl PyPlanner {
     /// jerk (arrays in `joint_names` order).
     #[getter]
     fn limits<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let l = self.inner.limits();
-        let d = PyDict::new(py);
-        d.set_item("lower", vec1(py, l.lower.clone()))?;
-        d.set_item("upper", vec1(py, l.upper.clone()))?;
-        d.set_item("velocity", vec1(py, l.velocity.clone()))?;
-        d.set_item("acceleration", vec1(py, l.acceleration.clone()))?;
-        d.set_item("jerk", vec1(py, l.jerk.clone()))?;
-        Ok(d)
+        guard(|| {
+            let inner = self.snap();
+            let l = inner.limits();
+            let d = PyDict::new(py);
+            d.set_item("lower", vec1(py, l.lower.clone()))?;
+            d.set_item("upper", vec1(py, l.upper.clone()))?;
+            d.set_item("velocity", vec1(py, l.velocity.clone()))?;
+            d.set_item("acceleration", vec1(py, l.acceleration.clone()))?;
+            d.set_item("jerk", vec1(py, l.jerk.clone()))?;
+            Ok(d)
+        })
     }
 
     /// Replaces velocity, acceleration and/or jerk limits (positive, one per
     /// planned joint).
     #[pyo3(signature = (*, velocity=None, acceleration=None, jerk=None))]
     fn set_limits(
-        &mut self,
+        &self,
         velocity: Option<&Bound<'_, PyAny>>,
         acceleration: Option<&Bound<'_, PyAny>>,
         jerk: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<()> {
         guard(|| {
-            let k = self.inner.space().len();
-            let mut next = self.inner.limits().clone();
+            let inner = self.snap();
+            let k = inner.space().len();
+            let mut next = inner.limits().clone();
             for (what, v) in [
                 ("velocity", velocity),
                 ("acceleration", acceleration),
@@ -614,8 +692,10 @@ impl PyPlanner {
                     next.set(what, arr.data()).map_err(planning_err)?;
                 }
             }
-            *self.inner.limits_mut() = next;
-            Ok(())
+            self.edit(|p| {
+                *p.limits_mut() = next;
+                Ok(())
+            })
         })
     }
 
@@ -628,7 +708,7 @@ impl PyPlanner {
     /// so are objects attached to the robot (by name).
     #[pyo3(signature = (world, ignore=None, base_pose=None))]
     fn update_world(
-        &mut self,
+        &self,
         world: &Bound<'_, PyAny>,
         ignore: Option<&Bound<'_, PyAny>>,
         base_pose: Option<&Bound<'_, PyAny>>,
@@ -636,15 +716,17 @@ impl PyPlanner {
         guard(|| {
             let ignore = crate::scene::ignore_list(ignore)?;
             let attached: Vec<String> = self
-                .inner
+                .snap()
                 .checker()
                 .attached()
                 .iter()
                 .map(|a| a.name.clone())
                 .collect();
             let w = crate::scene::world_from_any(world, ignore, base_pose, &attached)?;
-            self.inner.update_world(w);
-            Ok(())
+            self.edit(|p| {
+                p.update_world(w);
+                Ok(())
+            })
         })
     }
 
@@ -655,7 +737,7 @@ impl PyPlanner {
     /// `link` and every link below it, e.g. the fingers).
     #[pyo3(signature = (name, q, link=None, touch_links=None, joint_names=None))]
     fn attach_world_object(
-        &mut self,
+        &self,
         name: &str,
         q: &Bound<'_, PyAny>,
         link: Option<&str>,
@@ -664,10 +746,11 @@ impl PyPlanner {
     ) -> PyResult<()> {
         guard(|| {
             let full = self.full_config(q, joint_names)?;
-            let model = self.inner.model().clone();
+            let inner = self.snap();
+            let model = inner.model().clone();
             let li = match link {
                 Some(l) => model.link(l).map_err(model_err)?,
-                None => self.inner.ik_link(),
+                None => inner.ik_link(),
             };
             let touch = match touch_links {
                 Some(t) => t,
@@ -687,10 +770,11 @@ impl PyPlanner {
             };
             let touch: Vec<&str> = touch.iter().map(String::as_str).collect();
             let link_name = model.links()[li].name.clone();
-            self.inner
-                .checker_mut()
-                .attach_world_object(name, &link_name, &full, &touch)
-                .map_err(collision_err)
+            self.edit(|p| {
+                p.checker_mut()
+                    .attach_world_object(name, &link_name, &full, &touch)
+                    .map_err(collision_err)
+            })
         })
     }
 
@@ -698,50 +782,66 @@ impl PyPlanner {
     /// without it is dropped.
     #[pyo3(signature = (name, q=None, joint_names=None))]
     fn detach(
-        &mut self,
+        &self,
         name: &str,
         q: Option<&Bound<'_, PyAny>>,
         joint_names: Option<Vec<String>>,
     ) -> PyResult<()> {
         guard(|| {
             let full = q.map(|q| self.full_config(q, joint_names)).transpose()?;
-            self.inner
-                .checker_mut()
-                .detach(name, full.as_deref())
-                .map(|_| ())
-                .map_err(collision_err)
+            self.edit(|p| {
+                p.checker_mut()
+                    .detach(name, full.as_deref())
+                    .map(|_| ())
+                    .map_err(collision_err)
+            })
         })
     }
 
     /// The robot's sphere model used by this planner (automatic unless one
     /// was given); its `report` is empty.
     #[getter]
-    fn sphere_model(&self) -> PySphereModel {
-        let c = self.inner.checker();
-        PySphereModel {
-            model: c.model().clone(),
-            inner: c.spheres().clone(),
-            report: Vec::new(),
-        }
+    fn sphere_model(&self) -> PyResult<PySphereModel> {
+        guard(|| {
+            let inner = self.snap();
+            Ok({
+                let c = inner.checker();
+                PySphereModel {
+                    model: c.model().clone(),
+                    inner: c.spheres().clone(),
+                    report: Vec::new(),
+                }
+            })
+        })
     }
 
     /// Names of the objects attached to the robot.
     #[getter]
-    fn attached(&self) -> Vec<String> {
-        self.inner
-            .checker()
-            .attached()
-            .iter()
-            .map(|a| a.name.clone())
-            .collect()
+    fn attached(&self) -> PyResult<Vec<String>> {
+        guard(|| {
+            let inner = self.snap();
+            Ok({
+                inner
+                    .checker()
+                    .attached()
+                    .iter()
+                    .map(|a| a.name.clone())
+                    .collect()
+            })
+        })
     }
 
     /// A copy of the planner's world.
     #[getter]
-    fn world(&self) -> PyCollisionWorld {
-        PyCollisionWorld {
-            inner: self.inner.checker().world().clone(),
-        }
+    fn world(&self) -> PyResult<PyCollisionWorld> {
+        guard(|| {
+            let inner = self.snap();
+            Ok({
+                PyCollisionWorld {
+                    inner: inner.checker().world().clone(),
+                }
+            })
+        })
     }
 
     /// Whether configuration `q` collides (world or self).
@@ -752,14 +852,14 @@ impl PyPlanner {
         joint_names: Option<Vec<String>>,
     ) -> PyResult<bool> {
         guard(|| {
+            let inner = self.snap();
             let order = self.order(joint_names)?;
             let (active, full) = self.config(q, "q", order.as_ref())?;
-            let mut space = self.inner.space().clone();
+            let mut space = inner.space().clone();
             if let Some(f) = full {
                 space.lock_from(&f);
             }
-            Ok(self
-                .inner
+            Ok(inner
                 .checker()
                 .in_collision_unchecked(&space.expand(&active)))
         })
@@ -872,6 +972,7 @@ impl PyPlanner {
         random_seed: u64,
     ) -> PyResult<PyIkResult> {
         guard(|| {
+            let inner = self.snap();
             let opts = Self::ik_opts(
                 position_tolerance,
                 rotation_tolerance,
@@ -903,13 +1004,13 @@ impl PyPlanner {
                 }
             };
             let link = self.link(link)?;
-            let solver = self.inner.ik_solver(link).map_err(planning_err)?;
+            let solver = inner.ik_solver(link).map_err(planning_err)?;
             let solutions = py
                 .detach(|| solver.solve_batch(&goals, seeds.as_deref(), &opts))
                 .map_err(planning_err)?;
             Ok(PyIkResult {
                 solutions,
-                out: self.output(order, self.inner.space()),
+                out: self.output(order, inner.space()),
                 batched: true,
             })
         })
@@ -946,11 +1047,10 @@ impl PyPlanner {
         coarse_factor: f64,
     ) -> PyResult<PyPlanResult> {
         guard(|| {
-            if !(time_limit.is_finite() && time_limit > 0.0) {
-                return Err(InvalidArgumentError::new_err(format!(
-                    "time_limit must be a positive number of seconds, got {time_limit}"
-                )));
-            }
+            let inner = self.snap();
+            ferrobot_model::ranges::TIME_LIMIT
+                .check(time_limit)
+                .map_err(|e| InvalidArgumentError::new_err(e.0))?;
             let mut opts = PlanOptions::default();
             opts.rrt.time_limit = Duration::from_secs_f64(time_limit);
             opts.rrt.max_samples = max_samples;
@@ -964,7 +1064,7 @@ impl PyPlanner {
             opts.goal_solutions = goal_solutions;
             opts.coarse_factor = coarse_factor;
             opts.validate().map_err(planning_err)?;
-            self.inner
+            inner
                 .limits()
                 .scaled(velocity_scale, acceleration_scale)
                 .map_err(planning_err)?;
@@ -973,13 +1073,13 @@ impl PyPlanner {
             // A full start sets the locked joints for this plan.
             let local;
             let planner = match full {
-                Some(f) if f != self.inner.space().locked => {
-                    let mut p = self.inner.clone();
+                Some(f) if f != inner.space().locked => {
+                    let mut p = (*inner).clone();
                     p.set_locked(&f).map_err(planning_err)?;
                     local = p;
                     &local
                 }
-                _ => &self.inner,
+                _ => &*inner,
             };
             let result = match (goal_q, goal_pose) {
                 (Some(g), None) => {
@@ -1004,13 +1104,18 @@ impl PyPlanner {
         })
     }
 
-    fn __repr__(&self) -> String {
-        format!(
-            "Planner(robot='{}', joints={:?}, ee_link='{}')",
-            self.inner.model().name(),
-            self.inner.space().names,
-            self.ee_link()
-        )
+    fn __repr__(&self) -> PyResult<String> {
+        guard(|| {
+            let inner = self.snap();
+            Ok({
+                format!(
+                    "Planner(robot='{}', joints={:?}, ee_link='{}')",
+                    inner.model().name(),
+                    inner.space().names,
+                    self.ee_link()?
+                )
+            })
+        })
     }
 }
 
@@ -1024,19 +1129,20 @@ impl PyPlanner {
         joint_names: Option<Vec<String>>,
         opts: IkOptions,
     ) -> PyResult<PyIkResult> {
+        let inner = self.snap();
         let order = self.order(joint_names)?;
         let seeds = match seed {
             Some(s) => vec![self.config(s, "seed", order.as_ref())?.0],
             None => Vec::new(),
         };
         let link = self.link(link)?;
-        let solver = self.inner.ik_solver(link).map_err(planning_err)?;
+        let solver = inner.ik_solver(link).map_err(planning_err)?;
         let solution = py
             .detach(|| solver.solve(&goals, &seeds, &opts))
             .map_err(planning_err)?;
         Ok(PyIkResult {
             solutions: vec![solution],
-            out: self.output(order, self.inner.space()),
+            out: self.output(order, inner.space()),
             batched: false,
         })
     }

@@ -11,17 +11,21 @@ use ferrobot_sim::{
 };
 use nalgebra::{Isometry3, Point3, Vector3};
 use numpy::ndarray::{Array1, Array2, Array3};
-use numpy::{IntoPyArray, PyArray1, PyArray2, PyUntypedArrayMethods};
+use numpy::{IntoPyArray, PyArray1, PyArray2};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use crate::arrays::{read_array, read_pose};
+use crate::arrays::{Finite, read_array, read_array_with, read_pose};
 use crate::errors::{
-    DuplicateNameError, InternalError, InvalidArgumentError, NonFiniteError, ShapeError,
-    SimulationDiverged, UnknownNameError, guard, model_err,
+    DuplicateNameError, InvalidArgumentError, NonFiniteError, ShapeError, SimulationDiverged,
+    UnknownNameError, guard, model_err,
 };
 use crate::model::PyRobotModel;
 use crate::planning::{PyJointTrajectory, PyPlanResult};
+use ferrobot_sim::validate::{
+    COEFFICIENT, COORDINATE, EFFORT, GAIN, GRAVITY, MASS, MAX_FORCE, POSITION, VELOCITY, check_all,
+    check_all_or_inf,
+};
 
 /// Converts a simulation error to the matching Python exception.
 pub fn sim_err(e: SimError) -> PyErr {
@@ -43,9 +47,45 @@ type VecPair<'py> = (Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>);
 /// Points (N, 3) and their flat pixel indices (N,).
 type PointsAndPixels<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray1<i64>>);
 
+/// Locks the world. A panic while the lock was held (caught at the
+/// boundary and reported) poisons it; the poison is cleared here so that
+/// the world stays usable (`reset()` restores a consistent state).
 pub(crate) fn lock(w: &Shared) -> PyResult<MutexGuard<'_, World>> {
-    w.lock()
-        .map_err(|_| InternalError::new_err("the world's lock is poisoned by an earlier panic"))
+    Ok(lock_world(w))
+}
+
+/// [`lock`] without the `PyResult` (for closures run without the GIL).
+pub(crate) fn lock_world(w: &Shared) -> MutexGuard<'_, World> {
+    w.lock().unwrap_or_else(|poisoned| {
+        w.clear_poison();
+        poisoned.into_inner()
+    })
+}
+
+/// Runs physics steps (`f`) with the world locked, turning a panic inside
+/// the physics engine into `SimulationDiverged` (the world stays usable:
+/// `reset()` restores its initial state).
+fn run_steps<T>(
+    w: &Shared,
+    f: impl FnOnce(&mut World) -> ferrobot_sim::Result<T>,
+) -> Result<ferrobot_sim::Result<T>, String> {
+    let mut guard = lock_world(w);
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| f(&mut guard))).map_err(|p| {
+        p.downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| p.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "unknown panic".into())
+    })
+}
+
+fn sim_err_range(e: ferrobot_model::ranges::RangeError) -> PyErr {
+    InvalidArgumentError::new_err(e.0)
+}
+
+fn diverged(what: String) -> PyErr {
+    SimulationDiverged::new_err(format!(
+        "the physics engine failed during the step ({what}); the world's state is undefined until reset()"
+    ))
 }
 
 fn matrix<'py>(py: Python<'py>, pose: &Isometry3<f64>) -> Bound<'py, PyArray2<f64>> {
@@ -159,7 +199,24 @@ fn object_desc(
     is_static: bool,
     color: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<ObjectDesc> {
-    let mut d = ObjectDesc::new(name, shape, pose_arg(pose, "pose")?);
+    let pose = pose_arg(pose, "pose")?;
+    check_all(
+        &COORDINATE,
+        "pose translation",
+        pose.translation.vector.as_slice(),
+    )
+    .map_err(sim_err)?;
+    if !is_static {
+        MASS.check(mass)
+            .map_err(|e| InvalidArgumentError::new_err(e.0))?;
+    }
+    COEFFICIENT
+        .check_as("friction", friction)
+        .map_err(|e| InvalidArgumentError::new_err(e.0))?;
+    COEFFICIENT
+        .check_as("restitution", restitution)
+        .map_err(|e| InvalidArgumentError::new_err(e.0))?;
+    let mut d = ObjectDesc::new(name, shape, pose);
     d.mass = mass;
     d.friction = friction;
     d.restitution = restitution;
@@ -210,7 +267,11 @@ impl PyWorld {
     ) -> PyResult<Self> {
         guard(|| {
             let gravity = match gravity {
-                Some(g) => vec3_arg(g, "gravity")?,
+                Some(g) => {
+                    let g = vec3_arg(g, "gravity")?;
+                    check_all(&GRAVITY, "gravity", g.as_slice()).map_err(sim_err)?;
+                    g
+                }
                 None => Vector3::new(0.0, 0.0, -9.81),
             };
             let w = World::new(WorldConfig {
@@ -234,39 +295,43 @@ impl PyWorld {
     /// Time step (s).
     #[getter]
     fn dt(&self) -> PyResult<f64> {
-        Ok(lock(&self.inner)?.config().dt)
+        guard(|| Ok(lock(&self.inner)?.config().dt))
     }
 
     /// Simulated time (s) since creation or the last reset.
     #[getter]
     fn time(&self) -> PyResult<f64> {
-        Ok(lock(&self.inner)?.time())
+        guard(|| Ok(lock(&self.inner)?.time()))
     }
 
     /// Steps taken since creation or the last reset.
     #[getter]
     fn num_steps(&self) -> PyResult<u64> {
-        Ok(lock(&self.inner)?.steps())
+        guard(|| Ok(lock(&self.inner)?.steps()))
     }
 
     /// Names of the objects, in the order added.
     #[getter]
     fn object_names(&self) -> PyResult<Vec<String>> {
-        Ok(lock(&self.inner)?
-            .objects()
-            .iter()
-            .map(|o| o.desc.name.clone())
-            .collect())
+        guard(|| {
+            Ok(lock(&self.inner)?
+                .objects()
+                .iter()
+                .map(|o| o.desc.name.clone())
+                .collect())
+        })
     }
 
     /// Segmentation ids to names: 0 background, 1 ground, objects, "robot/link".
     #[getter]
     fn segmentation_labels(&self) -> PyResult<std::collections::BTreeMap<u32, String>> {
-        Ok(lock(&self.inner)?
-            .labels()
-            .iter()
-            .map(|l| (l.id, l.name.clone()))
-            .collect())
+        guard(|| {
+            Ok(lock(&self.inner)?
+                .labels()
+                .iter()
+                .map(|l| (l.id, l.name.clone()))
+                .collect())
+        })
     }
 
     /// Adds a box of full edge lengths `size`.
@@ -283,20 +348,22 @@ impl PyWorld {
         static_: bool,
         color: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<String> {
-        let s = vec3_arg(size, "size")?;
-        let shape = ObjectShape::Box {
-            half_extents: s / 2.0,
-        };
-        self.add(object_desc(
-            name,
-            shape,
-            pose,
-            mass,
-            friction,
-            restitution,
-            static_,
-            color,
-        )?)
+        guard(|| {
+            let s = vec3_arg(size, "size")?;
+            let shape = ObjectShape::Box {
+                half_extents: s / 2.0,
+            };
+            self.add(object_desc(
+                name,
+                shape,
+                pose,
+                mass,
+                friction,
+                restitution,
+                static_,
+                color,
+            )?)
+        })
     }
 
     /// Adds a sphere.
@@ -313,17 +380,19 @@ impl PyWorld {
         static_: bool,
         color: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<String> {
-        let shape = ObjectShape::Sphere { radius };
-        self.add(object_desc(
-            name,
-            shape,
-            pose,
-            mass,
-            friction,
-            restitution,
-            static_,
-            color,
-        )?)
+        guard(|| {
+            let shape = ObjectShape::Sphere { radius };
+            self.add(object_desc(
+                name,
+                shape,
+                pose,
+                mass,
+                friction,
+                restitution,
+                static_,
+                color,
+            )?)
+        })
     }
 
     /// Adds a cylinder along its z axis.
@@ -341,17 +410,19 @@ impl PyWorld {
         static_: bool,
         color: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<String> {
-        let shape = ObjectShape::Cylinder { radius, length };
-        self.add(object_desc(
-            name,
-            shape,
-            pose,
-            mass,
-            friction,
-            restitution,
-            static_,
-            color,
-        )?)
+        guard(|| {
+            let shape = ObjectShape::Cylinder { radius, length };
+            self.add(object_desc(
+                name,
+                shape,
+                pose,
+                mass,
+                friction,
+                restitution,
+                static_,
+                color,
+            )?)
+        })
     }
 
     /// Adds a capsule along its z axis (`length` of the cylindrical part).
@@ -369,17 +440,19 @@ impl PyWorld {
         static_: bool,
         color: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<String> {
-        let shape = ObjectShape::Capsule { radius, length };
-        self.add(object_desc(
-            name,
-            shape,
-            pose,
-            mass,
-            friction,
-            restitution,
-            static_,
-            color,
-        )?)
+        guard(|| {
+            let shape = ObjectShape::Capsule { radius, length };
+            self.add(object_desc(
+                name,
+                shape,
+                pose,
+                mass,
+                friction,
+                restitution,
+                static_,
+                color,
+            )?)
+        })
     }
 
     /// Adds a mesh (vertices (N, 3), faces (M, 3)) approximated as
@@ -449,7 +522,7 @@ impl PyWorld {
         guard(|| {
             let name = desc.name.clone();
             py.detach(|| -> Result<(), SimError> {
-                let mut w = inner.lock().expect("world lock");
+                let mut w = lock_world(&inner);
                 w.add_object(desc).map(|_| ())
             })
             .map_err(sim_err)?;
@@ -463,28 +536,34 @@ impl PyWorld {
         py: Python<'py>,
         name: &str,
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        let w = lock(&self.inner)?;
-        let i = self.object(&w, name)?;
-        Ok(matrix(py, &w.object_pose(i)))
+        guard(|| {
+            let w = lock(&self.inner)?;
+            let i = self.object(&w, name)?;
+            Ok(matrix(py, &w.object_pose(i)))
+        })
     }
 
     /// Teleports an object.
     fn set_object_pose(&self, name: &str, pose: &Bound<'_, PyAny>) -> PyResult<()> {
-        let p = pose_arg(Some(pose), "pose")?;
-        let mut w = lock(&self.inner)?;
-        let i = self.object(&w, name)?;
-        w.set_object_pose(i, &p).map_err(sim_err)
+        guard(|| {
+            let p = pose_arg(Some(pose), "pose")?;
+            let mut w = lock(&self.inner)?;
+            let i = self.object(&w, name)?;
+            w.set_object_pose(i, &p).map_err(sim_err)
+        })
     }
 
     /// (linear (3,), angular (3,)) velocity of an object, world frame.
     fn get_object_velocity<'py>(&self, py: Python<'py>, name: &str) -> PyResult<VecPair<'py>> {
-        let w = lock(&self.inner)?;
-        let i = self.object(&w, name)?;
-        let (l, a) = w.object_velocity(i);
-        Ok((
-            vec1(py, l.as_slice().to_vec()),
-            vec1(py, a.as_slice().to_vec()),
-        ))
+        guard(|| {
+            let w = lock(&self.inner)?;
+            let i = self.object(&w, name)?;
+            let (l, a) = w.object_velocity(i);
+            Ok((
+                vec1(py, l.as_slice().to_vec()),
+                vec1(py, a.as_slice().to_vec()),
+            ))
+        })
     }
 
     /// Sets an object's velocity (angular defaults to zero).
@@ -495,14 +574,18 @@ impl PyWorld {
         linear: &Bound<'_, PyAny>,
         angular: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<()> {
-        let l = vec3_arg(linear, "linear")?;
-        let a = angular
-            .map(|a| vec3_arg(a, "angular"))
-            .transpose()?
-            .unwrap_or_else(Vector3::zeros);
-        let mut w = lock(&self.inner)?;
-        let i = self.object(&w, name)?;
-        w.set_object_velocity(i, &l, &a).map_err(sim_err)
+        guard(|| {
+            let l = vec3_arg(linear, "linear")?;
+            let a = angular
+                .map(|a| vec3_arg(a, "angular"))
+                .transpose()?
+                .unwrap_or_else(Vector3::zeros);
+            check_all(&VELOCITY, "linear", l.as_slice()).map_err(sim_err)?;
+            check_all(&VELOCITY, "angular", a.as_slice()).map_err(sim_err)?;
+            let mut w = lock(&self.inner)?;
+            let i = self.object(&w, name)?;
+            w.set_object_velocity(i, &l, &a).map_err(sim_err)
+        })
     }
 
     /// Adds a robot built from `model` with its base link at `pose`.
@@ -533,7 +616,7 @@ impl PyWorld {
         let m = model.inner.clone();
         guard(|| {
             let index = py
-                .detach(|| inner.lock().expect("world lock").add_robot(m, &opts))
+                .detach(|| lock_world(&inner).add_robot(m, &opts))
                 .map_err(sim_err)?;
             Ok(PyRobot {
                 world: self.inner.clone(),
@@ -555,7 +638,9 @@ impl PyWorld {
         }
         let inner = self.inner.clone();
         guard(|| {
-            py.detach(|| inner.lock().expect("world lock").step(n))
+            ferrobot_sim::validate::steps_for("step(n)", n as f64, 1.0).map_err(sim_err)?;
+            py.detach(|| run_steps(&inner, |w| w.step(n)))
+                .map_err(diverged)?
                 .map_err(sim_err)
         })
     }
@@ -563,14 +648,18 @@ impl PyWorld {
     /// Returns to the initial state (the state at the first step after the
     /// last object or robot was added, or at `mark_initial_state()`).
     fn reset(&self) -> PyResult<()> {
-        lock(&self.inner)?.reset();
-        Ok(())
+        guard(|| {
+            lock(&self.inner)?.reset();
+            Ok(())
+        })
     }
 
     /// Makes the current state the one `reset()` returns to.
     fn mark_initial_state(&self) -> PyResult<()> {
-        lock(&self.inner)?.mark_initial_state();
-        Ok(())
+        guard(|| {
+            lock(&self.inner)?.mark_initial_state();
+            Ok(())
+        })
     }
 }
 
@@ -639,52 +728,58 @@ impl PyRobot {
     /// The robot's name in the world.
     #[getter]
     fn name(&self) -> PyResult<String> {
-        self.read(|r, _| r.name().to_string())
+        guard(|| self.read(|r, _| r.name().to_string()))
     }
 
     /// The robot model.
     #[getter]
-    fn model(&self) -> PyRobotModel {
-        PyRobotModel::from_arc(self.model.clone())
+    fn model(&self) -> PyResult<PyRobotModel> {
+        guard(|| Ok(PyRobotModel::from_arc(self.model.clone())))
     }
 
     /// Names of the DOFs (mimic joints excluded).
     #[getter]
-    fn dof_names(&self) -> Vec<String> {
-        self.model.dof_names().to_vec()
+    fn dof_names(&self) -> PyResult<Vec<String>> {
+        guard(|| Ok(self.model.dof_names().to_vec()))
     }
 
     /// Number of DOFs.
     #[getter]
-    fn num_dof(&self) -> usize {
-        self.model.num_dof()
+    fn num_dof(&self) -> PyResult<usize> {
+        guard(|| Ok(self.model.num_dof()))
     }
 
     /// Joint positions (num_dof,).
     fn get_joint_positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        Ok(vec1(py, self.read(|r, w| r.joint_positions(w.state()))?))
+        guard(|| Ok(vec1(py, self.read(|r, w| r.joint_positions(w.state()))?)))
     }
 
     /// Joint velocities (num_dof,).
     fn get_joint_velocities<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        Ok(vec1(py, self.read(|r, w| r.joint_velocities(w.state()))?))
+        guard(|| Ok(vec1(py, self.read(|r, w| r.joint_velocities(w.state()))?)))
     }
 
     /// Teleports the joints (zero velocity; mimic joints follow). Drive
     /// targets are unchanged, as in Isaac Sim.
     fn set_joint_positions(&self, q: &Bound<'_, PyAny>) -> PyResult<()> {
-        let q = read_array(q, "q", 1, &[Some(self.model.num_dof())])?
-            .data()
-            .to_vec();
-        self.with(|r, s| r.set_joint_positions(s, &q))
+        guard(|| {
+            let q = read_array(q, "q", 1, &[Some(self.model.num_dof())])?
+                .data()
+                .to_vec();
+            check_all(&POSITION, "q", &q).map_err(sim_err)?;
+            self.with(|r, s| r.set_joint_positions(s, &q))
+        })
     }
 
     /// Sets the joint velocities.
     fn set_joint_velocities(&self, qd: &Bound<'_, PyAny>) -> PyResult<()> {
-        let qd = read_array(qd, "qd", 1, &[Some(self.model.num_dof())])?
-            .data()
-            .to_vec();
-        self.with(|r, s| r.set_joint_velocities(s, &qd))
+        guard(|| {
+            let qd = read_array(qd, "qd", 1, &[Some(self.model.num_dof())])?
+                .data()
+                .to_vec();
+            check_all(&VELOCITY, "qd", &qd).map_err(sim_err)?;
+            self.with(|r, s| r.set_joint_velocities(s, &qd))
+        })
     }
 
     /// Drive position targets for `joint_indices` (all DOFs when None).
@@ -694,11 +789,14 @@ impl PyRobot {
         targets: &Bound<'_, PyAny>,
         joint_indices: Option<Vec<i64>>,
     ) -> PyResult<()> {
-        let ix = indices_arg(joint_indices)?;
-        let t = read_array(targets, "targets", 1, &[self.targets_len(&ix)])?
-            .data()
-            .to_vec();
-        self.with(|r, s| r.set_position_targets(s, &t, ix.as_deref()))
+        guard(|| {
+            let ix = indices_arg(joint_indices)?;
+            let t = read_array(targets, "targets", 1, &[self.targets_len(&ix)])?
+                .data()
+                .to_vec();
+            check_all(&POSITION, "targets", &t).map_err(sim_err)?;
+            self.with(|r, s| r.set_position_targets(s, &t, ix.as_deref()))
+        })
     }
 
     /// Drive velocity targets for `joint_indices` (all DOFs when None).
@@ -708,11 +806,14 @@ impl PyRobot {
         targets: &Bound<'_, PyAny>,
         joint_indices: Option<Vec<i64>>,
     ) -> PyResult<()> {
-        let ix = indices_arg(joint_indices)?;
-        let t = read_array(targets, "targets", 1, &[self.targets_len(&ix)])?
-            .data()
-            .to_vec();
-        self.with(|r, s| r.set_velocity_targets(s, &t, ix.as_deref()))
+        guard(|| {
+            let ix = indices_arg(joint_indices)?;
+            let t = read_array(targets, "targets", 1, &[self.targets_len(&ix)])?
+                .data()
+                .to_vec();
+            check_all(&VELOCITY, "targets", &t).map_err(sim_err)?;
+            self.with(|r, s| r.set_velocity_targets(s, &t, ix.as_deref()))
+        })
     }
 
     /// Efforts (N·m or N) applied every step on top of the drives.
@@ -722,11 +823,14 @@ impl PyRobot {
         efforts: &Bound<'_, PyAny>,
         joint_indices: Option<Vec<i64>>,
     ) -> PyResult<()> {
-        let ix = indices_arg(joint_indices)?;
-        let e = read_array(efforts, "efforts", 1, &[self.targets_len(&ix)])?
-            .data()
-            .to_vec();
-        self.with(|r, _| r.set_efforts(&e, ix.as_deref()))
+        guard(|| {
+            let ix = indices_arg(joint_indices)?;
+            let e = read_array(efforts, "efforts", 1, &[self.targets_len(&ix)])?
+                .data()
+                .to_vec();
+            check_all(&EFFORT, "efforts", &e).map_err(sim_err)?;
+            self.with(|r, _| r.set_efforts(&e, ix.as_deref()))
+        })
     }
 
     /// Current drive position targets (num_dof,).
@@ -734,10 +838,12 @@ impl PyRobot {
         &self,
         py: Python<'py>,
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        Ok(vec1(
-            py,
-            self.read(|r, _| r.drives().iter().map(|d| d.target_position).collect())?,
-        ))
+        guard(|| {
+            Ok(vec1(
+                py,
+                self.read(|r, _| r.drives().iter().map(|d| d.target_position).collect())?,
+            ))
+        })
     }
 
     /// (stiffness, damping, max_force), each (num_dof,).
@@ -750,12 +856,14 @@ impl PyRobot {
         Bound<'py, PyArray1<f64>>,
         Bound<'py, PyArray1<f64>>,
     )> {
-        let d = self.read(|r, _| r.drives().to_vec())?;
-        Ok((
-            vec1(py, d.iter().map(|d| d.stiffness).collect()),
-            vec1(py, d.iter().map(|d| d.damping).collect()),
-            vec1(py, d.iter().map(|d| d.max_force).collect()),
-        ))
+        guard(|| {
+            let d = self.read(|r, _| r.drives().to_vec())?;
+            Ok((
+                vec1(py, d.iter().map(|d| d.stiffness).collect()),
+                vec1(py, d.iter().map(|d| d.damping).collect()),
+                vec1(py, d.iter().map(|d| d.max_force).collect()),
+            ))
+        })
     }
 
     /// Drive gains and force limits (inf: unlimited) for `joint_indices`.
@@ -767,35 +875,36 @@ impl PyRobot {
         max_force: Option<&Bound<'_, PyAny>>,
         joint_indices: Option<Vec<i64>>,
     ) -> PyResult<()> {
-        let ix = indices_arg(joint_indices)?;
-        let n = self.targets_len(&ix);
-        let k = read_array(stiffness, "stiffness", 1, &[n])?.data().to_vec();
-        let d = read_array(damping, "damping", 1, &[n])?.data().to_vec();
-        let m = match max_force {
-            None => None,
-            Some(m) => {
-                let a: numpy::PyArrayLikeDyn<'_, f64, numpy::AllowTypeChange> = m
-                    .extract()
-                    .map_err(|_| InvalidArgumentError::new_err("max_force: expected numbers"))?;
-                let v: Vec<f64> = a.as_array().iter().copied().collect();
-                if a.ndim() != 1 || Some(v.len()) != n {
-                    return Err(ShapeError::new_err(format!(
-                        "max_force: expected shape ({},)",
-                        n.unwrap_or(0)
-                    )));
-                }
-                Some(v)
+        guard(|| {
+            let ix = indices_arg(joint_indices)?;
+            let n = self.targets_len(&ix);
+            let k = read_array(stiffness, "stiffness", 1, &[n])?.data().to_vec();
+            let d = read_array(damping, "damping", 1, &[n])?.data().to_vec();
+            let m = match max_force {
+                None => None,
+                Some(m) => Some(
+                    read_array_with(m, "max_force", 1, &[n], Finite::NoNan)?
+                        .data()
+                        .to_vec(),
+                ),
+            };
+            check_all(&GAIN, "stiffness", &k).map_err(sim_err)?;
+            check_all(&GAIN, "damping", &d).map_err(sim_err)?;
+            if let Some(m) = &m {
+                check_all_or_inf(&MAX_FORCE, "max_force", m).map_err(sim_err)?;
             }
-        };
-        self.with(|r, s| r.set_drive_gains(s, &k, &d, m.as_deref(), ix.as_deref()))
+            self.with(|r, s| r.set_drive_gains(s, &k, &d, m.as_deref(), ix.as_deref()))
+        })
     }
 
     /// Extra solver substeps for the robot's bodies, used while the robot
     /// touches something (grasps hold better; a free robot does not need them).
     fn set_solver_iterations(&self, n: usize) -> PyResult<()> {
-        self.with(|r, s| {
-            r.set_solver_iterations(s, n);
-            Ok(())
+        guard(|| {
+            self.with(|r, s| {
+                r.set_solver_iterations(s, n);
+                Ok(())
+            })
         })
     }
 
@@ -811,7 +920,7 @@ impl PyRobot {
 
     /// World pose (4x4) of the base link.
     fn get_world_transform<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        Ok(matrix(py, &self.read(|r, _| r.world_pose())?))
+        guard(|| Ok(matrix(py, &self.read(|r, _| r.world_pose())?)))
     }
 
     /// Moves the fixed base: `position` (3,) and/or `orientation` (4,)
@@ -823,9 +932,11 @@ impl PyRobot {
         position: Option<&Bound<'_, PyAny>>,
         orientation: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<()> {
-        let current = self.read(|r, _| r.world_pose())?;
-        let p = compose_pose(&current, position, orientation)?;
-        self.with(|r, s| r.set_world_pose(s, p))
+        guard(|| {
+            let current = self.read(|r, _| r.world_pose())?;
+            let p = compose_pose(&current, position, orientation)?;
+            self.with(|r, s| r.set_world_pose(s, p))
+        })
     }
 
     /// Isaac Sim's `initialize()`: nothing to do (a ferrobot robot is ready
@@ -995,23 +1106,35 @@ impl PyRobot {
         py: Python<'py>,
         link: Option<&str>,
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        let l = match link {
-            Some(l) => self.model.link(l).map_err(model_err)?,
-            None => self.model.ee_link(),
-        };
-        Ok(matrix(py, &self.read(|r, w| r.link_pose(w.state(), l))?))
+        guard(|| {
+            let l = match link {
+                Some(l) => self.model.link(l).map_err(model_err)?,
+                None => self.model.ee_link(),
+            };
+            Ok(matrix(py, &self.read(|r, w| r.link_pose(w.state(), l))?))
+        })
     }
 
     /// Opens the gripper (force limit default: the finger effort limits).
     #[pyo3(signature = (force=None))]
     fn open_gripper(&self, force: Option<f64>) -> PyResult<()> {
-        self.with(|r, s| r.open_gripper(s, force))
+        guard(|| {
+            if let Some(f) = force {
+                MAX_FORCE.check_as("force", f).map_err(sim_err_range)?;
+            }
+            self.with(|r, s| r.open_gripper(s, force))
+        })
     }
 
     /// Closes the gripper, squeezing with `force` N per finger.
     #[pyo3(signature = (force=None))]
     fn close_gripper(&self, force: Option<f64>) -> PyResult<()> {
-        self.with(|r, s| r.close_gripper(s, force))
+        guard(|| {
+            if let Some(f) = force {
+                MAX_FORCE.check_as("force", f).map_err(sim_err_range)?;
+            }
+            self.with(|r, s| r.close_gripper(s, force))
+        })
     }
 
     /// Describes a parallel gripper: finger DOF names with open and closed positions.
@@ -1021,12 +1144,14 @@ impl PyRobot {
         open: &Bound<'_, PyAny>,
         closed: &Bound<'_, PyAny>,
     ) -> PyResult<()> {
-        let o = vec_arg(open, "open")?;
-        let c = vec_arg(closed, "closed")?;
-        let g = ParallelGripper::new(&self.model, &joint_names, &o, &c).map_err(sim_err)?;
-        self.with(|r, _| {
-            r.set_gripper(g);
-            Ok(())
+        guard(|| {
+            let o = vec_arg(open, "open")?;
+            let c = vec_arg(closed, "closed")?;
+            let g = ParallelGripper::new(&self.model, &joint_names, &o, &c).map_err(sim_err)?;
+            self.with(|r, _| {
+                r.set_gripper(g);
+                Ok(())
+            })
         })
     }
 
@@ -1056,13 +1181,15 @@ impl PyRobot {
         joint_indices: Option<Vec<i64>>,
         settle_time: f64,
     ) -> PyResult<Bound<'py, PyDict>> {
-        let ix = indices_arg(joint_indices)?;
-        let k = self.targets_len(&ix);
-        let p = read_array(positions, "positions", 2, &[k])?.data().to_vec();
-        let v = velocities
-            .map(|v| read_array(v, "velocities", 2, &[k]).map(|a| a.data().to_vec()))
-            .transpose()?;
-        self.run_trajectory(py, p, v, dt, ix, settle_time)
+        guard(|| {
+            let ix = indices_arg(joint_indices)?;
+            let k = self.targets_len(&ix);
+            let p = read_array(positions, "positions", 2, &[k])?.data().to_vec();
+            let v = velocities
+                .map(|v| read_array(v, "velocities", 2, &[k]).map(|a| a.data().to_vec()))
+                .transpose()?;
+            self.run_trajectory(py, p, v, dt, ix, settle_time)
+        })
     }
 
     /// Executes a planned motion: a `JointTrajectory` (from
@@ -1080,56 +1207,58 @@ impl PyRobot {
         trajectory: &Bound<'py, PyAny>,
         settle_time: f64,
     ) -> PyResult<Bound<'py, PyDict>> {
-        let owned;
-        let traj = if let Ok(t) = trajectory.cast::<PyJointTrajectory>() {
-            t.get()
-        } else if let Ok(r) = trajectory.cast::<PyPlanResult>() {
-            let dt = lock(&self.world)?.config().dt;
-            owned = r.borrow().interpolated(dt)?;
-            &owned
-        } else {
-            return Err(InvalidArgumentError::new_err(format!(
-                "trajectory: expected a ferrobot.JointTrajectory or a ferrobot.PlanResult, got {}",
-                trajectory
-                    .get_type()
-                    .name()
-                    .map(|n| n.to_string())
-                    .unwrap_or_default()
-            )));
-        };
-        let s = traj.samples();
-        let width = s.names.len();
-        let mut cols = Vec::new();
-        let mut ix = Vec::new();
-        for (c, name) in s.names.iter().enumerate() {
-            match self.model.dof(name) {
-                Ok(d) => {
-                    cols.push(c);
-                    ix.push(d);
-                }
-                Err(_) => {
-                    let mimic = self
-                        .model
-                        .joint(name)
-                        .is_ok_and(|j| self.model.joints()[j].mimic.is_some());
-                    if !mimic {
-                        return Err(UnknownNameError::new_err(format!(
-                            "trajectory joint '{name}' is not a joint of robot '{}' (dof_names: {:?})",
-                            self.model.name(),
-                            self.model.dof_names()
-                        )));
+        guard(|| {
+            let owned;
+            let traj = if let Ok(t) = trajectory.cast::<PyJointTrajectory>() {
+                t.get()
+            } else if let Ok(r) = trajectory.cast::<PyPlanResult>() {
+                let dt = lock(&self.world)?.config().dt;
+                owned = r.borrow().interpolated(dt)?;
+                &owned
+            } else {
+                return Err(InvalidArgumentError::new_err(format!(
+                    "trajectory: expected a ferrobot.JointTrajectory or a ferrobot.PlanResult, got {}",
+                    trajectory
+                        .get_type()
+                        .name()
+                        .map(|n| n.to_string())
+                        .unwrap_or_default()
+                )));
+            };
+            let s = traj.samples();
+            let width = s.names.len();
+            let mut cols = Vec::new();
+            let mut ix = Vec::new();
+            for (c, name) in s.names.iter().enumerate() {
+                match self.model.dof(name) {
+                    Ok(d) => {
+                        cols.push(c);
+                        ix.push(d);
+                    }
+                    Err(_) => {
+                        let mimic = self
+                            .model
+                            .joint(name)
+                            .is_ok_and(|j| self.model.joints()[j].mimic.is_some());
+                        if !mimic {
+                            return Err(UnknownNameError::new_err(format!(
+                                "trajectory joint '{name}' is not a joint of robot '{}' (dof_names: {:?})",
+                                self.model.name(),
+                                self.model.dof_names()
+                            )));
+                        }
                     }
                 }
             }
-        }
-        let pick = |src: &[f64]| -> Vec<f64> {
-            src.chunks_exact(width.max(1))
-                .flat_map(|row| cols.iter().map(move |&c| row[c]))
-                .collect()
-        };
-        let (p, v) = (pick(s.positions), pick(s.velocities));
-        let dt = s.dt;
-        self.run_trajectory(py, p, Some(v), dt, Some(ix), settle_time)
+            let pick = |src: &[f64]| -> Vec<f64> {
+                src.chunks_exact(width.max(1))
+                    .flat_map(|row| cols.iter().map(move |&c| row[c]))
+                    .collect()
+            };
+            let (p, v) = (pick(s.positions), pick(s.velocities));
+            let dt = s.dt;
+            self.run_trajectory(py, p, Some(v), dt, Some(ix), settle_time)
+        })
     }
 
     // Sim-to-real additions (bodies in sim2real.rs).
@@ -1185,18 +1314,30 @@ impl PyRobot {
         let world = self.world.clone();
         let index = self.index;
         let rep = guard(|| {
+            use ferrobot_sim::validate::{
+                POSITION, SETTLE_TIME, TRAJECTORY_DT, VELOCITY, check_all, steps_for,
+            };
+            TRAJECTORY_DT
+                .check(dt)
+                .map_err(|e| InvalidArgumentError::new_err(e.0))?;
+            SETTLE_TIME
+                .check(settle_time)
+                .map_err(|e| InvalidArgumentError::new_err(e.0))?;
+            check_all(&POSITION, "positions", &p).map_err(sim_err)?;
+            if let Some(v) = &v {
+                check_all(&VELOCITY, "velocities", v).map_err(sim_err)?;
+            }
+            let rows = p.len() / ix.as_ref().map_or(self.model.num_dof(), Vec::len).max(1);
+            let h = lock(&world)?.config().dt;
+            let duration = rows.saturating_sub(1) as f64 * dt + settle_time;
+            steps_for("execute_trajectory (duration + settle_time)", duration, h)
+                .map_err(sim_err)?;
             py.detach(|| {
-                let mut w = world.lock().expect("world lock");
-                execute_trajectory(
-                    &mut w,
-                    index,
-                    &p,
-                    dt,
-                    v.as_deref(),
-                    ix.as_deref(),
-                    settle_time,
-                )
+                run_steps(&world, |w| {
+                    execute_trajectory(w, index, &p, dt, v.as_deref(), ix.as_deref(), settle_time)
+                })
             })
+            .map_err(diverged)?
             .map_err(sim_err)
         })?;
         let d = PyDict::new(py);
@@ -1252,84 +1393,92 @@ impl PyCamera {
         near: f64,
         far: f64,
     ) -> PyResult<Self> {
-        let intrinsics = Intrinsics {
-            width,
-            height,
-            fx,
-            fy: fy.unwrap_or(fx),
-            cx: cx.unwrap_or((width as f64 - 1.0) / 2.0),
-            cy: cy.unwrap_or((height as f64 - 1.0) / 2.0),
-        };
-        let mount = match (robot, link) {
-            (None, None) => CameraMount::World,
-            (Some(r), l) => {
-                if !Arc::ptr_eq(&r.world, &world.inner) {
+        guard(|| {
+            let intrinsics = Intrinsics {
+                width,
+                height,
+                fx,
+                fy: fy.unwrap_or(fx),
+                cx: cx.unwrap_or((width as f64 - 1.0) / 2.0),
+                cy: cy.unwrap_or((height as f64 - 1.0) / 2.0),
+            };
+            let mount = match (robot, link) {
+                (None, None) => CameraMount::World,
+                (Some(r), l) => {
+                    if !Arc::ptr_eq(&r.world, &world.inner) {
+                        return Err(InvalidArgumentError::new_err(
+                            "robot: the robot belongs to another world",
+                        ));
+                    }
+                    let link = match l {
+                        Some(l) => r.model.link(l).map_err(model_err)?,
+                        None => r.model.ee_link(),
+                    };
+                    CameraMount::Link {
+                        robot: r.index,
+                        link,
+                    }
+                }
+                (None, Some(_)) => {
                     return Err(InvalidArgumentError::new_err(
-                        "robot: the robot belongs to another world",
+                        "link: give the robot the link belongs to",
                     ));
                 }
-                let link = match l {
-                    Some(l) => r.model.link(l).map_err(model_err)?,
-                    None => r.model.ee_link(),
-                };
-                CameraMount::Link {
-                    robot: r.index,
-                    link,
-                }
-            }
-            (None, Some(_)) => {
-                return Err(InvalidArgumentError::new_err(
-                    "link: give the robot the link belongs to",
-                ));
-            }
-        };
-        let camera = Camera {
-            intrinsics,
-            pose: pose_arg(pose, "pose")?,
-            mount,
-            near,
-            far,
-        };
-        camera.validate().map_err(sim_err)?;
-        Ok(Self {
-            world: world.inner.clone(),
-            camera,
+            };
+            let camera = Camera {
+                intrinsics,
+                pose: pose_arg(pose, "pose")?,
+                mount,
+                near,
+                far,
+            };
+            camera.validate().map_err(sim_err)?;
+            Ok(Self {
+                world: world.inner.clone(),
+                camera,
+            })
         })
     }
 
     /// Image width.
     #[getter]
-    fn width(&self) -> usize {
-        self.camera.intrinsics.width
+    fn width(&self) -> PyResult<usize> {
+        guard(|| Ok(self.camera.intrinsics.width))
     }
 
     /// Image height.
     #[getter]
-    fn height(&self) -> usize {
-        self.camera.intrinsics.height
+    fn height(&self) -> PyResult<usize> {
+        guard(|| Ok(self.camera.intrinsics.height))
     }
 
     /// The 3x3 intrinsic matrix K.
     #[getter]
-    fn intrinsic_matrix<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
-        let i = &self.camera.intrinsics;
-        Array2::from_shape_vec(
-            (3, 3),
-            vec![i.fx, 0.0, i.cx, 0.0, i.fy, i.cy, 0.0, 0.0, 1.0],
-        )
-        .expect("3x3")
-        .into_pyarray(py)
+    fn intrinsic_matrix<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        guard(|| {
+            Ok({
+                let i = &self.camera.intrinsics;
+                Array2::from_shape_vec(
+                    (3, 3),
+                    vec![i.fx, 0.0, i.cx, 0.0, i.fy, i.cy, 0.0, 0.0, 1.0],
+                )
+                .expect("3x3")
+                .into_pyarray(py)
+            })
+        })
     }
 
     /// Pose of the camera relative to its mount (OpenCV frame).
-    fn get_local_pose<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
-        matrix(py, &self.camera.pose)
+    fn get_local_pose<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        guard(|| Ok(matrix(py, &self.camera.pose)))
     }
 
     /// Sets the pose relative to the mount (OpenCV frame).
     fn set_local_pose(&mut self, pose: &Bound<'_, PyAny>) -> PyResult<()> {
-        self.camera.pose = pose_arg(Some(pose), "pose")?;
-        Ok(())
+        guard(|| {
+            self.camera.pose = pose_arg(Some(pose), "pose")?;
+            Ok(())
+        })
     }
 
     /// World pose (4x4) of the OpenCV camera frame.
@@ -1381,7 +1530,7 @@ impl PyCamera {
         let world = self.world.clone();
         let cam = self.camera.clone();
         let frame = guard(|| {
-            py.detach(|| world.lock().expect("world lock").render(&cam, rgb))
+            py.detach(|| lock_world(&world).render(&cam, rgb))
                 .map_err(sim_err)
         })?;
         let (h, w) = (frame.height, frame.width);
@@ -1417,7 +1566,7 @@ impl PyCamera {
         py: Python<'py>,
         depth: &Bound<'py, PyAny>,
     ) -> PyResult<PointsAndPixels<'py>> {
-        depth_to_points_impl(py, depth, &self.camera.intrinsics)
+        guard(|| depth_to_points_impl(py, depth, &self.camera.intrinsics))
     }
 }
 
@@ -1426,18 +1575,21 @@ fn depth_to_points_impl<'py>(
     depth: &Bound<'py, PyAny>,
     intr: &Intrinsics,
 ) -> PyResult<PointsAndPixels<'py>> {
-    let a: numpy::PyArrayLikeDyn<'_, f64, numpy::AllowTypeChange> = depth
-        .extract()
-        .map_err(|_| InvalidArgumentError::new_err("depth: expected an array of numbers"))?;
-    if a.shape() != [intr.height, intr.width] {
-        return Err(ShapeError::new_err(format!(
-            "depth: expected shape ({}, {}), got {:?}",
-            intr.height,
-            intr.width,
-            a.shape()
+    // Missing depth is 0 or +inf (as in grasp detection); NaN is refused.
+    let a = read_array_with(
+        depth,
+        "depth",
+        2,
+        &[Some(intr.height), Some(intr.width)],
+        Finite::NoNan,
+    )?;
+    if let Some(i) = a.data().iter().position(|&v| v < 0.0) {
+        return Err(InvalidArgumentError::new_err(format!(
+            "depth: negative depth {} at flat index {i} (no reading is 0 or +inf)",
+            a.data()[i]
         )));
     }
-    let d: Vec<f32> = a.as_array().iter().map(|&v| v as f32).collect();
+    let d: Vec<f32> = a.data().iter().map(|&v| v as f32).collect();
     let (pts, idx) = conventions::depth_to_points(&d, intr).map_err(sim_err)?;
     let n = pts.len();
     Ok((
@@ -1458,24 +1610,26 @@ pub fn depth_to_points<'py>(
     cx: f64,
     cy: f64,
 ) -> PyResult<PointsAndPixels<'py>> {
-    let shape: Vec<usize> = depth
-        .getattr("shape")
-        .and_then(|s| s.extract())
-        .map_err(|_| InvalidArgumentError::new_err("depth: expected a 2-D numpy array"))?;
-    if shape.len() != 2 {
-        return Err(ShapeError::new_err(format!(
-            "depth: expected shape (H, W), got {shape:?}"
-        )));
-    }
-    let intr = Intrinsics {
-        width: shape[1],
-        height: shape[0],
-        fx,
-        fy,
-        cx,
-        cy,
-    };
-    depth_to_points_impl(py, depth, &intr)
+    guard(|| {
+        let shape: Vec<usize> = depth
+            .getattr("shape")
+            .and_then(|s| s.extract())
+            .map_err(|_| InvalidArgumentError::new_err("depth: expected a 2-D numpy array"))?;
+        if shape.len() != 2 {
+            return Err(ShapeError::new_err(format!(
+                "depth: expected shape (H, W), got {shape:?}"
+            )));
+        }
+        let intr = Intrinsics {
+            width: shape[1],
+            height: shape[0],
+            fx,
+            fy,
+            cx,
+            cy,
+        };
+        depth_to_points_impl(py, depth, &intr)
+    })
 }
 
 /// The OpenGL/USD camera pose (-z forward, y up) of an OpenCV camera pose.
@@ -1484,10 +1638,12 @@ pub fn opencv_to_opengl<'py>(
     py: Python<'py>,
     pose: &Bound<'py, PyAny>,
 ) -> PyResult<Bound<'py, PyArray2<f64>>> {
-    Ok(matrix(
-        py,
-        &conventions::opencv_to_opengl(&pose_arg(Some(pose), "pose")?),
-    ))
+    guard(|| {
+        Ok(matrix(
+            py,
+            &conventions::opencv_to_opengl(&pose_arg(Some(pose), "pose")?),
+        ))
+    })
 }
 
 /// The OpenCV camera pose (z forward, y down) of an OpenGL/USD camera pose.
@@ -1496,10 +1652,12 @@ pub fn opengl_to_opencv<'py>(
     py: Python<'py>,
     pose: &Bound<'py, PyAny>,
 ) -> PyResult<Bound<'py, PyArray2<f64>>> {
-    Ok(matrix(
-        py,
-        &conventions::opengl_to_opencv(&pose_arg(Some(pose), "pose")?),
-    ))
+    guard(|| {
+        Ok(matrix(
+            py,
+            &conventions::opengl_to_opencv(&pose_arg(Some(pose), "pose")?),
+        ))
+    })
 }
 
 /// The OpenCV camera pose at `eye` looking at `target` with `up` up.
@@ -1511,14 +1669,16 @@ pub fn look_at<'py>(
     target: &Bound<'py, PyAny>,
     up: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyArray2<f64>>> {
-    let e = vec3_arg(eye, "eye")?;
-    let t = vec3_arg(target, "target")?;
-    let u = up
-        .map(|u| vec3_arg(u, "up"))
-        .transpose()?
-        .unwrap_or_else(Vector3::z);
-    let p = conventions::look_at(&e.into(), &t.into(), &u).map_err(sim_err)?;
-    Ok(matrix(py, &p))
+    guard(|| {
+        let e = vec3_arg(eye, "eye")?;
+        let t = vec3_arg(target, "target")?;
+        let u = up
+            .map(|u| vec3_arg(u, "up"))
+            .transpose()?
+            .unwrap_or_else(Vector3::z);
+        let p = conventions::look_at(&e.into(), &t.into(), &u).map_err(sim_err)?;
+        Ok(matrix(py, &p))
+    })
 }
 
 /// Joint-space PID with anti-windup (integral clamp + conditional integration).
@@ -1534,19 +1694,9 @@ fn broadcast(obj: &Bound<'_, PyAny>, what: &str, n: usize) -> PyResult<Vec<f64>>
         }
         return Ok(vec![v; n]);
     }
-    let a: numpy::PyArrayLikeDyn<'_, f64, numpy::AllowTypeChange> = obj
-        .extract()
-        .map_err(|_| InvalidArgumentError::new_err(format!("{what}: expected numbers")))?;
-    let v: Vec<f64> = a.as_array().iter().copied().collect();
-    if a.ndim() != 1 || v.len() != n {
-        return Err(ShapeError::new_err(format!(
-            "{what}: expected shape ({n},) or a scalar"
-        )));
-    }
-    if v.iter().any(|x| x.is_nan()) {
-        return Err(NonFiniteError::new_err(format!("{what}: NaN")));
-    }
-    Ok(v)
+    Ok(read_array_with(obj, what, 1, &[Some(n)], Finite::NoNan)?
+        .data()
+        .to_vec())
 }
 
 #[pymethods]
@@ -1561,20 +1711,22 @@ impl PyJointPid {
         integral_limit: Option<&Bound<'_, PyAny>>,
         output_limit: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
-        let kp = vec_arg(kp, "kp")?;
-        let n = kp.len();
-        let ki = broadcast(ki, "ki", n)?;
-        let kd = broadcast(kd, "kd", n)?;
-        let il = integral_limit
-            .map(|v| broadcast(v, "integral_limit", n))
-            .transpose()?
-            .unwrap_or(vec![f64::INFINITY; n]);
-        let ol = output_limit
-            .map(|v| broadcast(v, "output_limit", n))
-            .transpose()?
-            .unwrap_or(vec![f64::INFINITY; n]);
-        Ok(Self {
-            inner: JointPid::new(kp, ki, kd, il, ol).map_err(sim_err)?,
+        guard(|| {
+            let kp = vec_arg(kp, "kp")?;
+            let n = kp.len();
+            let ki = broadcast(ki, "ki", n)?;
+            let kd = broadcast(kd, "kd", n)?;
+            let il = integral_limit
+                .map(|v| broadcast(v, "integral_limit", n))
+                .transpose()?
+                .unwrap_or(vec![f64::INFINITY; n]);
+            let ol = output_limit
+                .map(|v| broadcast(v, "output_limit", n))
+                .transpose()?
+                .unwrap_or(vec![f64::INFINITY; n]);
+            Ok(Self {
+                inner: JointPid::new(kp, ki, kd, il, ol).map_err(sim_err)?,
+            })
         })
     }
 
@@ -1589,31 +1741,36 @@ impl PyJointPid {
         dt: f64,
         target_velocity: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        let n = self.inner.kp.len();
-        let q = read_array(q, "q", 1, &[Some(n)])?.data().to_vec();
-        let qd = read_array(qd, "qd", 1, &[Some(n)])?.data().to_vec();
-        let t = read_array(target, "target", 1, &[Some(n)])?.data().to_vec();
-        let tv = match target_velocity {
-            Some(v) => read_array(v, "target_velocity", 1, &[Some(n)])?
-                .data()
-                .to_vec(),
-            None => vec![0.0; n],
-        };
-        Ok(vec1(
-            py,
-            self.inner.update(&q, &qd, &t, &tv, dt).map_err(sim_err)?,
-        ))
+        guard(|| {
+            let n = self.inner.kp.len();
+            let q = read_array(q, "q", 1, &[Some(n)])?.data().to_vec();
+            let qd = read_array(qd, "qd", 1, &[Some(n)])?.data().to_vec();
+            let t = read_array(target, "target", 1, &[Some(n)])?.data().to_vec();
+            let tv = match target_velocity {
+                Some(v) => read_array(v, "target_velocity", 1, &[Some(n)])?
+                    .data()
+                    .to_vec(),
+                None => vec![0.0; n],
+            };
+            Ok(vec1(
+                py,
+                self.inner.update(&q, &qd, &t, &tv, dt).map_err(sim_err)?,
+            ))
+        })
     }
 
     /// The integral state.
     #[getter]
-    fn integral<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        vec1(py, self.inner.integral().to_vec())
+    fn integral<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        guard(|| Ok(vec1(py, self.inner.integral().to_vec())))
     }
 
     /// Clears the integral.
-    fn reset(&mut self) {
-        self.inner.reset();
+    fn reset(&mut self) -> PyResult<()> {
+        guard(|| {
+            self.inner.reset();
+            Ok(())
+        })
     }
 }
 
@@ -1641,21 +1798,23 @@ impl PyResolvedRate {
         max_linear_speed: f64,
         max_angular_speed: f64,
     ) -> PyResult<Self> {
-        let m = model.inner.clone();
-        let mut c = ResolvedRate::new(&m);
-        if let Some(l) = link {
-            c.link = m.link(l).map_err(model_err)?;
-        }
-        if let Some(ix) = indices_arg(joint_indices)? {
-            c.dofs = ix;
-        }
-        c.linear_gain = linear_gain;
-        c.angular_gain = angular_gain;
-        c.damping = damping;
-        c.max_linear_speed = max_linear_speed;
-        c.max_angular_speed = max_angular_speed;
-        c.validate(&m).map_err(sim_err)?;
-        Ok(Self { model: m, inner: c })
+        guard(|| {
+            let m = model.inner.clone();
+            let mut c = ResolvedRate::new(&m);
+            if let Some(l) = link {
+                c.link = m.link(l).map_err(model_err)?;
+            }
+            if let Some(ix) = indices_arg(joint_indices)? {
+                c.dofs = ix;
+            }
+            c.linear_gain = linear_gain;
+            c.angular_gain = angular_gain;
+            c.damping = damping;
+            c.max_linear_speed = max_linear_speed;
+            c.max_angular_speed = max_angular_speed;
+            c.validate(&m).map_err(sim_err)?;
+            Ok(Self { model: m, inner: c })
+        })
     }
 
     /// Joint velocities (num_dof,) moving the link towards `target` (base frame).
@@ -1665,13 +1824,15 @@ impl PyResolvedRate {
         q: &Bound<'py, PyAny>,
         target: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        let q = read_array(q, "q", 1, &[Some(self.model.num_dof())])?
-            .data()
-            .to_vec();
-        let t = pose_arg(Some(target), "target")?;
-        Ok(vec1(
-            py,
-            self.inner.compute(&self.model, &q, &t).map_err(sim_err)?,
-        ))
+        guard(|| {
+            let q = read_array(q, "q", 1, &[Some(self.model.num_dof())])?
+                .data()
+                .to_vec();
+            let t = pose_arg(Some(target), "target")?;
+            Ok(vec1(
+                py,
+                self.inner.compute(&self.model, &q, &t).map_err(sim_err)?,
+            ))
+        })
     }
 }

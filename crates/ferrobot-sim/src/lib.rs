@@ -29,6 +29,7 @@ pub mod objects;
 pub mod robot;
 pub mod state;
 pub mod trajectory;
+pub mod validate;
 pub mod world;
 
 pub use camera::{Camera, CameraMount, Frame, Intrinsics};

@@ -115,6 +115,8 @@ def detect(points, *, labels=None, seed_mask=None, workspace=None, **options) ->
             raise ShapeError(f"{name}: expected shape ({n},), got {a.shape}")
     if lab is not None and not np.issubdtype(lab.dtype, np.integer):
         raise InvalidArgumentError(f"labels: expected integers, got dtype {lab.dtype}")
+    if lab is not None and lab.size and (lab.min() < np.iinfo(np.int32).min or lab.max() > np.iinfo(np.int32).max):
+        raise InvalidArgumentError("labels: object ids must fit in int32")
     if seeds is not None and seeds.dtype != bool:
         raise InvalidArgumentError(f"seed_mask: expected booleans, got dtype {seeds.dtype}")
     if not np.all(np.isfinite(p)):
