@@ -475,7 +475,17 @@ pub fn parse_urdf(
         }
         let uj = &robot.joints[parent_of[old].expect("non-root link has a parent joint")];
         let loc = joint_loc(&uj.name);
-        let info = &pre.joints[&uj.name];
+        // The pre-pass (roxmltree) normalises attribute whitespace as XML
+        // says, urdf-rs does not: a name with a tab or newline differs.
+        let info = pre.joints.get(&uj.name).ok_or_else(|| {
+            ModelError::urdf(
+                loc.clone(),
+                format!(
+                    "joint name {:?} contains whitespace other than spaces",
+                    uj.name
+                ),
+            )
+        })?;
         let kind = match uj.joint_type {
             urdf_rs::JointType::Revolute => JointKind::Revolute,
             urdf_rs::JointType::Continuous => JointKind::Continuous,

@@ -240,3 +240,14 @@ fn deep_nesting_is_an_error_not_a_crash() {
         assert!(Srdf::parse(&deep, "deep.srdf").is_err());
     }
 }
+
+#[test]
+fn joint_names_with_tabs_are_an_error_not_a_panic() {
+    // Found by the long fuzz run (input 478,482): roxmltree normalises a tab in an attribute
+    // value to a space, urdf-rs keeps it, and the lookup between the two panicked.
+    let text = robots::PANDA_URDF.replace(
+        "name=\"panda_finger_joint1\"",
+        "name=\"panda_finger_joint\t1\"",
+    );
+    assert!(RobotModel::from_urdf_str(&text, &LoadOptions::default()).is_err());
+}

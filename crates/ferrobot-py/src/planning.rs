@@ -454,12 +454,6 @@ pub struct PyPlanner {
 }
 
 impl PyPlanner {
-    fn from_planner(p: Planner) -> Self {
-        Self {
-            inner: std::sync::RwLock::new(Arc::new(p)),
-        }
-    }
-
     /// The current planner (a snapshot unaffected by later changes).
     fn snap(&self) -> Arc<Planner> {
         self.inner
