@@ -77,7 +77,7 @@ def _finite(x, what: str, shape: tuple | None = None) -> np.ndarray:
 def gravity_in_base(robot, gravity=GRAVITY) -> np.ndarray:
     """The world gravity vector (3,) expressed in ``robot``'s base frame."""
     g = _finite(gravity, "gravity", (3,))
-    return robot.get_world_pose()[:3, :3].T @ g
+    return robot.get_world_transform()[:3, :3].T @ g
 
 
 def gravity_torques(model, q, gravity=GRAVITY) -> np.ndarray:

@@ -204,22 +204,22 @@ def _parse_json_grasps(r) -> GraspGroup:
     try:
         data = r.json()
     except ValueError as e:
-        raise ServiceError(f"grasp server answered non-JSON: {r.text[:200]!r}") from e
+        raise ServiceError(f"{r.url}: unreadable answer (not JSON: {r.text[:200]!r})") from e
     if isinstance(data, dict):
         for key in ("grasp_group_array", "grasp_array"):
             if key in data:
                 try:
                     return GraspGroup(np.asarray(data[key], dtype=np.float64).reshape(-1, 17))
                 except (TypeError, ValueError) as e:
-                    raise ServiceError(f"{r.url}: unreadable {key} ({type(e).__name__}: {e})") from None
+                    raise ServiceError(f"{r.url}: unreadable answer ({key}: {type(e).__name__}: {e})") from None
         for key in ("grasp_groups", "grasps"):
             if key in data:
                 data = data[key]
                 break
         else:
-            raise ServiceError(f"grasp server answer has no grasps: keys {sorted(data)}")
+            raise ServiceError(f"{r.url}: unreadable answer (no grasps; keys {sorted(data)})")
     if not isinstance(data, list):
-        raise ServiceError(f"grasp server answer: expected a list of grasps, got {type(data).__name__}")
+        raise ServiceError(f"{r.url}: unreadable answer (expected a list of grasps, got {type(data).__name__})")
     try:
         return GraspGroup.from_dicts(data)
     except Exception as e:  # noqa: BLE001 - whatever is wrong with the answer, it is the server's

@@ -19,8 +19,12 @@ __all__ = ["LiveView", "episode_scene", "robot_scene"]
 
 
 def _pose(m3x4) -> tuple[np.ndarray, np.ndarray]:
+    """(wxyz, position) of a 3x4 pose from the page data, whose rotations are FK rotations rounded for the
+    page: they are projected back onto the nearest rotation (polar decomposition) before conversion."""
     m = np.asarray(m3x4, dtype=np.float64).reshape(3, 4)
-    return matrix_to_quat(m[:, :3]), m[:, 3].copy()
+    u, _, vt = np.linalg.svd(m[:, :3])
+    r = u @ np.diag([1.0, 1.0, np.sign(np.linalg.det(u @ vt))]) @ vt
+    return matrix_to_quat(r), m[:, 3].copy()
 
 
 class LiveView:
