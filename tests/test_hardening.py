@@ -381,3 +381,45 @@ def test_update_world_while_another_thread_plans(panda, q0):
     assert not errs, errs
     planner.update_world(box)
     assert planner.world.names == ["b"]
+
+
+def test_checker_changes_while_another_thread_checks(panda, q0):
+    """A CollisionChecker shared between threads: queries see either world whole, never an error.
+
+    Reference: a configuration whose hand sits inside the box collides in the box world and is free in
+    the empty one, so every batch answer must be all-True or all-False (one consistent world)."""
+    hand_in_box = panda.fk_batch(q0[None])[0]
+    box = ferrobot.CollisionWorld()
+    box.add_box("b", [0.2, 0.2, 0.2], hand_in_box)
+    empty = ferrobot.CollisionWorld()
+    checker = ferrobot.CollisionChecker(panda, empty)
+    assert not checker.in_collision(q0)
+    checker.update_world(box)
+    assert checker.in_collision(q0)
+    batch = np.tile(q0, (4096, 1))
+    errs: list[BaseException] = []
+    answers: list[set] = []
+    stop = threading.Event()
+
+    def check_loop():
+        try:
+            while not stop.is_set():
+                answers.append(set(checker.in_collision_batch(batch).tolist()))
+                checker.motion_valid(q0, q0 + 0.01)
+                checker.distance(q0)
+        except BaseException as e:  # noqa: BLE001 - any escape is the failure under test
+            errs.append(e)
+
+    t = threading.Thread(target=check_loop)
+    t.start()
+    try:
+        for i in range(200):
+            checker.update_world(box if i % 2 else empty)
+            checker.attach("tool", "panda_hand", ("sphere", 0.02), [0, 0, 0.1, 1, 0, 0, 0], ["panda_hand"])
+            checker.detach("tool")
+            checker.margin = 0.001 * (i % 3)
+    finally:
+        stop.set()
+        t.join()
+    assert not errs, errs
+    assert answers and all(len(a) == 1 for a in answers), "a batch saw two worlds"

@@ -525,15 +525,37 @@ impl PySphereModel {
 }
 
 /// Collision queries for a robot in a world.
-#[pyclass(name = "CollisionChecker", module = "ferrobot")]
+///
+/// Safe to share between threads: queries work on a snapshot (an `Arc`
+/// clone) of the checker, and a change (`update_world`, `attach`, ...)
+/// edits a copy when a query holds the current one, so a query always sees
+/// one consistent world and never fails because another thread changed it.
+#[pyclass(name = "CollisionChecker", module = "ferrobot", frozen)]
 pub struct PyCollisionChecker {
-    inner: CollisionChecker,
+    inner: std::sync::RwLock<Arc<CollisionChecker>>,
 }
 
 impl PyCollisionChecker {
+    /// The current checker (a snapshot unaffected by later changes).
+    fn snap(&self) -> Arc<CollisionChecker> {
+        self.inner
+            .read()
+            .unwrap_or_else(|poisoned| poisoned.into_inner())
+            .clone()
+    }
+
+    /// Applies `f` to the checker (copy-on-write if a query holds it).
+    fn edit<T>(&self, f: impl FnOnce(&mut CollisionChecker) -> PyResult<T>) -> PyResult<T> {
+        let mut g = self
+            .inner
+            .write()
+            .unwrap_or_else(|poisoned| poisoned.into_inner());
+        f(Arc::make_mut(&mut g))
+    }
+
     fn q(&self, q: &Bound<'_, PyAny>, what: &str) -> PyResult<Vec<f64>> {
         Ok(
-            read_array(q, what, 1, &[Some(self.inner.model().num_dof())])?
+            read_array(q, what, 1, &[Some(self.snap().model().num_dof())])?
                 .data()
                 .to_vec(),
         )
@@ -603,16 +625,21 @@ impl PyCollisionChecker {
     ) -> PyResult<Self> {
         guard(|| {
             Ok(Self {
-                inner: build_checker(py, model, world, spheres, margin)?,
+                inner: std::sync::RwLock::new(Arc::new(build_checker(
+                    py, model, world, spheres, margin,
+                )?)),
             })
         })
     }
 
     /// Replaces the world (a copy is taken).
-    fn update_world(&mut self, world: &PyCollisionWorld) -> PyResult<()> {
+    fn update_world(&self, world: &PyCollisionWorld) -> PyResult<()> {
         guard(|| {
-            self.inner.set_world(world.inner.clone());
-            Ok(())
+            let w = world.inner.clone();
+            self.edit(|c| {
+                c.set_world(w);
+                Ok(())
+            })
         })
     }
 
@@ -622,7 +649,7 @@ impl PyCollisionChecker {
         guard(|| {
             Ok({
                 PyCollisionWorld {
-                    inner: self.inner.world().clone(),
+                    inner: self.snap().world().clone(),
                 }
             })
         })
@@ -631,19 +658,19 @@ impl PyCollisionChecker {
     /// Clearance (m) added to every sphere.
     #[getter]
     fn margin(&self) -> PyResult<f64> {
-        guard(|| Ok(self.inner.margin()))
+        guard(|| Ok(self.snap().margin()))
     }
 
     #[setter]
-    fn set_margin(&mut self, margin: f64) -> PyResult<()> {
-        guard(|| self.inner.set_margin(margin).map_err(collision_err))
+    fn set_margin(&self, margin: f64) -> PyResult<()> {
+        guard(|| self.edit(|c| c.set_margin(margin).map_err(collision_err)))
     }
 
     /// Whether `q` collides with the world or itself.
     fn in_collision(&self, q: &Bound<'_, PyAny>) -> PyResult<bool> {
         guard(|| {
             let q = self.q(q, "q")?;
-            Ok(self.inner.in_collision_unchecked(&q))
+            Ok(self.snap().in_collision_unchecked(&q))
         })
     }
 
@@ -654,10 +681,10 @@ impl PyCollisionChecker {
         q: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyArray1<bool>>> {
         guard(|| {
-            let arr = read_array(q, "q", 2, &[Some(self.inner.model().num_dof())])?;
+            let inner = self.snap();
+            let arr = read_array(q, "q", 2, &[Some(inner.model().num_dof())])?;
             let mut out = vec![false; arr.shape[0]];
             let data = arr.data();
-            let inner = &self.inner;
             py.detach(|| inner.in_collision_batch_into(data, &mut out));
             Ok(Array1::from_vec(out).into_pyarray(py))
         })
@@ -674,7 +701,7 @@ impl PyCollisionChecker {
     ) -> PyResult<bool> {
         guard(|| {
             let (a, b) = (self.q(q0, "q0")?, self.q(q1, "q1")?);
-            self.inner
+            self.snap()
                 .motion_valid(&a, &b, resolution)
                 .map_err(collision_err)
         })
@@ -690,7 +717,7 @@ impl PyCollisionChecker {
     ) -> PyResult<Bound<'py, PyDict>> {
         guard(|| {
             let q = self.q(q, "q")?;
-            let d = self.inner.distance(&q).map_err(collision_err)?;
+            let d = self.snap().distance(&q).map_err(collision_err)?;
             let out = PyDict::new(py);
             out.set_item("distance", d.distance)?;
             out.set_item("world_distance", d.world_distance)?;
@@ -709,7 +736,7 @@ impl PyCollisionChecker {
     ) -> PyResult<Vec<Bound<'py, PyDict>>> {
         guard(|| {
             let q = self.q(q, "q")?;
-            let contacts = self.inner.contacts(&q).map_err(collision_err)?;
+            let contacts = self.snap().contacts(&q).map_err(collision_err)?;
             contacts
                 .into_iter()
                 .map(|c| {
@@ -728,7 +755,7 @@ impl PyCollisionChecker {
     fn explain(&self, q: &Bound<'_, PyAny>) -> PyResult<String> {
         guard(|| {
             let q = self.q(q, "q")?;
-            let contacts = self.inner.contacts(&q).map_err(collision_err)?;
+            let contacts = self.snap().contacts(&q).map_err(collision_err)?;
             if contacts.is_empty() {
                 return Ok("collision-free".into());
             }
@@ -741,19 +768,23 @@ impl PyCollisionChecker {
     /// contact (MoveIt setup-assistant style). Returns counts per reason.
     #[pyo3(signature = (samples=10000, seed=0))]
     fn analyze_self_collisions<'py>(
-        &mut self,
+        &self,
         py: Python<'py>,
         samples: usize,
         seed: u64,
     ) -> PyResult<Bound<'py, PyDict>> {
         guard(|| {
-            let mut acm = self.inner.allowed_collisions().clone();
-            let model = self.inner.model().clone();
-            let spheres = self.inner.spheres().clone();
+            let current = self.snap();
+            let mut acm = current.allowed_collisions().clone();
+            let model = current.model().clone();
+            let spheres = current.spheres().clone();
             let report = py
                 .detach(|| acm.analyze(&model, &spheres, samples, seed))
                 .map_err(collision_err)?;
-            self.inner.set_allowed_collisions(acm);
+            self.edit(|c| {
+                c.set_allowed_collisions(acm);
+                Ok(())
+            })?;
             let d = PyDict::new(py);
             d.set_item("samples", report.samples)?;
             d.set_item("never", report.never.len())?;
@@ -768,9 +799,9 @@ impl PyCollisionChecker {
     fn allowed_collision_pairs(&self) -> PyResult<Vec<(String, String, String)>> {
         guard(|| {
             Ok({
-                let links = self.inner.model().links();
-                self.inner
-                    .allowed_collisions()
+                let c = self.snap();
+                let links = c.model().links();
+                c.allowed_collisions()
                     .pairs()
                     .map(|(a, b, r)| (links[a].name.clone(), links[b].name.clone(), r.to_string()))
                     .collect()
@@ -780,14 +811,17 @@ impl PyCollisionChecker {
 
     /// The excluded pairs as SRDF `disable_collisions` text, to save beside the robot.
     fn allowed_collisions_srdf(&self) -> PyResult<String> {
-        guard(|| Ok(self.inner.allowed_collisions().to_srdf(self.inner.model())))
+        guard(|| {
+            let c = self.snap();
+            Ok(c.allowed_collisions().to_srdf(c.model()))
+        })
     }
 
     /// Attaches a shape ("box", [sx, sy, sz]) / ("sphere", r) / ("cylinder", r, length) /
     /// ("capsule", r, length) to `link` at `pose` (link frame); it may touch `touch_links`.
     #[pyo3(signature = (name, link, shape, pose=None, touch_links=Vec::new()))]
     fn attach(
-        &mut self,
+        &self,
         name: &str,
         link: &str,
         shape: &Bound<'_, PyAny>,
@@ -798,8 +832,8 @@ impl PyCollisionChecker {
             let shape = shape_from_tuple(shape)?;
             let pose = pose_or_identity(pose, "pose")?;
             let touch: Vec<&str> = touch_links.iter().map(String::as_str).collect();
-            self.inner
-                .attach(
+            self.edit(|c| {
+                c.attach(
                     name,
                     link,
                     pose,
@@ -807,13 +841,14 @@ impl PyCollisionChecker {
                     &touch,
                 )
                 .map_err(collision_err)
+            })
         })
     }
 
     /// Moves world object `name` onto `link`, keeping its pose relative to the link at `q`.
     #[pyo3(signature = (name, link, q, touch_links=Vec::new()))]
     fn attach_world_object(
-        &mut self,
+        &self,
         name: &str,
         link: &str,
         q: &Bound<'_, PyAny>,
@@ -822,21 +857,23 @@ impl PyCollisionChecker {
         guard(|| {
             let q = self.q(q, "q")?;
             let touch: Vec<&str> = touch_links.iter().map(String::as_str).collect();
-            self.inner
-                .attach_world_object(name, link, &q, &touch)
-                .map_err(collision_err)
+            self.edit(|c| {
+                c.attach_world_object(name, link, &q, &touch)
+                    .map_err(collision_err)
+            })
         })
     }
 
     /// Detaches `name`; with `q` it returns to the world at its pose at `q`.
     #[pyo3(signature = (name, q=None))]
-    fn detach(&mut self, name: &str, q: Option<&Bound<'_, PyAny>>) -> PyResult<()> {
+    fn detach(&self, name: &str, q: Option<&Bound<'_, PyAny>>) -> PyResult<()> {
         guard(|| {
             let q = q.map(|q| self.q(q, "q")).transpose()?;
-            self.inner
-                .detach(name, q.as_deref())
-                .map(|_| ())
-                .map_err(collision_err)
+            self.edit(|c| {
+                c.detach(name, q.as_deref())
+                    .map(|_| ())
+                    .map_err(collision_err)
+            })
         })
     }
 
@@ -845,7 +882,7 @@ impl PyCollisionChecker {
     fn attached(&self) -> PyResult<Vec<String>> {
         guard(|| {
             Ok({
-                self.inner
+                self.snap()
                     .attached()
                     .iter()
                     .map(|a| a.name.clone())
@@ -857,6 +894,6 @@ impl PyCollisionChecker {
     /// Number of spheres (robot and attached objects).
     #[getter]
     fn num_spheres(&self) -> PyResult<usize> {
-        guard(|| Ok(self.inner.compiled().0.centers.len()))
+        guard(|| Ok(self.snap().compiled().0.centers.len()))
     }
 }
