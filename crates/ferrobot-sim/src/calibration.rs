@@ -21,7 +21,10 @@ use crate::state::PhysState;
 const MIN_MASS: f32 = 1e-2;
 const MIN_INERTIA: f32 = 1e-5;
 
-fn mass_props(inertial: &Inertial, offset: &Isometry3<f64>) -> MassProperties {
+/// Mass properties of a link's inertial, in the frame `offset` maps the link
+/// frame into (the body frame). The one conversion used when a robot is built
+/// and when its inertials change at run time.
+pub(crate) fn mass_props(inertial: &Inertial, offset: &Isometry3<f64>) -> MassProperties {
     let m = Matrix3::from_fn(|r, c| inertial.inertia[r][c]);
     let mat = Matrix::from_cols_array(&[
         m[(0, 0)] as f32,

@@ -5,8 +5,8 @@
 use std::sync::Arc;
 
 use ferrobot_model::{JointCoupling, JointKind, RobotModel, Shape};
-use nalgebra::{Isometry3, Matrix3, Unit, UnitQuaternion, Vector3};
-use rapier3d::math::{Matrix, Vector};
+use nalgebra::{Isometry3, Unit, UnitQuaternion, Vector3};
+use rapier3d::math::Vector;
 use rapier3d::prelude::{
     ActiveHooks, ColliderBuilder, GenericJoint, JointAxesMask, JointAxis, MassProperties,
     MultibodyDofCoupling, MultibodyLinkId, RigidBodyBuilder, RigidBodyHandle, SharedShape,
@@ -217,22 +217,7 @@ impl Robot {
             if inertial.mass <= 0.0 {
                 continue;
             }
-            let m = Matrix3::from_fn(|r, c| inertial.inertia[r][c]);
-            let mat = Matrix::from_cols_array(&[
-                m[(0, 0)] as f32,
-                m[(1, 0)] as f32,
-                m[(2, 0)] as f32,
-                m[(0, 1)] as f32,
-                m[(1, 1)] as f32,
-                m[(2, 1)] as f32,
-                m[(0, 2)] as f32,
-                m[(1, 2)] as f32,
-                m[(2, 2)] as f32,
-            ]);
-            let local =
-                MassProperties::with_inertia_matrix(Vector::ZERO, inertial.mass as f32, mat);
-            let in_body = local.transform_by(&to_pose(&(offset[l] * inertial.origin)));
-            mprops[body_of[l]] += in_body;
+            mprops[body_of[l]] += crate::calibration::mass_props(inertial, &offset[l]);
         }
 
         let mut bodies = Vec::with_capacity(body_links.len());

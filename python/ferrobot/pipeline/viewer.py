@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..grasp._group import _BOX_FACES
 from .scene import ROBOT_MOUNT
 
 __all__ = ["DEFAULT_VIEW", "mesh_of", "project", "robot_meshes", "scene_data", "viewer_data", "write_viewer"]
@@ -87,23 +88,7 @@ def _box(size):
         np.array([[(-1) ** (1 - (i & 1)), (-1) ** (1 - (i >> 1 & 1)), (-1) ** (1 - (i >> 2 & 1))] for i in range(8)])
         * h
     )
-    faces = np.array(
-        [
-            [0, 2, 1],
-            [1, 2, 3],
-            [4, 5, 6],
-            [5, 7, 6],
-            [0, 1, 4],
-            [1, 5, 4],
-            [2, 6, 3],
-            [3, 6, 7],
-            [0, 4, 2],
-            [2, 4, 6],
-            [1, 3, 5],
-            [3, 7, 5],
-        ]
-    )
-    return verts, faces
+    return verts, _BOX_FACES
 
 
 def _decimate(verts: np.ndarray, faces: np.ndarray, max_faces: int):
