@@ -66,6 +66,24 @@ pub struct Collider {
     pub user_data: u128,
 }
 
+/// The world-space AABB of `shape` at `pos`, as `shape.compute_aabb(pos)`,
+/// in closed form for cylinders: parry builds a cylinder's AABB from six
+/// support-point queries (each a rotation there and back), a large share of
+/// a step for an articulated robot whose links are cylinders. The extent of
+/// a cylinder (axis `a = R·y`, half height `h`, radius `r`) along world axis
+/// `k` is `h·|a_k| + r·√(1 − a_k²)`, which is what the support points give.
+pub(crate) fn shape_aabb(shape: &dyn Shape, pos: &Pose) -> Aabb {
+    #[cfg(feature = "dim3")]
+    if let Some(c) = shape.as_cylinder() {
+        let axis = pos.rotation * Vector::Y;
+        let radial = |x: Real| (1.0 - x * x).max(0.0).sqrt();
+        let half = axis.abs() * c.half_height
+            + Vector::new(radial(axis.x), radial(axis.y), radial(axis.z)) * c.radius;
+        return Aabb::new(pos.translation - half, pos.translation + half);
+    }
+    shape.compute_aabb(pos)
+}
+
 impl Collider {
     pub(crate) fn reset_internal_references(&mut self) {
         self.changes = ColliderChanges::all();
@@ -595,16 +613,14 @@ impl Collider {
     /// The AABB is the smallest box (aligned with world axes) that contains the shape.
     /// Doesn't include contact skin.
     pub fn compute_aabb(&self) -> Aabb {
-        self.shape.compute_aabb(&self.pos)
+        shape_aabb(&*self.shape, &self.pos)
     }
 
     /// Computes the AABB including contact skin and prediction distance.
     ///
     /// This is the AABB used for collision detection (slightly larger than the visual shape).
     pub fn compute_collision_aabb(&self, prediction: Real) -> Aabb {
-        self.shape
-            .compute_aabb(&self.pos)
-            .loosened(self.contact_skin + prediction)
+        shape_aabb(&*self.shape, &self.pos).loosened(self.contact_skin + prediction)
     }
 
     /// Computes the AABB swept from current position to `next_position`.
@@ -640,9 +656,7 @@ impl Collider {
         let prediction_distance = params.prediction_distance();
         let mut aabb = self.compute_collision_aabb(prediction_distance / 2.0 + soft_motion_margin);
         if let Some(next_pose) = next_pose {
-            let next_aabb = self
-                .shape
-                .compute_aabb(&next_pose)
+            let next_aabb = shape_aabb(&*self.shape, &next_pose)
                 .loosened(self.contact_skin() + prediction_distance / 2.0);
             aabb.merge(&next_aabb);
         }

@@ -5,6 +5,7 @@ pub(crate) use self::broad_phase_bvh::DeferredBvhOptimize;
 #[cfg(feature = "alloc")]
 pub use self::broad_phase_bvh::{BroadPhaseBvh, BvhOptimizationStrategy};
 pub use self::broad_phase_pair_event::{BroadPhasePairEvent, ColliderPair};
+pub(crate) use self::collider::shape_aabb;
 #[cfg(feature = "alloc")]
 pub use self::collider::{Collider, ColliderBuilder};
 #[cfg(feature = "alloc")]
