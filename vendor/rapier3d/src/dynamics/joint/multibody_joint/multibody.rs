@@ -93,6 +93,11 @@ pub struct Multibody {
 
     acc_augmented_mass: DMatrix<Real>,
     acc_inv_augmented_mass: LU<Real, Dyn, Dyn>,
+    // Whether the last `update_mass_matrix` found every generalized velocity
+    // zero: the matrix for free accelerations then equals `augmented_mass`
+    // (no gyroscopic nor Coriolis term) and `inv_augmented_mass` serves for
+    // both; `acc_augmented_mass` and its factorisation are left stale.
+    acc_mass_is_mass: bool,
 
     // `M⁻¹·eᵢ` (full length, kinematic entries 0) for every DoF `i` with a
     // motor, limit, dry-friction or coupling row, computed with each
@@ -145,6 +150,7 @@ impl Multibody {
             inv_augmented_mass: LU::new(DMatrix::zeros(0, 0)),
             acc_augmented_mass: DMatrix::zeros(0, 0),
             acc_inv_augmented_mass: LU::new(DMatrix::zeros(0, 0)),
+            acc_mass_is_mass: false,
             inv_mass_columns: DMatrix::zeros(0, 0),
             inv_mass_column_valid: Vec::new(),
             augmented_mass_indices: IndexSequence::new(),
@@ -735,7 +741,11 @@ impl Multibody {
 
         self.augmented_mass_indices
             .with_rearranged_rows_mut(&mut self.accelerations, |accs| {
-                self.acc_inv_augmented_mass.solve_mut(accs);
+                if self.acc_mass_is_mass {
+                    self.inv_augmented_mass.solve_mut(accs);
+                } else {
+                    self.acc_inv_augmented_mass.solve_mut(accs);
+                }
             });
 
         if check_implicit_coriolis_divergence {
@@ -924,6 +934,11 @@ impl Multibody {
             self.mass_times_jacobian = Jacobian::zeros(self.ndofs);
         }
 
+        // All link velocities derive from the generalized ones (updated just
+        // before, see `update_velocities`).
+        let moving = self.velocities.iter().any(|v| *v != 0.0);
+        self.acc_mass_is_mass = !moving;
+
         let mut curr_assembly_id = 0;
 
         for i in 0..self.links.len() {
@@ -990,147 +1005,158 @@ impl Multibody {
                     .gemm_tr(1.0, &jac, &bj, 1.0);
             }
 
-            /*
-             *
-             * Coriolis matrix.
-             *
-             */
-            let rb_j = &self.body_jacobians[i];
-            let rb_j_w = rb_j.fixed_rows::<ANG_DIM>(DIM);
+            // At rest (every generalized velocity exactly zero) the gyroscopic
+            // and Coriolis terms vanish and the matrix for free accelerations
+            // is the constraint matrix itself: it is neither assembled nor
+            // factorised (see `acc_mass_is_mass`).
+            if moving {
+                /*
+                 *
+                 * Coriolis matrix.
+                 *
+                 */
+                let rb_j = &self.body_jacobians[i];
+                let rb_j_w = rb_j.fixed_rows::<ANG_DIM>(DIM);
 
-            let ndofs = link.joint.ndofs();
+                let ndofs = link.joint.ndofs();
 
-            if i != 0 {
-                let parent_id = link.parent_internal_id;
-                let parent_link = &self.links[parent_id];
-                let parent_rb = &bodies[parent_link.rigid_body];
-                let parent_j = &self.body_jacobians[parent_id];
-                let parent_j_w = parent_j.fixed_rows::<ANG_DIM>(DIM);
-                let parent_w = SimdAngVector::<Real>::from(parent_rb.vels.angvel).gcross_matrix();
+                if i != 0 {
+                    let parent_id = link.parent_internal_id;
+                    let parent_link = &self.links[parent_id];
+                    let parent_rb = &bodies[parent_link.rigid_body];
+                    let parent_j = &self.body_jacobians[parent_id];
+                    let parent_j_w = parent_j.fixed_rows::<ANG_DIM>(DIM);
+                    let parent_w =
+                        SimdAngVector::<Real>::from(parent_rb.vels.angvel).gcross_matrix();
 
-                let (coriolis_v, parent_coriolis_v) = self.coriolis_v.index_mut2(i, parent_id);
-                let (coriolis_w, parent_coriolis_w) = self.coriolis_w.index_mut2(i, parent_id);
+                    let (coriolis_v, parent_coriolis_v) = self.coriolis_v.index_mut2(i, parent_id);
+                    let (coriolis_w, parent_coriolis_w) = self.coriolis_w.index_mut2(i, parent_id);
 
-                coriolis_v.copy_from(parent_coriolis_v);
-                coriolis_w.copy_from(parent_coriolis_w);
+                    coriolis_v.copy_from(parent_coriolis_v);
+                    coriolis_w.copy_from(parent_coriolis_w);
 
-                // [c1 - c0].gcross() * (JDot + JDot/u * qdot)"
-                let shift_cross_tr = vect_to_na(link.shift02).gcross_matrix_tr();
-                coriolis_v.gemm(1.0, &shift_cross_tr, parent_coriolis_w, 1.0);
+                    // [c1 - c0].gcross() * (JDot + JDot/u * qdot)"
+                    let shift_cross_tr = vect_to_na(link.shift02).gcross_matrix_tr();
+                    coriolis_v.gemm(1.0, &shift_cross_tr, parent_coriolis_w, 1.0);
 
-                // JDot (but the 2.0 originates from the sum of two identical terms in JDot and JDot/u * gdot)
-                let dvel_cross = vect_to_na(
-                    rb.vels.angvel.gcross(link.shift02) + 2.0 * link.joint_velocity.linvel,
-                )
-                .gcross_matrix_tr();
-                coriolis_v.gemm(1.0, &dvel_cross, &parent_j_w, 1.0);
+                    // JDot (but the 2.0 originates from the sum of two identical terms in JDot and JDot/u * gdot)
+                    let dvel_cross = vect_to_na(
+                        rb.vels.angvel.gcross(link.shift02) + 2.0 * link.joint_velocity.linvel,
+                    )
+                    .gcross_matrix_tr();
+                    coriolis_v.gemm(1.0, &dvel_cross, &parent_j_w, 1.0);
 
-                // JDot/u * qdot
-                coriolis_v.gemm(
-                    1.0,
-                    &vect_to_na(link.joint_velocity.linvel).gcross_matrix_tr(),
-                    &parent_j_w,
-                    1.0,
-                );
-                coriolis_v.gemm(1.0, &(parent_w * shift_cross_tr), &parent_j_w, 1.0);
-
-                #[cfg(feature = "dim3")]
-                {
-                    let vel_wrt_joint_w = vect_to_na(link.joint_velocity.angvel).gcross_matrix();
-                    coriolis_w.gemm(-1.0, &vel_wrt_joint_w, &parent_j_w, 1.0);
-                }
-
-                // JDot (but the 2.0 originates from the sum of two identical terms in JDot and JDot/u * gdot)
-                if !link.joint.kinematic {
-                    let mut coriolis_v_part = coriolis_v.columns_mut(link.assembly_id, ndofs);
-
-                    let mut tmp1 = SMatrix::<Real, SPATIAL_DIM, SPATIAL_DIM>::zeros();
-                    let mut rb_joint_j = tmp1.columns_mut(0, ndofs);
-                    link.joint.jacobian(
-                        &(parent_link.local_to_world.rotation
-                            * link.joint.data.local_frame1.rotation),
-                        &mut rb_joint_j,
+                    // JDot/u * qdot
+                    coriolis_v.gemm(
+                        1.0,
+                        &vect_to_na(link.joint_velocity.linvel).gcross_matrix_tr(),
+                        &parent_j_w,
+                        1.0,
                     );
-
-                    let rb_joint_j_v = rb_joint_j.fixed_rows::<DIM>(0);
-                    coriolis_v_part.gemm(2.0, &parent_w, &rb_joint_j_v, 1.0);
+                    coriolis_v.gemm(1.0, &(parent_w * shift_cross_tr), &parent_j_w, 1.0);
 
                     #[cfg(feature = "dim3")]
                     {
-                        let rb_joint_j_w = rb_joint_j.fixed_rows::<ANG_DIM>(DIM);
-                        let mut coriolis_w_part = coriolis_w.columns_mut(link.assembly_id, ndofs);
-                        coriolis_w_part.gemm(1.0, &parent_w, &rb_joint_j_w, 1.0);
+                        let vel_wrt_joint_w =
+                            vect_to_na(link.joint_velocity.angvel).gcross_matrix();
+                        coriolis_w.gemm(-1.0, &vel_wrt_joint_w, &parent_j_w, 1.0);
                     }
+
+                    // JDot (but the 2.0 originates from the sum of two identical terms in JDot and JDot/u * gdot)
+                    if !link.joint.kinematic {
+                        let mut coriolis_v_part = coriolis_v.columns_mut(link.assembly_id, ndofs);
+
+                        let mut tmp1 = SMatrix::<Real, SPATIAL_DIM, SPATIAL_DIM>::zeros();
+                        let mut rb_joint_j = tmp1.columns_mut(0, ndofs);
+                        link.joint.jacobian(
+                            &(parent_link.local_to_world.rotation
+                                * link.joint.data.local_frame1.rotation),
+                            &mut rb_joint_j,
+                        );
+
+                        let rb_joint_j_v = rb_joint_j.fixed_rows::<DIM>(0);
+                        coriolis_v_part.gemm(2.0, &parent_w, &rb_joint_j_v, 1.0);
+
+                        #[cfg(feature = "dim3")]
+                        {
+                            let rb_joint_j_w = rb_joint_j.fixed_rows::<ANG_DIM>(DIM);
+                            let mut coriolis_w_part =
+                                coriolis_w.columns_mut(link.assembly_id, ndofs);
+                            coriolis_w_part.gemm(1.0, &parent_w, &rb_joint_j_w, 1.0);
+                        }
+                    }
+                } else {
+                    self.coriolis_v[i].fill(0.0);
+                    self.coriolis_w[i].fill(0.0);
                 }
-            } else {
-                self.coriolis_v[i].fill(0.0);
-                self.coriolis_w[i].fill(0.0);
-            }
 
-            let coriolis_v = &mut self.coriolis_v[i];
-            let coriolis_w = &mut self.coriolis_w[i];
+                let coriolis_v = &mut self.coriolis_v[i];
+                let coriolis_w = &mut self.coriolis_w[i];
 
-            {
-                // [c3 - c2].gcross() * (JDot + JDot/u * qdot)
-                let shift_cross_tr = vect_to_na(link.shift23).gcross_matrix_tr();
-                coriolis_v.gemm(1.0, &shift_cross_tr, coriolis_w, 1.0);
+                {
+                    // [c3 - c2].gcross() * (JDot + JDot/u * qdot)
+                    let shift_cross_tr = vect_to_na(link.shift23).gcross_matrix_tr();
+                    coriolis_v.gemm(1.0, &shift_cross_tr, coriolis_w, 1.0);
 
-                // JDot
-                let dvel_cross = vect_to_na(rb.vels.angvel.gcross(link.shift23)).gcross_matrix_tr();
-                coriolis_v.gemm(1.0, &dvel_cross, &rb_j_w, 1.0);
+                    // JDot
+                    let dvel_cross =
+                        vect_to_na(rb.vels.angvel.gcross(link.shift23)).gcross_matrix_tr();
+                    coriolis_v.gemm(1.0, &dvel_cross, &rb_j_w, 1.0);
 
-                // JDot/u * qdot
-                coriolis_v.gemm(
-                    1.0,
-                    &(SimdAngVector::<Real>::from(rb.vels.angvel).gcross_matrix() * shift_cross_tr),
-                    &rb_j_w,
-                    1.0,
-                );
-            }
+                    // JDot/u * qdot
+                    coriolis_v.gemm(
+                        1.0,
+                        &(SimdAngVector::<Real>::from(rb.vels.angvel).gcross_matrix()
+                            * shift_cross_tr),
+                        &rb_j_w,
+                        1.0,
+                    );
+                }
 
-            let coriolis_v = &mut self.coriolis_v[i];
-            let coriolis_w = &mut self.coriolis_w[i];
+                let coriolis_v = &mut self.coriolis_v[i];
+                let coriolis_w = &mut self.coriolis_w[i];
 
-            /*
-             * Meld with the mass matrix.
-             */
-            {
-                let mut i_coriolis_dt_v = self.i_coriolis_dt.fixed_rows_mut::<DIM>(0);
-                i_coriolis_dt_v.copy_from(coriolis_v);
-                let rb_mass_dt = vect_to_na(rb_mass * dt);
-                i_coriolis_dt_v
-                    .column_iter_mut()
-                    .for_each(|mut c| c.component_mul_assign(&rb_mass_dt));
-            }
+                /*
+                 * Meld with the mass matrix.
+                 */
+                {
+                    let mut i_coriolis_dt_v = self.i_coriolis_dt.fixed_rows_mut::<DIM>(0);
+                    i_coriolis_dt_v.copy_from(coriolis_v);
+                    let rb_mass_dt = vect_to_na(rb_mass * dt);
+                    i_coriolis_dt_v
+                        .column_iter_mut()
+                        .for_each(|mut c| c.component_mul_assign(&rb_mass_dt));
+                }
 
-            #[cfg(feature = "dim2")]
-            {
-                let mut i_coriolis_dt_w = self.i_coriolis_dt.fixed_rows_mut::<ANG_DIM>(DIM);
-                // NOTE: this is just an axpy, but on row columns.
-                i_coriolis_dt_w.zip_apply(coriolis_w, |o, x| *o = x * dt * rb_inertia);
-            }
-            #[cfg(feature = "dim3")]
-            {
-                let mut i_coriolis_dt_w = self.i_coriolis_dt.fixed_rows_mut::<ANG_DIM>(DIM);
-                i_coriolis_dt_w.gemm(dt, &mat_to_na(rb_inertia), coriolis_w, 0.0);
-            }
-
-            // acc += Jᵀ·(B·J + dt·[0; G·Jw] + dt·I·C) over the `end` first
-            // columns (the body mass, gyroscopic and Coriolis terms at once).
-            {
-                let jac = rb_j.columns(0, end);
-                let mut rhs = self.i_coriolis_dt.columns_mut(0, end);
-                rhs += &self.mass_times_jacobian.columns(0, end);
+                #[cfg(feature = "dim2")]
+                {
+                    let mut i_coriolis_dt_w = self.i_coriolis_dt.fixed_rows_mut::<ANG_DIM>(DIM);
+                    // NOTE: this is just an axpy, but on row columns.
+                    i_coriolis_dt_w.zip_apply(coriolis_w, |o, x| *o = x * dt * rb_inertia);
+                }
                 #[cfg(feature = "dim3")]
-                rhs.fixed_rows_mut::<ANG_DIM>(DIM).gemm(
-                    dt,
-                    &mat_to_na(gyroscopic_matrix),
-                    &jac.fixed_rows::<ANG_DIM>(DIM),
-                    1.0,
-                );
-                self.acc_augmented_mass
-                    .view_mut((0, 0), (end, end))
-                    .gemm_tr(1.0, &jac, &rhs, 1.0);
+                {
+                    let mut i_coriolis_dt_w = self.i_coriolis_dt.fixed_rows_mut::<ANG_DIM>(DIM);
+                    i_coriolis_dt_w.gemm(dt, &mat_to_na(rb_inertia), coriolis_w, 0.0);
+                }
+
+                // acc += Jᵀ·(B·J + dt·[0; G·Jw] + dt·I·C) over the `end` first
+                // columns (the body mass, gyroscopic and Coriolis terms at once).
+                {
+                    let jac = rb_j.columns(0, end);
+                    let mut rhs = self.i_coriolis_dt.columns_mut(0, end);
+                    rhs += &self.mass_times_jacobian.columns(0, end);
+                    #[cfg(feature = "dim3")]
+                    rhs.fixed_rows_mut::<ANG_DIM>(DIM).gemm(
+                        dt,
+                        &mat_to_na(gyroscopic_matrix),
+                        &jac.fixed_rows::<ANG_DIM>(DIM),
+                        1.0,
+                    );
+                    self.acc_augmented_mass
+                        .view_mut((0, 0), (end, end))
+                        .gemm_tr(1.0, &jac, &rhs, 1.0);
+                }
             }
         }
 
@@ -1144,7 +1170,9 @@ impl Multibody {
          */
         for i in 0..self.ndofs {
             let diag = self.damping[i] * dt + self.armature[i];
-            self.acc_augmented_mass[(i, i)] += diag;
+            if moving {
+                self.acc_augmented_mass[(i, i)] += diag;
+            }
             self.augmented_mass[(i, i)] += diag;
         }
 
@@ -1160,7 +1188,9 @@ impl Multibody {
                     let k = self.links[li].joint.spring_stiffness[a];
                     if k != 0.0 {
                         let d = k * dt2;
-                        self.acc_augmented_mass[(idx, idx)] += d;
+                        if moving {
+                            self.acc_augmented_mass[(idx, idx)] += d;
+                        }
                         self.augmented_mass[(idx, idx)] += d;
                     }
                     idx += 1;
@@ -1174,22 +1204,25 @@ impl Multibody {
 
         // PERF: since we clone the matrix anyway for LU, should be directly output
         //       a new matrix instead of applying permutations?
-        self.augmented_mass_indices
-            .rearrange_columns(&mut self.acc_augmented_mass, true);
+        if moving {
+            self.augmented_mass_indices
+                .rearrange_columns(&mut self.acc_augmented_mass, true);
+            self.augmented_mass_indices
+                .rearrange_rows(&mut self.acc_augmented_mass, true);
+        }
         self.augmented_mass_indices
             .rearrange_columns(&mut self.augmented_mass, true);
-
-        self.augmented_mass_indices
-            .rearrange_rows(&mut self.acc_augmented_mass, true);
         self.augmented_mass_indices
             .rearrange_rows(&mut self.augmented_mass, true);
 
         // TODO: avoid allocation inside LU at each timestep.
-        self.acc_inv_augmented_mass = LU::new(
-            self.acc_augmented_mass
-                .view((0, 0), (effective_dim, effective_dim))
-                .into_owned(),
-        );
+        if moving {
+            self.acc_inv_augmented_mass = LU::new(
+                self.acc_augmented_mass
+                    .view((0, 0), (effective_dim, effective_dim))
+                    .into_owned(),
+            );
+        }
         self.inv_augmented_mass = LU::new(
             self.augmented_mass
                 .view((0, 0), (effective_dim, effective_dim))
