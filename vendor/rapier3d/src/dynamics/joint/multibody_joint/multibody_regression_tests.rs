@@ -667,10 +667,12 @@ fn kinematic_joint_with_motor_limit_friction_and_coupling() {
         )
     };
     let base = world.insert_body(RigidBodyBuilder::fixed());
-    let (a, b, c) = (body(&mut world, 0.5), body(&mut world, 1.0), body(&mut world, 1.5));
-    let hinge = || {
-        RevoluteJointBuilder::new(Vector::Z).local_anchor2(Vector::new(-0.5, 0.0, 0.0))
-    };
+    let (a, b, c) = (
+        body(&mut world, 0.5),
+        body(&mut world, 1.0),
+        body(&mut world, 1.5),
+    );
+    let hinge = || RevoluteJointBuilder::new(Vector::Z).local_anchor2(Vector::new(-0.5, 0.0, 0.0));
     world
         .multibody_joints
         .insert_kinematic(base, a, hinge(), true)
@@ -685,7 +687,10 @@ fn kinematic_joint_with_motor_limit_friction_and_coupling() {
         *world.multibody_joints.rigid_body_link(b).unwrap(),
         *world.multibody_joints.rigid_body_link(c).unwrap(),
     );
-    let mb = world.multibody_joints.get_multibody_mut(lb.multibody).unwrap();
+    let mb = world
+        .multibody_joints
+        .get_multibody_mut(lb.multibody)
+        .unwrap();
     let fb = mb.link(lb.id).unwrap().assembly_id();
     mb.frictions_mut()[fb] = 0.01;
     mb.add_dof_coupling(MultibodyDofCoupling {
@@ -706,6 +711,34 @@ fn kinematic_joint_with_motor_limit_friction_and_coupling() {
     let mb = world.multibody_joints.get_multibody(lb.multibody).unwrap();
     let qb = mb.link(lb.id).unwrap().joint().coords()[3];
     let qc = mb.link(lc.id).unwrap().joint().coords()[3];
-    assert!((qb - 0.5).abs() < 0.02, "the motor reaches its target: {qb}");
+    assert!(
+        (qb - 0.5).abs() < 0.02,
+        "the motor reaches its target: {qb}"
+    );
     assert!((qc + qb).abs() < 0.02, "the coupling holds: {qb} {qc}");
+}
+
+/// The closed-form cylinder AABB (`shape_aabb`) is parry's support-point
+/// AABB for any orientation.
+#[test]
+#[cfg(feature = "dim3")]
+fn cylinder_aabb_in_closed_form_matches_support_points() {
+    use parry::bounding_volume::details::support_map_aabb;
+    let cylinder = parry::shape::Cylinder::new(0.37, 0.12);
+    for i in 0..500 {
+        let t = i as Real * 0.013;
+        let axis = Vector::new(t.sin(), (2.3 * t).cos(), 0.5 + (0.7 * t).sin()).normalize();
+        let pose = Pose::from_parts(
+            Vector::new(1.0 - t, 2.0 * t, -0.5),
+            Rotation::from_axis_angle(axis, 7.0 * t),
+        );
+        let fast = crate::geometry::shape_aabb(&cylinder, &pose);
+        let reference = support_map_aabb(&pose, &cylinder);
+        for (a, b) in [(fast.mins, reference.mins), (fast.maxs, reference.maxs)] {
+            assert!(
+                (a - b).abs().max_element() < 1e-5,
+                "{pose:?}: {a:?} vs {b:?}"
+            );
+        }
+    }
 }
