@@ -431,9 +431,13 @@ impl PhysicsPipeline {
         soft_bodies.island_events = sb_events;
         self.counters.stages.user_changes.pause();
 
-        // TODO: do this only on user-change.
+        // Only after a user change: the last substep of the previous step
+        // left every multibody at its current coordinates otherwise.
         // TODO: do we want some kind of automatic inverse kinematics?
         for multibody in &mut multibody_joints.multibodies {
+            if multibody.1.forward_kinematics_is_current(bodies) {
+                continue;
+            }
             multibody.1.forward_kinematics(bodies, true);
             multibody
                 .1

@@ -98,6 +98,13 @@ pub struct Multibody {
     // (no gyroscopic nor Coriolis term) and `inv_augmented_mass` serves for
     // both; `acc_augmented_mass` and its factorisation are left stale.
     acc_mass_is_mass: bool,
+    // Whether the link poses, body jacobians and the link bodies' poses and
+    // world mass properties are those of the current joint coordinates:
+    // set by the position integration of a step's last substep, cleared by
+    // every mutable access to the links and by changes to the link bodies
+    // (see `PhysicsPipeline::step`, which then skips the forward kinematics
+    // at the start of the next step).
+    pub(crate) fk_reusable: bool,
 
     // `M⁻¹·eᵢ` (full length, kinematic entries 0) for every DoF `i` with a
     // motor, limit, dry-friction or coupling row, computed with each
@@ -151,6 +158,7 @@ impl Multibody {
             acc_augmented_mass: DMatrix::zeros(0, 0),
             acc_inv_augmented_mass: LU::new(DMatrix::zeros(0, 0)),
             acc_mass_is_mass: false,
+            fk_reusable: false,
             inv_mass_columns: DMatrix::zeros(0, 0),
             inv_mass_column_valid: Vec::new(),
             augmented_mass_indices: IndexSequence::new(),
@@ -269,6 +277,7 @@ impl Multibody {
     }
 
     pub(crate) fn append(&mut self, mut rhs: Multibody, parent: usize, joint: MultibodyJoint) {
+        self.fk_reusable = false;
         let joint_ndofs = joint.ndofs();
         let rhs_root_ndofs = rhs.links[0].joint.ndofs();
         let ndofs_before_append = self.velocities.len();
@@ -464,6 +473,7 @@ impl Multibody {
     /// Mutable reference to the first link of this multibody.
     #[inline]
     pub fn root_mut(&mut self) -> &mut MultibodyLink {
+        self.fk_reusable = false;
         &mut self.links[0]
     }
 
@@ -480,6 +490,7 @@ impl Multibody {
     /// Return `None` if the given id does not identifies a multibody link part of `self`.
     #[inline]
     pub fn link_mut(&mut self, id: usize) -> Option<&mut MultibodyLink> {
+        self.fk_reusable = false;
         self.links.get_mut(id)
     }
 
@@ -499,6 +510,7 @@ impl Multibody {
     ///
     /// All link are guaranteed to be yielded before its descendant.
     pub fn links_mut(&mut self) -> impl Iterator<Item = &mut MultibodyLink> {
+        self.fk_reusable = false;
         self.links.iter_mut()
     }
 
@@ -1442,9 +1454,34 @@ impl Multibody {
     /// Note this does **not** updates the link poses, only their generalized coordinates.
     /// To update the link poses and associated rigid-bodies, call [`Self::forward_kinematics`].
     pub fn apply_displacements(&mut self, disp: &[Real]) {
+        self.fk_reusable = false;
         for link in self.links.iter_mut() {
             link.joint.apply_displacement(&disp[link.assembly_id..])
         }
+    }
+
+    /// Whether the forward kinematics at the start of a step may be skipped:
+    /// the last step's final substep left the links, their jacobians and
+    /// their bodies at the current coordinates (`fk_reusable`), and
+    /// no link body had its pose, type, colliders, mass properties or
+    /// enabled state changed since, and every link body is at its link's
+    /// pose (nothing else moved it, e.g. a CCD clamp).
+    pub(crate) fn forward_kinematics_is_current(&self, bodies: &RigidBodySet) -> bool {
+        use crate::dynamics::RigidBodyChanges as C;
+        let fk_inputs = C::POSITION
+            | C::TYPE
+            | C::COLLIDERS
+            | C::LOCAL_MASS_PROPERTIES
+            | C::ENABLED_OR_DISABLED;
+        self.fk_reusable
+            && self.links.iter().all(|link| {
+                bodies.get(link.rigid_body).is_some_and(|rb| {
+                    !rb.changes.intersects(fk_inputs) && rb.pos.position == link.local_to_world
+                })
+            })
+            && bodies
+                .get(self.links[0].rigid_body)
+                .is_some_and(|rb| rb.is_dynamic() == self.root_is_dynamic)
     }
 
     pub(crate) fn update_root_type(&mut self, bodies: &RigidBodySet, take_body_pose: bool) {

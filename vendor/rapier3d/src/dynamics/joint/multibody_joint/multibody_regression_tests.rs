@@ -718,6 +718,47 @@ fn kinematic_joint_with_motor_limit_friction_and_coupling() {
     assert!((qc + qb).abs() < 0.02, "the coupling holds: {qb} {qc}");
 }
 
+/// A chain of four links (three hinges about different axes and a slider)
+/// hanging from a fixed base, with unequal masses, in gravity: the
+/// multibody of the tests below. Returns the world and the last link's body.
+#[cfg(feature = "dim3")]
+fn swinging_chain() -> (PhysicsWorld, RigidBodyHandle) {
+    let mut world = PhysicsWorld::new();
+    let base = world.insert_body(RigidBodyBuilder::fixed());
+    let mut parent = base;
+    let axes = [Vector::Z, Vector::X, Vector::Y];
+    for (i, axis) in axes.iter().enumerate() {
+        let x = 0.4 * (i + 1) as Real;
+        let body = world.insert(
+            RigidBodyBuilder::dynamic().translation(Vector::new(x, 0.1 * x, 0.0)),
+            ColliderBuilder::cylinder(0.15, 0.04).density(500.0 + 400.0 * i as Real),
+        );
+        let joint = RevoluteJointBuilder::new(*axis)
+            .local_anchor1(if i == 0 {
+                Vector::ZERO
+            } else {
+                Vector::new(0.2, 0.05, 0.0)
+            })
+            .local_anchor2(Vector::new(-0.2, -0.05, 0.0));
+        world.insert_multibody_joint(parent, body.0, joint);
+        parent = body.0;
+    }
+    let tip = world
+        .insert(
+            RigidBodyBuilder::dynamic().translation(Vector::new(1.6, 0.2, 0.0)),
+            ColliderBuilder::cuboid(0.05, 0.02, 0.03).density(2000.0),
+        )
+        .0;
+    world.insert_multibody_joint(
+        parent,
+        tip,
+        PrismaticJointBuilder::new(Vector::X)
+            .local_anchor1(Vector::new(0.2, 0.05, 0.0))
+            .limits([-0.05, 0.05]),
+    );
+    (world, tip)
+}
+
 /// The closed-form cylinder AABB (`shape_aabb`) is parry's support-point
 /// AABB for any orientation.
 #[test]
@@ -741,4 +782,57 @@ fn cylinder_aabb_in_closed_form_matches_support_points() {
             );
         }
     }
+}
+
+/// Skipping the forward kinematics at the start of a step changes nothing:
+/// a world stepped normally and one made to recompute it at every step
+/// (any mutable access to the links does) stay identical, through free
+/// swinging, a change of joint coordinates and a teleported link body.
+#[test]
+#[cfg(feature = "dim3")]
+fn forward_kinematics_reuse_gives_identical_steps() {
+    let (mut reuse, tip) = swinging_chain();
+    let (mut recompute, _) = swinging_chain();
+    let mb_index = reuse
+        .multibody_joints
+        .rigid_body_link(tip)
+        .unwrap()
+        .multibody;
+    let poses =
+        |w: &PhysicsWorld| -> Vec<Pose> { w.bodies.iter().map(|(_, b)| *b.position()).collect() };
+    let mut reused = 0;
+    for step in 0..120 {
+        if step == 40 {
+            for w in [&mut reuse, &mut recompute] {
+                let mb = w.multibody_joints.get_multibody_mut(mb_index).unwrap();
+                mb.apply_displacements(&[0.1, -0.2, 0.05, 0.01]);
+            }
+        }
+        if step == 80 {
+            for w in [&mut reuse, &mut recompute] {
+                w.bodies[tip].set_position(Pose::translation(3.0, 3.0, 3.0), true);
+            }
+        }
+        let mb = reuse.multibody_joints.get_multibody(mb_index).unwrap();
+        if mb.forward_kinematics_is_current(&reuse.bodies) {
+            reused += 1;
+        }
+        // Forces the forward kinematics at the next step's start.
+        let _ = recompute
+            .multibody_joints
+            .get_multibody_mut(mb_index)
+            .unwrap()
+            .link_mut(0);
+        reuse.step();
+        recompute.step();
+        assert_eq!(poses(&reuse), poses(&recompute), "step {step}");
+    }
+    // Reused at every step but the first, the two after a change (the
+    // displacement, the teleport).
+    assert_eq!(reused, 117);
+    let mb = reuse.multibody_joints.get_multibody(mb_index).unwrap();
+    assert!(
+        mb.link(4).unwrap().local_to_world().translation.x < 2.5,
+        "the teleported link went back to its joint"
+    );
 }

@@ -141,6 +141,11 @@ impl VelocitySolver {
             multibody.integrate(params.dt);
             multibody.forward_kinematics(bodies, false);
             multibody.update_rigid_bodies_internal(bodies, !is_last_substep, true, false);
+            // After the last substep the links are at the step's final
+            // coordinates and the end of the step moves the link bodies
+            // there (and updates their world mass properties): the next
+            // step can start from them.
+            multibody.fk_reusable = is_last_substep;
 
             if !is_last_substep {
                 multibody.update_velocities(bodies);
