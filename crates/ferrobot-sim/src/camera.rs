@@ -896,9 +896,10 @@ impl World {
         });
         let colors: Vec<[f32; 3]> = {
             let max = self.labels().iter().map(|l| l.id).max().unwrap_or(0) as usize;
+            // Albedo times 255 per label.
             let mut c = vec![[0.0f32; 3]; max + 1];
             for l in self.labels() {
-                c[l.id as usize] = l.color;
+                c[l.id as usize] = l.color.map(|x| x * 255.0);
             }
             c
         };
@@ -934,11 +935,12 @@ impl World {
                 .iter()
                 .filter(|f| f.v0 <= last && f.v1 >= first)
                 .collect();
-            // Hit normals (camera frame) for shading.
+            // Hit normals (camera frame, unit length or zero when unknown)
+            // of the current row, for shading; written wherever a hit is.
             let mut normals = if cband.is_empty() {
                 Vec::new()
             } else {
-                vec![Vector::ZERO; rows * w]
+                vec![Vector::ZERO; w]
             };
             for r in 0..rows {
                 let v = first + r;
@@ -958,7 +960,7 @@ impl World {
                             drow[u] = t;
                             srow[u] = f.seg;
                             if !normals.is_empty() {
-                                normals[r * w + u] = f.n;
+                                normals[u] = f.n;
                             }
                         }
                     }
@@ -1027,7 +1029,7 @@ impl World {
                             drow[u] = best;
                             srow[u] = it.seg;
                             if !normals.is_empty() {
-                                normals[r * w + u] = n.unwrap_or(Vector::ZERO);
+                                normals[u] = n.unwrap_or(Vector::ZERO);
                             }
                         }
                     }
@@ -1041,16 +1043,17 @@ impl World {
                     continue;
                 }
                 let crow = &mut cband[3 * r * w..3 * (r + 1) * w];
+                let dy2 = dy * dy + 1.0;
                 for u in 0..w {
                     if drow[u].is_infinite() {
                         continue;
                     }
-                    let n = normals[r * w + u].normalize_or_zero();
-                    let view = Vector::new(dxs[u], dy, 1.0).normalize();
+                    let n = normals[u];
                     let head = if n == Vector::ZERO {
                         1.0
                     } else {
-                        n.dot(view).abs()
+                        let view = Vector::new(dxs[u], dy, 1.0);
+                        n.dot(view).abs() / (dxs[u] * dxs[u] + dy2).sqrt()
                     };
                     let mut shade = [
                         ambient[0] + headlight * head,
@@ -1063,9 +1066,9 @@ impl World {
                             shade[k] += c[k] * lambert;
                         }
                     }
-                    let c = colors.get(srow[u] as usize).copied().unwrap_or([1.0; 3]);
+                    let c = colors.get(srow[u] as usize).copied().unwrap_or([255.0; 3]);
                     for k in 0..3 {
-                        crow[3 * u + k] = (c[k] * shade[k] * 255.0).clamp(0.0, 255.0) as u8;
+                        crow[3 * u + k] = (c[k] * shade[k]).clamp(0.0, 255.0) as u8;
                     }
                 }
             }
