@@ -15,9 +15,9 @@ import json
 import numpy as np
 import pytest
 
-from ferrobot.control import CameraSpec, ControlStepper, make_cameras
+from ferrobot.control import ControlStepper, make_cameras
 from ferrobot.dataset import GenerateConfig, generate, parse_cameras
-from ferrobot.dataset.generate import episode_seed, episode_spec, scene_fov
+from ferrobot.dataset.generate import apply_lighting, episode_cameras, episode_seed, episode_spec, scene_fov
 from ferrobot.pipeline import PickPlace, build_world, random_scene
 from ferrobot.pipeline.recording import ControlRecorder, sim_state
 
@@ -33,11 +33,13 @@ def pp():
     return p
 
 
-def record(pp, spec, cams=CAMS):
+def record(pp, spec, cams=CAMS, rand=None):
+    """Runs ``spec`` recording every frame; ``rand``: the episode's randomisation (lighting, wrist camera)."""
     frames = []
-    specs = [CameraSpec(c["name"], c["width"], c["height"]) for c in parse_cameras(cams)]
+    specs = episode_cameras({"cameras": parse_cameras(cams)}, rand or {})
 
     def factory(world, robot, camera, arm):
+        apply_lighting(world, rand or {})
         cameras = make_cameras(world, robot, camera.get_world_transform(), specs, scene_fov_deg=scene_fov(spec))
         return ControlRecorder(world, robot, cameras, frames.append, arm_joint_indices=arm)
 
@@ -159,8 +161,9 @@ def test_lerobot_videos_decode_to_what_was_rendered(lerobot_dataset, pp):
     assert len(rgb) == len(depth) == len(wrist) == total
     for e in eps:
         # Run the episode again (it depends only on its seed) and keep what the cameras rendered.
-        spec, _ = episode_spec(cfg.to_dict(), e["seed"])
-        _, frames = record(pp, spec)
+        spec, rand = episode_spec(cfg.to_dict(), e["seed"])
+        assert json.loads(e["randomization"]) == json.loads(json.dumps(rand))
+        _, frames = record(pp, spec, rand=rand)
         assert len(frames) == e["length"]
         a = e["dataset_from_index"]
         for k, f in enumerate(frames):
@@ -198,8 +201,9 @@ def test_hdf5_layout_with_h5py(tmp_path, pp):
         assert [x.decode() for x in f["mask/train"][:]] == ["demo_0", "demo_1"]
     # The same episode recorded directly: the HDF5 arrays are exactly what was observed.
     with h5py.File(out / "dataset.hdf5", "r") as f:
-        spec, _ = episode_spec(cfg.to_dict(), int(f["data/demo_0"].attrs["seed"]))
-    _, frames = record(pp, spec, "scene:32x24")
+        spec, rand = episode_spec(cfg.to_dict(), int(f["data/demo_0"].attrs["seed"]))
+        assert json.loads(f["data/demo_0"].attrs["randomization"]) == json.loads(json.dumps(rand))
+    _, frames = record(pp, spec, "scene:32x24", rand=rand)
     with h5py.File(out / "dataset.hdf5", "r") as f:
         g = f["data/demo_0"]
         np.testing.assert_array_equal(

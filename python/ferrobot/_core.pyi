@@ -1,5 +1,6 @@
 """Type stubs of the Rust extension module ``ferrobot._core``."""
 
+from collections.abc import Sequence
 from os import PathLike
 from typing import Any
 
@@ -224,6 +225,18 @@ class World:
     @property
     def segmentation_labels(self) -> dict[int, str]:
         """Segmentation id -> name: 0 background, 1 ground, objects, "robot/link"."""
+    def set_lighting(
+        self,
+        ambient: ArrayLike | None = None,
+        headlight: float = 0.65,
+        lights: Sequence[tuple[ArrayLike, ArrayLike, float]] | None = None,
+    ) -> None:
+        """Lambert lighting of RGB renders: ambient (r, g, b) in [0, 1] (default 0.35 each), headlight in [0, 1],
+        at most 8 directional lights (direction of travel in the world frame, colour in [0, 1]^3, intensity in
+        [0, 10]). Pixel = 255 * albedo * (ambient + headlight * |n.r| + sum(colour * intensity * max(0, -n.l)))."""
+    @property
+    def lighting(self) -> dict[str, Any]:
+        """{"ambient": [r, g, b], "headlight": float, "lights": [(direction, color, intensity), ...]}."""
     def add_box(
         self,
         name: str,

@@ -102,6 +102,9 @@ fn vec_arg(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Vec<f64>> {
     Ok(read_array(obj, what, 1, &[None])?.data().to_vec())
 }
 
+/// A directional light from Python: (direction, color, intensity).
+type LightArg<'py> = (Bound<'py, PyAny>, Bound<'py, PyAny>, f64);
+
 fn vec3_arg(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Vector3<f64>> {
     let a = read_array(obj, what, 1, &[Some(3)])?;
     let d = a.data();
@@ -332,6 +335,63 @@ impl PyWorld {
                 .map(|l| (l.id, l.name.clone()))
                 .collect())
         })
+    }
+
+    /// Lighting of rendered RGB images (Lambert): `ambient` (r, g, b), each
+    /// in [0, 1]; `headlight` in [0, 1] (a light at the camera); `lights`:
+    /// directional lights, each `(direction, color, intensity)` with
+    /// `direction` the (world-frame, non-zero) direction the light travels,
+    /// `color` (r, g, b) each in [0, 1], `intensity` in [0, 10]; at most 8.
+    /// A pixel of albedo `c`, unit normal `n`, unit view ray `r` is
+    /// `255 * c * (ambient + headlight * |n·r| + sum(color * intensity * max(0, -n·l)))`,
+    /// saturating at 255. Default: ambient 0.35, headlight 0.65, no lights.
+    #[pyo3(signature = (ambient=None, headlight=0.65, lights=None))]
+    fn set_lighting(
+        &self,
+        ambient: Option<&Bound<'_, PyAny>>,
+        headlight: f64,
+        lights: Option<Vec<LightArg<'_>>>,
+    ) -> PyResult<()> {
+        let ambient = match ambient {
+            Some(a) => {
+                let a = vec3_arg(a, "ambient")?;
+                [a.x, a.y, a.z]
+            }
+            None => [0.35; 3],
+        };
+        let mut ls = Vec::new();
+        for (i, (d, c, intensity)) in lights.unwrap_or_default().iter().enumerate() {
+            let d = vec3_arg(d, &format!("lights[{i}] direction"))?;
+            let c = vec3_arg(c, &format!("lights[{i}] color"))?;
+            ls.push(ferrobot_sim::DirectionalLight {
+                direction: [d.x, d.y, d.z],
+                color: [c.x, c.y, c.z],
+                intensity: *intensity,
+            });
+        }
+        let lighting = ferrobot_sim::Lighting {
+            ambient,
+            headlight,
+            lights: ls,
+        };
+        guard(|| lock(&self.inner)?.set_lighting(lighting).map_err(sim_err))
+    }
+
+    /// The lighting: `{"ambient": (r, g, b), "headlight": float, "lights":
+    /// [(direction, color, intensity), ...]}` (see `set_lighting`).
+    #[getter]
+    fn lighting<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let l = guard(|| Ok(lock(&self.inner)?.lighting().clone()))?;
+        let d = PyDict::new(py);
+        d.set_item("ambient", l.ambient.to_vec())?;
+        d.set_item("headlight", l.headlight)?;
+        let lights: Vec<(Vec<f64>, Vec<f64>, f64)> = l
+            .lights
+            .iter()
+            .map(|x| (x.direction.to_vec(), x.color.to_vec(), x.intensity))
+            .collect();
+        d.set_item("lights", lights)?;
+        Ok(d)
     }
 
     /// Adds a box of full edge lengths `size`.

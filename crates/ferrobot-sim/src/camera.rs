@@ -1,5 +1,7 @@
-//! Pinhole cameras rendering depth, segmentation and flat-shaded RGB from
-//! the scene's collision geometry by ray casting, rows in parallel.
+//! Pinhole cameras rendering depth, segmentation and Lambert-shaded RGB
+//! from the scene's collision geometry: boxes and convex polyhedra
+//! rasterised into a depth buffer, curved primitives ray cast against it,
+//! bands of rows in parallel.
 //!
 //! Camera frame: OpenCV (x right, y down, z forward). Depth is the z
 //! coordinate of the hit in the camera frame (metres, `f32`), `+inf` where
@@ -396,6 +398,314 @@ fn slab(inv: Vector, mins: Vector, maxs: Vector, tmax: f32) -> bool {
     tmin <= tout
 }
 
+/// A directional light (the sun, a distant lamp): parallel rays.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DirectionalLight {
+    /// Direction the light travels, world frame (any non-zero length;
+    /// normalised when rendering). `[0, 0, -1]` shines straight down.
+    pub direction: [f64; 3],
+    /// Colour (linear RGB, each component in [0, 1]).
+    pub color: [f64; 3],
+    /// Intensity in [0, 10] (a surface facing the light receives
+    /// `color * intensity`).
+    pub intensity: f64,
+}
+
+/// How RGB images are shaded (Lambert): a pixel of a surface with albedo
+/// `c` (the segmentation label's colour) and unit normal `n` seen along the
+/// unit view ray `r` is
+/// `255 * c * (ambient + headlight * |n·r| + Σ color_i * intensity_i * max(0, -n·l_i))`
+/// per channel, saturating at 255, where `l_i` is light `i`'s unit direction
+/// of travel. The default (ambient 0.35, headlight 0.65, no lights) is the
+/// renderer's historical head-light shading. Depth and segmentation do not
+/// depend on lighting.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Lighting {
+    /// Ambient term per channel, each in [0, 1].
+    pub ambient: [f64; 3],
+    /// Weight in [0, 1] of a light at the camera (shading by the angle
+    /// between the surface and the view ray).
+    pub headlight: f64,
+    /// Directional lights (at most [`Lighting::MAX_LIGHTS`]).
+    pub lights: Vec<DirectionalLight>,
+}
+
+impl Default for Lighting {
+    fn default() -> Self {
+        Self {
+            ambient: [0.35; 3],
+            headlight: 0.65,
+            lights: Vec::new(),
+        }
+    }
+}
+
+impl Lighting {
+    /// Most directional lights a scene may have.
+    pub const MAX_LIGHTS: usize = 8;
+
+    /// Checks every field against its documented range.
+    pub fn validate(&self) -> Result<()> {
+        let unit = |what: &str, v: f64| {
+            if v.is_finite() && (0.0..=1.0).contains(&v) {
+                Ok(())
+            } else {
+                Err(SimError::InvalidArgument(format!(
+                    "lighting: {what} must be in [0, 1], got {v}"
+                )))
+            }
+        };
+        for v in self.ambient {
+            unit("ambient", v)?;
+        }
+        unit("headlight", self.headlight)?;
+        if self.lights.len() > Self::MAX_LIGHTS {
+            return Err(SimError::InvalidArgument(format!(
+                "lighting: at most {} directional lights, got {}",
+                Self::MAX_LIGHTS,
+                self.lights.len()
+            )));
+        }
+        for (i, l) in self.lights.iter().enumerate() {
+            let n2: f64 = l.direction.iter().map(|x| x * x).sum();
+            if !(n2.is_finite() && n2 > 1e-18) {
+                return Err(SimError::InvalidArgument(format!(
+                    "lighting: light {i} direction must be finite and non-zero, got {:?}",
+                    l.direction
+                )));
+            }
+            for v in l.color {
+                unit(&format!("light {i} color"), v)?;
+            }
+            if !(l.intensity.is_finite() && (0.0..=10.0).contains(&l.intensity)) {
+                return Err(SimError::InvalidArgument(format!(
+                    "lighting: light {i} intensity must be in [0, 10], got {}",
+                    l.intensity
+                )));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Rows rendered together (one rayon task).
+const BAND: usize = 16;
+
+/// A front face of a planar body (box or convex polyhedron) for
+/// rasterisation: its plane in the camera frame, its polygon clipped to the
+/// view frustum and projected to pixels.
+struct RasterFace {
+    /// Outward normal and offset (camera frame; the face is `n·x = d`).
+    n: Vector,
+    d: f32,
+    seg: u32,
+    /// Inclusive pixel rows covered.
+    v0: usize,
+    v1: usize,
+    /// Range of the projected polygon in `RasterSetup::poly`.
+    start: usize,
+    len: usize,
+}
+
+/// A convex polygon clipped against the near plane and the four sides of
+/// the frustum (widened by a pixel), in camera-frame coordinates (`f64`).
+struct Clipper {
+    /// Planes `a·x >= 0` (through the camera) and the near plane.
+    sides: [[f64; 3]; 4],
+    near: f64,
+    a: Vec<[f64; 3]>,
+    b: Vec<[f64; 3]>,
+}
+
+impl Clipper {
+    fn new(intr: &Intrinsics, near: f64) -> Self {
+        let (w, h) = (intr.width as f64, intr.height as f64);
+        let l = (-1.0 - intr.cx) / intr.fx;
+        let r = (w - intr.cx) / intr.fx;
+        let t = (-1.0 - intr.cy) / intr.fy;
+        let b = (h - intr.cy) / intr.fy;
+        Self {
+            sides: [
+                [1.0, 0.0, -l],
+                [-1.0, 0.0, r],
+                [0.0, 1.0, -t],
+                [0.0, -1.0, b],
+            ],
+            near,
+            a: Vec::with_capacity(16),
+            b: Vec::with_capacity(16),
+        }
+    }
+
+    /// Clips the polygon in `self.a`; the result is left in `self.a`.
+    /// Intersections are computed from the edge's end points in a canonical
+    /// order, so that two faces sharing an edge get bit-identical clipped
+    /// vertices (no cracks between them).
+    fn clip(&mut self) {
+        for k in 0..5 {
+            let f = |p: &[f64; 3]| -> f64 {
+                if k == 4 {
+                    p[2] - self.near
+                } else {
+                    let s = self.sides[k];
+                    s[0] * p[0] + s[1] * p[1] + s[2] * p[2]
+                }
+            };
+            self.b.clear();
+            let n = self.a.len();
+            for i in 0..n {
+                let p = self.a[i];
+                let q = self.a[(i + 1) % n];
+                let (fp, fq) = (f(&p), f(&q));
+                if fp >= 0.0 {
+                    self.b.push(p);
+                }
+                if (fp >= 0.0) != (fq >= 0.0) {
+                    let (x, y, fx, fy) = if p < q {
+                        (p, q, fp, fq)
+                    } else {
+                        (q, p, fq, fp)
+                    };
+                    let s = fx / (fx - fy);
+                    self.b.push([
+                        x[0] + s * (y[0] - x[0]),
+                        x[1] + s * (y[1] - x[1]),
+                        x[2] + s * (y[2] - x[2]),
+                    ]);
+                }
+            }
+            std::mem::swap(&mut self.a, &mut self.b);
+            if self.a.len() < 3 {
+                self.a.clear();
+                return;
+            }
+        }
+    }
+}
+
+/// The planar bodies' front faces, ready to rasterise.
+struct RasterSetup {
+    faces: Vec<RasterFace>,
+    poly: Vec<(f64, f64)>,
+}
+
+impl RasterSetup {
+    /// Adds the front faces of a convex body: `verts` in the camera frame,
+    /// `faces` as (outward normal, offset, vertex loop).
+    fn add_body<'a>(
+        &mut self,
+        clip: &mut Clipper,
+        intr: &Intrinsics,
+        verts: &[[f64; 3]],
+        faces: impl Iterator<Item = (Vector, f32, &'a [u32])>,
+        seg: u32,
+    ) {
+        for (n, d, lp) in faces {
+            // Front faces only: the camera (origin) outside the face plane.
+            if d.is_nan() || d >= 0.0 {
+                continue;
+            }
+            clip.a.clear();
+            clip.a.extend(lp.iter().map(|&i| verts[i as usize]));
+            clip.clip();
+            if clip.a.is_empty() {
+                continue;
+            }
+            let start = self.poly.len();
+            let (mut y0, mut y1) = (f64::INFINITY, f64::NEG_INFINITY);
+            for p in &clip.a {
+                let u = intr.fx * p[0] / p[2] + intr.cx;
+                let v = intr.fy * p[1] / p[2] + intr.cy;
+                y0 = y0.min(v);
+                y1 = y1.max(v);
+                self.poly.push((u, v));
+            }
+            // Rows v with y0 <= v < y1.
+            let v0 = y0.ceil().max(0.0);
+            let v1 = (y1.ceil() - 1.0).min(intr.height as f64 - 1.0);
+            if v0.is_nan() || v1.is_nan() || v0 > v1 {
+                self.poly.truncate(start);
+                continue;
+            }
+            self.faces.push(RasterFace {
+                n,
+                d,
+                seg,
+                v0: v0 as usize,
+                v1: v1 as usize,
+                start,
+                len: self.poly.len() - start,
+            });
+        }
+    }
+}
+
+/// The pixel columns `[u0, u1)` of row `v` inside the convex polygon `poly`
+/// (pixel centres with `x_left <= u < x_right`; each edge's crossing is
+/// computed from its end points in a canonical order, so neighbouring faces
+/// share it exactly).
+#[inline]
+fn span(poly: &[(f64, f64)], v: f64, w: usize) -> (usize, usize) {
+    let (mut xl, mut xr) = (f64::INFINITY, f64::NEG_INFINITY);
+    let n = poly.len();
+    for i in 0..n {
+        let (p, q) = (poly[i], poly[(i + 1) % n]);
+        let (p, q) = if p.1 < q.1 || (p.1 == q.1 && p.0 < q.0) {
+            (p, q)
+        } else {
+            (q, p)
+        };
+        if p.1 <= v && v < q.1 {
+            let x = p.0 + (v - p.1) * (q.0 - p.0) / (q.1 - p.1);
+            xl = xl.min(x);
+            xr = xr.max(x);
+        }
+    }
+    if xl.is_nan() || xr.is_nan() || xl >= xr {
+        return (0, 0);
+    }
+    let u0 = xl.ceil().clamp(0.0, w as f64) as usize;
+    let u1 = xr.ceil().clamp(0.0, w as f64) as usize;
+    (u0, u1)
+}
+
+/// A box face: outward normal, offset, corner loop.
+type BoxFace = (Vector, f32, [u32; 4]);
+
+/// The eight corners (camera frame) and six faces of a box.
+fn box_faces(pose: &Pose, he: Vector) -> ([[f64; 3]; 8], [BoxFace; 6]) {
+    let mut verts = [[0.0; 3]; 8];
+    for (i, v) in verts.iter_mut().enumerate() {
+        let s = |b: usize| if i & b != 0 { 1.0 } else { -1.0 };
+        let p = pose.transform_point(Vector::new(s(1) * he.x, s(2) * he.y, s(4) * he.z));
+        *v = [p.x as f64, p.y as f64, p.z as f64];
+    }
+    let t = pose.translation;
+    let (tx, ty, tz) = (t.x as f64, t.y as f64, t.z as f64);
+    let face = |axis: usize, sign: f32, lp: [u32; 4]| {
+        let mut a = Vector::ZERO;
+        a[axis] = sign;
+        let n = pose.rotation * a;
+        // Offset from the face centre (not a far corner): accurate for the
+        // 2 km ground box.
+        let c = pose.rotation * (a * he[axis]);
+        let d = n.x as f64 * (tx + c.x as f64)
+            + n.y as f64 * (ty + c.y as f64)
+            + n.z as f64 * (tz + c.z as f64);
+        (n, d as f32, lp)
+    };
+    // Corner i has x = +he.x when bit 1 is set, y when bit 2, z when bit 4.
+    let faces = [
+        face(0, -1.0, [0, 2, 6, 4]),
+        face(0, 1.0, [1, 5, 7, 3]),
+        face(1, -1.0, [0, 4, 5, 1]),
+        face(1, 1.0, [2, 3, 7, 6]),
+        face(2, -1.0, [0, 1, 3, 2]),
+        face(2, 1.0, [4, 6, 7, 5]),
+    ];
+    (verts, faces)
+}
+
 impl World {
     /// World pose of `camera`'s OpenCV frame.
     pub fn camera_pose(&self, camera: &Camera) -> Result<Isometry3<f64>> {
@@ -414,8 +724,39 @@ impl World {
         })
     }
 
+    /// The lighting RGB images are shaded with.
+    pub fn lighting(&self) -> &Lighting {
+        &self.lighting
+    }
+
+    /// Sets the lighting (checked; the previous lighting is kept on error).
+    pub fn set_lighting(&mut self, lighting: Lighting) -> Result<()> {
+        lighting.validate()?;
+        self.lighting = lighting;
+        Ok(())
+    }
+
     /// Renders depth and segmentation (and RGB when `rgb`) from `camera`.
+    ///
+    /// Boxes and convex polyhedra (robot links' hulls, objects' hulls and
+    /// convex decompositions, the ground and tables) are rasterised: their
+    /// front faces, clipped to the view frustum, are scan-converted into a
+    /// depth buffer, each pixel's depth computed from the face's plane
+    /// along the pixel's ray (the ray cast's own formula). Curved
+    /// primitives (spheres, capsules, cylinders), half-spaces and other
+    /// shapes are ray cast analytically per pixel against that buffer.
     pub fn render(&self, camera: &Camera, rgb: bool) -> Result<Frame> {
+        self.render_impl(camera, rgb, true)
+    }
+
+    /// The same image as [`World::render`], every shape ray cast per pixel
+    /// (no rasterisation): the slower reference the rasteriser is tested
+    /// against.
+    pub fn render_ray_cast(&self, camera: &Camera, rgb: bool) -> Result<Frame> {
+        self.render_impl(camera, rgb, false)
+    }
+
+    fn render_impl(&self, camera: &Camera, rgb: bool, raster: bool) -> Result<Frame> {
         camera.validate()?;
         let intr = camera.intrinsics;
         let (w, h) = (intr.width, intr.height);
@@ -425,6 +766,12 @@ impl World {
         let far = camera.far as f32;
         let full = (0, w as i64 - 1, 0, h as i64 - 1);
         let mut items = Vec::new();
+        let mut setup = RasterSetup {
+            faces: Vec::new(),
+            poly: Vec::new(),
+        };
+        let mut clipper = Clipper::new(&intr, camera.near);
+        let mut hull_verts: Vec<[f64; 3]> = Vec::new();
         for (_, c) in self.state.colliders.iter() {
             if !c.is_enabled() {
                 continue;
@@ -469,9 +816,42 @@ impl World {
             };
             for (pose, shape) in parts {
                 let aabb = shape.compute_aabb(&pose);
-                let rect = if aabb.maxs.z <= near || aabb.mins.z >= far {
-                    None
-                } else if aabb.mins.z <= near {
+                // Bounding-volume culling: behind the camera or beyond far.
+                if aabb.maxs.z <= near || aabb.mins.z >= far {
+                    continue;
+                }
+                if raster {
+                    if let Some(b) = shape.as_cuboid() {
+                        let (verts, faces) = box_faces(&pose, b.half_extents);
+                        setup.add_body(
+                            &mut clipper,
+                            &intr,
+                            &verts,
+                            faces.iter().map(|(n, d, lp)| (*n, *d, &lp[..])),
+                            seg,
+                        );
+                        continue;
+                    }
+                    if let Some(cp) = shape.as_convex_polyhedron() {
+                        hull_verts.clear();
+                        hull_verts.extend(cp.points().iter().map(|p| {
+                            let q = pose.transform_point(*p);
+                            [q.x as f64, q.y as f64, q.z as f64]
+                        }));
+                        let adj = cp.vertices_adj_to_face();
+                        // The face planes exactly as the ray cast computes them.
+                        let faces = cp.faces().iter().map(|f| {
+                            let n = pose.rotation * f.normal;
+                            let first = f.first_vertex_or_edge as usize;
+                            let lp = &adj[first..first + f.num_vertices_or_edges as usize];
+                            let p = pose.transform_point(cp.points()[lp[0] as usize]);
+                            (n, n.dot(p), lp)
+                        });
+                        setup.add_body(&mut clipper, &intr, &hull_verts, faces, seg);
+                        continue;
+                    }
+                }
+                let rect = if aabb.mins.z <= near {
                     Some(full)
                 } else {
                     let (mut u0, mut u1, mut v0, mut v1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
@@ -516,12 +896,28 @@ impl World {
         });
         let colors: Vec<[f32; 3]> = {
             let max = self.labels().iter().map(|l| l.id).max().unwrap_or(0) as usize;
+            // Albedo times 255 per label.
             let mut c = vec![[0.0f32; 3]; max + 1];
             for l in self.labels() {
-                c[l.id as usize] = l.color;
+                c[l.id as usize] = l.color.map(|x| x * 255.0);
             }
             c
         };
+        // Lights in the camera frame, colour times intensity.
+        let lt = &self.lighting;
+        let ambient = lt.ambient.map(|x| x as f32);
+        let headlight = lt.headlight as f32;
+        let lights: Vec<(Vector, [f32; 3])> = lt
+            .lights
+            .iter()
+            .map(|l| {
+                let dw = nalgebra::Vector3::from(l.direction).normalize();
+                let dc = world_cam.rotation * Vector::new(dw.x as f32, dw.y as f32, dw.z as f32);
+                (dc, l.color.map(|c| (c * l.intensity) as f32))
+            })
+            .collect();
+        let (fx, fy, cx, cy) = (intr.fx, intr.fy, intr.cx, intr.cy);
+        let dxs: Vec<f32> = (0..w).map(|u| ((u as f64 - cx) / fx) as f32).collect();
         let mut depth = vec![f32::INFINITY; w * h];
         let mut seg = vec![0u32; w * h];
         let mut rgb_buf = if rgb {
@@ -529,96 +925,167 @@ impl World {
         } else {
             Vec::new()
         };
-        let (fx, fy, cx, cy) = (intr.fx, intr.fy, intr.cx, intr.cy);
-        let render_row = |v: usize, drow: &mut [f32], srow: &mut [u32], crow: &mut [u8]| {
-            let vi = v as i64;
-            let cands: Vec<&Item> = items
+        let setup = &setup;
+        let render_band = |band: usize, dband: &mut [f32], sband: &mut [u32], cband: &mut [u8]| {
+            let rows = dband.len() / w;
+            let first = band * BAND;
+            let last = first + rows - 1;
+            let faces: Vec<&RasterFace> = setup
+                .faces
                 .iter()
-                .filter(|it| it.rect.2 <= vi && vi <= it.rect.3)
+                .filter(|f| f.v0 <= last && f.v1 >= first)
                 .collect();
-            if cands.is_empty() {
-                return;
-            }
-            let dy = ((v as f64 - cy) / fy) as f32;
-            for u in 0..w {
-                let ui = u as i64;
-                let dir = Vector::new(((u as f64 - cx) / fx) as f32, dy, 1.0);
-                let ray = Ray::new(Vector::ZERO, dir);
-                // Depth equals the ray parameter because dir.z == 1.
-                let mut best = far;
-                let mut hit: Option<&Item> = None;
-                let inv = Vector::ONE / dir;
-                for it in &cands {
-                    if let Some((n, d)) = it.plane {
-                        // Ray t*dir enters n.x <= d where n.(t dir) = d from outside.
-                        let nd = n.dot(dir);
-                        if d < 0.0 && nd < 0.0 {
-                            let t = d / nd;
-                            if t >= near && t < best {
-                                best = t;
-                                hit = Some(it);
+            // Hit normals (camera frame, unit length or zero when unknown)
+            // of the current row, for shading; written wherever a hit is.
+            let mut normals = if cband.is_empty() {
+                Vec::new()
+            } else {
+                vec![Vector::ZERO; w]
+            };
+            for r in 0..rows {
+                let v = first + r;
+                let drow = &mut dband[r * w..(r + 1) * w];
+                let srow = &mut sband[r * w..(r + 1) * w];
+                let dy = ((v as f64 - cy) / fy) as f32;
+                drow.fill(far);
+                // Rasterised faces into the row's depth buffer.
+                for f in &faces {
+                    if v < f.v0 || v > f.v1 {
+                        continue;
+                    }
+                    let (u0, u1) = span(&setup.poly[f.start..f.start + f.len], v as f64, w);
+                    for u in u0..u1 {
+                        let t = f.d / f.n.dot(Vector::new(dxs[u], dy, 1.0));
+                        if t >= near && t < drow[u] {
+                            drow[u] = t;
+                            srow[u] = f.seg;
+                            if !normals.is_empty() {
+                                normals[u] = f.n;
                             }
-                        } else if d >= 0.0 && near < best {
-                            // The camera is inside the half-space.
-                            best = near;
-                            hit = Some(it);
                         }
-                        continue;
-                    }
-                    if it.mins.z >= best {
-                        break;
-                    }
-                    if ui < it.rect.0 || ui > it.rect.1 || !slab(inv, it.mins, it.maxs, best) {
-                        continue;
-                    }
-                    let t = match it.fast.cast(dir) {
-                        Some(hit) => hit.map(|(t, _)| t),
-                        None => it.shape.cast_ray(&it.pose, &ray, best, true),
-                    };
-                    if let Some(t) = t
-                        && t >= near
-                        && t < best
-                    {
-                        best = t;
-                        hit = Some(it);
                     }
                 }
-                if let Some(it) = hit {
-                    drow[u] = best;
-                    srow[u] = it.seg;
-                    if !crow.is_empty() {
-                        let normal = match (it.plane, it.fast.cast(dir)) {
-                            (Some((n, _)), _) => Some(n),
-                            (_, Some(hit)) => hit.map(|(_, n)| n),
-                            _ => it
-                                .shape
-                                .cast_ray_and_get_normal(&it.pose, &ray, best * 1.001 + 1e-4, true)
-                                .map(|i| i.normal),
-                        };
-                        let shade = normal.map_or(1.0, |n| {
-                            0.35 + 0.65 * n.normalize_or_zero().dot(dir.normalize()).abs()
-                        });
-                        let c = colors.get(it.seg as usize).copied().unwrap_or([1.0; 3]);
-                        for k in 0..3 {
-                            crow[3 * u + k] = (c[k] * shade * 255.0).clamp(0.0, 255.0) as u8;
+                // Ray-cast items against it.
+                let vi = v as i64;
+                let cands: Vec<&Item> = items
+                    .iter()
+                    .filter(|it| it.rect.2 <= vi && vi <= it.rect.3)
+                    .collect();
+                if !cands.is_empty() {
+                    // Only the columns some candidate covers.
+                    let ua = cands.iter().map(|it| it.rect.0).min().unwrap_or(0).max(0) as usize;
+                    let ub = cands.iter().map(|it| it.rect.1).max().unwrap_or(0).max(0) as usize;
+                    for u in ua..=ub.min(w - 1) {
+                        let ui = u as i64;
+                        let dir = Vector::new(dxs[u], dy, 1.0);
+                        // Depth equals the ray parameter because dir.z == 1.
+                        let mut best = drow[u];
+                        let mut hit: Option<(&Item, Option<Vector>)> = None;
+                        let inv = Vector::ONE / dir;
+                        for it in &cands {
+                            if let Some((n, d)) = it.plane {
+                                // Ray t*dir enters n.x <= d where n.(t dir) = d from outside.
+                                let nd = n.dot(dir);
+                                if d < 0.0 && nd < 0.0 {
+                                    let t = d / nd;
+                                    if t >= near && t < best {
+                                        best = t;
+                                        hit = Some((it, Some(n)));
+                                    }
+                                } else if d >= 0.0 && near < best {
+                                    // The camera is inside the half-space.
+                                    best = near;
+                                    hit = Some((it, Some(n)));
+                                }
+                                continue;
+                            }
+                            if it.mins.z >= best {
+                                break;
+                            }
+                            if ui < it.rect.0
+                                || ui > it.rect.1
+                                || !slab(inv, it.mins, it.maxs, best)
+                            {
+                                continue;
+                            }
+                            let t = match it.fast.cast(dir) {
+                                Some(h) => h,
+                                None => {
+                                    let ray = Ray::new(Vector::ZERO, dir);
+                                    it.shape
+                                        .cast_ray_and_get_normal(&it.pose, &ray, best, true)
+                                        .map(|i| (i.time_of_impact, i.normal))
+                                }
+                            };
+                            if let Some((t, n)) = t
+                                && t >= near
+                                && t < best
+                            {
+                                best = t;
+                                hit = Some((it, Some(n)));
+                            }
                         }
+                        if let Some((it, n)) = hit {
+                            drow[u] = best;
+                            srow[u] = it.seg;
+                            if !normals.is_empty() {
+                                normals[u] = n.unwrap_or(Vector::ZERO);
+                            }
+                        }
+                    }
+                }
+                for d in drow.iter_mut() {
+                    if *d >= far {
+                        *d = f32::INFINITY;
+                    }
+                }
+                if cband.is_empty() {
+                    continue;
+                }
+                let crow = &mut cband[3 * r * w..3 * (r + 1) * w];
+                let dy2 = dy * dy + 1.0;
+                for u in 0..w {
+                    if drow[u].is_infinite() {
+                        continue;
+                    }
+                    let n = normals[u];
+                    let head = if n == Vector::ZERO {
+                        1.0
+                    } else {
+                        let view = Vector::new(dxs[u], dy, 1.0);
+                        n.dot(view).abs() / (dxs[u] * dxs[u] + dy2).sqrt()
+                    };
+                    let mut shade = [
+                        ambient[0] + headlight * head,
+                        ambient[1] + headlight * head,
+                        ambient[2] + headlight * head,
+                    ];
+                    for (l, c) in &lights {
+                        let lambert = (-n.dot(*l)).max(0.0);
+                        for k in 0..3 {
+                            shade[k] += c[k] * lambert;
+                        }
+                    }
+                    let c = colors.get(srow[u] as usize).copied().unwrap_or([255.0; 3]);
+                    for k in 0..3 {
+                        crow[3 * u + k] = (c[k] * shade[k]).clamp(0.0, 255.0) as u8;
                     }
                 }
             }
         };
         if rgb {
             depth
-                .par_chunks_mut(w)
-                .zip(seg.par_chunks_mut(w))
-                .zip(rgb_buf.par_chunks_mut(3 * w))
+                .par_chunks_mut(BAND * w)
+                .zip(seg.par_chunks_mut(BAND * w))
+                .zip(rgb_buf.par_chunks_mut(3 * BAND * w))
                 .enumerate()
-                .for_each(|(v, ((d, s), c))| render_row(v, d, s, c));
+                .for_each(|(b, ((d, s), c))| render_band(b, d, s, c));
         } else {
             depth
-                .par_chunks_mut(w)
-                .zip(seg.par_chunks_mut(w))
+                .par_chunks_mut(BAND * w)
+                .zip(seg.par_chunks_mut(BAND * w))
                 .enumerate()
-                .for_each(|(v, (d, s))| render_row(v, d, s, &mut []));
+                .for_each(|(b, (d, s))| render_band(b, d, s, &mut []));
         }
         Ok(Frame {
             width: w,

@@ -32,7 +32,7 @@ pub mod trajectory;
 pub mod validate;
 pub mod world;
 
-pub use camera::{Camera, CameraMount, Frame, Intrinsics};
+pub use camera::{Camera, CameraMount, DirectionalLight, Frame, Intrinsics, Lighting};
 pub use controllers::{JointPid, ResolvedRate};
 pub use drives::Drive;
 pub use error::{Result, SimError};

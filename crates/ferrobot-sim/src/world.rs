@@ -142,6 +142,8 @@ pub struct World {
     steps: u64,
     /// Per robot, whether it touches something (workspace of `step`).
     touching: Vec<bool>,
+    /// Lighting of rendered RGB images (see `camera`).
+    pub(crate) lighting: crate::camera::Lighting,
 }
 
 /// Largest speed (m/s) a body may reach before the simulation counts as
@@ -230,6 +232,7 @@ impl World {
             time: 0.0,
             steps: 0,
             touching: Vec::new(),
+            lighting: Default::default(),
         };
         if world.config.ground {
             let body = world

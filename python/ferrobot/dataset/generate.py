@@ -184,7 +184,9 @@ def randomize_scene(spec, seed: int) -> dict:
     """Applies seeded domain randomisation to ``spec`` in place; returns what was drawn (for the episode's
     metadata). Object colours: one of the named colours with +-0.05 jitter per channel; mass x U(0.7, 1.3);
     friction U(0.7, 1.0); scene camera eye jitter U(-0.03, 0.03) m per axis, look-at point U(-0.02, 0.02) m.
-    Lighting is not randomised: the renderer shades by the angle to a head light and has no light sources."""
+    Rendering (applied by :func:`episode_cameras` / :func:`apply_lighting`, not part of the scene): the
+    lighting (:func:`random_lighting`) and the wrist camera's mount pose (:func:`random_wrist_camera`), drawn
+    from a second stream of the same seed so that the scene draws above do not depend on them."""
     rng = np.random.default_rng([seed, 0xD0])
     names = list(COLOR_NAMES)
     objects = {}
@@ -197,7 +199,67 @@ def randomize_scene(spec, seed: int) -> dict:
     eye = np.asarray(spec.camera_eye) + rng.uniform(-0.03, 0.03, 3)
     target = np.asarray(spec.camera_target) + rng.uniform(-0.02, 0.02, 3)
     spec.camera_eye, spec.camera_target = tuple(eye.tolist()), tuple(target.tolist())
-    return {"objects": objects, "camera_eye": list(spec.camera_eye), "camera_target": list(spec.camera_target)}
+    render_rng = np.random.default_rng([seed, 0xD1])
+    return {
+        "objects": objects,
+        "camera_eye": list(spec.camera_eye),
+        "camera_target": list(spec.camera_target),
+        "lighting": random_lighting(render_rng),
+        "wrist_camera": random_wrist_camera(render_rng),
+    }
+
+
+def random_lighting(rng) -> dict:
+    """A random Lambert lighting (the keyword arguments of ``World.set_lighting``): grey ambient U(0.15, 0.35)
+    with +-0.03 tint per channel, head light U(0.1, 0.3), one directional light from elevation U(25, 85)
+    degrees above the horizon at azimuth U(0, 360) degrees, colour U(0.8, 1.0) per channel (warm to cool
+    whites), intensity U(0.3, 0.7)."""
+    grey = rng.uniform(0.15, 0.35)
+    ambient = [float(np.clip(grey + rng.uniform(-0.03, 0.03), 0.0, 1.0)) for _ in range(3)]
+    headlight = float(rng.uniform(0.1, 0.3))
+    el, az = np.radians(rng.uniform(25.0, 85.0)), np.radians(rng.uniform(0.0, 360.0))
+    # The light travels from the sky position (el, az) towards the origin.
+    direction = [float(-np.cos(el) * np.cos(az)), float(-np.cos(el) * np.sin(az)), float(-np.sin(el))]
+    color = [float(c) for c in rng.uniform(0.8, 1.0, 3)]
+    intensity = float(rng.uniform(0.3, 0.7))
+    return {"ambient": ambient, "headlight": headlight, "lights": [[direction, color, intensity]]}
+
+
+def random_wrist_camera(rng) -> dict:
+    """Wrist camera mount jitter (hand frame): the eye moved U(-5, 5) mm and the look-at point U(-10, 10) mm
+    per axis from :data:`ferrobot.control.WRIST_EYE` / ``WRIST_TARGET`` (a few degrees of rotation)."""
+    from ..control import WRIST_EYE, WRIST_TARGET
+
+    eye = np.asarray(WRIST_EYE) + rng.uniform(-0.005, 0.005, 3)
+    target = np.asarray(WRIST_TARGET) + rng.uniform(-0.01, 0.01, 3)
+    return {"eye": eye.tolist(), "target": target.tolist()}
+
+
+def apply_lighting(world, rand: dict) -> None:
+    """Sets ``world``'s lighting to the episode's randomised lighting (default lighting without one)."""
+    lt = rand.get("lighting")
+    if lt is not None:
+        world.set_lighting(
+            ambient=lt["ambient"],
+            headlight=lt["headlight"],
+            lights=[(d, c, i) for d, c, i in lt["lights"]],
+        )
+
+
+def episode_cameras(cfg: dict, rand: dict) -> list:
+    """The :class:`~ferrobot.control.CameraSpec` list of an episode: the configured cameras, the wrist camera
+    at the episode's jittered mount pose when randomised."""
+    from .. import _core
+    from ..control import CameraSpec
+
+    specs = []
+    for c in cfg["cameras"]:
+        s = CameraSpec(c["name"], c["width"], c["height"])
+        w = rand.get("wrist_camera")
+        if s.name == "wrist" and w is not None:
+            s.link, s.pose = "panda_hand", _core.look_at(w["eye"], w["target"], (1.0, 0.0, 0.0))
+        specs.append(s)
+    return specs
 
 
 def task_text(spec) -> str:
@@ -232,7 +294,7 @@ def episode_name(index: int) -> str:
 def run_episode(cfg: dict, index: int, root: str) -> dict:
     """Runs, records and publishes episode ``index``; returns its summary. Idempotent: an episode already
     published is not run again."""
-    from ..control import CameraSpec, make_cameras
+    from ..control import make_cameras
     from ..pipeline import PickPlace, PickPlaceConfig
     from ..pipeline.recording import ControlRecorder
     from .staging import Hdf5EpisodeWriter, LeRobotEpisodeWriter
@@ -249,10 +311,10 @@ def run_episode(cfg: dict, index: int, root: str) -> dict:
     pp = _PP["pp"]
     fps = int(cfg["control_hz"])
     writer_cls = LeRobotEpisodeWriter if cfg["format"] == "lerobot" else Hdf5EpisodeWriter
-    specs = [CameraSpec(c["name"], c["width"], c["height"]) for c in cfg["cameras"]]
     for attempt in range(MAX_ATTEMPTS):
         seed = episode_seed(cfg["seed"], index, attempt)
         spec, rand = episode_spec(cfg, seed)
+        specs = episode_cameras(cfg, rand)
         writer = writer_cls(staging, name, fps)
         frames = [0]
 
@@ -262,7 +324,8 @@ def run_episode(cfg: dict, index: int, root: str) -> dict:
             if frames[0] == 3:
                 _fault("worker", index)
 
-        def factory(world, robot, camera, arm_idx, spec=spec, sink=sink):
+        def factory(world, robot, camera, arm_idx, spec=spec, sink=sink, specs=specs, rand=rand):
+            apply_lighting(world, rand)
             cameras = make_cameras(world, robot, camera.get_world_transform(), specs, scene_fov_deg=scene_fov(spec))
             return ControlRecorder(
                 world,
