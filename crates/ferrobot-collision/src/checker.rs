@@ -14,12 +14,13 @@ use wide::f32x8;
 
 use crate::acm::AllowedCollisions;
 use crate::compiled::{CompiledRobot, CompiledWorld};
+use crate::dispatch::SimdLevel;
 use crate::error::{CollisionError, Result};
 use crate::kernel::{Scratch, check};
 use crate::lanes::Lanes;
 use crate::robot_spheres::RobotSpheres;
 use crate::shapes::ObstacleShape;
-use crate::single::{OneScratch, check_one};
+use crate::single::OneScratch;
 use crate::sphere::Sphere;
 use crate::spherize::{SpherizeOptions, spherize_link};
 use crate::world::{CollisionWorld, WorldObject, check_shape};
@@ -103,6 +104,8 @@ pub struct CollisionChecker {
     grid: std::sync::OnceLock<Option<Arc<WorldGrid>>>,
     /// Single checks since the last change (counted until the grid exists).
     single_checks: Arc<AtomicU64>,
+    /// Instruction set of the kernels (see [`crate::dispatch`]).
+    simd: SimdLevel,
 }
 
 /// Single checks on an unchanged robot and world before the world grid is
@@ -142,6 +145,7 @@ impl CollisionChecker {
             exact_self: true,
             grid: Default::default(),
             single_checks: Default::default(),
+            simd: crate::dispatch::level(),
         };
         checker.recompile_robot();
         Ok(checker)
@@ -312,6 +316,27 @@ impl CollisionChecker {
         (&self.robot, &self.compiled_world)
     }
 
+    /// The instruction-set level the kernels run at: the best the CPU
+    /// supports unless `FERROBOT_SIMD` or [`CollisionChecker::set_simd_level`]
+    /// chose a lower one.
+    pub fn simd_level(&self) -> SimdLevel {
+        self.simd
+    }
+
+    /// Runs the kernels at `level` (every level gives the same answers; this
+    /// is for tests and benchmarks). Fails if the CPU lacks the level.
+    pub fn set_simd_level(&mut self, level: SimdLevel) -> Result<()> {
+        if !level.supported() {
+            return Err(CollisionError::InvalidArgument(format!(
+                "level: this CPU does not support {} (best: {})",
+                level.name(),
+                crate::dispatch::detected().name()
+            )));
+        }
+        self.simd = level;
+        Ok(())
+    }
+
     fn check_q(&self, what: &str, q: &[f64]) -> Result<()> {
         self.model.check_configuration(what, q).map_err(Into::into)
     }
@@ -355,7 +380,8 @@ impl CollisionChecker {
                 None => None,
             };
             self.static_hit
-                || check_one(
+                || crate::dispatch::check_one(
+                    self.simd,
                     &self.robot,
                     &self.compiled_world,
                     grid,
@@ -396,23 +422,16 @@ impl CollisionChecker {
             .zip(qs.par_chunks(CHUNK * dof))
             .for_each(|(o, q)| {
                 let mut scratch = Scratch::<f32x8>::new(&self.robot);
-                for (po, pq) in o.chunks_mut(8).zip(q.chunks(8 * dof)) {
-                    let n = po.len();
-                    let lanes = pack(pq, dof, n);
-                    let active = (1u32 << n) - 1;
-                    let hit = check(
-                        &self.robot,
-                        &self.compiled_world,
-                        &lanes,
-                        self.margin as f32,
-                        active,
-                        true,
-                        &mut scratch,
-                    );
-                    for (i, v) in po.iter_mut().enumerate() {
-                        *v = hit & (1 << i) != 0;
-                    }
-                }
+                crate::dispatch::check_packs(
+                    self.simd,
+                    &self.robot,
+                    &self.compiled_world,
+                    q,
+                    dof,
+                    self.margin as f32,
+                    o,
+                    &mut scratch,
+                );
             });
     }
 
@@ -447,8 +466,6 @@ impl CollisionChecker {
             .fold(0.0, f64::max);
         // `as` saturates; callers bound the resolution (ranges::RESOLUTION).
         let steps = ((span / resolution).ceil() as usize).max(1);
-        let points = steps.saturating_add(1);
-        let packs = points.div_ceil(8);
         // Up to 64 DOFs on the stack (no allocation on the hot path).
         let mut stack = [f32x8::splat(0.0); 64];
         let mut heap: Vec<f32x8> = Vec::new();
@@ -464,28 +481,17 @@ impl CollisionChecker {
                 *slot = Some((self.id, Scratch::new(&self.robot)));
             }
             let scratch = &mut slot.as_mut().expect("set above").1;
-            for p in 0..packs {
-                let index = |i: usize| (i * packs + p).min(points - 1);
-                for (d, lane) in lanes.iter_mut().enumerate() {
-                    *lane = f32x8::from_fn(|i| {
-                        let t = index(i) as f64 / steps as f64;
-                        (q0[d] + (q1[d] - q0[d]) * t) as f32
-                    });
-                }
-                if check(
-                    &self.robot,
-                    &self.compiled_world,
-                    lanes,
-                    self.margin as f32,
-                    0xff,
-                    true,
-                    scratch,
-                ) != 0
-                {
-                    return false;
-                }
-            }
-            true
+            crate::dispatch::motion_free(
+                self.simd,
+                &self.robot,
+                &self.compiled_world,
+                q0,
+                q1,
+                steps,
+                lanes,
+                self.margin as f32,
+                scratch,
+            )
         })
     }
 
@@ -578,7 +584,8 @@ impl CollisionChecker {
 
 /// Packs `n` configurations (row-major, `dof` each) into DOF-major lanes;
 /// lanes past `n` repeat the last configuration.
-fn pack(q: &[f64], dof: usize, n: usize) -> Vec<f32x8> {
+#[inline(always)]
+pub(crate) fn pack(q: &[f64], dof: usize, n: usize) -> Vec<f32x8> {
     (0..dof)
         .map(|d| f32x8::from_fn(|i| q[i.min(n - 1) * dof + d] as f32))
         .collect()

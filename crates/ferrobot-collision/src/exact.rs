@@ -594,7 +594,9 @@ fn relative(a: &([f32; 9], [f32; 3]), b: &([f32; 9], [f32; 3])) -> Pose {
 
 /// Of the lanes in `lanes`, those where the exact geometry of bodies `a`
 /// and `b` (lane frames `fa`, `fb`) is closer than `margin` (or touches,
-/// for a margin of zero or less).
+/// for a margin of zero or less). Inlined into the [`crate::dispatch`]
+/// entry points.
+#[inline(always)]
 pub fn confirm<L: Lanes>(
     a: &ExactBody,
     b: &ExactBody,

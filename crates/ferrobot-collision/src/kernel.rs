@@ -101,7 +101,7 @@ fn joint_frame<L: Lanes>(parent: &LaneFrame<L>, step: &Step, qj: L, sc: (L, L)) 
 /// With one lane (a single configuration), the sines and cosines of up to
 /// eight joints are evaluated at once in SIMD lanes; [`sin_cos`] is
 /// lane-exact, so the frames equal the eight-lane kernel's bit for bit.
-#[inline]
+#[inline(always)]
 pub fn forward<L: Lanes>(robot: &CompiledRobot, q: &[L], scratch: &mut Scratch<L>) {
     let (one, zero) = (L::splat(1.0), L::splat(0.0));
     scratch.frames[0] = [
@@ -152,6 +152,7 @@ pub type Cols = [f32x4; 4];
 /// which would go through memory), and any other step reads its parent's
 /// columns one at a time (a 32-byte load of two columns just stored
 /// separately would stall on store forwarding).
+#[inline(always)]
 pub fn forward_cols(robot: &CompiledRobot, q: &[f32], cols: &mut [Cols]) {
     let zero4 = f32x4::splat(0.0);
     cols[0] = [
@@ -318,6 +319,10 @@ pub(crate) fn sphere_hits_prim<L: Lanes>(prim: &Prim, c: &[L; 3], r: L) -> u32 {
 /// are ignored. With `skip_static`, bodies fixed to the base (frame 0) are
 /// not tested against the world: their answer does not depend on `q` and
 /// the caller has it already. Returns the bitmask of colliding lanes.
+///
+/// Inlined into its callers, so that a [`crate::dispatch`] entry point
+/// compiles it with its level's instructions.
+#[inline(always)]
 pub fn check<L: Lanes>(
     robot: &CompiledRobot,
     world: &CompiledWorld,

@@ -104,7 +104,9 @@ fn ensure_packs(
 /// itself. With `skip_static`, bodies fixed to the base are not tested
 /// against the world (the caller knows their answer). `grid`, made for this
 /// robot and world, lets bodies far from every obstacle skip the obstacle
-/// tests (see [`crate::world_grid`]).
+/// tests (see [`crate::world_grid`]). Inlined into the
+/// [`crate::dispatch`] entry points.
+#[inline(always)]
 pub fn check_one(
     robot: &CompiledRobot,
     world: &CompiledWorld,
