@@ -73,7 +73,9 @@ fn dispatch_picks_the_best_level_the_cpu_has() {
                 level.name()
             );
         }
-        if level < SimdLevel::X86V3 {
+        // A build whose baseline already has AVX2 (target-cpu=native on this machine) gives
+        // every copy AVX2; only a portable build can show the lower copies without it.
+        if level < SimdLevel::X86V3 && !cfg!(target_feature = "avx2") {
             assert!(!f.iter().any(|x| x == "avx2"), "{}: {f:?}", level.name());
         }
     }
