@@ -86,7 +86,7 @@ impl EncoderNoise {
     /// (row-major); a per-joint `sigma` must match the row length.
     pub fn apply(&mut self, q: &[f64], rows: usize) -> Result<Vec<f64>> {
         check_finite("q", q)?;
-        let n = if rows == 0 { 0 } else { q.len() / rows };
+        let n = q.len().checked_div(rows).unwrap_or(0);
         if rows == 0 || n * rows != q.len() {
             return Err(ControlError::InvalidArgument(format!(
                 "q: {} values do not split into {rows} rows",

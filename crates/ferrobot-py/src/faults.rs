@@ -221,6 +221,7 @@ impl PyArbiter {
 
     /// Per joint, (values with NaN where no command is fresh, winning
     /// source names with None there).
+    #[allow(clippy::type_complexity)]
     fn resolve<'py>(
         &mut self,
         py: Python<'py>,
