@@ -2,13 +2,17 @@
 
 The bundled Panda (gravity compensation on, default drives, dt = 1/240 s)
 tracks a planned motion (RRT-Connect + time scaling, 7 arm joints) whose
-position and velocity commands pass through a ``ferrobot.CommandDelay``: a
-command issued at t takes effect at t + delay. Modes:
+position and velocity commands go through the simulated robot's own command
+latency (``Robot.set_command_latency``: a command issued at world time t takes
+effect at the first step starting at or after t + delay, applied inside
+``World.step``). Modes:
 
 * ``none``: the trajectory sample at t is issued at t (uncompensated);
-* ``linear``: the command stream is extrapolated by the delay
-  (``ferrobot.LinearPredictor``; velocity feed-forward by finite differences);
-* ``lookahead``: the plan is known, so the sample at t + delay is issued at t.
+* ``linear``: the command stream is extrapolated by the robot's latency
+  (``ferrobot.LinearPredictor(robot.command_latency)``; velocity feed-forward by
+  finite differences);
+* ``lookahead``: the plan is known, so the sample at t + robot.command_latency is
+  issued at t.
 
 Tracking error is |q(t) - plan(t)| over the arm joints, during the motion and a
 0.3 s settle. Run: ``python benches/latency.py [--delays 0.02 0.05 0.1] [--json FILE]``.
@@ -37,16 +41,17 @@ def run(delay: float, mode: str, dt: float = 1 / 240) -> dict:
     robot.set_joint_position_targets(q0)
     positions, velocities, idx = _planned_motion(model, q0, dt)
     k = len(idx)
-    buf = _core.CommandDelay(delay, 2 * k)
-    pred = _core.LinearPredictor(delay)
+    robot.set_command_latency(delay)
+    latency = robot.command_latency
+    pred = _core.LinearPredictor(latency)
     prev_p = None
     n = len(positions) + int(0.3 / dt)
     errs = []
     for s in range(n):
         t = s * dt
         if mode == "lookahead":
-            p = _core.trajectory_sample(positions, dt, t + delay)
-            v = _core.trajectory_sample(velocities, dt, t + delay)
+            p = _core.trajectory_sample(positions, dt, t + latency)
+            v = _core.trajectory_sample(velocities, dt, t + latency)
         else:
             p = _core.trajectory_sample(positions, dt, t)
             v = _core.trajectory_sample(velocities, dt, t)
@@ -55,11 +60,8 @@ def run(delay: float, mode: str, dt: float = 1 / 240) -> dict:
                 p = pred.update(t, raw)
                 v = np.zeros(k) if prev_p is None else (raw - prev_p) / dt
                 prev_p = raw
-        buf.push(t, np.concatenate([p, v]))
-        due = buf.pop_due(t)
-        if due is not None:
-            robot.set_joint_position_targets(due[:k], joint_indices=idx)
-            robot.set_joint_velocity_targets(due[k:], joint_indices=idx)
+        robot.set_joint_position_targets(p, joint_indices=idx)
+        robot.set_joint_velocity_targets(v, joint_indices=idx)
         world.step(1)
         want = _core.trajectory_sample(positions, dt, t + dt)
         errs.append(np.abs(robot.get_joint_positions()[idx] - want))

@@ -10,7 +10,10 @@ at a random point and time (0.3-2.0 s). The loop is **kinematic**: at 100 Hz eac
 robot follows the commanded position/velocity targets exactly (a perfect position-controlled arm, as a real
 Franka's joint-position interface approximates). Episodes last 6 s.
 
-Methods: ``reactive`` (ferrobot.ReactiveController), ``potential`` (ferrobot.PotentialFieldController),
+Methods: ``reactive`` (ferrobot.ReactiveController with global guidance: when a step reports ``stalled``, the
+target's IK solution and a collision-free path to it on the obstacles' current poses, ``Planner``, at most
+``MAX_GUIDANCE_PLANS`` per episode, are followed as waypoints with avoidance on; planning time counts as controller
+time), ``reactive_local`` (the same controller without guidance), ``potential`` (ferrobot.PotentialFieldController),
 ``plan_once`` (ferrobot.Planner on the obstacles' poses at t=0, trajectory executed open loop) and ``replan``
 (re-planned every 0.1 s from the current state on the obstacles' current poses, the newest trajectory executed;
 a failed re-plan keeps the previous trajectory).
@@ -20,9 +23,15 @@ sphere (at 0.5 m/s that leaves at least 0.6 s to react); no obstacle ever comes 
 spheres (links that cannot move out of the way: panda_link0/link1); the start and the target configuration are
 free of contact with the obstacles' *entire* swept paths' end points and the target is at least 0.25 m from the
 start (not trivial); each obstacle's path passes within 5 cm of the straight end-effector path (so it is in the
-way). Contacts are judged twice per control step, independently of the controllers' own distances: robot
-spheres vs obstacles (exact obstacle geometry) and exact link geometry vs obstacles (parry; the bundled Panda's
-links are primitives). "Reached": position error < 1 cm and rotation error < 0.05 rad at some step.
+way). Goal configurations (``--sampling valid``, the default) are what a user would command: at least 0.05 rad
+inside every joint limit and free of self-collision (sphere model + SRDF); ``--sampling clip`` reproduces the first
+version (goals clipped into the limits, about one in ten exactly at a hard limit, some in self-collision). Contacts
+are judged twice per control step, independently of the controllers' own distances: robot spheres vs obstacles
+(exact obstacle geometry) and exact link geometry vs obstacles (parry; the bundled Panda's links are primitives);
+self-contact of the robot's sphere model (``CollisionChecker.in_collision``) is reported separately. "Reached":
+position error < 1 cm and rotation error < 0.05 rad at some step. ``--robot ur5`` uses ``../shared/robots/ur5`` with
+its spherized URDF and, unless ``--ur5-velocity 0``, the UR5's data-sheet joint speed (3.15 rad/s) instead of the
+file's 0.5 rad/s, at which the arm cannot outrun 0.5 m/s obstacles.
 """
 
 from __future__ import annotations
@@ -30,6 +39,8 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import re
+import tempfile
 import time
 from pathlib import Path
 
@@ -41,6 +52,10 @@ SHARED = Path(__file__).resolve().parent.parent.parent / "shared"
 DT = 0.01
 DURATION = 6.0
 POS_TOL, ROT_TOL = 0.01, 0.05
+MAX_GUIDANCE_PLANS = 3  # per episode, for the reactive controller's global guidance
+GUIDANCE_RETRY_S = 0.3  # s between two guidance attempts
+GUIDANCE_TIME_LIMIT_S = 0.5  # planning time limit of one attempt
+GOAL_LIMIT_MARGIN = 0.05  # rad: "valid" goals keep this far inside every joint limit
 
 
 def rot_err(a: np.ndarray, b: np.ndarray) -> float:
@@ -48,16 +63,37 @@ def rot_err(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.arccos(np.clip((np.trace(r) - 1) / 2, -1, 1)))
 
 
-def load_robot(name: str):
+def load_robot(name: str, ur5_velocity: float | None = None):
+    """The robot, its sphere model and its base links. ``ur5_velocity`` (rad/s) replaces the joint velocity limits
+    of ``../shared/robots/ur5/ur5.urdf`` (0.5 rad/s there; the UR5's data sheet value, 3.15 rad/s, is commented out
+    beside each limit); None keeps the file's."""
     if name == "panda":
         model = ferrobot.robots.panda()
         spheres = ferrobot.SphereModel.automatic(model, total_budget=59)
         base_links = ["panda_link0", "panda_link1"]
     else:
-        model = ferrobot.RobotModel.from_urdf(
-            SHARED / "robots/ur5/ur5.urdf", srdf=SHARED / "robots/ur5/ur5.srdf", group="manipulator"
+        text = (SHARED / "robots/ur5/ur5.urdf").read_text()
+        if ur5_velocity is not None:
+            text = re.sub(r'(<limit [^>]*velocity=")0\.5(")', rf"\g<1>{ur5_velocity}\g<2>", text)
+        model = ferrobot.RobotModel.from_urdf_string(
+            text,
+            srdf=SHARED / "robots/ur5/ur5.srdf",
+            group="manipulator",
+            package_dirs=[SHARED / "robots/ur5"],
         )
-        spheres = ferrobot.SphereModel.from_spherized_urdf(model, SHARED / "robots/ur5/ur5_spherized.urdf")
+        # The spherized URDF has no sphere for ee_link (a 1 cm box in ur5.urdf), which SphereModel now refuses:
+        # add one sphere enclosing that box (centre (-0.01, 0, 0), radius sqrt(3) * 0.005).
+        text = (SHARED / "robots/ur5/ur5_spherized.urdf").read_text()
+        ee = (
+            '<link name="ee_link"><collision><origin xyz="-0.01 0 0" rpy="0 0 0"/>'
+            '<geometry><sphere radius="0.0087"/></geometry></collision></link>'
+        )
+        text = re.sub(r'<link name="ee_link">\s*</link>', ee, text)
+        text = re.sub(r'filename="(package://)?meshes/', f'filename="{SHARED / "robots/ur5/meshes"}/', text)
+        with tempfile.TemporaryDirectory() as d:
+            path = Path(d) / "ur5_spherized.urdf"
+            path.write_text(text)
+            spheres = ferrobot.SphereModel.from_spherized_urdf(model, path)
         base_links = ["base_link", "shoulder_link"]
     return model, spheres, base_links
 
@@ -82,9 +118,14 @@ class Scenario:
         return list(self.p0[i] + self.vel[i] * t) + [1.0, 0.0, 0.0, 0.0]
 
 
-def make_episode(rng, model, judge, base_spheres, q_ready):
-    """Samples one fair episode (see the module doc); returns (q0, q_goal, scenario, rejected counts)."""
-    rejected = {"start_close": 0, "base": 0, "target": 0, "trivial": 0}
+def make_episode(rng, model, judge, base_spheres, q_ready, sampling="valid", checker=None):
+    """Samples one fair episode (see the module doc); returns (q0, q_goal, scenario, rejected counts).
+
+    ``sampling="valid"`` (the default) keeps only goal configurations a user would command: at least
+    ``GOAL_LIMIT_MARGIN`` inside every joint limit and free of self-collision (the robot's sphere model and
+    SRDF); ``"clip"`` is the first version of this benchmark (goals clipped into the limits, so about one
+    in ten sits exactly at a hard limit, and not checked for self-collision)."""
+    rejected = {"start_close": 0, "base": 0, "target": 0, "trivial": 0, "goal_limit": 0, "goal_self": 0}
     lo, hi = model.lower_limits, model.upper_limits
     arm = len(judge.active_joints)
     while True:
@@ -92,7 +133,16 @@ def make_episode(rng, model, judge, base_spheres, q_ready):
         q0[:arm] += rng.uniform(-0.2, 0.2, arm)
         qg = q_ready.copy()
         qg[:arm] += rng.uniform(-0.9, 0.9, arm)
-        q0, qg = np.clip(q0, lo, hi), np.clip(qg, lo, hi)
+        q0 = np.clip(q0, lo, hi)
+        if sampling == "valid":
+            if np.any(qg[:arm] < lo[:arm] + GOAL_LIMIT_MARGIN) or np.any(qg[:arm] > hi[:arm] - GOAL_LIMIT_MARGIN):
+                rejected["goal_limit"] += 1
+                continue
+            if checker.in_collision(qg):
+                rejected["goal_self"] += 1
+                continue
+        else:
+            qg = np.clip(qg, lo, hi)
         p0, pg = model.fk(q0)[:3, 3], model.fk(qg)[:3, 3]
         if np.linalg.norm(pg - p0) < 0.25 or pg[2] < 0.15:
             rejected["trivial"] += 1
@@ -133,7 +183,7 @@ def make_episode(rng, model, judge, base_spheres, q_ready):
         return q0, qg, sc, rejected
 
 
-def run_episode(method, model, spheres, sc, q0, qg, judge, planner, configs=None):
+def run_episode(method, model, spheres, sc, q0, qg, judge, planner, configs=None, self_checker=None):
     target = model.fk(qg)
     n = model.num_dof
     q, qd = q0.copy(), np.zeros(n)
@@ -143,9 +193,11 @@ def run_episode(method, model, spheres, sc, q0, qg, judge, planner, configs=None
     traj, traj_t0 = None, 0.0
     names = planner.joint_names
     idx = [model.dof_names.index(j) for j in names]
-    if method in ("reactive", "potential"):
-        cls = ferrobot.ReactiveController if method == "reactive" else ferrobot.PotentialFieldController
-        ctl = cls(model, sc.world(0.0), spheres, config=(configs or {}).get(method))
+    guided = method == "reactive"
+    guidance_plans, last_guidance = 0, -np.inf
+    if method in ("reactive", "reactive_local", "potential"):
+        cls = ferrobot.PotentialFieldController if method == "potential" else ferrobot.ReactiveController
+        ctl = cls(model, sc.world(0.0), spheres, config=(configs or {}).get(method.replace("_local", "")))
         ctl.set_target(target)
     elif method == "plan_once":
         planner.update_world(sc.world(0.0))
@@ -155,7 +207,7 @@ def run_episode(method, model, spheres, sc, q0, qg, judge, planner, configs=None
         traj = res.interpolated(dt=DT).positions if res.success else None
     reached_at = None
     min_sphere = min_exact = np.inf
-    contact_sphere = contact_exact = False
+    contact_sphere = contact_exact = self_contact = False
     for k in range(steps):
         t = k * DT
         if ctl is not None:
@@ -163,6 +215,24 @@ def run_episode(method, model, spheres, sc, q0, qg, judge, planner, configs=None
                 ctl.set_obstacle_pose(f"obs{i}", sc.pose(i, t), sc.vel[i])
             t0 = time.perf_counter()
             q_new, qd, _ = ctl.step(q, qd, DT)
+            if (
+                guided
+                and guidance_plans < MAX_GUIDANCE_PLANS
+                and ctl.last_step["stalled"]
+                and t - last_guidance >= GUIDANCE_RETRY_S
+            ):
+                # Global guidance out of a local minimum: IK for the target pose, then a collision-free
+                # path on the obstacles' current poses, followed as waypoints (avoidance stays on).
+                guidance_plans += 1
+                last_guidance = t
+                planner.update_world(sc.world(t))
+                ik = planner.ik(target, seed=q[idx], collision_free=True, num_seeds=50)
+                if ik.success:
+                    goal_q = q.copy()
+                    goal_q[idx] = ik.q
+                    res = planner.plan(q, goal_q=goal_q, time_limit=GUIDANCE_TIME_LIMIT_S)
+                    if res.success:
+                        ctl.set_waypoints(res.path)
             ctrl_times.append(time.perf_counter() - t0)
             q = q_new
         else:
@@ -186,6 +256,8 @@ def run_episode(method, model, spheres, sc, q0, qg, judge, planner, configs=None
         min_sphere, min_exact = min(min_sphere, ds), min(min_exact, de)
         contact_sphere |= ds <= 0.0
         contact_exact |= de <= 0.0
+        if self_checker is not None:
+            self_contact |= bool(self_checker.in_collision(q))
         if reached_at is None:
             T = model.fk(q)
             if np.linalg.norm(T[:3, 3] - target[:3, 3]) < POS_TOL and rot_err(T, target) < ROT_TOL:
@@ -193,15 +265,18 @@ def run_episode(method, model, spheres, sc, q0, qg, judge, planner, configs=None
     per_step = float(np.sum(ctrl_times) / steps) if ctrl_times else 0.0
     T = model.fk(q)
     return {
+        "final_q": [float(x) for x in q],
         "final_position_error": float(np.linalg.norm(T[:3, 3] - target[:3, 3])),
         "final_rotation_error": rot_err(T, target),
         "reached": reached_at is not None,
         "time_to_target": reached_at,
         "contact_spheres": bool(contact_sphere),
         "contact_exact": bool(contact_exact),
+        "self_contact_spheres": bool(self_contact),
         "min_sphere_clearance": min_sphere,
         "min_exact_clearance": min_exact,
         "controller_time_per_step_s": per_step,
+        "guidance_plans": guidance_plans,
         "controller_time_median_call_s": float(np.median(ctrl_times)) if ctrl_times else 0.0,
     }
 
@@ -214,6 +289,7 @@ def summarise(rows):
         "reached_pct": 100.0 * sum(r["reached"] for r in rows) / n,
         "contact_spheres_pct": 100.0 * sum(r["contact_spheres"] for r in rows) / n,
         "contact_exact_pct": 100.0 * sum(r["contact_exact"] for r in rows) / n,
+        "self_contact_spheres_pct": 100.0 * sum(r["self_contact_spheres"] for r in rows) / n,
         "reached_without_contact_pct": 100.0
         * sum(r["reached"] and not (r["contact_spheres"] or r["contact_exact"]) for r in rows)
         / n,
@@ -222,6 +298,7 @@ def summarise(rows):
         "median_time_to_target_s": float(np.median(ttt)) if ttt else None,
         "controller_us_per_step_mean": 1e6 * float(np.mean([r["controller_time_per_step_s"] for r in rows])),
         "controller_us_per_call_median": 1e6 * float(np.median([r["controller_time_median_call_s"] for r in rows])),
+        "episodes_with_guidance": sum(r["guidance_plans"] > 0 for r in rows),
     }
 
 
@@ -258,12 +335,24 @@ def main() -> None:
     ap.add_argument("--episodes", type=int, default=200)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--robot", choices=["panda", "ur5"], default="panda")
-    ap.add_argument("--methods", nargs="+", default=["reactive", "potential", "plan_once", "replan"])
+    ap.add_argument("--methods", nargs="+", default=["reactive", "reactive_local", "potential", "plan_once", "replan"])
     ap.add_argument("--json", type=Path, default=None)
+    ap.add_argument(
+        "--ur5-velocity",
+        type=float,
+        default=3.15,
+        help="UR5 joint velocity limit (rad/s): 3.15 is the data sheet's (180 deg/s); 0 keeps the URDF's 0.5",
+    )
+    ap.add_argument(
+        "--sampling",
+        choices=["valid", "clip"],
+        default="valid",
+        help="goal configurations: 'valid' (inside the limits by a margin, no self-collision) or 'clip' (v1)",
+    )
     ap.add_argument("--reactive-config", type=json.loads, default=None, help="gain overrides (JSON dict)")
     ap.add_argument("--potential-config", type=json.loads, default=None, help="gain overrides (JSON dict)")
     args = ap.parse_args()
-    model, spheres, base_links = load_robot(args.robot)
+    model, spheres, base_links = load_robot(args.robot, None if args.ur5_velocity <= 0 else args.ur5_velocity)
     judge = ferrobot.ReactiveController(model, None, spheres)
     q_ready = model.named_state("ready") if args.robot == "panda" else model.neutral_configuration()
     base = []
@@ -286,8 +375,9 @@ def main() -> None:
     )
     rng = np.random.default_rng(args.seed)
     episodes, rejected = [], {}
+    goal_checker = ferrobot.CollisionChecker(model, spheres=spheres)
     for _ in range(args.episodes):
-        q0, qg, sc, rej = make_episode(rng, model, judge, base_spheres, q_ready)
+        q0, qg, sc, rej = make_episode(rng, model, judge, base_spheres, q_ready, args.sampling, goal_checker)
         episodes.append((q0, qg, sc))
         for k, v in rej.items():
             rejected[k] = rejected.get(k, 0) + v
@@ -297,20 +387,22 @@ def main() -> None:
         rows = []
         for q0, qg, sc in episodes:
             p = replanner if m == "replan" else planner
-            rows.append(run_episode(m, model, spheres, sc, q0, qg, judge, p, configs))
+            rows.append(run_episode(m, model, spheres, sc, q0, qg, judge, p, configs, goal_checker))
         results[m] = {"summary": summarise(rows), "episodes": rows}
         s = results[m]["summary"]
         print(
             f"{m:<10} reached {s['reached_pct']:5.1f}%  contact spheres {s['contact_spheres_pct']:5.1f}% "
-            f"exact {s['contact_exact_pct']:5.1f}%  reached w/o contact {s['reached_without_contact_pct']:5.1f}%  "
+            f"exact {s['contact_exact_pct']:5.1f}%  self (spheres) {s['self_contact_spheres_pct']:5.1f}%  "
+            f"reached w/o contact {s['reached_without_contact_pct']:5.1f}%  "
             f"min sphere clearance {s['min_sphere_clearance_m'] * 1e3:7.1f} mm  "
             f"median time {s['median_time_to_target_s'] or float('nan'):.2f} s  "
             f"controller {s['controller_us_per_step_mean']:8.1f} us/step (median call "
-            f"{s['controller_us_per_call_median']:.1f} us)",
+            f"{s['controller_us_per_call_median']:.1f} us), guided episodes {s['episodes_with_guidance']}",
             flush=True,
         )
     print(
-        f"ferrobot {ferrobot.__version__}, {os.cpu_count()} cores, robot {args.robot}, {args.episodes} episodes, "
+        f"ferrobot {ferrobot.__version__}, {os.cpu_count()} cores, robot {args.robot}, {args.episodes} episodes "
+        f"(goal sampling '{args.sampling}'), "
         f"rejected while sampling: {rejected}, total {time.time() - t_all:.0f} s"
     )
     if args.json:
@@ -319,6 +411,8 @@ def main() -> None:
                 {
                     "robot": args.robot,
                     "episodes": args.episodes,
+                    "sampling": args.sampling,
+                    "ur5_velocity": args.ur5_velocity if args.robot == "ur5" else None,
                     "rejected": rejected,
                     "step_timing_us": timing,
                     "results": results,

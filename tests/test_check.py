@@ -212,3 +212,52 @@ def test_unreadable_file_raises():
 
     with pytest.raises(FileFormatError, match="path"):
         urdf_check("/nonexistent/robot.urdf")
+
+
+def test_bundled_panda_home_self_collision_is_real_per_pybullet(tmp_path):
+    """At the bundled Panda's home (every joint 0 clamped into its limits: joint 4 at -0.07 rad) the
+    check reports panda_link5 touching panda_hand and panda_link7. That is not a coarse-sphere false
+    alarm: PyBullet, on the same URDF's exact collision primitives, finds those pairs penetrating by
+    centimetres, and every pair PyBullet finds penetrating (outside the SRDF's disabled pairs) is reported."""
+    pybullet = pytest.importorskip("pybullet")
+    import numpy as np
+
+    from ferrobot import _core, robots
+
+    urdf, srdf, _ = _core.bundled_robot("panda")
+    up, sp = tmp_path / "panda.urdf", tmp_path / "panda.srdf"
+    up.write_text(urdf)
+    sp.write_text(srdf)
+    report = urdf_check(str(up), srdf=str(sp), skip_coverage=True)
+    reported = set()
+    for f in report["findings"]:
+        if f["code"] == "self-collision" and f["severity"] == "warning" and "state 'home'" in f["message"]:
+            a, b = re.findall(r"link '([^']+)'", f["message"])[:2]
+            reported.add(frozenset((a, b)))
+    assert frozenset(("panda_link5", "panda_hand")) in reported
+    model = robots.panda()
+    disabled = {frozenset(p) for p in re.findall(r'link1="([^"]+)"\s+link2="([^"]+)"', srdf)}
+    cid = pybullet.connect(pybullet.DIRECT)
+    try:
+        rid = pybullet.loadURDF(str(up), useFixedBase=True, physicsClientId=cid)
+        n = pybullet.getNumJoints(rid, physicsClientId=cid)
+        info = [pybullet.getJointInfo(rid, j, physicsClientId=cid) for j in range(n)]
+        joint_of = {i[1].decode(): i[0] for i in info}
+        link_of = {i[12].decode(): i[0] for i in info}
+        q = model.neutral_configuration()
+        for name, v in zip(model.dof_names, q, strict=True):
+            pybullet.resetJointState(rid, joint_of[name], v, physicsClientId=cid)
+        penetrating = {}
+        names = [k for k in link_of if pybullet.getCollisionShapeData(rid, link_of[k], physicsClientId=cid)]
+        for i, a in enumerate(names):
+            for b in names[i + 1 :]:
+                if frozenset((a, b)) in disabled:
+                    continue
+                pts = pybullet.getClosestPoints(rid, rid, 0.0, link_of[a], link_of[b], physicsClientId=cid)
+                d = min((p[8] for p in pts), default=np.inf)
+                if d < -1e-3:
+                    penetrating[frozenset((a, b))] = d
+    finally:
+        pybullet.disconnect(cid)
+    assert penetrating[frozenset(("panda_link5", "panda_hand"))] < -0.03  # about 65 mm deep
+    assert set(penetrating) <= reported, (penetrating, reported)

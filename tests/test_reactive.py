@@ -186,6 +186,17 @@ def test_bad_inputs_raise_ferrobot_errors(panda):
         ferrobot.PotentialFieldController(model, None, spheres, config={"field_padding": 0.05})
     lo, hi = ferrobot.ReactiveController.config_ranges()["target_gain"]
     assert lo <= ctl.config["target_gain"] <= hi
+    # Global guidance waypoints: (N, num_dof) or (N, 7) rows, finite, inside the limits' shape rules.
+    with pytest.raises(errors.InvalidArgumentError, match="waypoints"):
+        ctl.set_waypoints(np.zeros((2, 3)))
+    with pytest.raises(errors.NonFiniteError, match="waypoints"):
+        ctl.set_waypoints(np.full((1, 8), np.nan))
+    with pytest.raises(errors.ShapeError, match="waypoints"):
+        ctl.set_waypoints(np.zeros(8))
+    ctl.set_waypoints(np.tile(q[:7], (3, 1)))
+    assert ctl.waypoints_remaining == 3
+    ctl.clear_waypoints()
+    assert ctl.waypoints_remaining == 0
 
 
 def test_closed_loop_with_the_simulator(panda):

@@ -40,7 +40,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import _core
-from .errors import InvalidArgumentError, ShapeError, UnknownNameError
+from .errors import InvalidArgumentError, ShapeError
 
 __all__ = [
     "ScenarioResult",
@@ -91,29 +91,29 @@ def _positive(v, what: str, allow_zero: bool = False) -> float:
 
 class EncoderNoise:
     """Joint encoder noise: Gaussian ``sigma`` (rad or m, scalar or per joint) then
-    quantisation to ``resolution`` (0: none). Seeded, reproducible."""
+    quantisation to ``resolution`` (0: none). Seeded, reproducible. The sampling runs in
+    Rust (``ferrobot_control::faults::EncoderNoise``)."""
 
     def __init__(self, sigma, resolution: float = 0.0, seed: int = 0):
         s = np.asarray(sigma, dtype=np.float64)
-        if not np.all(np.isfinite(s)) or np.any(s < 0):
-            raise InvalidArgumentError(f"sigma must be finite and >= 0, got {sigma}")
+        if s.ndim > 1 or not np.all(np.isfinite(s)) or np.any(s < 0):
+            raise InvalidArgumentError(f"sigma must be finite and >= 0 (a number or one per joint), got {sigma}")
         self.sigma = s
         self.resolution = _positive(resolution, "resolution", allow_zero=True)
-        self.rng = np.random.default_rng(seed)
+        self._inner = _core.EncoderNoise(s.reshape(-1), self.resolution, int(seed))
 
     def apply(self, q) -> np.ndarray:
-        """A noisy reading of joint positions ``q`` (any shape broadcasting with sigma)."""
+        """A noisy reading of joint positions ``q``: a number, ``(n,)`` or ``(batch, n)``
+        (a per-joint sigma must have ``n`` values)."""
         q = np.asarray(q, dtype=np.float64)
         if not np.all(np.isfinite(q)):
             raise InvalidArgumentError("q: non-finite values")
-        out = q + self.rng.normal(size=q.shape) * self.sigma
-        if self.resolution > 0:
-            out = np.round(out / self.resolution) * self.resolution
-        return out
+        return np.asarray(self._inner.apply(q)).reshape(q.shape)
 
 
 class DepthNoise:
-    """Depth camera noise (see the module docs for the model)."""
+    """Depth camera noise (see the module docs for the model). The sampling and the edge
+    detection run in Rust (``ferrobot_control::faults::DepthNoise``)."""
 
     def __init__(
         self,
@@ -138,55 +138,50 @@ class DepthNoise:
         self.edge_dropout = float(edge_dropout)
         self.edge_threshold = _positive(edge_threshold, "edge_threshold")
         self.missing_value = float(missing_value)
-        self.rng = np.random.default_rng(seed)
+        self._inner = _core.DepthNoise(
+            self.sigma0,
+            self.sigma2,
+            self.z0,
+            self.dropout,
+            self.edge_threshold,
+            self.edge_dropout,
+            self.missing_value,
+            int(seed),
+        )
 
     def sigma(self, z) -> np.ndarray:
         """Axial standard deviation (m) at depth ``z`` (m)."""
-        z = np.asarray(z, dtype=np.float64)
-        return self.sigma0 + self.sigma2 * (z - self.z0) ** 2
+        return np.asarray(self._inner.sigma(np.asarray(z, dtype=np.float64)))
+
+    @staticmethod
+    def _depth(depth) -> np.ndarray:
+        d = np.asarray(depth, dtype=np.float64)
+        if d.ndim != 2:
+            raise ShapeError(f"depth: expected shape (H, W), got {d.shape}")
+        return np.where(np.isnan(d), np.inf, d)  # NaN: no reading, like inf
 
     def edges(self, depth) -> np.ndarray:
         """Boolean mask of depth discontinuities: valid pixels with a 4-neighbour
         whose depth differs by more than ``edge_threshold`` or that has no reading."""
-        d = np.asarray(depth, dtype=np.float64)
-        valid = np.isfinite(d) & (d > 0)
-        z = np.where(valid, d, np.inf)
-        edge = np.zeros(d.shape, dtype=bool)
-        for axis in (0, 1):
-            diff = np.abs(np.diff(z, axis=axis))
-            jump = ~(diff <= self.edge_threshold)  # inf - inf is NaN: counts as a jump
-            lo = [slice(None)] * 2
-            hi = [slice(None)] * 2
-            lo[axis] = slice(0, -1)
-            hi[axis] = slice(1, None)
-            edge[tuple(lo)] |= jump
-            edge[tuple(hi)] |= jump
-        return edge & valid
+        return np.asarray(self._inner.edges(self._depth(depth)))
 
     def apply(self, depth):
         """Noisy copy of ``depth`` (H, W) in metres; returns (depth, missing_mask)."""
-        d = np.asarray(depth, dtype=np.float64)
-        if d.ndim != 2:
-            raise ShapeError(f"depth: expected shape (H, W), got {d.shape}")
-        valid = np.isfinite(d) & (d > 0)
-        edge = self.edges(d)
-        noisy = d + self.rng.normal(size=d.shape) * self.sigma(np.where(valid, d, self.z0))
-        drop = self.rng.random(d.shape) < self.dropout
-        drop |= edge & (self.rng.random(d.shape) < self.edge_dropout)
-        missing = ~valid | drop
-        out = np.where(missing, self.missing_value, noisy)
-        return out, missing
+        out, missing = self._inner.apply(self._depth(depth))
+        return np.asarray(out), np.asarray(missing)
 
 
 class Arbiter:
-    """Arbitration between command sources for the same joints.
+    """Arbitration between command sources for the same joints (runs in Rust:
+    ``ferrobot_control::faults::Arbiter``).
 
     Rule (documented): for each joint, among the sources whose latest command
-    for it is fresh (issued within ``timeout`` s before the query time), the
-    source with the highest priority wins; among equal priorities the latest
-    command wins; among equal times the source registered first wins. Every
-    resolution where two or more fresh sources command one joint with values
-    differing by more than ``tolerance`` is recorded as a conflict.
+    for it is fresh (issued within ``timeout`` s before the query time, and not
+    after it), the source with the highest priority wins; among equal priorities
+    the latest command wins; among equal times the source registered first wins.
+    Every resolution where two or more fresh sources command one joint with
+    values differing by more than ``tolerance`` is recorded as a conflict
+    (``conflicts``: dicts with ``t``, ``joint``, ``winner``, ``losers``).
     """
 
     def __init__(self, num_joints: int, timeout: float = 0.1, tolerance: float = 1e-9):
@@ -195,57 +190,36 @@ class Arbiter:
         self.n = int(num_joints)
         self.timeout = _positive(timeout, "timeout")
         self.tolerance = _positive(tolerance, "tolerance", allow_zero=True)
-        self.sources: dict[str, int] = {}
-        self.order: list[str] = []
-        self.latest: dict[str, dict[int, tuple[float, float]]] = {}
-        self.conflicts: list[dict] = []
+        self._inner = _core.Arbiter(self.n, self.timeout, self.tolerance)
+
+    @property
+    def order(self) -> list[str]:
+        """Source names in registration order."""
+        return list(self._inner.sources)
+
+    @property
+    def conflicts(self) -> list[dict]:
+        return list(self._inner.conflicts)
 
     def add_source(self, name: str, priority: int) -> None:
-        if name in self.sources:
-            raise InvalidArgumentError(f"name: source '{name}' exists already")
-        self.sources[name] = int(priority)
-        self.order.append(name)
-        self.latest[name] = {}
+        self._inner.add_source(str(name), int(priority))
 
     def command(self, source: str, t: float, joints, values) -> None:
         """Source ``source`` commands ``values`` for joint indices ``joints`` at time ``t``."""
-        if source not in self.sources:
-            raise UnknownNameError(f"source: unknown source '{source}'; known: {self.order}")
-        t = float(t)
-        if not np.isfinite(t):
-            raise InvalidArgumentError("t: non-finite time")
         j = np.asarray(joints, dtype=np.int64).reshape(-1)
         v = np.asarray(values, dtype=np.float64).reshape(-1)
         if j.shape != v.shape:
             raise ShapeError(f"values: expected shape {j.shape} like joints, got {v.shape}")
-        if np.any((j < 0) | (j >= self.n)):
-            raise UnknownNameError(f"joints: indices must be in [0, {self.n}), got {j.tolist()}")
+        if not np.isfinite(float(t)):
+            raise InvalidArgumentError("t: non-finite time")
         if not np.all(np.isfinite(v)):
             raise InvalidArgumentError("values: non-finite values")
-        for ji, vi in zip(j.tolist(), v.tolist(), strict=True):
-            self.latest[source][ji] = (t, vi)
+        self._inner.command(str(source), float(t), j.tolist(), v)
 
     def resolve(self, t: float):
         """Per joint, the winning value (NaN: no fresh command) and source (None)."""
-        values = np.full(self.n, np.nan)
-        winners: list[str | None] = [None] * self.n
-        for j in range(self.n):
-            fresh = []
-            for rank, name in enumerate(self.order):
-                c = self.latest[name].get(j)
-                if c is not None and t - c[0] <= self.timeout:
-                    fresh.append((-self.sources[name], -c[0], rank, name, c[1]))
-            if not fresh:
-                continue
-            fresh.sort()
-            win = fresh[0]
-            values[j] = win[4]
-            winners[j] = win[3]
-            if any(abs(f[4] - win[4]) > self.tolerance for f in fresh[1:]):
-                self.conflicts.append(
-                    {"t": float(t), "joint": j, "winner": win[3], "losers": [f[3] for f in fresh[1:]]}
-                )
-        return values, winners
+        values, winners = self._inner.resolve(float(t))
+        return np.asarray(values), list(winners)
 
 
 # --- scenarios -------------------------------------------------------------

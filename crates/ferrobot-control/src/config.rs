@@ -151,13 +151,18 @@ config_struct! {
         self_gain: 10.0, [0.0, 1e4],
         /// Self-collision metric scale, [0, 1e6].
         self_metric: 5.0, [0.0, 1e6],
-        /// Joint limits: distance to a limit (rad or m) below which the
-        /// limit policy acts, [1e-3, 3].
-        limit_distance: 0.15, [1e-3, 3.0],
-        /// Joint-limit repulsion at the limit (rad/s²), [0, 1e4].
-        limit_gain: 30.0, [0.0, 1e4],
-        /// Joint-limit metric scale, [0, 1e6].
-        limit_metric: 10.0, [0.0, 1e6],
+        /// Share of the self-collision metric kept while a sphere pair is
+        /// not approaching (velocity gating, as in RMPflow's collision
+        /// policies): the policy brakes approaches without holding the arm
+        /// off a target next to another link at rest, [0, 1].
+        self_rest_weight: 0.02, [0.0, 1.0],
+        /// Joint limits: the controller works in limit-aware coordinates
+        /// `q = m + h tanh(u / h)` per joint (`m` the middle of the range,
+        /// `h` half the range minus this buffer), so its joints stay at least
+        /// `limit_buffer` (rad or m) inside their hard limits without any
+        /// repulsion: a target at the edge of the range is approached, not
+        /// pushed away from, [0, 0.5].
+        limit_buffer: 0.01, [0.0, 0.5],
         /// Fraction of each joint's velocity limit above which the
         /// velocity-limit policy damps the joint, [0.05, 1].
         velocity_soft_fraction: 0.8, [0.05, 1.0],
@@ -169,6 +174,33 @@ config_struct! {
         joint_damping: 6.0, [0.0, 1e3],
         /// Metric of the c-space policy (resolves redundancy), [0, 1e3].
         posture_metric: 0.02, [0.0, 1e3],
+        /// Progress watch: a step reports `stalled` when the end-effector
+        /// error (position error plus 0.1 m per radian of rotation error)
+        /// has not dropped by `stall_progress` over `stall_time` seconds of
+        /// the arm at rest (every joint slower than `stall_speed`) while it
+        /// is above `stall_progress`: a local minimum, the cue for global
+        /// guidance (see `set_waypoints`), [0.05, 100].
+        stall_time: 0.4, [0.05, 100.0],
+        /// Progress (m) that resets the stall watch, [1e-4, 1].
+        stall_progress: 0.005, [1e-4, 1.0],
+        /// Joint speed (rad/s or m/s) above which the arm counts as moving
+        /// (evading, say) and the stall watch restarts: a local minimum is
+        /// a rest away from the target, [1e-4, 10].
+        stall_speed: 0.05, [1e-4, 10.0],
+        /// Waypoint (global guidance) attractor in the limit-aware joint
+        /// coordinates: acceleration far from the waypoint (rad/s²), [0, 200].
+        waypoint_gain: 20.0, [0.0, 200.0],
+        /// Joint distance (rad, max norm) below which the waypoint attractor
+        /// is a linear spring, [1e-3, 3].
+        waypoint_length: 0.1, [1e-3, 3.0],
+        /// Damping of the waypoint attractor (1/s), [0, 200].
+        waypoint_damping: 10.0, [0.0, 200.0],
+        /// Metric of the waypoint attractor, [0, 1e4].
+        waypoint_metric: 10.0, [0.0, 1e4],
+        /// Joint distance (rad or m, max norm) at which a waypoint counts as
+        /// passed; passing the last one hands back to the end-effector
+        /// target, [1e-3, 3].
+        waypoint_tolerance: 0.1, [1e-3, 3.0],
         /// Ridge added to the summed metric before the solve, [1e-9, 10].
         regularization: 1e-4, [1e-9, 10.0],
         /// Hard acceleration limit per joint (rad/s² or m/s²); the

@@ -47,6 +47,11 @@ pub struct StepInfo {
     pub velocity_scale: f64,
     /// Whether a joint's velocity was cut so it can stop before its limit.
     pub limit_braked: bool,
+    /// Whether the end effector has made no progress towards the target
+    /// for `stall_time` (reactive controller; see `ReactiveConfig`).
+    pub stalled: bool,
+    /// Waypoints of the global guidance still to pass (reactive controller).
+    pub waypoints_remaining: usize,
 }
 
 /// The result of one controller step, in `dof_names` order.

@@ -26,11 +26,19 @@
 //!   approaching: the deceleration that stops before the margin), metric
 //!   `μ (1 - d/D)² / (d/D + ε) (1 + max(-ḋ, 0) / v₀)`, which vanishes at
 //!   `D` and grows with approach speed;
-//! * self avoidance, the same per sphere pair of checked link pairs;
-//! * joint limits, the same barrier on the distance to each limit;
+//! * self avoidance, the same per sphere pair of checked link pairs, its
+//!   metric velocity-gated as in RMPflow (`self_rest_weight` of it kept
+//!   when the pair is not approaching): approaches are braked, but a
+//!   target next to another link is not held off at rest;
 //! * velocity limits: damping of joints beyond a fraction of their limit;
-//! * c-space: a weak pull to the posture with joint damping (resolves
-//!   redundancy and damps motion).
+//! * joint limits: no policy pushes away from them; instead everything is
+//!   resolved in limit-aware coordinates `u` with `q = m + h tanh(u / h)`
+//!   (`m` the middle of the range, `h` its half minus `limit_buffer`), where
+//!   the limits are infinitely far away: a joint slows down as it nears a
+//!   limit (the map's curvature brakes it) and a target at the edge of the
+//!   range is approached without a standing offset;
+//! * c-space (in `u`): a weak pull to the posture with joint damping
+//!   (resolves redundancy and damps motion).
 //!
 //! The acceleration then goes through [`Core`]'s limits and integration.
 
@@ -57,6 +65,8 @@ pub(crate) struct Barrier {
     pub metric: f64,
     pub eps: f64,
     pub speed: f64,
+    /// Share of the metric kept when not approaching (1: none gated).
+    pub rest: f64,
 }
 
 impl Barrier {
@@ -70,7 +80,7 @@ impl Barrier {
         }
         let s = (d.max(0.0) / self.reach).min(1.0);
         let w = (1.0 - s) * (1.0 - s) / (s + self.eps);
-        (a, self.metric * w * (1.0 + approach / self.speed))
+        (a, self.metric * w * (self.rest + approach / self.speed))
     }
 }
 
@@ -181,6 +191,40 @@ pub struct ReactiveController {
     jp: Vec<f64>,
     jq: Vec<f64>,
     row: Vec<f64>,
+    warp: Vec<Warp>,
+    /// Global guidance: joint-space waypoints (full DOF vectors) still to pass.
+    waypoints: std::collections::VecDeque<Vec<f64>>,
+    /// Progress watch: best error so far, time since it last improved, and
+    /// the target it watches.
+    stall_best: f64,
+    stall_since: f64,
+    watched: Option<Isometry3<f64>>,
+}
+
+/// One joint's limit-aware coordinate: `dq/du`, the curvature term, `u`,
+/// the posture's `u` and `du/dt`.
+#[derive(Debug, Clone, Copy, Default)]
+struct Warp {
+    s: f64,
+    kappa: f64,
+    u: f64,
+    u_posture: f64,
+    ud: f64,
+    /// Middle and half range of the map (half 0: the identity, no limits).
+    mid: f64,
+    half: f64,
+}
+
+impl Warp {
+    /// `u` of a joint value `q`.
+    fn u_of(&self, q: f64) -> f64 {
+        if self.half > 0.0 {
+            let lim = 1.0 - 1e-9;
+            self.half * ((q - self.mid) / self.half).clamp(-lim, lim).atanh()
+        } else {
+            q
+        }
+    }
 }
 
 impl ReactiveController {
@@ -202,6 +246,11 @@ impl ReactiveController {
             jp: vec![0.0; 3 * k],
             jq: vec![0.0; 3 * k],
             row: vec![0.0; k],
+            warp: vec![Warp::default(); k],
+            waypoints: Default::default(),
+            stall_best: f64::INFINITY,
+            stall_since: 0.0,
+            watched: None,
         })
     }
 
@@ -248,6 +297,58 @@ impl ReactiveController {
         self.core.world.set_pose(name, pose, velocity)
     }
 
+    /// Global guidance: joint-space waypoints (each a full DOF vector, or
+    /// one value per controlled DOF with the others taken from the
+    /// posture) that the controller follows, in its limit-aware
+    /// coordinates and with every avoidance policy still active, before it
+    /// hands back to the end-effector target. Typically a collision-free
+    /// path from a planner to an IK solution of the target, requested when
+    /// a step reports `stalled` (a local minimum). Replaces any waypoints
+    /// left; an empty list clears them.
+    pub fn set_waypoints(&mut self, rows: &[Vec<f64>]) -> Result<()> {
+        let n = self.core.model.num_dof();
+        let k = self.core.active.len();
+        let base = self
+            .core
+            .posture
+            .clone()
+            .unwrap_or_else(|| self.core.model.neutral_configuration());
+        let mut out = std::collections::VecDeque::with_capacity(rows.len());
+        for (i, row) in rows.iter().enumerate() {
+            let full = if row.len() == n {
+                row.clone()
+            } else if row.len() == k {
+                let mut f = base.clone();
+                for (&d, &v) in self.core.active.iter().zip(row) {
+                    f[d] = v;
+                }
+                f
+            } else {
+                return Err(ControlError::InvalidArgument(format!(
+                    "waypoints: row {i} has {} values; expected {n} (dof_names) or {k} (controlled joints)",
+                    row.len()
+                )));
+            };
+            self.core
+                .model
+                .check_configuration(&format!("waypoints[{i}]"), &full)?;
+            out.push_back(full);
+        }
+        self.waypoints = out;
+        self.stall_since = 0.0;
+        Ok(())
+    }
+
+    /// Drops the waypoints: back to the end-effector target.
+    pub fn clear_waypoints(&mut self) {
+        self.waypoints.clear();
+    }
+
+    /// Waypoints still to pass.
+    pub fn waypoints_remaining(&self) -> usize {
+        self.waypoints.len()
+    }
+
     /// One control step from the measured state `(q, qd)` (full DOF
     /// vectors) over `dt` seconds (0 < dt <= 1).
     pub fn step(&mut self, q: &[f64], qd: &[f64], dt: f64) -> Result<StepOutput> {
@@ -265,8 +366,10 @@ impl ReactiveController {
             self_clearance: f64::INFINITY,
             ..Default::default()
         };
-        // End-effector target.
+        // End-effector target (handed over to the waypoints while guided).
+        let guided = !self.waypoints.is_empty();
         if let Some(t) = core.target {
+            let target_weight = if guided { 0.0 } else { 1.0 };
             let ee = core.poses[core.ee_link];
             let p = ee.translation.vector;
             core.point_jacobian(core.ee_link, &p.into(), &mut self.jp);
@@ -279,7 +382,8 @@ impl ReactiveController {
             let nx = x.norm();
             let near = (-nx * nx / (2.0 * cfg.target_metric_radius.powi(2))).exp();
             let acc = -x * (cfg.target_gain / (nx + cfg.target_length)) - v * cfg.target_damping;
-            let m = cfg.target_metric_far + (cfg.target_metric_near - cfg.target_metric_far) * near;
+            let m = target_weight
+                * (cfg.target_metric_far + (cfg.target_metric_near - cfg.target_metric_far) * near);
             sys.add_iso3(&self.jp, m, &acc);
             if t.orientation && cfg.orientation_gain > 0.0 {
                 core.angular_jacobian(core.ee_link, &mut self.jq);
@@ -292,13 +396,31 @@ impl ReactiveController {
                 let ne = e.norm();
                 let acc = -e * (cfg.orientation_gain / (ne + cfg.orientation_length))
                     - w * cfg.orientation_damping;
-                let m = cfg.orientation_metric_far
-                    + (cfg.orientation_metric_near - cfg.orientation_metric_far) * near;
+                let m = target_weight
+                    * (cfg.orientation_metric_far
+                        + (cfg.orientation_metric_near - cfg.orientation_metric_far) * near);
                 sys.add_iso3(&self.jq, m, &acc);
             }
             let (dp, dr) = core.target_errors();
             info.position_error = dp;
             info.rotation_error = dr;
+            // Progress watch.
+            if self.watched != Some(t.pose) {
+                self.watched = Some(t.pose);
+                self.stall_best = f64::INFINITY;
+                self.stall_since = 0.0;
+            }
+            let e = dp + if dr.is_finite() { 0.1 * dr } else { 0.0 };
+            let moving = qda.iter().any(|v| v.abs() > cfg.stall_speed);
+            if guided || moving {
+                self.stall_since = 0.0;
+            } else if e < self.stall_best - cfg.stall_progress {
+                self.stall_best = e;
+                self.stall_since = 0.0;
+            } else {
+                self.stall_since += dt;
+            }
+            info.stalled = !guided && e > cfg.stall_progress && self.stall_since >= cfg.stall_time;
         } else {
             info.position_error = f64::NAN;
             info.rotation_error = f64::NAN;
@@ -313,6 +435,7 @@ impl ReactiveController {
             metric: cfg.collision_metric,
             eps: cfg.collision_metric_eps,
             speed: cfg.collision_speed,
+            rest: 1.0,
         };
         for si in 0..core.spheres.len() {
             let s = core.spheres[si];
@@ -347,6 +470,7 @@ impl ReactiveController {
             reach: cfg.self_distance,
             gain: cfg.self_gain,
             metric: cfg.self_metric,
+            rest: cfg.self_rest_weight,
             ..world_barrier
         };
         for &(i, j) in &core.self_pairs {
@@ -378,43 +502,119 @@ impl ReactiveController {
             sys.add_row(&self.row, m, acc);
             info.active_avoidance += 1;
         }
-        // Joint limits, velocity limits, c-space.
-        let limit_barrier = Barrier {
-            reach: cfg.limit_distance,
-            gain: cfg.limit_gain,
-            length: cfg.limit_distance / 4.0,
-            metric: cfg.limit_metric,
-            margin: 0.0,
-            ..world_barrier
-        };
+        // Velocity limits (joint space).
         let posture = core.posture.clone().expect("set by check_step");
-        for (col, &dof) in core.active.iter().enumerate() {
-            let (qi, vi) = (q[dof], qda[col]);
-            let kk = col * k + col;
-            let lo = core.lower_limit(col);
-            let hi = core.upper_limit(col);
-            if lo.is_finite() && qi - lo < cfg.limit_distance {
-                let (acc, m) = limit_barrier.eval(qi - lo, vi);
-                sys.a[kk] += m;
-                sys.b[col] += m * acc;
-            }
-            if hi.is_finite() && hi - qi < cfg.limit_distance {
-                let (acc, m) = limit_barrier.eval(hi - qi, -vi);
-                sys.a[kk] += m;
-                sys.b[col] -= m * acc;
-            }
+        for (col, &vi) in qda.iter().enumerate() {
             let vmax = core.velocity_limit(col, cfg.velocity_scale, cfg.default_velocity_limit);
             let over = vi.abs() / vmax - cfg.velocity_soft_fraction;
             if over > 0.0 {
+                let kk = col * k + col;
                 let m = cfg.velocity_gain * over / (1.0 - cfg.velocity_soft_fraction).max(1e-3);
                 sys.a[kk] += m;
                 sys.b[col] += m * (-cfg.velocity_gain * vi);
             }
-            let m = cfg.posture_metric;
-            sys.a[kk] += m;
-            sys.b[col] += m * (cfg.posture_gain * (posture[dof] - qi) - cfg.joint_damping * vi);
         }
+        // Joint limits: everything above is pulled back into limit-aware
+        // coordinates u (q = m + h tanh(u / h), so dq/du = s = 1 - t², t =
+        // (q - m) / h), where the limits are infinitely far: with
+        // qdd = S udd + kappa, A_u = S A S and b_u = S (b - A kappa). The
+        // curvature kappa = -2 t qd² / (h s) (about -qd² / delta at a distance
+        // delta from the edge) is kept while a joint approaches its limit,
+        // where it brakes, and left out when it leaves (like J̇q̇ elsewhere).
+        let warp = &mut self.warp;
+        for (col, &dof) in core.active.iter().enumerate() {
+            let (lo, hi) = (core.lower_limit(col), core.upper_limit(col));
+            let half = 0.5 * (hi - lo) - cfg.limit_buffer;
+            let w = if lo.is_finite() && hi.is_finite() && half > 1e-6 {
+                let mid = 0.5 * (hi + lo);
+                let lim = 1.0 - 1e-9;
+                let t = ((q[dof] - mid) / half).clamp(-lim, lim);
+                let tp = ((posture[dof] - mid) / half).clamp(-lim, lim);
+                let sc = 1.0 - t * t;
+                let vi = qda[col];
+                let kappa = if t * vi > 0.0 {
+                    -2.0 * t * vi * vi / (half * sc)
+                } else {
+                    0.0
+                };
+                Warp {
+                    s: sc,
+                    kappa,
+                    u: half * t.atanh(),
+                    u_posture: half * tp.atanh(),
+                    ud: vi / sc,
+                    mid,
+                    half,
+                }
+            } else {
+                Warp {
+                    s: 1.0,
+                    kappa: 0.0,
+                    u: q[dof],
+                    u_posture: posture[dof],
+                    ud: qda[col],
+                    mid: 0.0,
+                    half: 0.0,
+                }
+            };
+            warp[col] = w;
+        }
+        for r in 0..k {
+            let ak: f64 = (0..k).map(|c| sys.a[r * k + c] * warp[c].kappa).sum();
+            sys.b[r] = warp[r].s * (sys.b[r] - ak);
+        }
+        for r in 0..k {
+            for c in 0..k {
+                sys.a[r * k + c] *= warp[r].s * warp[c].s;
+            }
+        }
+        // C-space policy in the limit-aware coordinates: a weak pull to the
+        // posture with damping (resolves redundancy).
+        for (col, w) in warp.iter().enumerate() {
+            let m = cfg.posture_metric;
+            sys.a[col * k + col] += m;
+            sys.b[col] += m * (cfg.posture_gain * (w.u_posture - w.u) - cfg.joint_damping * w.ud);
+        }
+        // Global guidance: a joint-space attractor (in u) to the next
+        // waypoint; passed waypoints are dropped, the last one ends it.
+        while let Some(wp) = self.waypoints.front() {
+            let gap = core
+                .active
+                .iter()
+                .map(|&d| (q[d] - wp[d]).abs())
+                .fold(0.0, f64::max);
+            let last = self.waypoints.len() == 1;
+            if gap < cfg.waypoint_tolerance {
+                self.waypoints.pop_front();
+                if last {
+                    self.stall_best = f64::INFINITY;
+                    self.stall_since = 0.0;
+                }
+            } else {
+                break;
+            }
+        }
+        if let Some(wp) = self.waypoints.front() {
+            let du: Vec<f64> = core
+                .active
+                .iter()
+                .zip(warp.iter())
+                .map(|(&d, w)| w.u_of(wp[d]) - w.u)
+                .collect();
+            let norm = du.iter().fold(0.0, |m: f64, x| m.max(x.abs()));
+            let m = cfg.waypoint_metric;
+            for (col, (x, w)) in du.iter().zip(warp.iter()).enumerate() {
+                sys.a[col * k + col] += m;
+                sys.b[col] += m
+                    * (cfg.waypoint_gain * x / (norm + cfg.waypoint_length)
+                        - cfg.waypoint_damping * w.ud);
+            }
+        }
+        info.waypoints_remaining = self.waypoints.len();
         let mut qdd = sys.solve(cfg.regularization)?;
+        for (a, w) in qdd.iter_mut().zip(warp.iter()) {
+            *a = w.s * *a + w.kappa;
+        }
         Ok(core.integrate(
             q,
             qd,

@@ -359,3 +359,94 @@ fn bad_inputs_are_errors() {
     };
     assert!(PotentialFieldController::new(&ck, None, pf).is_err());
 }
+
+/// A target whose configuration puts joint 4 within 3 cm (rad) of its lower
+/// limit: in the limit-aware coordinates nothing pushes away from the
+/// limit, so the target is reached (the earlier limit repulsion left a
+/// standing offset of centimetres there) and the limit is never crossed.
+#[test]
+fn reaches_a_target_next_to_a_joint_limit() {
+    let ck = checker(CollisionWorld::new());
+    let mut ctl = ReactiveController::new(&ck, None, ReactiveConfig::default()).unwrap();
+    let model = ctl.model().clone();
+    let lo = model.lower_limits();
+    let mut goal = ready(&model);
+    goal[0] += 0.3;
+    goal[3] = lo[3] + 0.03;
+    goal[5] += 0.3;
+    let target = model.fk(&goal, None).unwrap();
+    ctl.core_mut().set_target(target, true).unwrap();
+    // Posture at the goal's side of the redundancy (a user's comfortable posture).
+    ctl.core_mut().set_posture(&goal).unwrap();
+    let mut q = ready(&model);
+    let mut qd = vec![0.0; q.len()];
+    let mut lowest = f64::INFINITY;
+    run(&mut ctl, &mut q, &mut qd, 0.01, 800, |_, _, q| {
+        lowest = lowest.min(q[3] - lo[3]);
+    });
+    let ee = model.fk(&q, None).unwrap();
+    let dp = (ee.translation.vector - target.translation.vector).norm();
+    let dr = ee.rotation.angle_to(&target.rotation);
+    assert!(dp < 3e-3, "position error {dp}");
+    assert!(dr < 2e-2, "rotation error {dr}");
+    assert!(
+        lowest >= ReactiveConfig::default().limit_buffer - 1e-9,
+        "limit margin {lowest}"
+    );
+}
+
+/// Global guidance: waypoints are followed in order (each passed within
+/// the tolerance), then the end-effector target takes over; a stall is
+/// reported when the arm rests away from an unreachable target.
+#[test]
+fn waypoints_are_followed_then_the_target_and_stalls_are_reported() {
+    let ck = checker(CollisionWorld::new());
+    let mut ctl = ReactiveController::new(&ck, None, ReactiveConfig::default()).unwrap();
+    let model = ctl.model().clone();
+    let start = ready(&model);
+    let mut mid = start.clone();
+    mid[0] += 0.6;
+    mid[1] -= 0.3;
+    let mut end = mid.clone();
+    end[2] += 0.4;
+    end[5] += 0.3;
+    let target = model.fk(&end, None).unwrap();
+    ctl.core_mut().set_target(target, true).unwrap();
+    ctl.set_waypoints(&[mid[..7].to_vec(), end.clone()])
+        .unwrap();
+    assert!(ctl.set_waypoints(&[vec![0.0; 3]]).is_err());
+    assert!(ctl.set_waypoints(&[vec![f64::NAN; 8]]).is_err());
+    ctl.set_waypoints(&[mid[..7].to_vec(), end.clone()])
+        .unwrap();
+    let (mut q, mut qd) = (start.clone(), vec![0.0; start.len()]);
+    let mut passed_mid = false;
+    let mut remaining = 2;
+    run(&mut ctl, &mut q, &mut qd, 0.01, 800, |c, _, q| {
+        let gap = (0..7).map(|d| (q[d] - mid[d]).abs()).fold(0.0, f64::max);
+        passed_mid |= gap < ReactiveConfig::default().waypoint_tolerance + 1e-9;
+        assert!(
+            c.waypoints_remaining() <= remaining,
+            "waypoints never come back"
+        );
+        remaining = c.waypoints_remaining();
+    });
+    assert!(passed_mid, "the first waypoint was not visited");
+    assert_eq!(ctl.waypoints_remaining(), 0);
+    let ee = model.fk(&q, None).unwrap();
+    assert!((ee.translation.vector - target.translation.vector).norm() < 3e-3);
+    // Out of reach: the arm comes to rest short of it and the step says so.
+    ctl.core_mut()
+        .set_target(at(1.6, 0.9, -0.2), false)
+        .unwrap();
+    let mut stalled = false;
+    for _ in 0..800 {
+        let out = ctl.step(&q, &qd, 0.01).unwrap();
+        stalled |= out.info.stalled;
+        q = out.q_target;
+        qd = out.qd_target;
+    }
+    assert!(
+        stalled,
+        "no stall reported at rest away from an unreachable target"
+    );
+}

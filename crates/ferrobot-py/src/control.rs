@@ -40,6 +40,8 @@ fn info_dict<'py>(py: Python<'py>, info: &StepInfo) -> PyResult<Bound<'py, PyDic
     d.set_item("acceleration_scale", info.acceleration_scale)?;
     d.set_item("velocity_scale", info.velocity_scale)?;
     d.set_item("limit_braked", info.limit_braked)?;
+    d.set_item("stalled", info.stalled)?;
+    d.set_item("waypoints_remaining", info.waypoints_remaining)?;
     Ok(d)
 }
 
@@ -73,7 +75,7 @@ fn joint_order(model: &ferrobot_model::RobotModel, names: &[String]) -> PyResult
 }
 
 macro_rules! controller_class {
-    ($py_name:literal, $ty:ident, $ctl:ty, $cfg:ty, $doc:literal) => {
+    ($py_name:literal, $ty:ident, $ctl:ty, $cfg:ty, $doc:literal $(, { $($extra:tt)* })?) => {
         #[doc = $doc]
         #[pyclass(name = $py_name, module = "ferrobot")]
         pub struct $ty {
@@ -423,6 +425,8 @@ macro_rules! controller_class {
                     self.inner.core().world().world().len()
                 )
             }
+
+            $($($extra)*)?
         }
     };
 }
@@ -432,7 +436,38 @@ controller_class!(
     PyReactiveController,
     ReactiveController,
     ReactiveConfig,
-    "Reactive (RMPflow-style) control towards an end-effector target around obstacles."
+    "Reactive (RMPflow-style) control towards an end-effector target around obstacles.",
+    {
+        /// Global guidance: joint-space waypoints, an (N, num_dof) or
+        /// (N, len(active_joints)) array (the other DOFs from the
+        /// posture), followed with every avoidance policy active before
+        /// the controller hands back to the end-effector target (e.g. a
+        /// planner's path to an IK solution when `last_step["stalled"]`).
+        /// An empty array clears them.
+        fn set_waypoints(&mut self, waypoints: &Bound<'_, PyAny>) -> PyResult<()> {
+            guard(|| {
+                let a = read_array(waypoints, "waypoints", 2, &[None, None])?;
+                let cols = a.shape[1];
+                let rows: Vec<Vec<f64>> = if cols == 0 {
+                    Vec::new()
+                } else {
+                    a.data().chunks(cols).map(|r| r.to_vec()).collect()
+                };
+                self.inner.set_waypoints(&rows).map_err(control_err)
+            })
+        }
+
+        /// Drops the waypoints.
+        fn clear_waypoints(&mut self) {
+            self.inner.clear_waypoints();
+        }
+
+        /// Waypoints still to pass.
+        #[getter]
+        fn waypoints_remaining(&self) -> usize {
+            self.inner.waypoints_remaining()
+        }
+    }
 );
 
 controller_class!(

@@ -8,6 +8,7 @@ mod batch;
 mod collision;
 mod control;
 mod errors;
+mod faults;
 mod grasp;
 mod model;
 mod planning;
@@ -76,6 +77,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(batch::step_worlds, m)?)?;
     m.add_function(wrap_pyfunction!(batch::execute_trajectories, m)?)?;
     sim2real_register(m)?;
+    faults::register(m)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

@@ -876,6 +876,26 @@ impl PyRobot {
         })
     }
 
+    /// Command latency (s): drive targets and efforts set at world time
+    /// `t` take effect at the first step starting at or after `t + latency`
+    /// (0 by default: at once).
+    #[getter]
+    fn command_latency(&self) -> PyResult<f64> {
+        self.with(|r, _| Ok(r.command_latency()))
+    }
+
+    /// Sets the command latency (s, finite, in [0, 10]); commands already
+    /// waiting keep their due times.
+    fn set_command_latency(&self, latency: f64) -> PyResult<()> {
+        self.with(|r, _| r.set_command_latency(latency))
+    }
+
+    /// Commands waiting in the latency buffer.
+    #[getter]
+    fn pending_commands(&self) -> PyResult<usize> {
+        self.with(|r, _| Ok(r.pending_commands()))
+    }
+
     /// Efforts (N·m or N) applied every step on top of the drives.
     #[pyo3(signature = (efforts, joint_indices=None))]
     fn set_joint_efforts(

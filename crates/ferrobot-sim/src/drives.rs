@@ -6,6 +6,7 @@ use ferrobot_model::Joint;
 use rapier3d::prelude::MotorModel;
 
 use crate::error::{Result, SimError};
+use crate::latency::CommandKind;
 use crate::robot::Robot;
 use crate::state::PhysState;
 
@@ -123,10 +124,9 @@ impl Robot {
     ) -> Result<()> {
         let ix = resolve_indices(self, indices)?;
         let t = values("position targets", targets, ix.len())?;
-        for (&i, &v) in ix.iter().zip(t) {
-            self.drives[i].target_position = v;
+        if let Some((ix, t)) = self.latency.defer(CommandKind::Position, ix, t.to_vec()) {
+            self.apply_command(state, CommandKind::Position, &ix, &t);
         }
-        self.apply_drives(state);
         Ok(())
     }
 
@@ -139,10 +139,9 @@ impl Robot {
     ) -> Result<()> {
         let ix = resolve_indices(self, indices)?;
         let t = values("velocity targets", targets, ix.len())?;
-        for (&i, &v) in ix.iter().zip(t) {
-            self.drives[i].target_velocity = v;
+        if let Some((ix, t)) = self.latency.defer(CommandKind::Velocity, ix, t.to_vec()) {
+            self.apply_command(state, CommandKind::Velocity, &ix, &t);
         }
-        self.apply_drives(state);
         Ok(())
     }
 
@@ -151,10 +150,59 @@ impl Robot {
     pub fn set_efforts(&mut self, efforts: &[f64], indices: Option<&[usize]>) -> Result<()> {
         let ix = resolve_indices(self, indices)?;
         let e = values("efforts", efforts, ix.len())?;
-        for (&i, &v) in ix.iter().zip(e) {
-            self.efforts[i] = v;
+        if let Some((ix, e)) = self.latency.defer(CommandKind::Effort, ix, e.to_vec()) {
+            for (&i, &v) in ix.iter().zip(&e) {
+                self.efforts[i] = v;
+            }
         }
         Ok(())
+    }
+
+    /// Applies a (validated) command now.
+    fn apply_command(
+        &mut self,
+        state: &mut PhysState,
+        kind: CommandKind,
+        ix: &[usize],
+        values: &[f64],
+    ) {
+        for (&i, &v) in ix.iter().zip(values) {
+            match kind {
+                CommandKind::Position => self.drives[i].target_position = v,
+                CommandKind::Velocity => self.drives[i].target_velocity = v,
+                CommandKind::Effort => self.efforts[i] = v,
+            }
+        }
+        if kind != CommandKind::Effort {
+            self.apply_drives(state);
+        }
+    }
+
+    /// The command latency (s): drive targets and efforts set at world
+    /// time `t` take effect at the first step starting at or after
+    /// `t + latency`.
+    pub fn command_latency(&self) -> f64 {
+        self.latency.delay()
+    }
+
+    /// Sets the command latency (finite, in [0, 10] s); commands already
+    /// waiting keep their due times.
+    pub fn set_command_latency(&mut self, delay: f64) -> Result<()> {
+        self.latency.set_delay(delay)
+    }
+
+    /// Commands waiting in the latency buffer.
+    pub fn pending_commands(&self) -> usize {
+        self.latency.pending()
+    }
+
+    /// Applies the commands due at world time `t` (called by the world
+    /// before each step) and sets the robot's clock to `t`.
+    pub(crate) fn apply_due_commands(&mut self, state: &mut PhysState, t: f64) {
+        self.latency.clock = t;
+        for (kind, ix, v) in self.latency.due(t) {
+            self.apply_command(state, kind, &ix, &v);
+        }
     }
 
     /// The efforts (N·m or N) set with [`Robot::set_efforts`], per DOF.

@@ -296,6 +296,104 @@ impl StreamGuard {
     }
 }
 
+/// Which drive input a delayed command sets.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CommandKind {
+    /// Drive position targets.
+    Position,
+    /// Drive velocity targets.
+    Velocity,
+    /// Joint efforts.
+    Effort,
+}
+
+/// A robot's command latency: drive targets and efforts set on a
+/// [`crate::robot::Robot`] at world time `t` take effect at the first step
+/// starting at or after `t + delay` (a real arm's command path: network,
+/// controller cycle). Owned by the robot and applied by
+/// [`crate::world::World::step`]; 0 (the default) applies commands at once.
+#[derive(Debug, Clone, Default)]
+pub struct RobotLatency {
+    delay: f64,
+    /// World time of the robot's clock (updated by the world).
+    pub(crate) clock: f64,
+    queue: VecDeque<(f64, CommandKind, Vec<usize>, Vec<f64>)>,
+}
+
+impl RobotLatency {
+    /// The delay (s).
+    pub fn delay(&self) -> f64 {
+        self.delay
+    }
+
+    /// Sets the delay (finite, in [0, 10] s). Commands already waiting keep
+    /// their due times.
+    pub fn set_delay(&mut self, delay: f64) -> Result<()> {
+        if !(delay.is_finite() && (0.0..=10.0).contains(&delay)) {
+            return Err(SimError::InvalidArgument(format!(
+                "command latency must be finite and in [0, 10] s, got {delay}"
+            )));
+        }
+        self.delay = delay;
+        Ok(())
+    }
+
+    /// Commands waiting.
+    pub fn pending(&self) -> usize {
+        self.queue.len()
+    }
+
+    /// Queues a command (already validated) if there is a delay; gives it
+    /// back when it must be applied at once.
+    pub(crate) fn defer(
+        &mut self,
+        kind: CommandKind,
+        indices: Vec<usize>,
+        values: Vec<f64>,
+    ) -> Option<(Vec<usize>, Vec<f64>)> {
+        if self.delay > 0.0 || !self.queue.is_empty() {
+            self.queue
+                .push_back((self.clock + self.delay, kind, indices, values));
+            None
+        } else {
+            Some((indices, values))
+        }
+    }
+
+    /// Removes and returns, in issue order, the commands due at time `t`
+    /// (up to 1e-9 s of rounding).
+    pub(crate) fn due(&mut self, t: f64) -> Vec<(CommandKind, Vec<usize>, Vec<f64>)> {
+        let mut out = Vec::new();
+        while let Some((due, ..)) = self.queue.front() {
+            if *due <= t + 1e-9 {
+                let (_, k, i, v) = self.queue.pop_front().expect("front exists");
+                out.push((k, i, v));
+            } else {
+                break;
+            }
+        }
+        out
+    }
+
+    /// Drops every waiting command.
+    pub fn clear(&mut self) {
+        self.queue.clear();
+    }
+}
+
+/// Look-ahead for a known trajectory under a robot's latency: the command
+/// to issue at `t` is the trajectory's sample at `t + delay`, so it takes
+/// effect when the plan wants it ([`trajectory_sample`]).
+pub fn lookahead_sample(
+    positions: &[f64],
+    n: usize,
+    dt: f64,
+    t: f64,
+    latency: &RobotLatency,
+) -> Result<Vec<f64>> {
+    trajectory_sample(positions, n, dt, t + latency.delay())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -308,6 +406,22 @@ mod tests {
         assert_eq!(d.pop_due(0.04).unwrap(), None);
         assert_eq!(d.pop_due(0.05).unwrap(), Some(vec![1.0]));
         assert_eq!(d.pop_due(0.1).unwrap(), Some(vec![2.0]));
+    }
+
+    #[test]
+    fn robot_latency_defers_in_order() {
+        let mut l = RobotLatency::default();
+        assert!(l.defer(CommandKind::Position, vec![0], vec![1.0]).is_some());
+        l.set_delay(0.05).unwrap();
+        assert!(l.set_delay(f64::NAN).is_err());
+        l.clock = 0.0;
+        assert!(l.defer(CommandKind::Position, vec![0], vec![1.0]).is_none());
+        l.clock = 0.01;
+        assert!(l.defer(CommandKind::Velocity, vec![0], vec![2.0]).is_none());
+        assert!(l.due(0.04).is_empty());
+        assert_eq!(l.due(0.05).len(), 1);
+        assert_eq!(l.due(0.06)[0].0, CommandKind::Velocity);
+        assert_eq!(l.pending(), 0);
     }
 
     #[test]

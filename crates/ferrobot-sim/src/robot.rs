@@ -115,6 +115,8 @@ pub struct Robot {
     pub(crate) applied_substeps: usize,
     /// The world's substeps (for dynamic objects), as of the last step.
     pub(crate) world_substeps: usize,
+    /// Command latency: drive targets and efforts wait here until due.
+    pub(crate) latency: crate::latency::RobotLatency,
 }
 
 /// The rotation taking the x axis to `axis`.
@@ -377,6 +379,7 @@ impl Robot {
             applied_iterations: 0,
             applied_substeps: 0,
             world_substeps: 1,
+            latency: Default::default(),
         };
         if let Some(mb) = robot.multibody_mut(state) {
             // Joint damping and friction from the URDF's <dynamics> (Rapier

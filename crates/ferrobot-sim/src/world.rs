@@ -368,6 +368,8 @@ impl World {
         for (a, b, _) in acm.pairs() {
             self.filter.allowed.insert((index, a.min(b), a.max(b)));
         }
+        let mut robot = robot;
+        robot.latency.clock = self.time;
         self.robots.push(robot);
         self.initial = None;
         Ok(index)
@@ -508,6 +510,10 @@ impl World {
         }
         let gravity = to_vec(&self.config.gravity);
         for _ in 0..n {
+            let now = self.time;
+            for r in &mut self.robots {
+                r.apply_due_commands(&mut self.state, now);
+            }
             self.update_robot_substeps();
             for r in &self.robots {
                 r.apply_efforts(&mut self.state);
@@ -530,6 +536,10 @@ impl World {
             );
             self.steps += 1;
             self.time += self.config.dt;
+            let now = self.time;
+            for r in &mut self.robots {
+                r.latency.clock = now;
+            }
             self.check_diverged()?;
         }
         Ok(())
