@@ -8,9 +8,9 @@ use std::hint::black_box;
 use std::sync::Arc;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use ferrobot_collision::acm::AllowedCollisions;
+use ferrobot_collision::acm::{AllowedCollisions, AnalyzeCollisions};
 use ferrobot_collision::spherize::{SpherizeOptions, spherize_robot};
-use ferrobot_collision::{CollisionChecker, CollisionWorld, ObstacleShape, RobotSpheres};
+use ferrobot_collision::{CollisionChecker, CollisionWorld, RobotSpheres, Shape};
 use ferrobot_control::{
     PotentialFieldConfig, PotentialFieldController, ReactiveConfig, ReactiveController,
 };
@@ -34,9 +34,9 @@ fn control(c: &mut Criterion) {
             UnitQuaternion::from_euler_angles(0.1 * i as f64, 0.2, 0.0),
         );
         let shape = if i % 2 == 0 {
-            ObstacleShape::Sphere { radius: 0.06 }
+            Shape::Sphere { radius: 0.06 }
         } else {
-            ObstacleShape::Box {
+            Shape::Box {
                 half_extents: Vector3::new(0.05, 0.04, 0.06),
             }
         };

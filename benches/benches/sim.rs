@@ -7,8 +7,8 @@ use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use ferrobot_benches::sim_table_scene;
+use ferrobot_camera::look_at;
 use ferrobot_sim::camera::{Camera, Intrinsics};
-use ferrobot_sim::conventions::look_at;
 use nalgebra::{Point3, Vector3};
 
 fn sim(c: &mut Criterion) {
@@ -34,6 +34,7 @@ fn sim(c: &mut Criterion) {
         fy: 525.0,
         cx: 319.5,
         cy: 239.5,
+        depth_scale: 1.0,
     };
     let cam = Camera::new(intr, pose).unwrap();
     g.bench_function("render_640x480_depth_seg", |b| {

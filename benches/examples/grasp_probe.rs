@@ -37,19 +37,13 @@ fn main() {
     let id: i32 = args[3].parse().expect("object id");
     let runs: usize = args.get(4).map_or(20, |r| r.parse().expect("runs"));
     let (h, w) = (480, 640);
-    let k = Intrinsics {
-        fx: 525.0,
-        fy: 525.0,
-        cx: 319.5,
-        cy: 239.5,
-        scale: 1.0,
-    };
+    let k = Intrinsics::new(w, h, 525.0, 525.0, 319.5, 239.5).expect("intrinsics");
     let opts = DetectOptions::default();
     let mut times = Vec::new();
     let mut n = 0;
     for _ in 0..runs {
         let t = Instant::now();
-        let g = detect_rgbd(&depth, h, w, &k, Some(&seg), Some(id), None, &opts).expect("detect");
+        let g = detect_rgbd(&depth, &k, Some(&seg), Some(id), None, &opts).expect("detect");
         times.push(t.elapsed().as_secs_f64() * 1e3);
         n = g.grasps.len();
     }

@@ -8,7 +8,7 @@ use std::sync::Arc;
 
 use ferrobot_collision::{AllowedCollisions, CollisionChecker, CollisionWorld, RobotSpheres};
 use ferrobot_model::{LoadOptions, RobotModel, SrdfSource};
-use ferrobot_sim::{ObjectDesc, ObjectShape, RobotOptions, World, WorldConfig};
+use ferrobot_sim::{ObjectDesc, RobotOptions, Shape, World, WorldConfig};
 use nalgebra::{Isometry3, Vector3};
 use rand::{Rng, SeedableRng, rngs::StdRng};
 
@@ -142,7 +142,7 @@ pub fn sim_table_scene(objects: bool) -> World {
         };
         add(
             "table",
-            ObjectShape::Box {
+            Shape::Box {
                 half_extents: Vector3::new(0.4, 0.6, 0.2),
             },
             Isometry3::translation(0.6, 0.0, 0.2),
@@ -150,7 +150,7 @@ pub fn sim_table_scene(objects: bool) -> World {
         );
         add(
             "box",
-            ObjectShape::Box {
+            Shape::Box {
                 half_extents: Vector3::new(0.025, 0.025, 0.025),
             },
             Isometry3::translation(0.5, 0.0, 0.425),
@@ -158,16 +158,16 @@ pub fn sim_table_scene(objects: bool) -> World {
         );
         add(
             "can",
-            ObjectShape::Cylinder {
+            Shape::Cylinder {
                 radius: 0.03,
-                length: 0.12,
+                half_height: 0.06,
             },
             Isometry3::translation(0.6, 0.25, 0.46),
             false,
         );
         add(
             "ball",
-            ObjectShape::Sphere { radius: 0.04 },
+            Shape::Sphere { radius: 0.04 },
             Isometry3::translation(0.7, -0.25, 0.44),
             false,
         );

@@ -11,7 +11,7 @@ Conventions (everywhere in the public API):
 
 from __future__ import annotations
 
-from . import calibration, errors, grasp, pipeline, robots, scenarios, transforms
+from . import _core, calibration, camera, errors, grasp, pipeline, robots, scenarios, transforms
 from ._core import (
     Camera,
     CollisionChecker,
@@ -32,7 +32,6 @@ from ._core import (
     StreamGuard,
     World,
     __version__,
-    depth_to_points,
     look_at,
     opencv_to_opengl,
     opengl_to_opencv,
@@ -43,6 +42,7 @@ __all__ = [
     "LinearPredictor",
     "StreamGuard",
     "calibration",
+    "camera",
     "scenarios",
     "Camera",
     "CollisionChecker",
@@ -70,3 +70,21 @@ __all__ = [
     "robots",
     "__version__",
 ]
+
+
+def depth_to_points(depth, fx: float, fy: float, cx: float, cy: float):
+    """Deprecated: use :func:`ferrobot.camera.backproject` (pixels as (row, column)).
+
+    Back-projects a depth image (H, W) in metres; returns ``(points (N, 3), flat pixel indices (N,))``.
+    Same policy as the new function: 0 and +inf are missing; NaN, -inf and negative depths raise.
+    """
+    import warnings
+
+    warnings.warn(
+        "ferrobot.depth_to_points is deprecated; use ferrobot.camera.backproject(depth, "
+        "ferrobot.camera.Intrinsics(...))"
+        " instead",
+        DeprecationWarning,
+        stacklevel=2,
+    )
+    return _core.depth_to_points(depth, fx, fy, cx, cy)

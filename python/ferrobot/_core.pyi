@@ -439,6 +439,29 @@ def opencv_to_opengl(pose: Pose) -> F64: ...
 def opengl_to_opencv(pose: Pose) -> F64: ...
 def look_at(eye: ArrayLike, target: ArrayLike, up: ArrayLike | None = None) -> F64: ...
 
+# --- cameras (crates/ferrobot-py/src/camera.rs; used through ferrobot.camera) ---
+
+def camera_check_intrinsics(
+    width: int, height: int, fx: float, fy: float, cx: float, cy: float, depth_scale: float
+) -> None:
+    """Raises the matching ferrobot.errors class for invalid intrinsics."""
+
+def camera_backproject(
+    depth: ArrayLike,
+    width: int,
+    height: int,
+    fx: float,
+    fy: float,
+    cx: float,
+    cy: float,
+    depth_scale: float,
+    workspace: ArrayLike | None = None,
+) -> tuple[F64, npt.NDArray[np.int64]]:
+    """Back-projected points (N, 3) (OpenCV camera frame) and their pixels (N, 2) as (row, column)."""
+
+def camera_convert_pose(pose: ArrayLike, from_: str, to: str) -> F64:
+    """The 4x4 pose in convention ``to`` of a camera whose pose in convention ``from_`` is ``pose``."""
+
 class JointPID:
     """Joint-space PID with anti-windup (integral clamp + conditional integration)."""
 
@@ -640,17 +663,6 @@ class Planner:
 # --- grasp detection (used through ferrobot.grasp) ---
 
 I64 = npt.NDArray[np.int64]
-
-def grasp_backproject(
-    depth: ArrayLike,
-    fx: float,
-    fy: float,
-    cx: float,
-    cy: float,
-    scale: float,
-    workspace: ArrayLike | None = None,
-) -> tuple[F64, I64]:
-    """Back-projected points (N, 3) (OpenCV camera frame) and their flat pixel indices (N,)."""
 
 def grasp_detect(
     points: ArrayLike,

@@ -1,61 +1,89 @@
-//! Back-projection of a depth image to camera-frame points.
+//! Back-projection of a depth image to camera-frame points: the one formula
+//! and the one policy for missing depth.
+//!
+//! Missing depth: a pixel whose depth is **0 or +inf** has no reading (0 is
+//! what sensors write, +inf what a ray that hits nothing gives, as in REP 117)
+//! and is skipped. NaN, -inf and negative depths are errors naming the pixel
+//! by (row, column). Returned pixels are (row, column) pairs.
 
 use nalgebra::Point3;
 
 use crate::error::CameraError;
-use crate::pinhole::Pinhole;
+use crate::intrinsics::Intrinsics;
 
 /// The points back-projected from a depth image.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct BackProjected {
     /// Points in the camera frame (OpenCV convention), metres.
     pub points: Vec<Point3<f64>>,
-    /// For each point, the flat pixel index `v * width + u` it came from.
-    pub pixels: Vec<usize>,
+    /// For each point, the pixel `(row, column)` it came from.
+    pub pixels: Vec<(usize, usize)>,
 }
 
-/// Back-projects a row-major depth image `width` pixels wide through
-/// `pinhole`: z = depth / `scale`, x = (u - cx) / fx · z,
+impl BackProjected {
+    /// The pixels as flat row-major indices `row * width + column`.
+    pub fn flat_pixels(&self, width: usize) -> Vec<usize> {
+        self.pixels.iter().map(|&(r, c)| r * width + c).collect()
+    }
+}
+
+/// Whether a depth value is a missing reading (0 or +inf).
+#[inline]
+pub fn is_missing(d: f64) -> bool {
+    d == 0.0 || d == f64::INFINITY
+}
+
+/// Back-projects a row-major `intrinsics.height` x `intrinsics.width` depth
+/// image: z = depth / depth_scale, x = (u - cx) / fx · z,
 /// y = (v - cy) / fy · z, for pixel column u and row v.
 ///
-/// Pixels without a reading are skipped: depth 0, negative, NaN or infinite
-/// (callers that must reject NaN or negative depths check before). Points
-/// for which `keep` is false are dropped (e.g. outside a workspace).
+/// Missing depths (0, +inf) are skipped; NaN or -inf is
+/// [`CameraError::NonFinite`], a negative depth
+/// [`CameraError::InvalidArgument`], a size mismatch [`CameraError::Shape`].
+/// Points for which `keep` is false are dropped (e.g. outside a workspace).
 /// `depth` may be `f32` (rendered images) or `f64`.
 pub fn backproject<D: Copy + Into<f64>>(
     depth: &[D],
-    width: usize,
-    pinhole: &Pinhole,
-    scale: f64,
+    intrinsics: &Intrinsics,
     mut keep: impl FnMut(&Point3<f64>) -> bool,
 ) -> Result<BackProjected, CameraError> {
-    pinhole.validate()?;
-    if !(scale.is_finite() && scale > 0.0) {
-        return Err(CameraError::InvalidArgument(format!(
-            "depth scale must be finite and > 0, got {scale}"
-        )));
-    }
-    if width == 0 || !depth.len().is_multiple_of(width) {
+    intrinsics.validate()?;
+    let (w, h) = (intrinsics.width, intrinsics.height);
+    if depth.len() != w * h {
         return Err(CameraError::Shape(format!(
-            "depth image: {} values is not a whole number of rows of {width} pixels",
+            "depth image: {} values for a {h}x{w} image",
             depth.len()
         )));
     }
+    let scale = intrinsics.depth_scale;
     let mut out = BackProjected::default();
-    for (v, row) in depth.chunks_exact(width).enumerate() {
+    for (v, row) in depth.chunks_exact(w).enumerate() {
         for (u, &d) in row.iter().enumerate() {
             let d: f64 = d.into();
-            if !(d.is_finite() && d > 0.0) {
-                continue;
-            }
-            let p = pinhole.unproject(u as f64, v as f64, d / scale);
-            if keep(&p) {
-                out.points.push(p);
-                out.pixels.push(v * width + u);
+            if d > 0.0 && d < f64::INFINITY {
+                let p = intrinsics.unproject(u as f64, v as f64, d / scale);
+                if keep(&p) {
+                    out.points.push(p);
+                    out.pixels.push((v, u));
+                }
+            } else if !is_missing(d) {
+                return Err(bad_depth(d, v, u));
             }
         }
     }
     Ok(out)
+}
+
+fn bad_depth(d: f64, row: usize, col: usize) -> CameraError {
+    if d.is_nan() || d.is_infinite() {
+        CameraError::NonFinite(format!(
+            "depth image: non-finite value {d} at pixel (row {row}, column {col}) (missing depth is 0 or +inf)"
+        ))
+    } else {
+        CameraError::InvalidArgument(format!(
+            "depth image: negative depth {d} at pixel (row {row}, column {col}) (missing depth is 0 or +inf)"
+        ))
+    }
 }
 
 #[cfg(test)]
@@ -63,25 +91,39 @@ mod tests {
     use super::*;
 
     #[test]
-    fn formula_skips_and_filter() {
-        let k = Pinhole {
-            fx: 100.0,
-            fy: 200.0,
-            cx: 1.0,
-            cy: 0.5,
-        };
-        let depth = [0.0f32, 500.0, f32::INFINITY, 2000.0, -1.0, f32::NAN];
-        let b = backproject(&depth, 3, &k, 1000.0, |_| true).unwrap();
-        assert_eq!(b.pixels, vec![1, 3]);
-        // pixel 3: row 1, column 0, z = 2
+    fn formula_skips_errors_and_filter() {
+        let k = Intrinsics::new(3, 2, 100.0, 200.0, 1.0, 0.5)
+            .unwrap()
+            .with_depth_scale(1000.0)
+            .unwrap();
+        let depth = [0.0f32, 500.0, f32::INFINITY, 2000.0, 0.0, 0.0];
+        let b = backproject(&depth, &k, |_| true).unwrap();
+        assert_eq!(b.pixels, vec![(0, 1), (1, 0)]);
+        assert_eq!(b.flat_pixels(3), vec![1, 3]);
+        // pixel (1, 0): row 1, column 0, z = 2
         let expect = Point3::new(-1.0 / 100.0 * 2.0, 0.5 / 200.0 * 2.0, 2.0);
         assert!((b.points[1] - expect).norm() < 1e-12);
-        let near = backproject(&depth, 3, &k, 1000.0, |p| p.z < 1.0).unwrap();
-        assert_eq!(near.pixels, vec![1]);
+        let near = backproject(&depth, &k, |p| p.z < 1.0).unwrap();
+        assert_eq!(near.pixels, vec![(0, 1)]);
         assert!(matches!(
-            backproject(&depth, 4, &k, 1000.0, |_| true),
+            backproject(&depth[..5], &k, |_| true),
             Err(CameraError::Shape(_))
         ));
-        assert!(backproject(&depth, 3, &k, 0.0, |_| true).is_err());
+        let mut bad = depth;
+        bad[4] = f32::NAN;
+        assert!(matches!(
+            backproject(&bad, &k, |_| true),
+            Err(CameraError::NonFinite(m)) if m.contains("row 1, column 1")
+        ));
+        bad[4] = -1.0;
+        assert!(matches!(
+            backproject(&bad, &k, |_| true),
+            Err(CameraError::InvalidArgument(_))
+        ));
+        bad[4] = f32::NEG_INFINITY;
+        assert!(matches!(
+            backproject(&bad, &k, |_| true),
+            Err(CameraError::NonFinite(_))
+        ));
     }
 }

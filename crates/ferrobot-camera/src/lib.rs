@@ -1,14 +1,24 @@
-//! The pinhole camera model shared by ferrobot's simulator (rendered depth
-//! to points) and grasp detector (RGB-D input to a cloud): intrinsics and
-//! depth back-projection, in one place so both agree on the convention.
+//! The only home of camera concepts in ferrobot: pinhole intrinsics with
+//! the image size and depth units ([`Intrinsics`], one validation), frame
+//! conventions (OpenCV / ROS optical, OpenGL / USD, ROS body) and the poses
+//! between them, `look_at`, and depth back-projection with one policy for
+//! missing depth ([`backproject`]: 0 and +inf are missing and skipped; NaN,
+//! -inf and negative depths are errors; pixels are (row, column)).
+//!
+//! The simulator's cameras (rendering stays in `ferrobot-sim`), the grasp
+//! detector's RGB-D input and the Python module `ferrobot.camera` all use it.
 //!
 //! Camera frame: OpenCV (x right, y down, z forward); pixel (u, v) is
 //! column u, row v, with pixel centres at integer coordinates.
 
 mod backproject;
+pub mod conventions;
 mod error;
-mod pinhole;
+mod intrinsics;
 
-pub use backproject::{BackProjected, backproject};
+pub use backproject::{BackProjected, backproject, is_missing};
+pub use conventions::{
+    Convention, camera_to_world, convert_pose, look_at, opencv_to_opengl, opengl_to_opencv,
+};
 pub use error::CameraError;
-pub use pinhole::Pinhole;
+pub use intrinsics::Intrinsics;

@@ -19,7 +19,6 @@ use crate::error::{CollisionError, Result};
 use crate::kernel::{Scratch, check};
 use crate::lanes::Lanes;
 use crate::robot_spheres::RobotSpheres;
-use crate::shapes::ObstacleShape;
 use crate::single::OneScratch;
 use crate::sphere::Sphere;
 use crate::spherize::{SpherizeOptions, spherize_link};
@@ -36,7 +35,7 @@ pub struct Attached {
     /// Pose of the object frame in the link frame.
     pub pose_in_link: Isometry3<f64>,
     /// Its shapes in the object frame.
-    pub parts: Vec<(ObstacleShape, Isometry3<f64>)>,
+    pub parts: Vec<(Shape, Isometry3<f64>)>,
     /// Links it may touch (besides `link`).
     pub touch_links: Vec<usize>,
     /// Its spheres in the link frame.
@@ -503,7 +502,7 @@ impl CollisionChecker {
         name: &str,
         link: &str,
         pose_in_link: Isometry3<f64>,
-        parts: Vec<(ObstacleShape, Isometry3<f64>)>,
+        parts: Vec<(Shape, Isometry3<f64>)>,
         touch_links: &[&str],
     ) -> Result<()> {
         if self.attached.iter().any(|a| a.name == name) {
@@ -591,49 +590,15 @@ pub(crate) fn pack(q: &[f64], dof: usize, n: usize) -> Vec<f32x8> {
         .collect()
 }
 
-/// A model geometry for an obstacle shape (for the spherizer).
-pub(crate) fn geometry_of(shape: &ObstacleShape, origin: Isometry3<f64>) -> Result<Geometry> {
-    let s = match shape {
-        ObstacleShape::Box { half_extents } => Shape::Box {
-            half_extents: *half_extents,
-        },
-        ObstacleShape::Sphere { radius } => Shape::Sphere { radius: *radius },
-        ObstacleShape::Cylinder {
-            radius,
-            half_length,
-        } => Shape::Cylinder {
-            radius: *radius,
-            length: 2.0 * half_length,
-        },
-        ObstacleShape::Capsule {
-            radius,
-            half_length,
-        } => Shape::Capsule {
-            radius: *radius,
-            length: 2.0 * half_length,
-        },
-        ObstacleShape::Mesh(m) => {
-            let t = m.trimesh();
-            Shape::Mesh {
-                filename: "<attached mesh>".into(),
-                path: Default::default(),
-                scale: nalgebra::Vector3::repeat(1.0),
-                mesh: Arc::new(ferrobot_model::TriMesh {
-                    vertices: t
-                        .vertices()
-                        .iter()
-                        .map(|v| nalgebra::Point3::new(v.x as f64, v.y as f64, v.z as f64))
-                        .collect(),
-                    triangles: t.indices().to_vec(),
-                }),
-            }
-        }
-        ObstacleShape::PointCloud(_) => {
-            return Err(CollisionError::InvalidShape(
-                "a point cloud cannot be attached to the robot".into(),
-            ));
-        }
-    };
+/// A model geometry for an obstacle shape (for the spherizer): the same
+/// shape placed at `origin`; a point cloud cannot be attached.
+pub(crate) fn geometry_of(shape: &Shape, origin: Isometry3<f64>) -> Result<Geometry> {
+    if let Shape::PointCloud(_) = shape {
+        return Err(CollisionError::InvalidShape(
+            "a point cloud cannot be attached to the robot".into(),
+        ));
+    }
+    let s = shape.clone();
     Ok(Geometry {
         name: None,
         origin,

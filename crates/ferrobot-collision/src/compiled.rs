@@ -15,9 +15,9 @@ use wide::f32x8;
 
 use crate::lanes::Lanes;
 
-use crate::shapes::ObstacleShape;
 use crate::sphere::Sphere;
 use crate::world::CollisionWorld;
+use ferrobot_geometry::Shape;
 
 /// A rigid transform as a row-major rotation and a translation, `f32`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -482,7 +482,7 @@ pub struct Obstacle {
     /// World object index.
     pub object: usize,
     /// For complex shapes: the shape and its world pose.
-    pub complex: Option<(ObstacleShape, Isometry3<f64>)>,
+    pub complex: Option<(Shape, Isometry3<f64>)>,
 }
 
 /// The world compiled for the kernel.
@@ -514,11 +514,11 @@ impl CompiledWorld {
                 let axis = pose.rotation * Vector3::z();
                 let a = [axis.x as f32, axis.y as f32, axis.z as f32];
                 let prim = match shape {
-                    ObstacleShape::Sphere { radius } => Prim::Sphere {
+                    Shape::Sphere { radius } => Prim::Sphere {
                         c,
                         r: *radius as f32,
                     },
-                    ObstacleShape::Box { half_extents } => {
+                    Shape::Box { half_extents } => {
                         let m: Rotation3<f64> = pose.rotation.inverse().to_rotation_matrix();
                         let mut rt = [0.0f32; 9];
                         for r in 0..3 {
@@ -536,25 +536,28 @@ impl CompiledWorld {
                             ],
                         }
                     }
-                    ObstacleShape::Cylinder {
+                    Shape::Cylinder {
                         radius,
-                        half_length,
+                        half_height,
                     } => Prim::Cylinder {
                         c,
                         a,
                         r: *radius as f32,
-                        h: *half_length as f32,
+                        h: *half_height as f32,
                     },
-                    ObstacleShape::Capsule {
+                    Shape::Capsule {
                         radius,
-                        half_length,
+                        half_height,
                     } => Prim::Capsule {
                         c,
                         a,
                         r: *radius as f32,
-                        h: *half_length as f32,
+                        h: *half_height as f32,
                     },
-                    ObstacleShape::Mesh(_) | ObstacleShape::PointCloud(_) => Prim::Complex,
+                    Shape::ConvexHull(_)
+                    | Shape::Mesh(_)
+                    | Shape::ConvexDecomposition(_)
+                    | Shape::PointCloud(_) => Prim::Complex,
                 };
                 let complex = matches!(prim, Prim::Complex).then(|| (shape.clone(), pose));
                 obstacles.push(Obstacle {

@@ -30,6 +30,12 @@ pub enum CollisionError {
     InvalidArgument(String),
 }
 
+impl From<ferrobot_geometry::GeometryError> for CollisionError {
+    fn from(e: ferrobot_geometry::GeometryError) -> Self {
+        CollisionError::InvalidShape(e.to_string())
+    }
+}
+
 impl From<ferrobot_model::ranges::RangeError> for CollisionError {
     fn from(e: ferrobot_model::ranges::RangeError) -> Self {
         CollisionError::InvalidArgument(e.0)

@@ -347,7 +347,10 @@ impl ExactBody {
                     Obb::new(centre, &rot, &Vector3::repeat(*radius)),
                     Convex::Ball(Ball::new(*radius as f32)),
                 ),
-                Shape::Cylinder { radius, length } => {
+                Shape::Cylinder {
+                    radius,
+                    half_height,
+                } => {
                     // parry's cylinders run along y, URDF's along z.
                     let turn = UnitQuaternion::from_axis_angle(
                         &Vector3::x_axis(),
@@ -355,32 +358,37 @@ impl ExactBody {
                     );
                     Part::new(
                         at * turn,
-                        Obb::new(centre, &rot, &Vector3::new(*radius, *radius, length / 2.0)),
-                        Convex::Cylinder(Cylinder::new((*length / 2.0) as f32, *radius as f32)),
+                        Obb::new(centre, &rot, &Vector3::new(*radius, *radius, *half_height)),
+                        Convex::Cylinder(Cylinder::new(*half_height as f32, *radius as f32)),
                     )
                 }
-                Shape::Capsule { radius, length } => Part::new(
+                Shape::Capsule {
+                    radius,
+                    half_height,
+                } => Part::new(
                     at,
                     Obb::new(
                         centre,
                         &rot,
-                        &Vector3::new(*radius, *radius, length / 2.0 + radius),
+                        &Vector3::new(*radius, *radius, half_height + radius),
                     ),
                     Convex::Capsule(Capsule::new(
-                        Vector::new(0.0, 0.0, (-length / 2.0) as f32),
-                        Vector::new(0.0, 0.0, (length / 2.0) as f32),
+                        Vector::new(0.0, 0.0, (-half_height) as f32),
+                        Vector::new(0.0, 0.0, *half_height as f32),
                         *radius as f32,
                     )),
                 ),
-                Shape::Mesh { scale, mesh, .. } => {
-                    let pts: Vec<Vector> = mesh
-                        .vertices
-                        .iter()
-                        .map(|v| {
-                            let p = v.coords.component_mul(scale);
-                            Vector::new(p.x as f32, p.y as f32, p.z as f32)
-                        })
-                        .collect();
+                Shape::PointCloud(_) => return None,
+                Shape::Mesh(_) | Shape::ConvexDecomposition(_) | Shape::ConvexHull(_) => {
+                    let pts: Vec<Vector> = match &g.shape {
+                        Shape::ConvexHull(h) => h
+                            .points()
+                            .iter()
+                            .map(|p| Vector::new(p.x as f32, p.y as f32, p.z as f32))
+                            .collect(),
+                        Shape::Mesh(m) | Shape::ConvexDecomposition(m) => m.parry_vertices(),
+                        _ => unreachable!("matched above"),
+                    };
                     let hull = Hull::new(&pts)?;
                     // The box holds the hull's f32 vertices placed in the
                     // lane frame: the smaller of the box along the mesh

@@ -496,7 +496,7 @@ fn ensure_centers<L: Lanes>(robot: &CompiledRobot, body: usize, scratch: &mut Sc
 }
 
 pub(crate) fn complex_hits<L: Lanes>(
-    shape: &crate::shapes::ObstacleShape,
+    shape: &ferrobot_geometry::Shape,
     pose: &nalgebra::Isometry3<f64>,
     c: &[L; 3],
     r: L,

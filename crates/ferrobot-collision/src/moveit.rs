@@ -8,9 +8,8 @@ use nalgebra::{Isometry3, Point3, Quaternion, Translation3, UnitQuaternion, Vect
 use serde_yaml::Value;
 
 use crate::error::{CollisionError, Result};
-use crate::shapes::ObstacleShape;
-use crate::trimesh::MeshShape;
 use crate::world::CollisionWorld;
+use ferrobot_geometry::Shape;
 
 fn err(location: &str, message: impl Into<String>) -> CollisionError {
     CollisionError::File {
@@ -66,7 +65,7 @@ fn pose(v: Option<&Value>, loc: &str) -> Result<Isometry3<f64>> {
     ))
 }
 
-fn primitive(v: &Value, loc: &str) -> Result<ObstacleShape> {
+fn primitive(v: &Value, loc: &str) -> Result<Shape> {
     let kind = v
         .get("type")
         .and_then(Value::as_str)
@@ -90,19 +89,19 @@ fn primitive(v: &Value, loc: &str) -> Result<ObstacleShape> {
     Ok(match kind {
         "box" => {
             let d = dims(3)?;
-            ObstacleShape::Box {
+            Shape::Box {
                 half_extents: Vector3::new(d[0], d[1], d[2]) / 2.0,
             }
         }
-        "sphere" => ObstacleShape::Sphere {
+        "sphere" => Shape::Sphere {
             radius: dims(1)?[0],
         },
         // shape_msgs/SolidPrimitive: CYLINDER_HEIGHT = 0, CYLINDER_RADIUS = 1.
         "cylinder" => {
             let d = dims(2)?;
-            ObstacleShape::Cylinder {
+            Shape::Cylinder {
                 radius: d[1],
-                half_length: d[0] / 2.0,
+                half_height: d[0] / 2.0,
             }
         }
         other => {
@@ -116,7 +115,7 @@ fn primitive(v: &Value, loc: &str) -> Result<ObstacleShape> {
     })
 }
 
-fn mesh(v: &Value, loc: &str) -> Result<ObstacleShape> {
+fn mesh(v: &Value, loc: &str) -> Result<Shape> {
     let verts = v
         .get("vertices")
         .and_then(Value::as_sequence)
@@ -165,8 +164,10 @@ fn mesh(v: &Value, loc: &str) -> Result<ObstacleShape> {
             Ok(out)
         })
         .collect::<Result<Vec<_>>>()?;
-    let m = MeshShape::new(&vertices, &triangles).map_err(|e| err(loc, e.to_string()))?;
-    Ok(ObstacleShape::Mesh(std::sync::Arc::new(m)))
+    let m = ferrobot_geometry::Mesh::new(vertices, triangles)
+        .and_then(|m| m.query_ready().map(|()| m))
+        .map_err(|e| err(loc, e.to_string()))?;
+    Ok(Shape::Mesh(std::sync::Arc::new(m)))
 }
 
 impl CollisionWorld {

@@ -538,16 +538,12 @@ fn solve_budget(problems: &[&Problem], total: usize, cap: Option<usize>) -> Vec<
 // Shapes
 // ---------------------------------------------------------------------------
 
-/// A primitive in its own frame.
-#[derive(Debug, Clone, Copy)]
-enum Prim {
-    Cuboid(Vector3<f64>),
-    Ball(f64),
-    /// Radius and half length along z.
-    Cylinder(f64, f64),
-    /// Radius and half length of the cylindrical part along z.
-    Capsule(f64, f64),
-}
+/// A primitive [`Shape`] (box, sphere, cylinder, capsule) in its own frame,
+/// with what the spherizer asks of it (sizes may be zero here).
+#[derive(Debug, Clone)]
+struct Prim(Shape);
+
+const NOT_PRIM: &str = "Prim holds a box, sphere, cylinder or capsule only";
 
 fn steps(len: f64, max_step: f64) -> usize {
     let n = (len / max_step).ceil();
@@ -579,46 +575,67 @@ fn cylinder_side(r: f64, h: f64, delta: f64, emit: &mut dyn FnMut(Point3<f64>)) 
 
 impl Prim {
     fn sd(&self, p: &Point3<f64>) -> f64 {
-        match *self {
-            Prim::Cuboid(he) => {
+        match self.0 {
+            Shape::Box { half_extents: he } => {
                 let q = p.coords.abs() - he;
                 q.sup(&Vector3::zeros()).norm() + q.max().min(0.0)
             }
-            Prim::Ball(r) => p.coords.norm() - r,
-            Prim::Cylinder(r, h) => {
+            Shape::Sphere { radius: r } => p.coords.norm() - r,
+            Shape::Cylinder {
+                radius: r,
+                half_height: h,
+            } => {
                 let dx = p.x.hypot(p.y) - r;
                 let dz = p.z.abs() - h;
                 dx.max(dz).min(0.0) + dx.max(0.0).hypot(dz.max(0.0))
             }
-            Prim::Capsule(r, h) => {
+            Shape::Capsule {
+                radius: r,
+                half_height: h,
+            } => {
                 let z = p.z.clamp(-h, h);
                 (p.coords - Vector3::new(0.0, 0.0, z)).norm() - r
             }
+            _ => unreachable!("{}", NOT_PRIM),
         }
     }
 
     fn area(&self) -> f64 {
-        match *self {
-            Prim::Cuboid(e) => 8.0 * (e.x * e.y + e.y * e.z + e.z * e.x),
-            Prim::Ball(r) => 4.0 * PI * r * r,
-            Prim::Cylinder(r, h) => 4.0 * PI * r * h + 2.0 * PI * r * r,
-            Prim::Capsule(r, h) => 4.0 * PI * r * h + 4.0 * PI * r * r,
+        match self.0 {
+            Shape::Box { half_extents: e } => 8.0 * (e.x * e.y + e.y * e.z + e.z * e.x),
+            Shape::Sphere { radius: r } => 4.0 * PI * r * r,
+            Shape::Cylinder {
+                radius: r,
+                half_height: h,
+            } => 4.0 * PI * r * h + 2.0 * PI * r * r,
+            Shape::Capsule {
+                radius: r,
+                half_height: h,
+            } => 4.0 * PI * r * h + 4.0 * PI * r * r,
+            _ => unreachable!("{}", NOT_PRIM),
         }
     }
 
     fn half_extents(&self) -> Vector3<f64> {
-        match *self {
-            Prim::Cuboid(e) => e,
-            Prim::Ball(r) => Vector3::repeat(r),
-            Prim::Cylinder(r, h) => Vector3::new(r, r, h),
-            Prim::Capsule(r, h) => Vector3::new(r, r, h + r),
+        match self.0 {
+            Shape::Box { half_extents: e } => e,
+            Shape::Sphere { radius: r } => Vector3::repeat(r),
+            Shape::Cylinder {
+                radius: r,
+                half_height: h,
+            } => Vector3::new(r, r, h),
+            Shape::Capsule {
+                radius: r,
+                half_height: h,
+            } => Vector3::new(r, r, h + r),
+            _ => unreachable!("{}", NOT_PRIM),
         }
     }
 
     /// Lattice with covering radius at most `delta`, own frame.
     fn lattice(&self, delta: f64, emit: &mut dyn FnMut(Point3<f64>)) {
-        match *self {
-            Prim::Cuboid(e) => {
+        match self.0 {
+            Shape::Box { half_extents: e } => {
                 for a in 0..3 {
                     let (u, v) = ((a + 1) % 3, (a + 2) % 3);
                     let nu = steps(2.0 * e[u], SQRT_2 * delta);
@@ -637,7 +654,7 @@ impl Prim {
                     }
                 }
             }
-            Prim::Ball(r) => {
+            Shape::Sphere { radius: r } => {
                 // Along a meridian to the nearest ring (≤ δ/2), then along the ring (≤ δ/2).
                 let n = steps(PI * r, delta);
                 for i in 0..=n {
@@ -645,7 +662,10 @@ impl Prim {
                     ring(r * phi.sin(), r * phi.cos(), delta, emit);
                 }
             }
-            Prim::Cylinder(r, h) => {
+            Shape::Cylinder {
+                radius: r,
+                half_height: h,
+            } => {
                 cylinder_side(r, h, delta, emit);
                 let n = steps(r, delta);
                 let caps: &[f64] = if h > 0.0 { &[-1.0, 1.0] } else { &[1.0] };
@@ -655,7 +675,10 @@ impl Prim {
                     }
                 }
             }
-            Prim::Capsule(r, h) => {
+            Shape::Capsule {
+                radius: r,
+                half_height: h,
+            } => {
                 if h > 0.0 {
                     cylinder_side(r, h, delta, emit);
                 }
@@ -666,6 +689,7 @@ impl Prim {
                     ring(r * phi.sin(), -h - r * phi.cos(), delta, emit);
                 }
             }
+            _ => unreachable!("{}", NOT_PRIM),
         }
     }
 
@@ -677,8 +701,8 @@ impl Prim {
             let s = (1.0 - z * z).max(0.0).sqrt();
             Vector3::new(s * t.cos(), s * t.sin(), z)
         };
-        match *self {
-            Prim::Cuboid(e) => {
+        match self.0 {
+            Shape::Box { half_extents: e } => {
                 let w = [4.0 * e.y * e.z, 4.0 * e.z * e.x, 4.0 * e.x * e.y];
                 let mut x = rng.random::<f64>() * (w[0] + w[1] + w[2]);
                 let mut a = 0;
@@ -693,8 +717,11 @@ impl Prim {
                 p[v] = e[v] * rng.random_range(-1.0..=1.0);
                 p
             }
-            Prim::Ball(r) => Point3::from(dir(rng) * r),
-            Prim::Cylinder(r, h) => {
+            Shape::Sphere { radius: r } => Point3::from(dir(rng) * r),
+            Shape::Cylinder {
+                radius: r,
+                half_height: h,
+            } => {
                 let side = 4.0 * PI * r * h;
                 let t: f64 = rng.random_range(0.0..2.0 * PI);
                 if rng.random::<f64>() * (side + 2.0 * PI * r * r) < side {
@@ -705,7 +732,10 @@ impl Prim {
                     Point3::new(rho * t.cos(), rho * t.sin(), z)
                 }
             }
-            Prim::Capsule(r, h) => {
+            Shape::Capsule {
+                radius: r,
+                half_height: h,
+            } => {
                 let side = 4.0 * PI * r * h;
                 if rng.random::<f64>() * (side + 4.0 * PI * r * r) < side {
                     let t: f64 = rng.random_range(0.0..2.0 * PI);
@@ -715,6 +745,7 @@ impl Prim {
                     Point3::new(d.x, d.y, d.z + h.copysign(d.z))
                 }
             }
+            _ => unreachable!("{}", NOT_PRIM),
         }
     }
 }
@@ -1351,30 +1382,37 @@ impl LinkGeom {
                     if !half_extents.iter().all(|&v| size_ok(v)) {
                         return Err(bad("box sizes must be finite and non-negative"));
                     }
-                    Prim::Cuboid(*half_extents)
+                    Prim(g.shape.clone())
                 }
                 Shape::Sphere { radius } => {
                     if !size_ok(*radius) {
                         return Err(bad("radius must be finite and non-negative"));
                     }
-                    Prim::Ball(*radius)
+                    Prim(g.shape.clone())
                 }
-                Shape::Cylinder { radius, length } => {
-                    if !(size_ok(*radius) && size_ok(*length)) {
+                Shape::Cylinder {
+                    radius,
+                    half_height,
+                }
+                | Shape::Capsule {
+                    radius,
+                    half_height,
+                } => {
+                    if !(size_ok(*radius) && size_ok(*half_height)) {
                         return Err(bad("radius and length must be finite and non-negative"));
                     }
-                    Prim::Cylinder(*radius, 0.5 * length)
+                    Prim(g.shape.clone())
                 }
-                Shape::Capsule { radius, length } => {
-                    if !(size_ok(*radius) && size_ok(*length)) {
-                        return Err(bad("radius and length must be finite and non-negative"));
-                    }
-                    Prim::Capsule(*radius, 0.5 * length)
-                }
-                Shape::Mesh { scale, mesh, .. } => {
-                    mesh_solids(&what, mesh, scale, o, &mut solids)?;
+                Shape::Mesh(m) | Shape::ConvexDecomposition(m) => {
+                    mesh_solids(&what, m.data(), m.scale(), o, &mut solids)?;
                     continue;
                 }
+                Shape::ConvexHull(h) => {
+                    let m = h.surface();
+                    mesh_solids(&what, m.data(), m.scale(), o, &mut solids)?;
+                    continue;
+                }
+                Shape::PointCloud(_) => return Err(bad("a point cloud has no surface to cover")),
             };
             if prim.area() > 0.0 {
                 solids.push(Solid::Prim {
@@ -2504,7 +2542,7 @@ mod tests {
     fn a_capsule_is_covered_on_an_analytic_grid() {
         let opts = small();
         let (radius, length) = (0.02, 0.06);
-        let g = [geom(Shape::Capsule { radius, length }, pose())];
+        let g = [geom(Shape::capsule_from_length(radius, length), pose())];
         let (s, r) = spherize_link("capsule", &g, None, &opts).unwrap();
         assert!(!s.is_empty() && s.len() <= 6, "{} spheres", s.len());
         assert_eq!(r.coverage, 1.0);
@@ -2553,15 +2591,14 @@ mod tests {
         if !open {
             t.extend([[4, 5, 6], [4, 6, 7]]);
         }
-        Shape::Mesh {
-            filename: "cube".into(),
-            path: Default::default(),
-            scale: Vector3::new(1.0, 1.0, 1.5),
-            mesh: Arc::new(ferrobot_model::TriMesh {
+        Shape::Mesh(Arc::new(ferrobot_model::Mesh::from_shared(
+            Arc::new(ferrobot_model::TriMesh {
                 vertices: v.iter().map(|p| Point3::new(p[0], p[1], p[2])).collect(),
                 triangles: t,
             }),
-        }
+            Vector3::new(1.0, 1.0, 1.5),
+            None,
+        )))
     }
 
     #[test]
@@ -2599,7 +2636,7 @@ mod tests {
             geom(
                 Shape::Cylinder {
                     radius: 0.01,
-                    length: 0.05,
+                    half_height: 0.025,
                 },
                 pose(),
             ),
@@ -2608,11 +2645,8 @@ mod tests {
         assert!(!s.is_empty() && s.len() <= 5);
         assert_eq!(r.coverage, 1.0);
         // Only degenerate triangles, or nothing with area: no spheres.
-        let flat = Shape::Mesh {
-            filename: "line".into(),
-            path: Default::default(),
-            scale: Vector3::repeat(1.0),
-            mesh: Arc::new(ferrobot_model::TriMesh {
+        let flat = Shape::Mesh(Arc::new(ferrobot_model::Mesh::from_shared(
+            Arc::new(ferrobot_model::TriMesh {
                 vertices: vec![
                     Point3::origin(),
                     Point3::new(0.1, 0.0, 0.0),
@@ -2620,7 +2654,9 @@ mod tests {
                 ],
                 triangles: vec![[0, 1, 2], [0, 0, 1]],
             }),
-        };
+            Vector3::repeat(1.0),
+            None,
+        )));
         for g in [
             geom(flat, pose()),
             geom(Shape::Sphere { radius: 0.0 }, pose()),
@@ -2636,15 +2672,14 @@ mod tests {
                 .is_empty()
         );
         // Out-of-range indices and negative sizes are errors.
-        let bad = Shape::Mesh {
-            filename: "bad".into(),
-            path: Default::default(),
-            scale: Vector3::repeat(1.0),
-            mesh: Arc::new(ferrobot_model::TriMesh {
+        let bad = Shape::Mesh(Arc::new(ferrobot_model::Mesh::from_shared(
+            Arc::new(ferrobot_model::TriMesh {
                 vertices: vec![Point3::origin()],
                 triangles: vec![[0, 1, 2]],
             }),
-        };
+            Vector3::repeat(1.0),
+            None,
+        )));
         for g in [
             geom(bad, pose()),
             geom(

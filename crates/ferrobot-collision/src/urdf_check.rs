@@ -184,10 +184,9 @@ fn coverage(
         let mut total = 0usize;
         let mut covered = 0usize;
         for g in &link.collisions {
-            if let Shape::Mesh { scale, mesh, .. } = &g.shape {
-                for v in &mesh.vertices {
-                    let p = g.origin
-                        * nalgebra::Point3::new(v.x * scale.x, v.y * scale.y, v.z * scale.z);
+            if let Shape::Mesh(mesh) = &g.shape {
+                for v in mesh.vertices() {
+                    let p = g.origin * v;
                     total += 1;
                     if s.iter()
                         .any(|sp| (p - sp.center).norm() <= sp.radius + tolerance)

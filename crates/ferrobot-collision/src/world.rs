@@ -6,7 +6,7 @@ use std::collections::HashMap;
 use nalgebra::{Isometry3, Point3, Vector3};
 
 use crate::error::{CollisionError, Result};
-use crate::shapes::ObstacleShape;
+use ferrobot_geometry::Shape;
 
 /// One named object of the world.
 #[derive(Debug, Clone)]
@@ -16,7 +16,7 @@ pub struct WorldObject {
     /// Pose of the object frame in the world frame.
     pub pose: Isometry3<f64>,
     /// Shapes and their poses in the object frame.
-    pub parts: Vec<(ObstacleShape, Isometry3<f64>)>,
+    pub parts: Vec<(Shape, Isometry3<f64>)>,
 }
 
 /// A set of named obstacles.
@@ -39,43 +39,16 @@ fn check_pose(what: &str, pose: &Isometry3<f64>) -> Result<()> {
     }
 }
 
-/// Checks a shape's parameters: sizes positive and finite.
-pub fn check_shape(what: &str, shape: &ObstacleShape) -> Result<()> {
-    let positive = |name: &str, v: f64| {
-        if v.is_finite() && v > 0.0 {
-            Ok(())
-        } else {
-            Err(CollisionError::InvalidShape(format!(
-                "{what}: {name} must be positive and finite, got {v}"
-            )))
-        }
-    };
-    match shape {
-        ObstacleShape::Box { half_extents } => half_extents
-            .iter()
-            .try_for_each(|&h| positive("box size", 2.0 * h)),
-        ObstacleShape::Sphere { radius } => positive("sphere radius", *radius),
-        ObstacleShape::Cylinder {
-            radius,
-            half_length,
-        } => {
-            positive("cylinder radius", *radius).and(positive("cylinder length", 2.0 * half_length))
-        }
-        ObstacleShape::Capsule {
-            radius,
-            half_length,
-        } => {
-            positive("capsule radius", *radius)?;
-            if half_length.is_finite() && *half_length >= 0.0 {
-                Ok(())
-            } else {
-                Err(CollisionError::InvalidShape(format!(
-                    "{what}: capsule length must be >= 0"
-                )))
-            }
-        }
-        ObstacleShape::Mesh(_) | ObstacleShape::PointCloud(_) => Ok(()),
+/// Checks a shape's parameters ([`Shape::validate`]: sizes positive and
+/// finite) and builds a mesh's BVH now, so that a mesh parry rejects is an
+/// error when it is added rather than an obstacle that is never hit.
+pub fn check_shape(what: &str, shape: &Shape) -> Result<()> {
+    shape.validate(what)?;
+    if let Shape::Mesh(m) | Shape::ConvexDecomposition(m) = shape {
+        m.query_ready()
+            .map_err(|e| CollisionError::InvalidShape(format!("{what}: {e}")))?;
     }
+    Ok(())
 }
 
 impl CollisionWorld {
@@ -89,7 +62,7 @@ impl CollisionWorld {
         &mut self,
         name: &str,
         pose: Isometry3<f64>,
-        parts: Vec<(ObstacleShape, Isometry3<f64>)>,
+        parts: Vec<(Shape, Isometry3<f64>)>,
     ) -> Result<()> {
         if self.index.contains_key(name) {
             return Err(CollisionError::Duplicate(format!(
@@ -118,12 +91,7 @@ impl CollisionWorld {
     }
 
     /// Adds a single shape at `pose`.
-    pub fn add_shape(
-        &mut self,
-        name: &str,
-        shape: ObstacleShape,
-        pose: Isometry3<f64>,
-    ) -> Result<()> {
+    pub fn add_shape(&mut self, name: &str, shape: Shape, pose: Isometry3<f64>) -> Result<()> {
         self.add(name, pose, vec![(shape, Isometry3::identity())])
     }
 

@@ -11,9 +11,9 @@ use std::sync::Arc;
 
 use ferrobot_collision::spherize::{SpherizeOptions, spherize_robot};
 use ferrobot_collision::{
-    AllowedCollisions, CollisionChecker, CollisionWorld, ObstacleShape, RobotSpheres,
+    AllowedCollisions, CollisionChecker, CollisionWorld, RobotSpheres, Shape,
 };
-use ferrobot_model::{LoadOptions, RobotModel, Shape};
+use ferrobot_model::{LoadOptions, RobotModel};
 use nalgebra::{UnitQuaternion, Vector3};
 use parry3d::math::{Pose, Vector};
 use parry3d::query::intersection_test;
@@ -42,17 +42,15 @@ fn automatic_spheres_never_miss_an_exact_collision_in_any_scene() {
             link.collisions
                 .iter()
                 .filter_map(|g| match &g.shape {
-                    Shape::Mesh { scale, mesh, .. } => {
+                    Shape::Mesh(mesh) => {
                         let pts: Vec<Vector> = mesh
-                            .vertices
-                            .iter()
+                            .vertices()
                             .map(|v| {
-                                let p = g.origin
-                                    * nalgebra::Point3::from(v.coords.component_mul(scale));
+                                let p = g.origin * v;
                                 Vector::new(p.x as f32, p.y as f32, p.z as f32)
                             })
                             .collect();
-                        TriMesh::new(pts, mesh.triangles.clone()).ok()
+                        TriMesh::new(pts, mesh.triangles().to_vec()).ok()
                     }
                     _ => None,
                 })
@@ -73,7 +71,7 @@ fn automatic_spheres_never_miss_an_exact_collision_in_any_scene() {
                 .iter()
                 .flat_map(|o| o.parts.iter().map(move |(s, local)| (s, o.pose * local)))
                 .map(|(s, pose)| match s {
-                    ObstacleShape::Box { half_extents } => (
+                    Shape::Box { half_extents } => (
                         SharedShape::new(Cuboid::new(Vector::new(
                             half_extents.x as f32,
                             half_extents.y as f32,
@@ -82,11 +80,11 @@ fn automatic_spheres_never_miss_an_exact_collision_in_any_scene() {
                         to_pose(&pose),
                     ),
                     // parry's cylinder runs along y; ours along z.
-                    ObstacleShape::Cylinder {
+                    Shape::Cylinder {
                         radius,
-                        half_length,
+                        half_height,
                     } => (
-                        SharedShape::new(Cylinder::new(*half_length as f32, *radius as f32)),
+                        SharedShape::new(Cylinder::new(*half_height as f32, *radius as f32)),
                         to_pose(
                             &(pose
                                 * UnitQuaternion::from_axis_angle(
@@ -95,7 +93,7 @@ fn automatic_spheres_never_miss_an_exact_collision_in_any_scene() {
                                 )),
                         ),
                     ),
-                    ObstacleShape::Sphere { radius } => {
+                    Shape::Sphere { radius } => {
                         (SharedShape::new(Ball::new(*radius as f32)), to_pose(&pose))
                     }
                     other => panic!("unexpected scene shape {}", other.kind()),

@@ -7,31 +7,31 @@ mod common;
 use common::{assert_single_matches_batch, mbm_panda, shared, to_pose};
 
 use ferrobot_collision::world_grid::WorldGrid;
-use ferrobot_collision::{CollisionChecker, CollisionWorld, ObstacleShape};
+use ferrobot_collision::{CollisionChecker, CollisionWorld, Shape};
 use nalgebra::Isometry3;
 use parry3d::math::Vector;
 use parry3d::query::distance;
-use parry3d::shape::{Ball, Capsule, Cuboid, Cylinder, Shape};
+use parry3d::shape::{Ball, Capsule, Cuboid, Cylinder, Shape as ParryShape};
 use rand::{Rng, SeedableRng, rngs::StdRng};
 
 /// Parry's shape of a primitive (all the MotionBenchMaker scenes use).
-fn parry_shape(shape: &ObstacleShape) -> Box<dyn Shape> {
+fn parry_shape(shape: &Shape) -> Box<dyn ParryShape> {
     match shape {
-        ObstacleShape::Box { half_extents: h } => {
+        Shape::Box { half_extents: h } => {
             Box::new(Cuboid::new(Vector::new(h.x as f32, h.y as f32, h.z as f32)))
         }
-        ObstacleShape::Sphere { radius } => Box::new(Ball::new(*radius as f32)),
-        ObstacleShape::Cylinder {
+        Shape::Sphere { radius } => Box::new(Ball::new(*radius as f32)),
+        Shape::Cylinder {
             radius,
-            half_length,
+            half_height,
         } => {
             // parry's cylinders run along y, ferrobot's along z.
-            Box::new(Cylinder::new(*half_length as f32, *radius as f32))
+            Box::new(Cylinder::new(*half_height as f32, *radius as f32))
         }
-        ObstacleShape::Capsule {
+        Shape::Capsule {
             radius,
-            half_length,
-        } => Box::new(Capsule::new_z(*half_length as f32, *radius as f32)),
+            half_height,
+        } => Box::new(Capsule::new_z(*half_height as f32, *radius as f32)),
         other => panic!("no parry shape for {other:?} in this test"),
     }
 }
@@ -47,14 +47,14 @@ fn grid_bounds_never_exceed_exact_distances() {
         "bench/mbm/bookshelf_small_panda/scene0007.yaml",
     ] {
         let world = CollisionWorld::from_moveit_scene(shared(scene)).unwrap();
-        let parts: Vec<(Box<dyn Shape>, Isometry3<f64>)> = world
+        let parts: Vec<(Box<dyn ParryShape>, Isometry3<f64>)> = world
             .objects()
             .iter()
             .flat_map(|o| {
                 o.parts.iter().map(move |(s, local)| {
                     let pose = o.pose * local;
                     let pose = match s {
-                        ObstacleShape::Cylinder { .. } => pose * y_to_z,
+                        Shape::Cylinder { .. } => pose * y_to_z,
                         _ => pose,
                     };
                     (parry_shape(s), pose)

@@ -6,18 +6,14 @@
 
 use std::sync::Arc;
 
-use ferrobot_collision::{CollisionWorld, ObstacleShape};
+use ferrobot_collision::CollisionWorld;
+use ferrobot_geometry::MeshAs;
 use ferrobot_model::{RobotModel, Shape};
 use nalgebra::Isometry3;
 use parry3d::math::{Pose, Rot3, Vector};
 use parry3d::shape::SharedShape;
 
 use crate::error::{ControlError, Result};
-
-/// Parry's cylinders run along y, URDF and world cylinders along z.
-fn y_to_z() -> Isometry3<f64> {
-    Isometry3::rotation(nalgebra::Vector3::x() * std::f64::consts::FRAC_PI_2)
-}
 
 fn to_pose(iso: &Isometry3<f64>) -> Pose {
     let t = iso.translation.vector;
@@ -28,63 +24,22 @@ fn to_pose(iso: &Isometry3<f64>) -> Pose {
     )
 }
 
+/// A link shape for parry (meshes as their convex hulls, which contain
+/// them); None when parry cannot represent it.
 fn link_shape(shape: &Shape) -> Option<(SharedShape, Isometry3<f64>)> {
-    Some(match shape {
-        Shape::Box { half_extents: h } => (
-            SharedShape::cuboid(h.x as f32, h.y as f32, h.z as f32),
-            Isometry3::identity(),
-        ),
-        Shape::Sphere { radius } => (SharedShape::ball(*radius as f32), Isometry3::identity()),
-        Shape::Cylinder { radius, length } => (
-            SharedShape::cylinder((*length / 2.0) as f32, *radius as f32),
-            y_to_z(),
-        ),
-        Shape::Capsule { radius, length } => (
-            SharedShape::capsule_z((*length / 2.0) as f32, *radius as f32),
-            Isometry3::identity(),
-        ),
-        Shape::Mesh { scale, mesh, .. } => {
-            let pts: Vec<Vector> = mesh
-                .vertices
-                .iter()
-                .map(|p| {
-                    Vector::new(
-                        (p.x * scale.x) as f32,
-                        (p.y * scale.y) as f32,
-                        (p.z * scale.z) as f32,
-                    )
-                })
-                .collect();
-            (SharedShape::convex_hull(&pts)?, Isometry3::identity())
-        }
-    })
+    shape.to_parry(MeshAs::ConvexHull).ok()
 }
 
-fn world_shape(shape: &ObstacleShape) -> Option<(SharedShape, Isometry3<f64>)> {
-    Some(match shape {
-        ObstacleShape::Box { half_extents: h } => (
-            SharedShape::cuboid(h.x as f32, h.y as f32, h.z as f32),
-            Isometry3::identity(),
-        ),
-        ObstacleShape::Sphere { radius } => {
-            (SharedShape::ball(*radius as f32), Isometry3::identity())
-        }
-        ObstacleShape::Cylinder {
-            radius,
-            half_length,
-        } => (
-            SharedShape::cylinder(*half_length as f32, *radius as f32),
-            y_to_z(),
-        ),
-        ObstacleShape::Capsule {
-            radius,
-            half_length,
-        } => (
-            SharedShape::capsule_z(*half_length as f32, *radius as f32),
-            Isometry3::identity(),
-        ),
-        ObstacleShape::Mesh(_) | ObstacleShape::PointCloud(_) => return None,
-    })
+/// A world shape for parry: primitives only (meshes, hulls and clouds are
+/// left to the sphere model's distance queries).
+fn world_shape(shape: &Shape) -> Option<(SharedShape, Isometry3<f64>)> {
+    match shape {
+        Shape::Box { .. }
+        | Shape::Sphere { .. }
+        | Shape::Cylinder { .. }
+        | Shape::Capsule { .. } => shape.to_parry(MeshAs::TriMesh).ok(),
+        _ => None,
+    }
 }
 
 /// The closest pair found by [`LinkClearance::clearance`].

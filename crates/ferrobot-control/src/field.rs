@@ -2,7 +2,7 @@
 //! frame: distances sampled on a regular grid once, then read back with
 //! trilinear interpolation, which also gives the gradient.
 
-use ferrobot_collision::ObstacleShape;
+use ferrobot_collision::Shape;
 use nalgebra::{Point3, Vector3};
 
 use crate::error::{ControlError, Result};
@@ -24,18 +24,18 @@ pub struct VoxelField {
 }
 
 /// Half extents of an axis-aligned box holding `shape` in its frame.
-fn half_box(shape: &ObstacleShape) -> Vector3<f64> {
+fn half_box(shape: &Shape) -> Vector3<f64> {
     match shape {
-        ObstacleShape::Box { half_extents } => *half_extents,
-        ObstacleShape::Sphere { radius } => Vector3::repeat(*radius),
-        ObstacleShape::Cylinder {
+        Shape::Box { half_extents } => *half_extents,
+        Shape::Sphere { radius } => Vector3::repeat(*radius),
+        Shape::Cylinder {
             radius,
-            half_length,
-        } => Vector3::new(*radius, *radius, *half_length),
-        ObstacleShape::Capsule {
+            half_height,
+        } => Vector3::new(*radius, *radius, *half_height),
+        Shape::Capsule {
             radius,
-            half_length,
-        } => Vector3::new(*radius, *radius, half_length + radius),
+            half_height,
+        } => Vector3::new(*radius, *radius, half_height + radius),
         other => Vector3::repeat(other.bounding_radius()),
     }
 }
@@ -43,7 +43,7 @@ fn half_box(shape: &ObstacleShape) -> Vector3<f64> {
 impl VoxelField {
     /// Samples `shape`'s signed distance on a grid of `resolution` covering
     /// its bounding box grown by `padding` on every side.
-    pub fn build(shape: &ObstacleShape, resolution: f64, padding: f64) -> Result<Self> {
+    pub fn build(shape: &Shape, resolution: f64, padding: f64) -> Result<Self> {
         if !(resolution.is_finite() && resolution > 0.0 && padding.is_finite() && padding >= 0.0) {
             return Err(ControlError::InvalidArgument(format!(
                 "voxel field: resolution ({resolution}) must be positive and padding ({padding}) non-negative"
@@ -140,7 +140,7 @@ mod tests {
 
     #[test]
     fn sphere_field_matches_the_analytic_distance() {
-        let shape = ObstacleShape::Sphere { radius: 0.1 };
+        let shape = Shape::Sphere { radius: 0.1 };
         let f = VoxelField::build(&shape, 0.005, 0.2).unwrap();
         for p in [
             Point3::new(0.15, 0.02, -0.03),
@@ -159,7 +159,7 @@ mod tests {
 
     #[test]
     fn box_field_is_exact_on_flat_faces() {
-        let shape = ObstacleShape::Box {
+        let shape = Shape::Box {
             half_extents: Vector3::new(0.2, 0.1, 0.05),
         };
         let f = VoxelField::build(&shape, 0.01, 0.1).unwrap();
@@ -171,7 +171,7 @@ mod tests {
 
     #[test]
     fn too_fine_a_grid_is_refused() {
-        let shape = ObstacleShape::Box {
+        let shape = Shape::Box {
             half_extents: Vector3::new(5.0, 5.0, 5.0),
         };
         assert!(VoxelField::build(&shape, 0.001, 0.1).is_err());

@@ -4,7 +4,7 @@
 
 use std::sync::Arc;
 
-use ferrobot_collision::{CollisionWorld, ObstacleShape};
+use ferrobot_collision::{CollisionWorld, Shape};
 use nalgebra::{Isometry3, Point3, Vector3};
 
 use crate::error::{ControlError, Result, check_finite};
@@ -16,7 +16,7 @@ pub struct Part {
     /// Index of its object in the world.
     pub object: usize,
     /// The shape.
-    pub shape: ObstacleShape,
+    pub shape: Shape,
     /// Pose of the shape in the object frame.
     pub local: Isometry3<f64>,
     /// Pose of the shape in the base frame.

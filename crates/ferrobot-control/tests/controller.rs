@@ -4,9 +4,9 @@
 
 use std::sync::{Arc, OnceLock};
 
-use ferrobot_collision::acm::AllowedCollisions;
+use ferrobot_collision::acm::{AllowedCollisions, AnalyzeCollisions};
 use ferrobot_collision::spherize::{SpherizeOptions, spherize_robot};
-use ferrobot_collision::{CollisionChecker, CollisionWorld, ObstacleShape, RobotSpheres};
+use ferrobot_collision::{CollisionChecker, CollisionWorld, RobotSpheres, Shape};
 use ferrobot_control::{
     LinkClearance, PotentialFieldConfig, PotentialFieldController, ReactiveConfig,
     ReactiveController,
@@ -69,16 +69,12 @@ fn run(
 fn sphere_distances_match_parry_and_finite_differences() {
     let mut world = CollisionWorld::new();
     world
-        .add_shape(
-            "ball",
-            ObstacleShape::Sphere { radius: 0.07 },
-            at(0.45, 0.2, 0.45),
-        )
+        .add_shape("ball", Shape::Sphere { radius: 0.07 }, at(0.45, 0.2, 0.45))
         .unwrap();
     world
         .add_shape(
             "crate",
-            ObstacleShape::Box {
+            Shape::Box {
                 half_extents: Vector3::new(0.1, 0.15, 0.05),
             },
             Isometry3::from_parts(
@@ -235,7 +231,7 @@ fn never_enters_obstacles_in_scripted_approaches() {
         world
             .add_shape(
                 "ball",
-                ObstacleShape::Sphere { radius: 0.05 },
+                Shape::Sphere { radius: 0.05 },
                 at(start.x, start.y, start.z),
             )
             .unwrap();
@@ -305,11 +301,7 @@ fn potential_field_converges_without_obstacles() {
 fn potential_field_distances_follow_the_exact_ones() {
     let mut world = CollisionWorld::new();
     world
-        .add_shape(
-            "ball",
-            ObstacleShape::Sphere { radius: 0.08 },
-            at(0.5, 0.0, 0.5),
-        )
+        .add_shape("ball", Shape::Sphere { radius: 0.08 }, at(0.5, 0.0, 0.5))
         .unwrap();
     let ck = checker(world);
     let ctl = PotentialFieldController::new(&ck, None, PotentialFieldConfig::default()).unwrap();

@@ -1,57 +1,13 @@
-//! Back-projection of a depth image to a point cloud (through the shared
-//! pinhole model of `ferrobot-camera`), with the grasp detector's input
-//! checks and workspace limits.
+//! Back-projection of a depth image to a point cloud: `ferrobot-camera`'s
+//! one function (and its policy for missing depth) with the grasp
+//! detector's workspace limits.
 
-use ferrobot_camera::{CameraError, Pinhole};
+use ferrobot_camera::CameraError;
 use nalgebra::Point3;
 
-use crate::error::{GraspError, Result, positive};
+use crate::error::{GraspError, Result};
 
-pub use ferrobot_camera::BackProjected;
-
-/// Pinhole intrinsics of a depth camera (OpenCV convention: x right, y down,
-/// z forward) and the depth scale (raw depth units per metre, e.g. 1000 for
-/// millimetre depth images, 1 for metres).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Intrinsics {
-    /// Focal length along u, in pixels.
-    pub fx: f64,
-    /// Focal length along v, in pixels.
-    pub fy: f64,
-    /// Principal point u, in pixels.
-    pub cx: f64,
-    /// Principal point v, in pixels.
-    pub cy: f64,
-    /// Raw depth units per metre: z = depth / scale.
-    pub scale: f64,
-}
-
-impl Intrinsics {
-    /// Checks that focal lengths and scale are positive and all values finite.
-    pub fn validate(&self) -> Result<()> {
-        positive("intrinsics fx", self.fx)?;
-        positive("intrinsics fy", self.fy)?;
-        positive("depth scale", self.scale)?;
-        for (name, v) in [("cx", self.cx), ("cy", self.cy)] {
-            if !v.is_finite() {
-                return Err(GraspError::NonFinite(format!(
-                    "intrinsics {name} must be finite, got {v}"
-                )));
-            }
-        }
-        Ok(())
-    }
-
-    /// The pinhole part (focal lengths and principal point).
-    pub fn pinhole(&self) -> Pinhole {
-        Pinhole {
-            fx: self.fx,
-            fy: self.fy,
-            cx: self.cx,
-            cy: self.cy,
-        }
-    }
-}
+pub use ferrobot_camera::{BackProjected, Intrinsics};
 
 impl From<CameraError> for GraspError {
     fn from(e: CameraError) -> Self {
@@ -97,57 +53,22 @@ impl Workspace {
     }
 }
 
-/// Back-projects a `height` x `width` depth image (row-major) through
-/// `intrinsics`: z = depth / scale, x = (u - cx) / fx · z,
-/// y = (v - cy) / fy · z, for pixel column u and row v.
-///
-/// A depth of 0 means "no reading" and the pixel is skipped; NaN, infinite
-/// or negative depths are errors. Points outside `workspace` are dropped.
-/// The arithmetic is [`ferrobot_camera::backproject`], shared with the
-/// simulator's cameras.
+/// Back-projects a depth image (row-major, `intrinsics.height` x
+/// `intrinsics.width`) with [`ferrobot_camera::backproject`]: z = depth /
+/// depth_scale, x = (u - cx) / fx · z, y = (v - cy) / fy · z for column u,
+/// row v. Depth 0 or +inf is missing and skipped; NaN, -inf or negative
+/// depths are errors. Points outside `workspace` are dropped.
 pub fn backproject(
     depth: &[f64],
-    height: usize,
-    width: usize,
     intrinsics: &Intrinsics,
     workspace: Option<&Workspace>,
 ) -> Result<BackProjected> {
-    intrinsics.validate()?;
     if let Some(w) = workspace {
         w.validate()?;
     }
-    if depth.len() != height * width {
-        return Err(GraspError::Shape(format!(
-            "depth image: {} values for a {height}x{width} image",
-            depth.len()
-        )));
-    }
-    if let Some(i) = depth.iter().position(|d| !d.is_finite()) {
-        return Err(GraspError::NonFinite(format!(
-            "depth image: non-finite value {} at pixel (row {}, column {})",
-            depth[i],
-            i / width.max(1),
-            i % width.max(1)
-        )));
-    }
-    if let Some(i) = depth.iter().position(|d| *d < 0.0) {
-        return Err(GraspError::InvalidArgument(format!(
-            "depth image: negative depth {} at pixel (row {}, column {})",
-            depth[i],
-            i / width.max(1),
-            i % width.max(1)
-        )));
-    }
-    if depth.is_empty() {
-        return Ok(BackProjected::default());
-    }
-    Ok(ferrobot_camera::backproject(
-        depth,
-        width,
-        &intrinsics.pinhole(),
-        intrinsics.scale,
-        |p| workspace.is_none_or(|w| w.contains(p)),
-    )?)
+    Ok(ferrobot_camera::backproject(depth, intrinsics, |p| {
+        workspace.is_none_or(|w| w.contains(p))
+    })?)
 }
 
 #[cfg(test)]
@@ -155,32 +76,32 @@ mod tests {
     use super::*;
 
     #[test]
-    fn formula_and_skips() {
-        let k = Intrinsics {
-            fx: 100.0,
-            fy: 200.0,
-            cx: 1.0,
-            cy: 0.5,
-            scale: 1000.0,
-        };
+    fn formula_skips_and_workspace() {
+        let k = Intrinsics::new(2, 2, 100.0, 200.0, 1.0, 0.5)
+            .unwrap()
+            .with_depth_scale(1000.0)
+            .unwrap();
         let depth = [0.0, 500.0, 1000.0, 2000.0];
-        let b = backproject(&depth, 2, 2, &k, None).unwrap();
-        assert_eq!(b.pixels, vec![1, 2, 3]);
+        let b = backproject(&depth, &k, None).unwrap();
+        assert_eq!(b.pixels, vec![(0, 1), (1, 0), (1, 1)]);
         let p = b.points[2]; // v = 1, u = 1, z = 2
         assert!((p - Point3::new(0.0, 0.5 / 200.0 * 2.0, 2.0)).norm() < 1e-12);
         let w = Workspace([-1.0, 1.0, -1.0, 1.0, 0.0, 1.5]);
         assert_eq!(
-            backproject(&depth, 2, 2, &k, Some(&w)).unwrap().pixels,
-            vec![1, 2]
+            backproject(&depth, &k, Some(&w)).unwrap().pixels,
+            vec![(0, 1), (1, 0)]
         );
+        let one = Intrinsics {
+            width: 1,
+            height: 1,
+            ..k
+        };
         assert!(matches!(
-            backproject(&[f64::NAN], 1, 1, &k, None),
+            backproject(&[f64::NAN], &one, None),
             Err(GraspError::NonFinite(_))
         ));
-        let bad = Intrinsics { fx: 0.0, ..k };
-        assert!(backproject(&depth, 2, 2, &bad, None).is_err());
         assert!(matches!(
-            backproject(&depth, 1, 2, &k, None),
+            backproject(&depth, &Intrinsics { width: 1, ..k }, None),
             Err(GraspError::Shape(_))
         ));
     }

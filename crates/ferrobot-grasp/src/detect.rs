@@ -344,14 +344,13 @@ fn segment_meets_box(
 #[allow(clippy::too_many_arguments)]
 pub fn detect_rgbd(
     depth: &[f64],
-    height: usize,
-    width: usize,
     intrinsics: &Intrinsics,
     mask: Option<&[i32]>,
     object_id: Option<i32>,
     workspace: Option<&Workspace>,
     opts: &DetectOptions,
 ) -> Result<GraspGroup> {
+    let (height, width) = (intrinsics.height, intrinsics.width);
     if let Some(m) = mask
         && m.len() != height * width
     {
@@ -365,11 +364,11 @@ pub fn detect_rgbd(
             "object_id needs a segmentation mask".into(),
         ));
     }
-    let bp = backproject(depth, height, width, intrinsics, workspace)?;
+    let bp = backproject(depth, intrinsics, workspace)?;
     match mask {
         None => detect(&bp.points, None, None, opts),
         Some(m) => {
-            let labels: Vec<i32> = bp.pixels.iter().map(|&i| m[i]).collect();
+            let labels: Vec<i32> = bp.pixels.iter().map(|&(r, c)| m[r * width + c]).collect();
             let seedable: Vec<bool> = labels
                 .iter()
                 .map(|&l| l != 0 && object_id.is_none_or(|o| o == l))

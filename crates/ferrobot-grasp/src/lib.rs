@@ -34,7 +34,6 @@ pub mod voxel;
 pub use backproject::{Intrinsics, Workspace, backproject};
 pub use detect::{DetectOptions, detect};
 pub use error::{GraspError, Result};
-pub use frames::CameraConvention;
 pub use grasp::{Grasp, GraspGroup};
 pub use gripper::GripperGeometry;
 pub use normals::SurfaceCloud;

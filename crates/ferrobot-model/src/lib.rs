@@ -9,6 +9,7 @@
 //! Conventions: SI units; poses as `[x, y, z, qw, qx, qy, qz]` or 4x4
 //! matrices; everything expressed in the base link's frame.
 
+pub mod acm;
 pub mod chain;
 pub mod check;
 pub mod error;
@@ -17,7 +18,6 @@ mod groups;
 pub mod joint;
 pub mod kinematics;
 pub mod link;
-pub mod mesh;
 pub mod model;
 pub mod ranges;
 pub mod resolve;
@@ -26,12 +26,17 @@ pub mod srdf;
 pub mod urdf;
 pub mod xml;
 
+pub use acm::AllowedCollisions;
 pub use chain::KinematicChain;
 pub use error::{ModelError, Result, SourceLocation};
+pub use ferrobot_geometry::{Hull, Mesh, MeshSource, TriMesh};
 pub use geometry::{Geometry, Inertial, Shape};
 pub use joint::{Joint, JointCoupling, JointKind, JointLimits, Mimic};
 pub use kinematics::{pose_to_array, pose_to_matrix};
 pub use link::Link;
-pub use mesh::TriMesh;
+/// Triangle meshes (the geometry crate's, re-exported).
+pub mod mesh {
+    pub use ferrobot_geometry::TriMesh;
+}
 pub use model::{LoadOptions, RobotModel, SrdfSource};
 pub use srdf::Srdf;

@@ -12,8 +12,8 @@ use crate::error::{ModelError, Result, SourceLocation};
 use crate::geometry::{Geometry, Inertial, Shape};
 use crate::joint::{Joint, JointCoupling, JointKind, JointLimits, Mimic};
 use crate::link::Link;
-use crate::mesh::TriMesh;
 use crate::resolve::PackageResolver;
+use ferrobot_geometry::{Mesh, MeshSource, TriMesh};
 
 /// What the XML pre-pass learnt about one `<joint>` element.
 #[derive(Debug, Clone)]
@@ -225,18 +225,18 @@ impl GeometryBuilder<'_> {
             urdf_rs::Geometry::Sphere { radius } => Shape::Sphere {
                 radius: positive("sphere radius", *radius)?,
             },
-            urdf_rs::Geometry::Cylinder { radius, length } => Shape::Cylinder {
-                radius: positive("cylinder radius", *radius)?,
-                length: positive("cylinder length", *length)?,
-            },
-            urdf_rs::Geometry::Capsule { radius, length } => Shape::Capsule {
-                radius: positive("capsule radius", *radius)?,
-                length: if *length == 0.0 {
+            urdf_rs::Geometry::Cylinder { radius, length } => Shape::cylinder_from_length(
+                positive("cylinder radius", *radius)?,
+                positive("cylinder length", *length)?,
+            ),
+            urdf_rs::Geometry::Capsule { radius, length } => Shape::capsule_from_length(
+                positive("capsule radius", *radius)?,
+                if *length == 0.0 {
                     0.0
                 } else {
                     positive("capsule length", *length)?
                 },
-            },
+            ),
             urdf_rs::Geometry::Mesh { filename, scale } => {
                 let scale = scale
                     .map(|s| Vector3::new(s[0], s[1], s[2]))
@@ -264,12 +264,14 @@ impl GeometryBuilder<'_> {
                         m
                     }
                 };
-                Shape::Mesh {
-                    filename: filename.clone(),
-                    path,
-                    scale,
+                Shape::Mesh(Arc::new(Mesh::from_shared(
                     mesh,
-                }
+                    scale,
+                    Some(MeshSource {
+                        filename: filename.clone(),
+                        path,
+                    }),
+                )))
             }
         })
     }

@@ -42,9 +42,10 @@ fn loads_motionbenchmaker_panda_with_srdf() {
     );
     // link6.obj has 17 sub-meshes (materials): every face must land on its own vertices.
     let link6 = &model.links()[model.link("panda_link6").unwrap()];
-    let ferrobot_model::Shape::Mesh { mesh, .. } = &link6.collisions[0].shape else {
+    let ferrobot_model::Shape::Mesh(m) = &link6.collisions[0].shape else {
         panic!("link6 collision is a mesh")
     };
+    let mesh = m.data();
     let text = std::fs::read_to_string(shared("panda/meshes/collision/link6.obj")).unwrap();
     let faces = text.lines().filter(|l| l.starts_with("f ")).count();
     assert_eq!(mesh.triangles.len(), faces);

@@ -7,10 +7,9 @@
 //! robot's own attachments). Robots are never obstacles (the planner models
 //! its own robot). The ground plane becomes a thin slab under z = 0.
 
-use ferrobot_collision::{CollisionError, CollisionWorld, MeshShape, ObstacleShape};
-use ferrobot_sim::{ObjectShape, World};
-use nalgebra::{Isometry3, Point3, Translation3, Vector3};
-use parry3d::math::Vector as PVec;
+use ferrobot_collision::{CollisionError, CollisionWorld, Shape};
+use ferrobot_sim::World;
+use nalgebra::{Isometry3, Translation3, Vector3};
 
 /// Name of the obstacle standing for the simulation's ground plane.
 pub const GROUND: &str = "ground";
@@ -47,54 +46,6 @@ impl SyncOptions {
     }
 }
 
-/// The obstacle for a simulated object's shape.
-fn obstacle(name: &str, shape: &ObjectShape) -> Result<ObstacleShape, CollisionError> {
-    Ok(match shape {
-        ObjectShape::Box { half_extents } => ObstacleShape::Box {
-            half_extents: *half_extents,
-        },
-        ObjectShape::Sphere { radius } => ObstacleShape::Sphere { radius: *radius },
-        ObjectShape::Cylinder { radius, length } => ObstacleShape::Cylinder {
-            radius: *radius,
-            half_length: length / 2.0,
-        },
-        ObjectShape::Capsule { radius, length } => ObstacleShape::Capsule {
-            radius: *radius,
-            half_length: length / 2.0,
-        },
-        ObjectShape::ConvexHull { points } => {
-            let pts: Vec<PVec> = points
-                .iter()
-                .map(|p| PVec::new(p.x as f32, p.y as f32, p.z as f32))
-                .collect();
-            let (v, t) = parry3d::transformation::convex_hull(&pts);
-            let v: Vec<Point3<f64>> = v
-                .iter()
-                .map(|p| Point3::new(p.x as f64, p.y as f64, p.z as f64))
-                .collect();
-            mesh(name, &v, &t)?
-        }
-        ObjectShape::ConvexDecomposition {
-            vertices,
-            triangles,
-        }
-        | ObjectShape::TriMesh {
-            vertices,
-            triangles,
-        } => mesh(name, vertices, triangles)?,
-    })
-}
-
-fn mesh(
-    name: &str,
-    vertices: &[Point3<f64>],
-    triangles: &[[u32; 3]],
-) -> Result<ObstacleShape, CollisionError> {
-    MeshShape::new(vertices, triangles)
-        .map(|m| ObstacleShape::Mesh(std::sync::Arc::new(m)))
-        .map_err(|e| CollisionError::InvalidShape(format!("simulated object '{name}': {e}")))
-}
-
 /// The collision world of `world`'s objects at their current poses, in the
 /// frame of `options.base`, without the ignored ones.
 pub fn collision_world_from_sim(
@@ -108,7 +59,7 @@ pub fn collision_world_from_sim(
         let slab = Isometry3::from_parts(Translation3::new(0.0, 0.0, -z), Default::default());
         out.add_shape(
             GROUND,
-            ObstacleShape::Box {
+            Shape::Box {
                 half_extents: Vector3::new(x, y, z),
             },
             to_base * slab,
@@ -119,8 +70,15 @@ pub fn collision_world_from_sim(
         if options.ignores(name) {
             continue;
         }
-        let shape = obstacle(name, &obj.desc.shape)?;
-        out.add_shape(name, shape, to_base * world.object_pose(i))?;
+        // The simulator's shape is the obstacle (one vocabulary): meshes and
+        // hulls are shared, their BVH built once across syncs.
+        out.add_shape(name, obj.desc.shape.clone(), to_base * world.object_pose(i))
+            .map_err(|e| match e {
+                CollisionError::InvalidShape(m) => {
+                    CollisionError::InvalidShape(format!("simulated object '{name}': {m}"))
+                }
+                other => other,
+            })?;
     }
     Ok(out)
 }
@@ -129,7 +87,7 @@ pub fn collision_world_from_sim(
 mod tests {
     use super::*;
     use ferrobot_sim::{ObjectDesc, WorldConfig};
-    use nalgebra::UnitQuaternion;
+    use nalgebra::{Point3, UnitQuaternion};
 
     fn names(w: &CollisionWorld) -> Vec<&str> {
         w.objects().iter().map(|o| o.name.as_str()).collect()
@@ -139,7 +97,7 @@ mod tests {
         let mut w = World::new(WorldConfig::default()).unwrap();
         let mut table = ObjectDesc::new(
             "table",
-            ObjectShape::Box {
+            Shape::Box {
                 half_extents: Vector3::new(0.4, 0.6, 0.2),
             },
             Isometry3::translation(0.6, 0.0, 0.2),
@@ -148,23 +106,24 @@ mod tests {
         w.add_object(table).unwrap();
         let can = ObjectDesc::new(
             "target_can",
-            ObjectShape::Cylinder {
+            Shape::Cylinder {
                 radius: 0.03,
-                length: 0.12,
+                half_height: 0.06,
             },
             Isometry3::translation(0.5, 0.1, 0.46),
         );
         w.add_object(can).unwrap();
         let hull = ObjectDesc::new(
             "rock",
-            ObjectShape::ConvexHull {
-                points: vec![
+            Shape::ConvexHull(std::sync::Arc::new(
+                ferrobot_geometry::Hull::new(vec![
                     Point3::new(0.0, 0.0, 0.0),
                     Point3::new(0.05, 0.0, 0.0),
                     Point3::new(0.0, 0.05, 0.0),
                     Point3::new(0.0, 0.0, 0.05),
-                ],
-            },
+                ])
+                .unwrap(),
+            )),
             Isometry3::translation(0.7, -0.2, 0.4),
         );
         w.add_object(hull).unwrap();

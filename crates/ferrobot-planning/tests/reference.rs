@@ -7,7 +7,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use ferrobot_collision::{
-    AllowedCollisions, CollisionChecker, CollisionWorld, ObstacleShape, RobotSpheres, Sphere,
+    AllowedCollisions, CollisionChecker, CollisionWorld, RobotSpheres, Shape, Sphere,
 };
 use ferrobot_model::{LoadOptions, RobotModel};
 use ferrobot_planning::timing::{interval_ratios, parametrize, parametrize_polyline};
@@ -218,7 +218,7 @@ fn wall() -> CollisionWorld {
         world
             .add_shape(
                 name,
-                ObstacleShape::Box {
+                Shape::Box {
                     half_extents: Vector3::new(WALL_HALF_X, (y1 - y0) / 2.0, 0.5),
                 },
                 Isometry3::translation(0.0, (y0 + y1) / 2.0, 0.0),

@@ -5,8 +5,8 @@ use std::sync::Arc;
 
 use ferrobot_collision::spherize::{SpherizeOptions, spherize_robot};
 use ferrobot_collision::{
-    AllowedCollisions, CollisionChecker, CollisionWorld, MeshShape, ObstacleShape, PointCloud,
-    RobotSpheres,
+    AllowedCollisions, AnalyzeCollisions, CollisionChecker, CollisionWorld, Mesh, PointCloud,
+    RobotSpheres, Shape,
 };
 use nalgebra::{Isometry3, Point3, Vector3};
 use numpy::ndarray::{Array1, Array2};
@@ -36,7 +36,7 @@ fn positive(what: &str, v: f64) -> PyResult<f64> {
 
 /// Builds a shape from `(kind, dims...)` as used by `attach`: ("box", [sx, sy, sz]),
 /// ("sphere", r), ("cylinder", r, length), ("capsule", r, length).
-fn shape_from_tuple(shape: &Bound<'_, PyAny>) -> PyResult<ObstacleShape> {
+fn shape_from_tuple(shape: &Bound<'_, PyAny>) -> PyResult<Shape> {
     shape_parts(shape).map_err(|e| {
         if e.is_instance_of::<InvalidArgumentError>(shape.py()) {
             e
@@ -48,36 +48,28 @@ fn shape_from_tuple(shape: &Bound<'_, PyAny>) -> PyResult<ObstacleShape> {
     })
 }
 
-fn shape_parts(shape: &Bound<'_, PyAny>) -> PyResult<ObstacleShape> {
+fn shape_parts(shape: &Bound<'_, PyAny>) -> PyResult<Shape> {
     let kind: String = shape.get_item(0)?.extract()?;
     Ok(match kind.as_str() {
         "box" => {
             let size = read_array(&shape.get_item(1)?, "box size", 1, &[Some(3)])?;
             let s = size.data();
-            ObstacleShape::Box {
-                half_extents: Vector3::new(
-                    positive("box size", s[0])?,
-                    positive("box size", s[1])?,
-                    positive("box size", s[2])?,
-                ) / 2.0,
-            }
+            Shape::cuboid_from_size(Vector3::new(
+                positive("box size", s[0])?,
+                positive("box size", s[1])?,
+                positive("box size", s[2])?,
+            ))
         }
-        "sphere" => ObstacleShape::Sphere {
+        "sphere" => Shape::Sphere {
             radius: positive("sphere radius", shape.get_item(1)?.extract()?)?,
         },
         "cylinder" | "capsule" => {
             let r = positive("radius", shape.get_item(1)?.extract()?)?;
             let l = positive("length", shape.get_item(2)?.extract()?)?;
             if kind == "cylinder" {
-                ObstacleShape::Cylinder {
-                    radius: r,
-                    half_length: l / 2.0,
-                }
+                Shape::cylinder_from_length(r, l)
             } else {
-                ObstacleShape::Capsule {
-                    radius: r,
-                    half_length: l / 2.0,
-                }
+                Shape::capsule_from_length(r, l)
             }
         }
         other => {
@@ -98,12 +90,7 @@ pub struct PyCollisionWorld {
 }
 
 impl PyCollisionWorld {
-    fn add(
-        &mut self,
-        name: &str,
-        shape: ObstacleShape,
-        pose: Option<&Bound<'_, PyAny>>,
-    ) -> PyResult<()> {
+    fn add(&mut self, name: &str, shape: Shape, pose: Option<&Bound<'_, PyAny>>) -> PyResult<()> {
         let pose = pose_or_identity(pose, "pose")?;
         self.inner
             .add_shape(name, shape, pose)
@@ -166,9 +153,7 @@ impl PyCollisionWorld {
             let s = s.data();
             self.add(
                 name,
-                ObstacleShape::Box {
-                    half_extents: Vector3::new(s[0], s[1], s[2]) / 2.0,
-                },
+                Shape::cuboid_from_size(Vector3::new(s[0], s[1], s[2])),
                 pose,
             )
         })
@@ -182,7 +167,7 @@ impl PyCollisionWorld {
         radius: f64,
         pose: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<()> {
-        guard(|| self.add(name, ObstacleShape::Sphere { radius }, pose))
+        guard(|| self.add(name, Shape::Sphere { radius }, pose))
     }
 
     /// Adds a cylinder along the pose's z axis.
@@ -194,16 +179,7 @@ impl PyCollisionWorld {
         length: f64,
         pose: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<()> {
-        guard(|| {
-            self.add(
-                name,
-                ObstacleShape::Cylinder {
-                    radius,
-                    half_length: length / 2.0,
-                },
-                pose,
-            )
-        })
+        guard(|| self.add(name, Shape::cylinder_from_length(radius, length), pose))
     }
 
     /// Adds a capsule along the pose's z axis (`length` of the cylindrical part).
@@ -215,16 +191,7 @@ impl PyCollisionWorld {
         length: f64,
         pose: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<()> {
-        guard(|| {
-            self.add(
-                name,
-                ObstacleShape::Capsule {
-                    radius,
-                    half_length: length / 2.0,
-                },
-                pose,
-            )
-        })
+        guard(|| self.add(name, Shape::capsule_from_length(radius, length), pose))
     }
 
     /// Adds a triangle mesh: `vertices` (N, 3) and `faces` (M, 3) vertex indices.
@@ -256,8 +223,8 @@ impl PyCollisionWorld {
                 }
                 tris.push([t[0] as u32, t[1] as u32, t[2] as u32]);
             }
-            let mesh = MeshShape::new(&verts, &tris).map_err(collision_err)?;
-            self.add(name, ObstacleShape::Mesh(Arc::new(mesh)), pose)
+            let mesh = Mesh::new(verts, tris).map_err(|e| collision_err(e.into()))?;
+            self.add(name, Shape::Mesh(Arc::new(mesh)), pose)
         })
     }
 
@@ -277,8 +244,8 @@ impl PyCollisionWorld {
                 .chunks(3)
                 .map(|c| Point3::new(c[0], c[1], c[2]))
                 .collect();
-            let cloud = PointCloud::new(pts, radius).map_err(collision_err)?;
-            self.add(name, ObstacleShape::PointCloud(Arc::new(cloud)), pose)
+            let cloud = PointCloud::new(pts, radius).map_err(|e| collision_err(e.into()))?;
+            self.add(name, Shape::PointCloud(Arc::new(cloud)), pose)
         })
     }
 

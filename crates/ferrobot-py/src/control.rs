@@ -2,7 +2,7 @@
 //! reactive joint-space control towards an end-effector target around
 //! (moving) obstacles, one `step(q, qd, dt)` per control cycle.
 
-use ferrobot_collision::AllowedCollisions;
+use ferrobot_collision::{AllowedCollisions, AnalyzeCollisions};
 use ferrobot_control::{
     ControlError, LinkClearance, PotentialFieldConfig, PotentialFieldController, ReactiveConfig,
     ReactiveController, StepInfo,

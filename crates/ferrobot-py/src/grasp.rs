@@ -2,12 +2,9 @@
 //! `ferrobot.grasp` Python package).
 
 use ferrobot_grasp::detect::detect_rgbd;
-use ferrobot_grasp::frames::{camera_to_world, transform_group};
+use ferrobot_grasp::frames::transform_group;
 use ferrobot_grasp::grasp::GRASP_COLUMNS;
-use ferrobot_grasp::{
-    CameraConvention, DetectOptions, GraspError, GraspGroup, Intrinsics, Workspace, backproject,
-    detect,
-};
+use ferrobot_grasp::{DetectOptions, GraspError, GraspGroup, Workspace, detect};
 use nalgebra::{Isometry3, Point3, Vector3};
 use numpy::ndarray::{Array1, Array2};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2};
@@ -18,7 +15,7 @@ use crate::arrays::{read_array, read_pose};
 use crate::errors::{InvalidArgumentError, NonFiniteError, ShapeError, guard};
 
 /// Converts a grasp error to the matching Python exception.
-fn grasp_err(e: GraspError) -> PyErr {
+pub(crate) fn grasp_err(e: GraspError) -> PyErr {
     match e {
         GraspError::Shape(m) => ShapeError::new_err(m),
         GraspError::NonFinite(m) => NonFiniteError::new_err(m),
@@ -96,7 +93,7 @@ fn options(opts: Option<&Bound<'_, PyDict>>) -> PyResult<DetectOptions> {
     Ok(o)
 }
 
-fn workspace(obj: Option<&Bound<'_, PyAny>>) -> PyResult<Option<Workspace>> {
+pub(crate) fn workspace(obj: Option<&Bound<'_, PyAny>>) -> PyResult<Option<Workspace>> {
     let Some(obj) = obj else { return Ok(None) };
     let a = read_array_inf(obj, "workspace")?;
     Ok(Some(Workspace(a)))
@@ -118,18 +115,6 @@ fn read_array_inf(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<[f64; 6]> {
     Ok(arr)
 }
 
-fn intrinsics(fx: f64, fy: f64, cx: f64, cy: f64, scale: f64) -> PyResult<Intrinsics> {
-    let k = Intrinsics {
-        fx,
-        fy,
-        cx,
-        cy,
-        scale,
-    };
-    k.validate().map_err(grasp_err)?;
-    Ok(k)
-}
-
 fn to_py<'py>(py: Python<'py>, g: &GraspGroup) -> PyResult<Bound<'py, PyArray2<f64>>> {
     let a = Array2::from_shape_vec((g.len(), GRASP_COLUMNS), g.to_array())
         .map_err(|e| InvalidArgumentError::new_err(e.to_string()))?;
@@ -139,41 +124,6 @@ fn to_py<'py>(py: Python<'py>, g: &GraspGroup) -> PyResult<Bound<'py, PyArray2<f
 fn group(obj: &Bound<'_, PyAny>) -> PyResult<GraspGroup> {
     let a = read_array(obj, "grasp array", 2, &[Some(GRASP_COLUMNS)])?;
     GraspGroup::from_array(a.data()).map_err(grasp_err)
-}
-
-/// Back-projected points (N, 3) and their flat pixel indices (N,).
-type PointsAndPixels<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray1<i64>>);
-
-/// Back-projects a depth image: returns (points (N, 3), flat pixel indices (N,)).
-#[pyfunction]
-#[pyo3(signature = (depth, fx, fy, cx, cy, scale, workspace=None))]
-#[allow(clippy::too_many_arguments)]
-pub fn grasp_backproject<'py>(
-    py: Python<'py>,
-    depth: &Bound<'py, PyAny>,
-    fx: f64,
-    fy: f64,
-    cx: f64,
-    cy: f64,
-    scale: f64,
-    workspace: Option<&Bound<'py, PyAny>>,
-) -> PyResult<PointsAndPixels<'py>> {
-    guard(|| {
-        let k = intrinsics(fx, fy, cx, cy, scale)?;
-        let ws = self::workspace(workspace)?;
-        let d = read_array(depth, "depth", 2, &[None, None])?;
-        let (h, w) = (d.shape[0], d.shape[1]);
-        let data = d.data();
-        let bp = py
-            .detach(|| backproject(data, h, w, &k, ws.as_ref()))
-            .map_err(grasp_err)?;
-        let n = bp.points.len();
-        let flat: Vec<f64> = bp.points.iter().flat_map(|p| [p.x, p.y, p.z]).collect();
-        let pts = Array2::from_shape_vec((n, 3), flat)
-            .map_err(|e| InvalidArgumentError::new_err(e.to_string()))?;
-        let pix: Vec<i64> = bp.pixels.iter().map(|&i| i as i64).collect();
-        Ok((pts.into_pyarray(py), Array1::from_vec(pix).into_pyarray(py)))
-    })
 }
 
 /// Detects grasps in a point cloud (N, 3); returns an (M, 17) array.
@@ -221,11 +171,11 @@ pub fn grasp_detect_rgbd<'py>(
     options: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyArray2<f64>>> {
     guard(|| {
-        let k = intrinsics(fx, fy, cx, cy, scale)?;
+        let d = crate::camera::read_depth(depth, [None, None])?;
+        let (h, w) = (d.shape[0], d.shape[1]);
+        let k = crate::camera::intrinsics(w, h, fx, fy, cx, cy, scale)?;
         let opts = self::options(options)?;
         let ws = self::workspace(workspace)?;
-        let d = read_array(depth, "depth", 2, &[None, None])?;
-        let (h, w) = (d.shape[0], d.shape[1]);
         let mask: Option<Vec<i32>> = match mask {
             None => None,
             Some(m) => {
@@ -241,18 +191,7 @@ pub fn grasp_detect_rgbd<'py>(
         };
         let data = d.data();
         let g = py
-            .detach(|| {
-                detect_rgbd(
-                    data,
-                    h,
-                    w,
-                    &k,
-                    mask.as_deref(),
-                    object_id,
-                    ws.as_ref(),
-                    &opts,
-                )
-            })
+            .detach(|| detect_rgbd(data, &k, mask.as_deref(), object_id, ws.as_ref(), &opts))
             .map_err(grasp_err)?;
         to_py(py, &g)
     })
@@ -314,8 +253,9 @@ pub fn grasp_camera_to_world<'py>(
     convention: &str,
 ) -> PyResult<Bound<'py, PyArray2<f64>>> {
     guard(|| {
-        let c = CameraConvention::parse(convention).map_err(grasp_err)?;
-        let t = camera_to_world(&read_pose(camera_pose, "camera_pose")?, c);
+        let c =
+            ferrobot_camera::Convention::parse(convention).map_err(crate::camera::camera_err)?;
+        let t = ferrobot_camera::camera_to_world(&read_pose(camera_pose, "camera_pose")?, c);
         let m = t.to_homogeneous();
         Ok(Array2::from_shape_fn((4, 4), |(i, j)| m[(i, j)]).into_pyarray(py))
     })

@@ -5,6 +5,7 @@
 
 mod arrays;
 mod batch;
+mod camera;
 mod collision;
 mod control;
 mod errors;
@@ -65,10 +66,12 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sim::opencv_to_opengl, m)?)?;
     m.add_function(wrap_pyfunction!(sim::opengl_to_opencv, m)?)?;
     m.add_function(wrap_pyfunction!(sim::look_at, m)?)?;
+    m.add_function(wrap_pyfunction!(camera::camera_check_intrinsics, m)?)?;
+    m.add_function(wrap_pyfunction!(camera::camera_backproject, m)?)?;
+    m.add_function(wrap_pyfunction!(camera::camera_convert_pose, m)?)?;
     m.add_function(wrap_pyfunction!(bundled_robot, m)?)?;
     m.add_class::<control::PyReactiveController>()?;
     m.add_class::<control::PyPotentialFieldController>()?;
-    m.add_function(wrap_pyfunction!(grasp::grasp_backproject, m)?)?;
     m.add_function(wrap_pyfunction!(grasp::grasp_detect, m)?)?;
     m.add_function(wrap_pyfunction!(grasp::grasp_detect_rgbd, m)?)?;
     m.add_function(wrap_pyfunction!(grasp::grasp_nms, m)?)?;

@@ -75,19 +75,24 @@ fn geometry_dicts<'py>(py: Python<'py>, geoms: &[Geometry]) -> PyResult<Bound<'p
                 d.set_item("size", (half_extents * 2.0).as_slice().to_vec())?
             }
             Shape::Sphere { radius } => d.set_item("radius", radius)?,
-            Shape::Cylinder { radius, length } | Shape::Capsule { radius, length } => {
-                d.set_item("radius", radius)?;
-                d.set_item("length", length)?;
+            Shape::Cylinder {
+                radius,
+                half_height,
             }
-            Shape::Mesh {
-                filename,
-                path,
-                scale,
-                mesh,
+            | Shape::Capsule {
+                radius,
+                half_height,
             } => {
-                d.set_item("filename", filename)?;
-                d.set_item("path", path.display().to_string())?;
-                d.set_item("scale", scale.as_slice().to_vec())?;
+                d.set_item("radius", radius)?;
+                d.set_item("length", 2.0 * half_height)?;
+            }
+            Shape::Mesh(m) | Shape::ConvexDecomposition(m) => {
+                if let Some(src) = m.source() {
+                    d.set_item("filename", &src.filename)?;
+                    d.set_item("path", src.path.display().to_string())?;
+                }
+                d.set_item("scale", m.scale().as_slice().to_vec())?;
+                let mesh = m.data();
                 let v: Vec<f64> = mesh.vertices.iter().flat_map(|p| [p.x, p.y, p.z]).collect();
                 d.set_item(
                     "vertices",
@@ -107,6 +112,8 @@ fn geometry_dicts<'py>(py: Python<'py>, geoms: &[Geometry]) -> PyResult<Bound<'p
                         .into_pyarray(py),
                 )?;
             }
+            // A URDF never yields these: the type alone describes them.
+            Shape::ConvexHull(_) | Shape::PointCloud(_) => {}
         }
         list.append(d)?;
     }

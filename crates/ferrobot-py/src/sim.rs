@@ -3,11 +3,13 @@
 
 use std::sync::{Arc, Mutex, MutexGuard};
 
+use ferrobot_camera::Intrinsics;
 use ferrobot_model::pose_to_matrix;
-use ferrobot_sim::camera::{Camera, CameraMount, Intrinsics};
+use ferrobot_model::{Hull, Mesh};
+use ferrobot_sim::camera::{Camera, CameraMount};
 use ferrobot_sim::{
-    JointPid, ObjectDesc, ObjectShape, ParallelGripper, ResolvedRate, RobotOptions, SimError,
-    World, WorldConfig, conventions, execute_trajectory,
+    JointPid, ObjectDesc, ParallelGripper, ResolvedRate, RobotOptions, Shape, SimError, World,
+    WorldConfig, execute_trajectory,
 };
 use nalgebra::{Isometry3, Point3, Vector3};
 use numpy::ndarray::{Array1, Array2, Array3};
@@ -194,7 +196,7 @@ pub struct PyWorld {
 #[allow(clippy::too_many_arguments)]
 fn object_desc(
     name: String,
-    shape: ObjectShape,
+    shape: Shape,
     pose: Option<&Bound<'_, PyAny>>,
     mass: f64,
     friction: f64,
@@ -410,9 +412,7 @@ impl PyWorld {
     ) -> PyResult<String> {
         guard(|| {
             let s = vec3_arg(size, "size")?;
-            let shape = ObjectShape::Box {
-                half_extents: s / 2.0,
-            };
+            let shape = Shape::cuboid_from_size(s);
             self.add(object_desc(
                 name,
                 shape,
@@ -441,7 +441,7 @@ impl PyWorld {
         color: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<String> {
         guard(|| {
-            let shape = ObjectShape::Sphere { radius };
+            let shape = Shape::Sphere { radius };
             self.add(object_desc(
                 name,
                 shape,
@@ -471,7 +471,7 @@ impl PyWorld {
         color: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<String> {
         guard(|| {
-            let shape = ObjectShape::Cylinder { radius, length };
+            let shape = Shape::cylinder_from_length(radius, length);
             self.add(object_desc(
                 name,
                 shape,
@@ -501,7 +501,7 @@ impl PyWorld {
         color: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<String> {
         guard(|| {
-            let shape = ObjectShape::Capsule { radius, length };
+            let shape = Shape::capsule_from_length(radius, length);
             self.add(object_desc(
                 name,
                 shape,
@@ -552,16 +552,14 @@ impl PyWorld {
             }
             tris.push([c[0] as u32, c[1] as u32, c[2] as u32]);
         }
+        let geometry =
+            |e| sim_err(ferrobot_sim::error::geometry_err(e).context(&format!("object '{name}'")));
         let shape = match approximation {
-            "convex_hull" => ObjectShape::ConvexHull { points: pts },
-            "convex_decomposition" => ObjectShape::ConvexDecomposition {
-                vertices: pts,
-                triangles: tris,
-            },
-            "trimesh" => ObjectShape::TriMesh {
-                vertices: pts,
-                triangles: tris,
-            },
+            "convex_hull" => Shape::ConvexHull(Arc::new(Hull::new(pts).map_err(geometry)?)),
+            "convex_decomposition" => {
+                Shape::ConvexDecomposition(Arc::new(Mesh::new(pts, tris).map_err(geometry)?))
+            }
+            "trimesh" => Shape::Mesh(Arc::new(Mesh::new(pts, tris).map_err(geometry)?)),
             other => {
                 return Err(InvalidArgumentError::new_err(format!(
                     "approximation must be 'convex_hull', 'convex_decomposition' or 'trimesh', got '{other}'"
@@ -1481,6 +1479,7 @@ impl PyCamera {
                 fy: fy.unwrap_or(fx),
                 cx: cx.unwrap_or((width as f64 - 1.0) / 2.0),
                 cy: cy.unwrap_or((height as f64 - 1.0) / 2.0),
+                depth_scale: 1.0,
             };
             let mount = match (robot, link) {
                 (None, None) => CameraMount::World,
@@ -1585,14 +1584,12 @@ impl PyCamera {
         })?;
         let p = match camera_axes {
             "ros" => p,
-            "usd" => conventions::opencv_to_opengl(&p),
-            "world" => {
-                let m = nalgebra::Matrix3::new(0.0, -1.0, 0.0, 0.0, 0.0, -1.0, 1.0, 0.0, 0.0);
-                let r = nalgebra::UnitQuaternion::from_rotation_matrix(
-                    &nalgebra::Rotation3::from_matrix_unchecked(m),
-                );
-                p * r
-            }
+            "usd" => ferrobot_camera::opencv_to_opengl(&p),
+            "world" => ferrobot_camera::convert_pose(
+                &p,
+                ferrobot_camera::Convention::OpenCv,
+                ferrobot_camera::Convention::Ros,
+            ),
             other => {
                 return Err(InvalidArgumentError::new_err(format!(
                     "camera_axes: expected 'world', 'ros' or 'usd', got '{other}'"
@@ -1655,29 +1652,9 @@ fn depth_to_points_impl<'py>(
     depth: &Bound<'py, PyAny>,
     intr: &Intrinsics,
 ) -> PyResult<PointsAndPixels<'py>> {
-    // Missing depth is 0 or +inf (as in grasp detection); NaN is refused.
-    let a = read_array_with(
-        depth,
-        "depth",
-        2,
-        &[Some(intr.height), Some(intr.width)],
-        Finite::NoNan,
-    )?;
-    if let Some(i) = a.data().iter().position(|&v| v < 0.0) {
-        return Err(InvalidArgumentError::new_err(format!(
-            "depth: negative depth {} at flat index {i} (no reading is 0 or +inf)",
-            a.data()[i]
-        )));
-    }
-    let d: Vec<f32> = a.data().iter().map(|&v| v as f32).collect();
-    let (pts, idx) = conventions::depth_to_points(&d, intr).map_err(sim_err)?;
-    let n = pts.len();
-    Ok((
-        Array2::from_shape_vec((n, 3), pts.into_iter().flatten().collect())
-            .expect("n x 3")
-            .into_pyarray(py),
-        Array1::from_vec(idx.into_iter().map(|i| i as i64).collect()).into_pyarray(py),
-    ))
+    // The one back-projection and missing-depth policy (ferrobot-camera):
+    // 0 and +inf are missing; NaN, -inf and negative depths raise.
+    crate::camera::backproject_flat(py, depth, intr)
 }
 
 /// Back-projects a depth image with intrinsics fx, fy, cx, cy.
@@ -1700,14 +1677,7 @@ pub fn depth_to_points<'py>(
                 "depth: expected shape (H, W), got {shape:?}"
             )));
         }
-        let intr = Intrinsics {
-            width: shape[1],
-            height: shape[0],
-            fx,
-            fy,
-            cx,
-            cy,
-        };
+        let intr = crate::camera::intrinsics(shape[1], shape[0], fx, fy, cx, cy, 1.0)?;
         depth_to_points_impl(py, depth, &intr)
     })
 }
@@ -1721,7 +1691,7 @@ pub fn opencv_to_opengl<'py>(
     guard(|| {
         Ok(matrix(
             py,
-            &conventions::opencv_to_opengl(&pose_arg(Some(pose), "pose")?),
+            &ferrobot_camera::opencv_to_opengl(&pose_arg(Some(pose), "pose")?),
         ))
     })
 }
@@ -1735,7 +1705,7 @@ pub fn opengl_to_opencv<'py>(
     guard(|| {
         Ok(matrix(
             py,
-            &conventions::opengl_to_opencv(&pose_arg(Some(pose), "pose")?),
+            &ferrobot_camera::opengl_to_opencv(&pose_arg(Some(pose), "pose")?),
         ))
     })
 }
@@ -1756,7 +1726,8 @@ pub fn look_at<'py>(
             .map(|u| vec3_arg(u, "up"))
             .transpose()?
             .unwrap_or_else(Vector3::z);
-        let p = conventions::look_at(&e.into(), &t.into(), &u).map_err(sim_err)?;
+        let p = ferrobot_camera::look_at(&e.into(), &t.into(), &u)
+            .map_err(crate::camera::camera_err)?;
         Ok(matrix(py, &p))
     })
 }

@@ -20,62 +20,10 @@ use crate::error::{Result, SimError};
 use crate::hooks::seg_of;
 use crate::world::World;
 
-/// Pinhole intrinsics (pixels).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Intrinsics {
-    /// Image width.
-    pub width: usize,
-    /// Image height.
-    pub height: usize,
-    /// Focal length along x.
-    pub fx: f64,
-    /// Focal length along y.
-    pub fy: f64,
-    /// Principal point x.
-    pub cx: f64,
-    /// Principal point y.
-    pub cy: f64,
-}
-
-impl Intrinsics {
-    /// Checks sizes and focal lengths.
-    pub fn validate(&self) -> Result<()> {
-        if self.width == 0 || self.height == 0 || self.width > 16384 || self.height > 16384 {
-            return Err(SimError::InvalidArgument(format!(
-                "camera size must be between 1 and 16384 pixels, got {}x{}",
-                self.width, self.height
-            )));
-        }
-        for (n, v) in [("fx", self.fx), ("fy", self.fy)] {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(SimError::InvalidArgument(format!(
-                    "camera {n} must be finite and > 0, got {v}"
-                )));
-            }
-        }
-        crate::error::check_finite("camera principal point", &[self.cx, self.cy])
-    }
-
-    /// Intrinsics from a horizontal field of view (rad), centred.
-    pub fn from_fov(width: usize, height: usize, fov_x: f64) -> Result<Self> {
-        if !(fov_x.is_finite() && fov_x > 0.0 && fov_x < std::f64::consts::PI) {
-            return Err(SimError::InvalidArgument(format!(
-                "field of view must be in (0, pi), got {fov_x}"
-            )));
-        }
-        let f = width as f64 / 2.0 / (fov_x / 2.0).tan();
-        let i = Self {
-            width,
-            height,
-            fx: f,
-            fy: f,
-            cx: (width as f64 - 1.0) / 2.0,
-            cy: (height as f64 - 1.0) / 2.0,
-        };
-        i.validate()?;
-        Ok(i)
-    }
-}
+/// The camera model's intrinsics (image size, focal lengths, principal
+/// point, depth units; one validation): `ferrobot-camera`'s. Rendered depth
+/// is in metres (`depth_scale` 1).
+pub use ferrobot_camera::Intrinsics;
 
 /// What a camera is fixed to.
 #[derive(Debug, Clone, Copy, PartialEq)]

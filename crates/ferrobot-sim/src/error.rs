@@ -60,3 +60,32 @@ pub fn check_len(what: &str, v: &[f64], n: usize) -> Result<()> {
     }
     check_finite(what, v)
 }
+
+/// The simulator's error for a shape the geometry crate rejects.
+pub fn geometry_err(e: ferrobot_geometry::GeometryError) -> SimError {
+    match e {
+        ferrobot_geometry::GeometryError::InvalidShape(m) => SimError::InvalidArgument(m),
+        ferrobot_geometry::GeometryError::NonFinite(m) => SimError::NonFinite(m),
+    }
+}
+
+impl SimError {
+    /// The same error with its message prefixed by `what` (an object name).
+    pub fn context(self, what: &str) -> Self {
+        match self {
+            SimError::InvalidArgument(m) => SimError::InvalidArgument(format!("{what}: {m}")),
+            SimError::NonFinite(m) => SimError::NonFinite(format!("{what}: {m}")),
+            other => other,
+        }
+    }
+}
+
+impl From<ferrobot_camera::CameraError> for SimError {
+    fn from(e: ferrobot_camera::CameraError) -> Self {
+        match e {
+            ferrobot_camera::CameraError::InvalidArgument(m) => SimError::InvalidArgument(m),
+            ferrobot_camera::CameraError::NonFinite(m) => SimError::NonFinite(m),
+            ferrobot_camera::CameraError::Shape(m) => SimError::InvalidArgument(m),
+        }
+    }
+}

@@ -6,8 +6,8 @@
 //! couplings, parallel grippers ([`gripper`]), link contacts filtered by the
 //! model's allowed-collision matrix ([`hooks`]). Pinhole cameras render
 //! depth, RGB and segmentation by ray casting the scene in parallel
-//! ([`camera`]); [`conventions`] converts between OpenCV and OpenGL camera
-//! frames and back-projects depth. [`controllers`] has a joint PID with
+//! ([`camera`]; intrinsics, conventions and back-projection are
+//! `ferrobot-camera`'s). [`controllers`] has a joint PID with
 //! anti-windup, a resolved-rate Cartesian controller and a trajectory
 //! executor.
 //!
@@ -18,7 +18,6 @@
 pub mod calibration;
 pub mod camera;
 pub mod controllers;
-pub mod conventions;
 pub mod convert;
 pub mod drives;
 pub mod error;
@@ -36,8 +35,9 @@ pub use camera::{Camera, CameraMount, DirectionalLight, Frame, Intrinsics, Light
 pub use controllers::{JointPid, ResolvedRate};
 pub use drives::Drive;
 pub use error::{Result, SimError};
+pub use ferrobot_geometry::Shape;
 pub use gripper::ParallelGripper;
-pub use objects::{ObjectDesc, ObjectShape};
+pub use objects::ObjectDesc;
 pub use robot::{Robot, RobotOptions};
 pub use trajectory::{TrackingReport, execute_trajectory};
 pub use world::{Object, SegLabel, World, WorldConfig};

@@ -126,37 +126,10 @@ fn x_to(axis: &Unit<Vector3<f64>>) -> UnitQuaternion<f64> {
     })
 }
 
-/// Collision shape of a link geometry (meshes as convex hulls).
+/// Collision shape of a link geometry (meshes as convex hulls); None for
+/// a shape parry cannot represent (a degenerate hull).
 fn link_shape(shape: &Shape) -> Option<(SharedShape, Isometry3<f64>)> {
-    let id = Isometry3::identity();
-    Some(match shape {
-        Shape::Box { half_extents: h } => {
-            (SharedShape::cuboid(h.x as f32, h.y as f32, h.z as f32), id)
-        }
-        Shape::Sphere { radius } => (SharedShape::ball(*radius as f32), id),
-        Shape::Cylinder { radius, length } => (
-            SharedShape::cylinder(*length as f32 / 2.0, *radius as f32),
-            Isometry3::rotation(Vector3::x() * std::f64::consts::FRAC_PI_2),
-        ),
-        Shape::Capsule { radius, length } => (
-            SharedShape::capsule_z(*length as f32 / 2.0, *radius as f32),
-            id,
-        ),
-        Shape::Mesh { scale, mesh, .. } => {
-            let pts: Vec<Vector> = mesh
-                .vertices
-                .iter()
-                .map(|v| {
-                    Vector::new(
-                        (v.x * scale.x) as f32,
-                        (v.y * scale.y) as f32,
-                        (v.z * scale.z) as f32,
-                    )
-                })
-                .collect();
-            (SharedShape::convex_hull(&pts)?, id)
-        }
-    })
+    shape.to_parry(ferrobot_geometry::MeshAs::ConvexHull).ok()
 }
 
 /// Minimum mass and inertia given to a movable body whose links carry no

@@ -4,7 +4,7 @@
 use std::collections::HashMap;
 use std::sync::Arc;
 
-use ferrobot_collision::AllowedCollisions;
+use ferrobot_model::AllowedCollisions;
 use ferrobot_model::RobotModel;
 use nalgebra::{Isometry3, Vector3};
 use rapier3d::prelude::{
@@ -302,9 +302,7 @@ impl World {
     pub fn add_object(&mut self, desc: ObjectDesc) -> Result<usize> {
         desc.validate()?;
         self.check_name(&desc.name)?;
-        let shape = desc
-            .shape
-            .to_shared_shape(&format!("object '{}'", desc.name))?;
+        let shape = crate::objects::shared_shape(&desc.shape, &format!("object '{}'", desc.name))?;
         let seg = self.next_seg();
         let builder = if desc.is_static {
             RigidBodyBuilder::fixed()

@@ -3,10 +3,10 @@
 
 use std::sync::Arc;
 
+use ferrobot_camera::{backproject, look_at, opencv_to_opengl, opengl_to_opencv};
 use ferrobot_sim::camera::{Camera, Intrinsics};
-use ferrobot_sim::conventions::{depth_to_points, look_at, opencv_to_opengl, opengl_to_opencv};
 use ferrobot_sim::{
-    JointPid, ObjectDesc, ObjectShape, ResolvedRate, RobotOptions, SimError, World, WorldConfig,
+    JointPid, ObjectDesc, ResolvedRate, RobotOptions, Shape, SimError, World, WorldConfig,
     execute_trajectory,
 };
 use nalgebra::{Isometry3, Point3, Vector3};
@@ -44,9 +44,9 @@ fn plane_depth_is_analytic() {
     }
     assert!(hits > 1000);
     // back-projected points lie on the plane
-    let (pts, _) = depth_to_points(&frame.depth, &intr).unwrap();
+    let pts = backproject(&frame.depth, &intr, |_| true).unwrap().points;
     for p in pts {
-        let wp = pose * Point3::new(p[0], p[1], p[2]);
+        let wp = pose * p;
         assert!(wp.z.abs() < 1e-5);
     }
 }
@@ -74,6 +74,7 @@ fn convex_hull_depth_lies_on_the_hull() {
         fy: 300.0,
         cx: 79.5,
         cy: 59.5,
+        depth_scale: 1.0,
     };
     let eye = Point3::new(0.3, 0.0, 0.35);
     let pose = look_at(&eye, &Point3::origin(), &Vector3::z()).unwrap();
@@ -94,9 +95,9 @@ fn convex_hull_depth_lies_on_the_hull() {
         .unwrap();
         let mut desc = ObjectDesc::new(
             "stone",
-            ObjectShape::ConvexHull {
-                points: pts.clone(),
-            },
+            Shape::ConvexHull(std::sync::Arc::new(
+                ferrobot_geometry::Hull::new(pts.clone()).unwrap(),
+            )),
             Isometry3::identity(),
         );
         desc.is_static = true;
@@ -241,7 +242,7 @@ fn scene() -> (World, usize) {
     let r = w.add_robot(model, &opts).unwrap();
     w.add_object(ObjectDesc::new(
         "box",
-        ObjectShape::Box {
+        Shape::Box {
             half_extents: Vector3::new(0.03, 0.03, 0.03),
         },
         Isometry3::translation(0.5, 0.0, 0.2),

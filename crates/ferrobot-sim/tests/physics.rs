@@ -2,7 +2,7 @@
 
 use std::sync::Arc;
 
-use ferrobot_sim::{ObjectDesc, ObjectShape, RobotOptions, SimError, World, WorldConfig};
+use ferrobot_sim::{ObjectDesc, RobotOptions, Shape, SimError, World, WorldConfig};
 use nalgebra::{Isometry3, Vector3};
 
 fn world(ground: bool) -> World {
@@ -19,7 +19,7 @@ fn free_fall_matches_analytic() {
     let i = w
         .add_object(ObjectDesc::new(
             "ball",
-            ObjectShape::Sphere { radius: 0.05 },
+            Shape::Sphere { radius: 0.05 },
             Isometry3::translation(0.0, 0.0, 10.0),
         ))
         .unwrap();
@@ -42,7 +42,7 @@ fn box_rests_on_ground_at_half_height() {
     let i = w
         .add_object(ObjectDesc::new(
             "box",
-            ObjectShape::Box {
+            Shape::Box {
                 half_extents: Vector3::new(0.1, 0.1, 0.05),
             },
             Isometry3::translation(0.0, 0.0, 0.2),
@@ -101,11 +101,7 @@ fn panda_teleport_matches_fk_and_mimic_follows() {
 #[test]
 fn bad_inputs_are_errors() {
     let mut w = world(true);
-    let mut d = ObjectDesc::new(
-        "b",
-        ObjectShape::Sphere { radius: 0.1 },
-        Isometry3::identity(),
-    );
+    let mut d = ObjectDesc::new("b", Shape::Sphere { radius: 0.1 }, Isometry3::identity());
     d.mass = -1.0;
     assert!(matches!(w.add_object(d), Err(SimError::InvalidArgument(_))));
     let model = Arc::new(ferrobot_model::robots::panda().unwrap());
@@ -168,7 +164,7 @@ fn extra_substeps_only_while_touching_or_near_a_limit() {
         .unwrap();
     let mut d = ObjectDesc::new(
         "box",
-        ObjectShape::Box {
+        Shape::Box {
             half_extents: Vector3::new(0.02, 0.02, 0.02),
         },
         Isometry3::translation(0.484, 0.0, 0.42),

@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
-from .._core import grasp_backproject, grasp_detect, grasp_detect_rgbd
+from .. import camera as _camera
+from .._core import grasp_detect, grasp_detect_rgbd
 from ..errors import InvalidArgumentError, NonFiniteError, ShapeError
 from ._group import GraspGroup
 
@@ -76,16 +79,21 @@ def _depth(depth) -> np.ndarray:
 
 
 def backproject(depth, fx: float, fy: float, cx: float, cy: float, scale: float = 1000.0, *, workspace=None):
-    """Back-projects a depth image (H, W) to camera-frame points (OpenCV: x right, y down, z forward).
+    """Deprecated: use :func:`ferrobot.camera.backproject` with :class:`ferrobot.camera.Intrinsics`.
 
-    ``z = depth / scale``, ``x = (u - cx) / fx * z``, ``y = (v - cy) / fy * z`` for column u, row v.
-    Depth 0 means "no reading" and is skipped; NaN or negative depth raises. ``workspace`` is
-    ``[xmin, xmax, ymin, ymax, zmin, zmax]`` in the camera frame. Returns ``(points (N, 3), pixels (N, 2))``
-    with each point's ``(row, column)``.
+    Back-projects a depth image (H, W) to camera-frame points (OpenCV) with ``z = depth / scale``;
+    returns ``(points (N, 3), pixels (N, 2))`` with each point's ``(row, column)``. The policy is the
+    one of ``ferrobot.camera``: depth 0 or +inf is missing and skipped; NaN, -inf or negative depth raises.
     """
+    warnings.warn(
+        "ferrobot.grasp.backproject is deprecated; use ferrobot.camera.backproject(depth, "
+        "ferrobot.camera.Intrinsics(width, height, fx, fy, cx, cy, depth_scale))",
+        DeprecationWarning,
+        stacklevel=2,
+    )
     d = _depth(depth)
-    pts, flat = grasp_backproject(d, fx, fy, cx, cy, scale, workspace)
-    return pts, np.stack([flat // d.shape[1], flat % d.shape[1]], axis=1)
+    k = _camera.Intrinsics(d.shape[1], d.shape[0], fx, fy, cx, cy, scale)
+    return _camera.backproject(d, k, workspace=workspace)
 
 
 def _options(options: dict) -> dict:

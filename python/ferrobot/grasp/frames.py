@@ -1,6 +1,6 @@
 """Frames: camera to world, world to robot base, and moving points and grasps.
 
-Clouds back-projected by :func:`ferrobot.grasp.backproject` are in the camera's OpenCV optical frame
+Clouds back-projected by :func:`ferrobot.camera.backproject` are in the camera's OpenCV optical frame
 (x right, y down, z forward). A camera pose is the camera frame's pose in the world, in one of the
 conventions ``"opencv"`` (= ROS optical), ``"opengl"`` (= USD / Isaac Sim: x right, y up, looking along -z)
 or ``"ros"`` (REP 103 body frame: x forward, y left, z up). Poses are 4x4 matrices or
@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import camera as _camera
 from .. import transforms
-from .._core import grasp_camera_to_world
 from ..errors import ShapeError
 from ..transforms import as_matrix
 
@@ -28,8 +28,9 @@ def _matrix(pose, name: str) -> np.ndarray:
 
 
 def camera_to_world(camera_pose, convention: str = "opencv") -> np.ndarray:
-    """4x4 transform from OpenCV-optical camera coordinates to the world, given the camera's world pose."""
-    return grasp_camera_to_world(camera_pose, convention)
+    """4x4 transform from OpenCV-optical camera coordinates to the world, given the camera's world pose
+    (:func:`ferrobot.camera.camera_to_world`)."""
+    return _camera.camera_to_world(camera_pose, convention)
 
 
 def world_to_base(base_pose) -> np.ndarray:

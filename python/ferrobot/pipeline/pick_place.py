@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .. import _core, grasp, robots, transforms
+from .. import camera as camera_model
 from .scene import HOME, ROBOT_MOUNT, TABLE_SIZE, TABLE_TOP, TABLE_XY, SceneSpec, build_world
 
 __all__ = ["PickPlace", "PickPlaceConfig", "EpisodeResult", "StageResult", "StageFailure", "STAGES"]
@@ -330,7 +331,8 @@ class PickPlace:
         depth = np.where(np.isfinite(self.frame["depth"]), self.frame["depth"], 0.0)
         k = self.camera.intrinsic_matrix
         cam = self.camera.get_world_transform()
-        points, pixels = grasp.backproject(depth, k[0, 0], k[1, 1], k[0, 2], k[1, 2], 1.0)
+        intrinsics = camera_model.Intrinsics.from_matrix(k, depth.shape[1], depth.shape[0])
+        points, pixels = camera_model.backproject(depth, intrinsics)
         points = grasp.transform_points(points, cam)
         labels = self.frame["segmentation"][pixels[:, 0], pixels[:, 1]].astype(np.int64)
         opts = {

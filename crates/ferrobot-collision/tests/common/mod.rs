@@ -95,14 +95,10 @@ pub fn hulls(model: &RobotModel) -> Vec<Vec<(Isometry3<f64>, ConvexPolyhedron)>>
             link.collisions
                 .iter()
                 .map(|g| match &g.shape {
-                    Shape::Mesh { scale, mesh, .. } => {
+                    Shape::Mesh(mesh) => {
                         let pts: Vec<Vector> = mesh
-                            .vertices
-                            .iter()
-                            .map(|v| {
-                                let p = v.coords.component_mul(scale);
-                                Vector::new(p.x as f32, p.y as f32, p.z as f32)
-                            })
+                            .vertices()
+                            .map(|p| Vector::new(p.x as f32, p.y as f32, p.z as f32))
                             .collect();
                         (g.origin, ConvexPolyhedron::from_convex_hull(&pts).unwrap())
                     }

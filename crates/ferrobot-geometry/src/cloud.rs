@@ -3,7 +3,7 @@
 use kiddo::{KdTree, SquaredEuclidean};
 use nalgebra::{Point3, Vector3};
 
-use crate::error::{CollisionError, Result};
+use crate::error::{GeometryError, Result};
 
 /// A point cloud (e.g. from a depth camera) with a kd-tree.
 #[derive(Debug, Clone)]
@@ -18,12 +18,10 @@ impl PointCloud {
     /// A cloud of `points` (object frame), each a ball of `radius` (>= 0).
     pub fn new(points: Vec<Point3<f64>>, radius: f64) -> Result<Self> {
         if points.is_empty() {
-            return Err(CollisionError::InvalidShape(
-                "point cloud: no points".into(),
-            ));
+            return Err(GeometryError::InvalidShape("point cloud: no points".into()));
         }
         if !(radius.is_finite() && radius >= 0.0) {
-            return Err(CollisionError::InvalidShape(format!(
+            return Err(GeometryError::InvalidShape(format!(
                 "point cloud: radius must be finite and >= 0, got {radius}"
             )));
         }
@@ -31,7 +29,7 @@ impl PointCloud {
             .iter()
             .position(|p| !p.coords.iter().all(|c| c.is_finite()))
         {
-            return Err(CollisionError::InvalidShape(format!(
+            return Err(GeometryError::InvalidShape(format!(
                 "point cloud: point {i} is not finite"
             )));
         }
