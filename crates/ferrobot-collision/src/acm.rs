@@ -9,7 +9,7 @@ use nalgebra::Point3;
 use rand::{Rng, SeedableRng, rngs::StdRng};
 use rayon::prelude::*;
 
-use crate::error::{CollisionError, Result};
+use crate::error::Result;
 use crate::robot_spheres::RobotSpheres;
 
 /// Link pairs (link indices, smaller first) excluded from self-collision
@@ -106,11 +106,14 @@ impl AllowedCollisions {
         samples: usize,
         seed: u64,
     ) -> Result<AnalysisReport> {
-        if samples == 0 {
-            return Err(CollisionError::InvalidArgument(
-                "analysis needs at least one sample".into(),
-            ));
-        }
+        // At least one sample; at most ranges::MAX_ANALYSIS_SAMPLES (about
+        // a minute of checking: 1e12 ran unbounded).
+        ferrobot_model::ranges::check_count(
+            "samples",
+            samples,
+            1,
+            ferrobot_model::ranges::MAX_ANALYSIS_SAMPLES,
+        )?;
         let links: Vec<usize> = (0..model.links().len())
             .filter(|&l| !spheres.links[l].is_empty())
             .collect();

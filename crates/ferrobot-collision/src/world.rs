@@ -28,25 +28,32 @@ pub struct CollisionWorld {
 }
 
 fn check_pose(what: &str, pose: &Isometry3<f64>) -> Result<()> {
+    use ferrobot_model::ranges::COORDINATE;
     let finite = pose.translation.vector.iter().all(|v| v.is_finite())
         && pose.rotation.coords.iter().all(|v| v.is_finite());
-    if finite {
-        Ok(())
-    } else {
-        Err(CollisionError::InvalidShape(format!(
+    if !finite {
+        return Err(CollisionError::InvalidShape(format!(
             "{what}: pose is not finite"
-        )))
+        )));
     }
+    for v in pose.translation.vector.iter() {
+        COORDINATE.check_as(&format!("{what}: position"), *v)?;
+    }
+    Ok(())
 }
 
-/// Checks a shape's parameters: sizes positive and finite.
+/// Checks a shape's parameters: sizes (and radii, lengths) in
+/// [`ferrobot_model::ranges::SHAPE_SIZE`] (positive, finite, at most 10 km:
+/// the kernels compute in float32).
 pub fn check_shape(what: &str, shape: &ObstacleShape) -> Result<()> {
-    let positive = |name: &str, v: f64| {
-        if v.is_finite() && v > 0.0 {
+    use ferrobot_model::ranges::SHAPE_SIZE;
+    let positive = |name: &str, v: f64| -> Result<()> {
+        if v.is_finite() && v >= SHAPE_SIZE.min && v <= SHAPE_SIZE.max {
             Ok(())
         } else {
             Err(CollisionError::InvalidShape(format!(
-                "{what}: {name} must be positive and finite, got {v}"
+                "{what}: {name} must be positive and finite, in [{:e}, {:e}] m, got {v}",
+                SHAPE_SIZE.min, SHAPE_SIZE.max
             )))
         }
     };
@@ -66,12 +73,10 @@ pub fn check_shape(what: &str, shape: &ObstacleShape) -> Result<()> {
             half_length,
         } => {
             positive("capsule radius", *radius)?;
-            if half_length.is_finite() && *half_length >= 0.0 {
+            if *half_length == 0.0 {
                 Ok(())
             } else {
-                Err(CollisionError::InvalidShape(format!(
-                    "{what}: capsule length must be >= 0"
-                )))
+                positive("capsule length", 2.0 * half_length)
             }
         }
         ObstacleShape::Mesh(_) | ObstacleShape::PointCloud(_) => Ok(()),
