@@ -32,7 +32,7 @@ def dense_ok(planner, result) -> bool:
     q = traj.positions
     # Sample every 1 mrad of the largest joint step between interpolated points.
     pts = [q[0]]
-    for a, b in zip(q[:-1], q[1:]):
+    for a, b in zip(q[:-1], q[1:], strict=True):
         n = max(1, int(np.ceil(np.abs(b - a).max() / 1e-3)))
         pts.extend(a + (b - a) * (k / n) for k in range(1, n + 1))
     return not any(planner.in_collision(p) for p in pts)

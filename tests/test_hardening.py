@@ -148,7 +148,7 @@ def _dense_check_free(panda, world, planner, q0, result, step=2e-3) -> bool:
     checker = ferrobot.CollisionChecker(panda, world)
     pts = []
     for poly in (np.asarray(result.path), result.interpolated(dt=0.004).positions):
-        for a, b in zip(poly[:-1], poly[1:]):
+        for a, b in zip(poly[:-1], poly[1:], strict=True):
             n = max(1, int(np.ceil(np.abs(b - a).max() / step)))
             pts.append(a + (b - a) * (np.arange(n + 1)[:, None] / n))
     pts = np.concatenate(pts)
