@@ -48,7 +48,7 @@ fn check_pose(what: &str, pose: &Isometry3<f64>) -> Result<()> {
 pub fn check_shape(what: &str, shape: &ObstacleShape) -> Result<()> {
     use ferrobot_model::ranges::SHAPE_SIZE;
     let positive = |name: &str, v: f64| -> Result<()> {
-        if v.is_finite() && v >= SHAPE_SIZE.min && v <= SHAPE_SIZE.max {
+        if (SHAPE_SIZE.min..=SHAPE_SIZE.max).contains(&v) {
             Ok(())
         } else {
             Err(CollisionError::InvalidShape(format!(
