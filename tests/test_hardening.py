@@ -11,6 +11,7 @@ import subprocess
 import sys
 import textwrap
 import threading
+import time
 
 import numpy as np
 import pytest
@@ -140,6 +141,86 @@ def test_plan_refuses_out_of_range_options(panda, q0):
             planner.ik([0.4, 0.0, 0.4, 0.0, 1.0, 0.0, 0.0], **kw)
 
 
+def _dense_check_free(panda, world, planner, q0, result, step=2e-3) -> bool:
+    """Independent of the planner's own checks: the path's straight edges and the interpolated
+    trajectory, sampled so that no joint moves more than `step`, checked configuration by
+    configuration by a separate `CollisionChecker` (the planned joints placed into `q0`)."""
+    checker = ferrobot.CollisionChecker(panda, world)
+    pts = []
+    for poly in (np.asarray(result.path), result.interpolated(dt=0.004).positions):
+        for a, b in zip(poly[:-1], poly[1:], strict=True):
+            n = max(1, int(np.ceil(np.abs(b - a).max() / step)))
+            pts.append(a + (b - a) * (np.arange(n + 1)[:, None] / n))
+    pts = np.concatenate(pts)
+    full = np.tile(q0, (len(pts), 1))
+    if pts.shape[1] == panda.num_dof:
+        full[:] = pts
+    else:
+        full[:, [panda.dof_names.index(n) for n in planner.joint_names]] = pts
+    return not checker.in_collision_batch(full).any()
+
+
+def test_plan_honours_time_limit_through_every_stage(panda, q0):
+    """The time limit bounds the whole call: RRT-Connect, shortcutting, the check at the final
+    resolution and the trajectory's dense re-check (before, only RRT samples read the clock: a
+    1e-6 resolution on a long motion ran 24 s past a 0.1 s limit, see BENCHMARKS.md). A plan cut
+    short is `timeout` with no path; a solved one is collision-free by an independent dense check.
+    The time bound is generous (10x + 0.5 s of CPU time): figures are in BENCHMARKS.md."""
+    far = q0.copy()
+    far[:7] = [2.5, 1.5, -2.5, -0.5, 2.5, 3.5, -2.5]
+    posts = ferrobot.CollisionWorld()
+    for i, (x, y) in enumerate([(0.5, 0.3), (0.5, -0.3), (0.0, 0.6), (0.0, -0.6), (-0.5, 0.0)]):
+        posts.add_cylinder(f"post{i}", 0.05, 1.6, [x, y, 0.8, 1, 0, 0, 0])
+    cases = [
+        (ferrobot.CollisionWorld(), {"goal_q": far, "resolution": 1e-6, "coarse_factor": 1.0}),
+        (posts, {"goal_q": far, "resolution": 1e-6, "coarse_factor": 1000.0}),
+        (posts, {"goal_pose": [0.45, 0.0, 0.3, 0, 1, 0, 0], "resolution": 1e-6, "coarse_factor": 10.0}),
+    ]
+    statuses = []
+    for world, kw in cases:
+        planner = ferrobot.Planner(panda, world)
+        assert not planner.in_collision(q0)
+        limit = 0.05
+        c0 = time.process_time()
+        result = planner.plan(q0, time_limit=limit, **kw)
+        cpu = time.process_time() - c0
+        statuses.append(result.status)
+        assert cpu < 10 * limit + 0.5, (kw, result.status, cpu)
+        assert result.status in ("timeout", "solved"), (result.status, result.message)
+        if result.status == "timeout":
+            assert len(result.path) == 0 and "time limit" in result.message
+        else:
+            assert _dense_check_free(panda, world, planner, q0, result), kw
+    # The first case cannot be checked in 50 ms (5 million configurations at 1e-6).
+    assert statuses[0] == "timeout"
+    # With time enough the same hostile resolutions still give checked plans.
+    planner = ferrobot.Planner(panda, posts)
+    result = planner.plan(q0, goal_q=q0 + 0.05, resolution=1e-4, time_limit=30.0)
+    assert result.success and _dense_check_free(panda, posts, planner, q0, result)
+
+
+def test_parameters_that_ran_unbounded_or_overflowed_float32_are_refused(panda):
+    """Each of these ran without end (analysis samples 1e12, spherizer tolerance 1e-12 or budget 1e12)
+    or reached the float32 kernels as infinity (a 1e300 box, a position of 1e30) before the ranges
+    were enforced (README "Limits")."""
+    checker = ferrobot.CollisionChecker(panda, ferrobot.CollisionWorld())
+    with pytest.raises(errors.InvalidArgumentError, match="samples"):
+        checker.analyze_self_collisions(samples=10**12)
+    for kw, name in (({"tolerance": 1e-12}, "tolerance"), ({"total_budget": 10**12}, "total_budget")):
+        with pytest.raises(errors.InvalidArgumentError, match=name):
+            ferrobot.SphereModel.automatic(panda, **kw)
+    world = ferrobot.CollisionWorld()
+    with pytest.raises(errors.InvalidArgumentError, match="box size"):
+        world.add_box("big", [1e300, 1.0, 1.0], [0.5, 0, 0, 1, 0, 0, 0])
+    with pytest.raises(errors.InvalidArgumentError, match="sphere radius"):
+        world.add_sphere("big", 1e5, [0.5, 0, 0, 1, 0, 0, 0])
+    with pytest.raises(errors.InvalidArgumentError, match="position"):
+        world.add_box("far", [0.1, 0.1, 0.1], [1e30, 0, 0, 1, 0, 0, 0])
+    assert world.names == []
+    world.add_box("floor", [100.0, 100.0, 0.01], [0, 0, -0.01, 1, 0, 0, 0])  # large but in range
+    assert world.names == ["floor"]
+
+
 def test_sphere_model_without_spheres_is_an_error(panda, tmp_path):
     empty = tmp_path / "empty.yml"
     empty.write_text("{}")
@@ -186,6 +267,7 @@ def test_deeply_nested_urdf_and_srdf_raise_instead_of_crashing():
 
 
 def test_urdf_loading_memory_is_linear_in_the_number_of_links():
+    # Load time is linear too (3,000 links: 1.2 s -> 0.1 s CPU): benches/urdf_load.py, BENCHMARKS.md.
     r = run_isolated(
         """
         n = 3000
@@ -197,6 +279,14 @@ def test_urdf_loading_memory_is_linear_in_the_number_of_links():
         parts.append('</robot>')
         m = ferrobot.RobotModel.from_urdf_string(''.join(parts))
         assert m.num_dof == n
+        # FK against the closed form: every joint turns about z 1 cm above its parent, so the
+        # tip is 0.01 n straight up, turned about z by the sum of the angles.
+        q = np.random.default_rng(0).uniform(-1, 1, n)
+        a = q.sum()
+        expect = np.eye(4)
+        expect[:2, :2] = [[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]]
+        expect[2, 3] = 0.01 * n
+        np.testing.assert_allclose(m.fk(q, link=f"l{n}"), expect, atol=1e-9)
         # Quadratic storage (a compiled chain per link) took ~790 MB at 3,000 links (352 MB at
         # 2,000; 10,000 aborted); linear storage takes ~80 MB here, the interpreter included.
         # VmHWM, not ru_maxrss: ru_maxrss survives execve, so a child forked from a large pytest

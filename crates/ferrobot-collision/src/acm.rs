@@ -52,11 +52,14 @@ impl AnalyzeCollisions for AllowedCollisions {
         samples: usize,
         seed: u64,
     ) -> Result<AnalysisReport> {
-        if samples == 0 {
-            return Err(CollisionError::InvalidArgument(
-                "analysis needs at least one sample".into(),
-            ));
-        }
+        // At least one sample; at most ranges::MAX_ANALYSIS_SAMPLES (about
+        // a minute of checking: 1e12 ran unbounded).
+        ferrobot_model::ranges::check_count(
+            "samples",
+            samples,
+            1,
+            ferrobot_model::ranges::MAX_ANALYSIS_SAMPLES,
+        )?;
         let links: Vec<usize> = (0..model.links().len())
             .filter(|&l| !spheres.links[l].is_empty())
             .collect();

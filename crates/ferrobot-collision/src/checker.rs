@@ -6,6 +6,7 @@
 use std::cell::RefCell;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Instant;
 
 use ferrobot_model::{Geometry, RobotModel, Shape};
 use nalgebra::Isometry3;
@@ -454,8 +455,26 @@ impl CollisionChecker {
 
     /// [`CollisionChecker::motion_valid`] for checked input.
     pub fn motion_valid_unchecked(&self, q0: &[f64], q1: &[f64], resolution: f64) -> bool {
+        // Without a deadline there is always an answer.
+        self.motion_valid_until(q0, q1, resolution, None)
+            .unwrap_or(false)
+    }
+
+    /// [`CollisionChecker::motion_valid_unchecked`] that gives up at
+    /// `deadline`: `None` when the deadline passed before the motion was
+    /// found free or colliding (the clock is read every 64 packs of eight
+    /// configurations, so the overrun is a few hundred checks at most). The
+    /// configurations checked are those of the check without a deadline.
+    #[inline]
+    pub fn motion_valid_until(
+        &self,
+        q0: &[f64],
+        q1: &[f64],
+        resolution: f64,
+        deadline: Option<Instant>,
+    ) -> Option<bool> {
         if self.static_hit {
-            return false;
+            return Some(false);
         }
         let dof = q0.len();
         let span = q0
@@ -489,6 +508,7 @@ impl CollisionChecker {
                 steps,
                 lanes,
                 self.margin as f32,
+                deadline,
                 scratch,
             )
         })

@@ -216,7 +216,8 @@ dispatched! {
 dispatched! {
     /// Whether the straight motion from `q0` to `q1` in `steps` equal steps
     /// (endpoints included) is free, eight configurations spread along it
-    /// per pack; `lanes` holds one pack (`q0.len()` lanes).
+    /// per pack; `lanes` holds one pack (`q0.len()` lanes). `None` when
+    /// `deadline` passed first (the clock is read every 64 packs).
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn motion_free(
         robot: &CompiledRobot,
@@ -226,11 +227,15 @@ dispatched! {
         steps: usize,
         lanes: &mut [f32x8],
         margin: f32,
+        deadline: Option<std::time::Instant>,
         scratch: &mut Scratch<f32x8>,
-    ) -> bool {
+    ) -> Option<bool> {
         let points = steps.saturating_add(1);
         let packs = points.div_ceil(8);
         for p in 0..packs {
+            if p % 64 == 63 && deadline.is_some_and(|d| std::time::Instant::now() >= d) {
+                return None;
+            }
             let index = |i: usize| (i * packs + p).min(points - 1);
             for (d, lane) in lanes.iter_mut().enumerate() {
                 *lane = f32x8::from_fn(|i| {
@@ -239,10 +244,10 @@ dispatched! {
                 });
             }
             if kernel::check(robot, world, lanes, margin, 0xff, true, scratch) != 0 {
-                return false;
+                return Some(false);
             }
         }
-        true
+        Some(true)
     }
 }
 

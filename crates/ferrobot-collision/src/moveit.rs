@@ -170,6 +170,96 @@ fn mesh(v: &Value, loc: &str) -> Result<Shape> {
     Ok(Shape::Mesh(std::sync::Arc::new(m)))
 }
 
+/// Deepest flow-collection nesting (`[` and `{`) a scene may have. MoveIt
+/// scenes nest three levels (a list of vertex triples); serde_yaml refuses
+/// more than 128 levels anyway, but only after libyaml has scanned the whole
+/// document, which takes time quadratic in the nesting depth (5,000 levels:
+/// about 0.1 s per document). The scan below is linear and runs first.
+pub const MAX_FLOW_DEPTH: usize = 64;
+
+/// The line of the first flow collection nested deeper than `max`, if any.
+/// `[` and `{` count where a flow collection can begin: inside another one,
+/// or in block context as a value (first on the line, or after `:`, `-` or
+/// `?`); quoted scalars and comments are skipped. A `[` inside a block
+/// plain scalar (`name: a[1]`) does not count.
+fn flow_too_deep(text: &str, max: usize) -> Option<usize> {
+    #[derive(PartialEq)]
+    enum In {
+        Plain,
+        Single,
+        Double,
+        Comment,
+    }
+    let b = text.as_bytes();
+    let (mut depth, mut line) = (0usize, 1usize);
+    let mut state = In::Plain;
+    // The last non-blank byte on this line outside quotes (b'\n' at a line
+    // start), and whether the byte before the current one was blank.
+    let mut last = b'\n';
+    let mut blank_before = true;
+    let mut i = 0;
+    while i < b.len() {
+        let c = b[i];
+        if c == b'\n' {
+            line += 1;
+        }
+        match state {
+            In::Comment => {
+                if c == b'\n' {
+                    state = In::Plain;
+                }
+            }
+            In::Single => {
+                if c == b'\'' {
+                    if b.get(i + 1) == Some(&b'\'') {
+                        i += 1;
+                    } else {
+                        state = In::Plain;
+                        last = c;
+                    }
+                }
+            }
+            In::Double => {
+                if c == b'\\' {
+                    if b.get(i + 1) == Some(&b'\n') {
+                        line += 1;
+                    }
+                    i += 1;
+                } else if c == b'"' {
+                    state = In::Plain;
+                    last = c;
+                }
+            }
+            In::Plain => {
+                let value_start = depth > 0 || matches!(last, b'\n' | b':' | b'-' | b'?');
+                match c {
+                    b'\n' => last = b'\n',
+                    b' ' | b'\t' | b'\r' => {}
+                    b'#' if blank_before => state = In::Comment,
+                    b'\'' | b'"' if value_start || matches!(last, b',' | b'[' | b'{') => {
+                        state = if c == b'"' { In::Double } else { In::Single };
+                    }
+                    b'[' | b'{' if value_start => {
+                        depth += 1;
+                        if depth > max {
+                            return Some(line);
+                        }
+                        last = c;
+                    }
+                    b']' | b'}' if depth > 0 => {
+                        depth -= 1;
+                        last = c;
+                    }
+                    _ => last = c,
+                }
+            }
+        }
+        blank_before = matches!(c, b' ' | b'\t' | b'\r' | b'\n');
+        i += 1;
+    }
+    None
+}
+
 impl CollisionWorld {
     /// Reads a MoveIt planning-scene YAML file.
     pub fn from_moveit_scene(path: impl AsRef<Path>) -> Result<Self> {
@@ -181,6 +271,14 @@ impl CollisionWorld {
 
     /// Reads MoveIt planning-scene YAML text; `source` names it in errors.
     pub fn from_moveit_scene_str(text: &str, source: &str) -> Result<Self> {
+        if let Some(line) = flow_too_deep(text, MAX_FLOW_DEPTH) {
+            return Err(err(
+                &format!("{source}:{line}"),
+                format!(
+                    "flow collections ([...], {{...}}) nested more than {MAX_FLOW_DEPTH} levels deep"
+                ),
+            ));
+        }
         let doc: Value =
             serde_yaml::from_str(text).map_err(|e| err(source, format!("invalid YAML: {e}")))?;
         let mut world = CollisionWorld::new();

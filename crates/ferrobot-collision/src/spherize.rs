@@ -144,27 +144,19 @@ impl Default for SpherizeOptions {
 impl SpherizeOptions {
     /// Checks every option, naming the offending one.
     fn validate(&self) -> Result<()> {
-        if !(self.tolerance.is_finite() && self.tolerance > 0.0) {
-            return Err(CollisionError::InvalidArgument(format!(
-                "tolerance must be a finite positive length, got {}",
-                self.tolerance
-            )));
-        }
+        use ferrobot_model::ranges::{MAX_SPHERES, SPHERIZE_TOLERANCE, check_count};
+        SPHERIZE_TOLERANCE.check(self.tolerance)?;
         if !(self.sample_spacing.is_finite() && self.sample_spacing > 0.0) {
             return Err(CollisionError::InvalidArgument(format!(
                 "sample_spacing must be a finite positive length, got {}",
                 self.sample_spacing
             )));
         }
-        if self.total_budget == Some(0) {
-            return Err(CollisionError::InvalidArgument(
-                "total_budget must be at least 1".into(),
-            ));
+        if let Some(n) = self.total_budget {
+            check_count("total_budget", n, 1, MAX_SPHERES)?;
         }
-        if self.max_per_link == Some(0) {
-            return Err(CollisionError::InvalidArgument(
-                "max_per_link must be at least 1".into(),
-            ));
+        if let Some(n) = self.max_per_link {
+            check_count("max_per_link", n, 1, MAX_SPHERES)?;
         }
         Ok(())
     }
@@ -2739,6 +2731,28 @@ mod tests {
                 "max_per_link",
                 SpherizeOptions {
                     max_per_link: Some(0),
+                    ..small()
+                },
+            ),
+            // Unbounded work (issue 15): these never finished.
+            (
+                "tolerance",
+                SpherizeOptions {
+                    tolerance: 1e-12,
+                    ..small()
+                },
+            ),
+            (
+                "total_budget",
+                SpherizeOptions {
+                    total_budget: Some(1_000_000_000_000),
+                    ..small()
+                },
+            ),
+            (
+                "max_per_link",
+                SpherizeOptions {
+                    max_per_link: Some(10_001),
                     ..small()
                 },
             ),

@@ -28,21 +28,60 @@ pub struct CollisionWorld {
 }
 
 fn check_pose(what: &str, pose: &Isometry3<f64>) -> Result<()> {
+    use ferrobot_model::ranges::COORDINATE;
     let finite = pose.translation.vector.iter().all(|v| v.is_finite())
         && pose.rotation.coords.iter().all(|v| v.is_finite());
-    if finite {
-        Ok(())
-    } else {
-        Err(CollisionError::InvalidShape(format!(
+    if !finite {
+        return Err(CollisionError::InvalidShape(format!(
             "{what}: pose is not finite"
-        )))
+        )));
     }
+    for v in pose.translation.vector.iter() {
+        COORDINATE.check_as(&format!("{what}: position"), *v)?;
+    }
+    Ok(())
 }
 
-/// Checks a shape's parameters ([`Shape::validate`]: sizes positive and
-/// finite) and builds a mesh's BVH now, so that a mesh parry rejects is an
-/// error when it is added rather than an obstacle that is never hit.
+/// Checks a shape's parameters: sizes (and radii, lengths) in
+/// [`ferrobot_model::ranges::SHAPE_SIZE`] (positive, finite, at most 10 km:
+/// the kernels compute in float32), then [`Shape::validate`], and builds a
+/// mesh's BVH now, so that a mesh parry rejects is an error when it is added
+/// rather than an obstacle that is never hit.
 pub fn check_shape(what: &str, shape: &Shape) -> Result<()> {
+    use ferrobot_model::ranges::SHAPE_SIZE;
+    let positive = |name: &str, v: f64| -> Result<()> {
+        if (SHAPE_SIZE.min..=SHAPE_SIZE.max).contains(&v) {
+            Ok(())
+        } else {
+            Err(CollisionError::InvalidShape(format!(
+                "{what}: {name} must be positive and finite, in [{:e}, {:e}] m, got {v}",
+                SHAPE_SIZE.min, SHAPE_SIZE.max
+            )))
+        }
+    };
+    match shape {
+        Shape::Box { half_extents } => half_extents
+            .iter()
+            .try_for_each(|&h| positive("box size", 2.0 * h))?,
+        Shape::Sphere { radius } => positive("sphere radius", *radius)?,
+        Shape::Cylinder {
+            radius,
+            half_height,
+        } => {
+            positive("cylinder radius", *radius)?;
+            positive("cylinder length", 2.0 * half_height)?;
+        }
+        Shape::Capsule {
+            radius,
+            half_height,
+        } => {
+            positive("capsule radius", *radius)?;
+            if *half_height != 0.0 {
+                positive("capsule length", 2.0 * half_height)?;
+            }
+        }
+        _ => {}
+    }
     shape.validate(what)?;
     if let Shape::Mesh(m) | Shape::ConvexDecomposition(m) = shape {
         m.query_ready()

@@ -155,3 +155,44 @@ fn mesh_indices_must_be_whole_vertex_numbers() {
         assert!(e.to_string().contains("vertex index"), "{bad}: {e}");
     }
 }
+
+/// Deep flow nesting is refused by a linear scan before libyaml, whose scan
+/// is quadratic in the depth (the fuzzer's 5,000-deep inputs took about
+/// 0.1 s each); brackets inside quoted or plain scalars and comments do not
+/// count, so real scenes still load.
+#[test]
+fn deep_flow_collections_are_refused_before_parsing() {
+    let scene = |extra: &str| {
+        format!(
+            "{extra}\nworld:\n  collision_objects:\n    - id: box\n      primitives:\n        - type: box\n          dimensions: [0.1, 0.2, 0.3]\n      primitive_poses:\n        - {{position: [0, 0, 0], orientation: [0, 0, 0, 1]}}\n"
+        )
+    };
+    for k in [65, 5_000, 200_000] {
+        let deep = scene(&format!("x: {}{}", "[".repeat(k), "]".repeat(k)));
+        let e = CollisionWorld::from_moveit_scene_str(&deep, "deep.yaml").unwrap_err();
+        assert!(e.to_string().contains("nested more than 64"), "{k}: {e}");
+        assert!(e.to_string().contains("deep.yaml:1"), "{k}: {e}");
+        let mixed = scene(&format!("x: {}{}", "[{a: ".repeat(k), "}]".repeat(k)));
+        let e = CollisionWorld::from_moveit_scene_str(&mixed, "m.yaml").unwrap_err();
+        assert!(e.to_string().contains("nested more than 64"), "{k}: {e}");
+    }
+    // 64 levels pass the scan (serde_yaml reads them; the scene is unaffected).
+    let ok = scene(&format!("x: {}{}", "[".repeat(64), "]".repeat(64)));
+    let w = CollisionWorld::from_moveit_scene_str(&ok, "ok.yaml").unwrap();
+    assert_eq!(w.objects().len(), 1);
+    // Brackets that open no collection: in quoted scalars (with escapes),
+    // comments and block plain scalars.
+    let b100 = "[".repeat(100);
+    for extra in [
+        format!("a: \"{b100}\\\"{b100}\""),
+        format!("a: '{b100}''{b100}'"),
+        format!("# {b100}"),
+        format!("a: 1 # {b100}"),
+        format!("a: name{b100}"),
+        format!("a: [\"{b100}\", '{b100}']"),
+    ] {
+        let w = CollisionWorld::from_moveit_scene_str(&scene(&extra), "q.yaml")
+            .unwrap_or_else(|e| panic!("{extra}: {e}"));
+        assert_eq!(w.objects().len(), 1, "{extra}");
+    }
+}

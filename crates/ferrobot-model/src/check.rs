@@ -169,10 +169,6 @@ pub fn inertia_problem(i: &[[f64; 3]; 3]) -> Option<String> {
     None
 }
 
-fn line_of(doc: &roxmltree::Document, node: roxmltree::Node) -> u32 {
-    doc.text_pos_at(node.range().start).row
-}
-
 fn child<'a, 'i>(node: roxmltree::Node<'a, 'i>, tag: &str) -> Option<roxmltree::Node<'a, 'i>> {
     node.children().find(|c| c.tag_name().name() == tag)
 }
@@ -211,12 +207,13 @@ pub fn check_urdf_text(
             return report;
         }
     };
+    let lines = crate::xml::LineIndex::new(text);
     let root = doc.root_element();
     if root.tag_name().name() != "robot" {
         report.push(
             Severity::Error,
             "xml",
-            Some(line_of(&doc, root)),
+            Some(lines.line_of(root)),
             "",
             format!(
                 "the root element is <{}>, a URDF needs <robot>",
@@ -230,7 +227,7 @@ pub fn check_urdf_text(
     let mut links: Vec<(String, roxmltree::Node)> = Vec::new();
     let mut joints: Vec<(String, roxmltree::Node)> = Vec::new();
     for node in root.children().filter(|n| n.is_element()) {
-        let line = line_of(&doc, node);
+        let line = lines.line_of(node);
         match node.tag_name().name() {
             "link" => {
                 let name = node.attribute("name").unwrap_or("").to_string();
@@ -251,7 +248,7 @@ pub fn check_urdf_text(
     for (name, j) in &joints {
         let p = child(*j, "parent").and_then(|c| c.attribute("link"));
         let c = child(*j, "child").and_then(|c| c.attribute("link"));
-        let line = Some(line_of(&doc, *j));
+        let line = Some(lines.line_of(*j));
         match (p, c) {
             (Some(p), Some(c)) => {
                 for (role, l) in [("parent", p), ("child", c)] {
@@ -343,7 +340,7 @@ pub fn check_urdf_text(
 
     for (name, node) in &links {
         check_link(
-            &doc,
+            &lines,
             &mut report,
             name,
             *node,
@@ -352,20 +349,20 @@ pub fn check_urdf_text(
         );
     }
     for (name, node) in &joints {
-        check_joint(&doc, &mut report, name, *node);
+        check_joint(&lines, &mut report, name, *node);
     }
     report
 }
 
 fn check_link(
-    doc: &roxmltree::Document,
+    lines: &crate::xml::LineIndex,
     report: &mut CheckReport,
     name: &str,
     node: roxmltree::Node,
     resolver: &PackageResolver,
     is_root: bool,
 ) {
-    let line = Some(line_of(doc, node));
+    let line = Some(lines.line_of(node));
     let has_collision = child(node, "collision").is_some();
     match child(node, "inertial") {
         None => {
@@ -395,7 +392,7 @@ fn check_link(
             }
         }
         Some(inertial) => {
-            let iline = Some(line_of(doc, inertial));
+            let iline = Some(lines.line_of(inertial));
             let mass = child(inertial, "mass").and_then(|m| m.attribute("value"));
             match mass.map(|m| (m, parse_f64(m))) {
                 None => report.push(
@@ -446,7 +443,7 @@ fn check_link(
                         .iter()
                         .map(|a| get(a))
                         .collect();
-                    let il = Some(line_of(doc, i));
+                    let il = Some(lines.line_of(i));
                     match vals {
                         None => report.push(
                             Severity::Error,
@@ -478,7 +475,7 @@ fn check_link(
             let Some(mesh) = child(g, "geometry").and_then(|g| child(g, "mesh")) else {
                 continue;
             };
-            let ml = Some(line_of(doc, mesh));
+            let ml = Some(lines.line_of(mesh));
             let Some(filename) = mesh.attribute("filename") else {
                 report.push(
                     Severity::Error,
@@ -503,12 +500,12 @@ fn check_link(
 }
 
 fn check_joint(
-    doc: &roxmltree::Document,
+    lines: &crate::xml::LineIndex,
     report: &mut CheckReport,
     name: &str,
     node: roxmltree::Node,
 ) {
-    let line = Some(line_of(doc, node));
+    let line = Some(lines.line_of(node));
     let kind = node.attribute("type").unwrap_or("");
     let movable = matches!(kind, "revolute" | "continuous" | "prismatic");
     if !movable && kind != "fixed" {
@@ -533,7 +530,7 @@ fn check_joint(
             format!("joint '{name}' has no <axis>: the default (1, 0, 0) applies"),
         ),
         Some(axis) => {
-            let al = Some(line_of(doc, axis));
+            let al = Some(lines.line_of(axis));
             match axis.attribute("xyz").and_then(parse_vec) {
                 Some(v) if v.len() == 3 && v.iter().all(|x| x.is_finite()) => {
                     let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
@@ -589,7 +586,7 @@ fn check_joint(
         );
         return;
     };
-    let ll = Some(line_of(doc, limit));
+    let ll = Some(lines.line_of(limit));
     if kind != "continuous" {
         let lo = limit.attribute("lower").map(parse_f64);
         let hi = limit.attribute("upper").map(parse_f64);

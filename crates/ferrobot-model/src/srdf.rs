@@ -87,7 +87,8 @@ impl Srdf {
             )
         })?;
         let root = doc.root_element();
-        let line = |n: roxmltree::Node| doc.text_pos_at(n.range().start).row;
+        let lines = crate::xml::LineIndex::new(text);
+        let line = |n: roxmltree::Node| lines.line_of(n);
         if root.tag_name().name() != "robot" {
             return Err(ModelError::srdf(
                 SourceLocation::new(source, Some(line(root))),

@@ -55,10 +55,6 @@ const JOINT_TYPES: [&str; 7] = [
     "spherical",
 ];
 
-fn line_of(doc: &roxmltree::Document, node: roxmltree::Node) -> u32 {
-    doc.text_pos_at(node.range().start).row
-}
-
 fn pre_pass(text: &str, source: &str) -> Result<PrePass> {
     crate::xml::check_limits(text)
         .map_err(|e| ModelError::urdf(SourceLocation::new(source, e.line), e.message))?;
@@ -68,10 +64,11 @@ fn pre_pass(text: &str, source: &str) -> Result<PrePass> {
             format!("malformed XML: {e}"),
         )
     })?;
+    let lines = crate::xml::LineIndex::new(text);
     let root = doc.root_element();
     if root.tag_name().name() != "robot" {
         return Err(ModelError::urdf(
-            SourceLocation::new(source, Some(line_of(&doc, root))),
+            SourceLocation::new(source, Some(lines.line_of(root))),
             format!(
                 "the root element is <{}>, a URDF needs <robot>",
                 root.tag_name().name()
@@ -83,7 +80,7 @@ fn pre_pass(text: &str, source: &str) -> Result<PrePass> {
     // (byte offset, text) to insert, applied back to front.
     let mut inserts: Vec<(usize, &'static str)> = Vec::new();
     for node in root.children().filter(|n| n.is_element()) {
-        let line = line_of(&doc, node);
+        let line = lines.line_of(node);
         let loc = || SourceLocation::new(source, Some(line));
         match node.tag_name().name() {
             "link" => {
@@ -172,11 +169,17 @@ fn pre_pass(text: &str, source: &str) -> Result<PrePass> {
             _ => {}
         }
     }
-    let mut patched = text.to_string();
-    inserts.sort_by_key(|&(at, _)| std::cmp::Reverse(at));
+    // One pass front to back (inserting back to front into one String
+    // moved the tail once per insert: quadratic in the number of joints).
+    inserts.sort_by_key(|&(at, _)| at);
+    let mut patched = String::with_capacity(text.len() + inserts.len() * 16);
+    let mut done = 0;
     for (at, what) in inserts {
-        patched.insert_str(at, what);
+        patched.push_str(&text[done..at]);
+        patched.push_str(what);
+        done = at;
     }
+    patched.push_str(&text[done..]);
     Ok(PrePass {
         text: patched,
         joints,

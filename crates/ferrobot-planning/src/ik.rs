@@ -254,7 +254,7 @@ impl<'a> IkSolver<'a> {
     ) -> Result<IkSolution> {
         self.check_inputs(goals, seeds, opts)?;
         Ok(self
-            .solve_unchecked(goals, seeds, opts, opts.seed, 1)
+            .solve_unchecked(goals, seeds, opts, opts.seed, 1, None)
             .remove(0))
     }
 
@@ -268,7 +268,21 @@ impl<'a> IkSolver<'a> {
         count: usize,
     ) -> Result<Vec<IkSolution>> {
         self.check_inputs(goals, seeds, opts)?;
-        Ok(self.solve_unchecked(goals, seeds, opts, opts.seed, count.max(1)))
+        Ok(self.solve_unchecked(goals, seeds, opts, opts.seed, count.max(1), None))
+    }
+
+    /// [`IkSolver::solve_many`] that stops drawing seeds once `deadline`
+    /// has passed (the planner's time limit; at least one seed is tried).
+    pub(crate) fn solve_many_until(
+        &self,
+        goals: &[Isometry3<f64>],
+        seeds: &[Vec<f64>],
+        opts: &IkOptions,
+        count: usize,
+        deadline: std::time::Instant,
+    ) -> Result<Vec<IkSolution>> {
+        self.check_inputs(goals, seeds, opts)?;
+        Ok(self.solve_unchecked(goals, seeds, opts, opts.seed, count.max(1), Some(deadline)))
     }
 
     fn solve_unchecked(
@@ -278,6 +292,7 @@ impl<'a> IkSolver<'a> {
         opts: &IkOptions,
         rng_seed: u64,
         count: usize,
+        deadline: Option<std::time::Instant>,
     ) -> Vec<IkSolution> {
         let mut rng = SmallRng::seed_from_u64(rng_seed);
         let mut full = self.space.locked.clone();
@@ -286,7 +301,12 @@ impl<'a> IkSolver<'a> {
         let mut found: Vec<IkSolution> = Vec::new();
         let given = seeds.len() * goals.len();
         let budget = opts.num_seeds.max(given);
+        let mut tried = budget;
         for attempt in 0..budget {
+            if attempt > 0 && deadline.is_some_and(|d| std::time::Instant::now() >= d) {
+                tried = attempt;
+                break;
+            }
             let (mut q, gi) = if attempt < given {
                 (seeds[attempt / goals.len()].clone(), attempt % goals.len())
             } else {
@@ -334,7 +354,7 @@ impl<'a> IkSolver<'a> {
         }
         if found.is_empty() {
             let mut b = best.expect("at least one attempt");
-            b.seeds_tried = budget;
+            b.seeds_tried = tried;
             vec![b]
         } else {
             found
@@ -369,7 +389,7 @@ impl<'a> IkSolver<'a> {
                     None => &[],
                 };
                 let rng_seed = opts.seed ^ (i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
-                self.solve_unchecked(std::slice::from_ref(g), seed, opts, rng_seed, 1)
+                self.solve_unchecked(std::slice::from_ref(g), seed, opts, rng_seed, 1, None)
                     .remove(0)
             })
             .collect())

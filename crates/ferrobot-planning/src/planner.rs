@@ -15,7 +15,7 @@ use rand::rngs::SmallRng;
 use crate::error::{Result, check_finite};
 use crate::ik::{IkOptions, IkSolution, IkSolver};
 use crate::limits::KinematicLimits;
-use crate::rrt::{Edges, RrtFailure, RrtOptions, rrt_connect};
+use crate::rrt::{Edges, RrtFailure, RrtOptions, rrt_connect_until};
 use crate::simplify::{SimplifyOptions, path_length, simplify};
 
 impl PlanResult {
@@ -98,6 +98,10 @@ impl PlanOptions {
     }
 }
 
+/// A check gave up because its deadline passed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct TimedOut;
+
 /// Outcome of a plan.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum PlanStatus {
@@ -113,7 +117,8 @@ pub enum PlanStatus {
     GoalInCollision,
     /// No collision-free IK solution for any goal pose.
     IkFailed,
-    /// RRT-Connect ran out of time.
+    /// The time limit passed before a path was found and checked at the
+    /// final resolution (RRT-Connect, or the check of its path).
     Timeout,
     /// RRT-Connect ran out of samples.
     SampleLimit,
@@ -155,7 +160,8 @@ pub struct StageTimes {
 pub struct PlanResult {
     /// Outcome.
     pub status: PlanStatus,
-    /// A human-readable reason (empty when solved).
+    /// A human-readable reason (when solved: empty, or a note such as the
+    /// time limit cutting smoothing short).
     pub message: String,
     /// The geometric path (start first); empty unless solved.
     pub path: Vec<Vec<f64>>,
@@ -356,8 +362,14 @@ impl Planner {
             collision_free: true,
             ..opts.ik.clone()
         };
-        let solutions: Vec<IkSolution> =
-            solver.solve_many(goals, &[start.to_vec()], &ik_opts, opts.goal_solutions)?;
+        let deadline = began + opts.rrt.time_limit;
+        let solutions: Vec<IkSolution> = solver.solve_many_until(
+            goals,
+            &[start.to_vec()],
+            &ik_opts,
+            opts.goal_solutions,
+            deadline,
+        )?;
         let ik_time = began.elapsed().as_secs_f64();
         let mut goal_qs: Vec<Vec<f64>> = solutions
             .into_iter()
@@ -365,13 +377,26 @@ impl Planner {
             .map(|s| s.q)
             .collect();
         if goal_qs.is_empty() {
+            let timed_out = Instant::now() >= deadline;
             return Ok(PlanResult::failed(
-                PlanStatus::IkFailed,
-                format!(
-                    "no collision-free IK solution for {} goal pose(s) after {} seeds",
-                    goals.len(),
-                    ik_opts.num_seeds
-                ),
+                if timed_out {
+                    PlanStatus::Timeout
+                } else {
+                    PlanStatus::IkFailed
+                },
+                if timed_out {
+                    format!(
+                        "the time limit ({} s) passed before a collision-free IK solution for {} goal pose(s) was found",
+                        opts.rrt.time_limit.as_secs_f64(),
+                        goals.len()
+                    )
+                } else {
+                    format!(
+                        "no collision-free IK solution for {} goal pose(s) after {} seeds",
+                        goals.len(),
+                        ik_opts.num_seeds
+                    )
+                },
                 StageTimes {
                     ik: ik_time,
                     total: ik_time,
@@ -420,24 +445,56 @@ impl Planner {
             ik: ik_time,
             ..StageTimes::default()
         };
+        // One deadline for the whole call (IK for pose goals included):
+        // RRT-Connect, shortcutting, the check at the final resolution and
+        // the trajectory's dense re-check all give up when it passes.
+        let deadline = began + opts.rrt.time_limit;
         // Search and shortcut at the coarse resolution, then check the
         // final edges at the fine one; a path that fails there (rare) is
         // searched again at the fine resolution.
         let coarse = opts.rrt.resolution * opts.coarse_factor;
-        let mut attempt = self.find_path(start, goals, opts, coarse, &mut times);
+        let mut attempt = self.find_path(start, goals, opts, coarse, deadline, &mut times);
+        let mut unchecked = false;
         if opts.coarse_factor > 1.0
             && let (Ok(path), _) = &attempt
         {
             let t = Instant::now();
-            let mut fine = Edges::new(&self.checker, &self.space, opts.rrt.resolution);
+            let mut fine =
+                Edges::new(&self.checker, &self.space, opts.rrt.resolution).until(deadline);
             let ok = path.windows(2).all(|w| fine.valid(&w[0], &w[1]));
             times.simplify += t.elapsed().as_secs_f64();
-            if !ok {
-                attempt = self.find_path(start, goals, opts, opts.rrt.resolution, &mut times);
+            if fine.timed_out() {
+                // The path was found at the coarse resolution only: it is
+                // not returned unchecked.
+                unchecked = true;
+            } else if !ok {
+                attempt = self.find_path(
+                    start,
+                    goals,
+                    opts,
+                    opts.rrt.resolution,
+                    deadline,
+                    &mut times,
+                );
             }
         }
         let (found, stats) = attempt;
         let path = match found {
+            Ok(_) if unchecked => {
+                times.total = began.elapsed().as_secs_f64();
+                let mut r = PlanResult::failed(
+                    PlanStatus::Timeout,
+                    format!(
+                        "a path was found at the coarse resolution {coarse} but the time limit \
+                         ({} s) passed while checking it at the resolution {}",
+                        opts.rrt.time_limit.as_secs_f64(),
+                        opts.rrt.resolution
+                    ),
+                    times,
+                );
+                r.samples = stats.samples;
+                return r;
+            }
             Ok(p) => p,
             Err(f) => {
                 times.total = began.elapsed().as_secs_f64();
@@ -456,13 +513,21 @@ impl Planner {
         };
         let t2 = Instant::now();
         let mut stops = false;
+        let mut message = String::new();
         let trajectory = if opts.trajectory {
             let limits = self
                 .limits
                 .scaled(opts.velocity_scale, opts.acceleration_scale)
                 .expect("scales validated by the caller");
-            let (traj, fell_back) = self.smooth(&path, &limits, opts);
+            let (traj, fell_back, timed_out) = self.smooth(&path, &limits, opts, deadline);
             stops = fell_back;
+            if timed_out {
+                message = format!(
+                    "the time limit ({} s) passed while checking the smooth trajectory: it \
+                     stops at every waypoint of the checked path instead",
+                    opts.rrt.time_limit.as_secs_f64()
+                );
+            }
             Some(traj)
         } else {
             None
@@ -471,7 +536,7 @@ impl Planner {
         times.total = began.elapsed().as_secs_f64();
         PlanResult {
             status: PlanStatus::Solved,
-            message: String::new(),
+            message,
             goal: path.last().cloned(),
             path,
             trajectory,
@@ -489,6 +554,7 @@ impl Planner {
         goals: &[Vec<f64>],
         opts: &PlanOptions,
         resolution: f64,
+        deadline: Instant,
         times: &mut StageTimes,
     ) -> (
         std::result::Result<Vec<Vec<f64>>, RrtFailure>,
@@ -499,12 +565,13 @@ impl Planner {
             resolution,
             ..opts.rrt.clone()
         };
-        let (found, stats) = rrt_connect(&self.checker, &self.space, start, goals, &rrt);
+        let (found, stats) =
+            rrt_connect_until(&self.checker, &self.space, start, goals, &rrt, deadline);
         times.planning += t0.elapsed().as_secs_f64();
         let t1 = Instant::now();
         let found = found.map(|path| {
             if opts.simplify_path {
-                let mut edges = Edges::new(&self.checker, &self.space, resolution);
+                let mut edges = Edges::new(&self.checker, &self.space, resolution).until(deadline);
                 let mut rng = SmallRng::seed_from_u64(opts.rrt.seed ^ 0x5EED);
                 simplify(&mut edges, path, &opts.simplify, &mut rng)
             } else {
@@ -517,19 +584,26 @@ impl Planner {
 
     /// The smooth trajectory through `path`, refined where it collides;
     /// falls back to stopping at every waypoint (which follows the checked
-    /// path exactly). Returns the trajectory and whether it fell back.
+    /// path exactly, so needs no further check). Returns the trajectory,
+    /// whether it fell back and whether the fall-back was for the deadline
+    /// (a dense re-check cut short).
     fn smooth(
         &self,
         path: &[Vec<f64>],
         limits: &KinematicLimits,
         opts: &PlanOptions,
-    ) -> (Trajectory, bool) {
+        deadline: Instant,
+    ) -> (Trajectory, bool, bool) {
         let mut waypoints = path.to_vec();
         for _ in 0..=opts.refinements {
+            if Instant::now() >= deadline {
+                return (parametrize_polyline(path, limits), true, true);
+            }
             let traj = parametrize(&waypoints, limits);
-            match self.first_collision(&traj, opts.rrt.resolution) {
-                None => return (traj, false),
-                Some(seg) => {
+            match self.first_collision_until(&traj, opts.rrt.resolution, Some(deadline)) {
+                Err(TimedOut) => return (parametrize_polyline(path, limits), true, true),
+                Ok(None) => return (traj, false, false),
+                Ok(Some(seg)) => {
                     let mid: Vec<f64> = waypoints[seg]
                         .iter()
                         .zip(&waypoints[seg + 1])
@@ -539,7 +613,7 @@ impl Planner {
                 }
             }
         }
-        (parametrize_polyline(path, limits), true)
+        (parametrize_polyline(path, limits), true, false)
     }
 
     /// Samples `traj` so that no joint moves more than `resolution` between
@@ -547,6 +621,19 @@ impl Planner {
     /// Samples are checked in chunks (bounded memory at any resolution,
     /// early exit at the first collision).
     pub fn first_collision(&self, traj: &Trajectory, resolution: f64) -> Option<usize> {
+        // Without a deadline there is always an answer.
+        self.first_collision_until(traj, resolution, None)
+            .unwrap_or(Some(0))
+    }
+
+    /// [`Planner::first_collision`] that gives up when `deadline` passes
+    /// (read between chunks of 4,096 configurations).
+    pub fn first_collision_until(
+        &self,
+        traj: &Trajectory,
+        resolution: f64,
+        deadline: Option<Instant>,
+    ) -> std::result::Result<Option<usize>, TimedOut> {
         const CHUNK: usize = 4096;
         let dim = traj.dim();
         let n = self.model().num_dof();
@@ -578,14 +665,17 @@ impl Planner {
                 self.space.expand_into(&q, &mut full);
                 configs.extend_from_slice(&full);
                 seg_of.push(traj.segment_of[i]);
-                if seg_of.len() == CHUNK
-                    && let Some(seg) = flush(&mut configs, &mut seg_of)
-                {
-                    return Some(seg);
+                if seg_of.len() == CHUNK {
+                    if let Some(seg) = flush(&mut configs, &mut seg_of) {
+                        return Ok(Some(seg));
+                    }
+                    if deadline.is_some_and(|d| Instant::now() >= d) {
+                        return Err(TimedOut);
+                    }
                 }
             }
         }
         debug_assert_eq!(configs.len(), seg_of.len() * n);
-        flush(&mut configs, &mut seg_of)
+        Ok(flush(&mut configs, &mut seg_of))
     }
 }

@@ -23,7 +23,9 @@ pub struct RrtOptions {
     pub resolution: f64,
     /// Samples at most.
     pub max_samples: usize,
-    /// Wall-clock limit.
+    /// Wall-clock limit: of the whole plan in [`crate::Planner`] (IK for
+    /// pose goals, search, shortcutting and every collision re-check), of
+    /// the search alone in [`rrt_connect`].
     pub time_limit: Duration,
     /// Random seed (same inputs and seed, same path).
     pub seed: u64,
@@ -91,13 +93,16 @@ impl Tree {
     }
 }
 
-/// Edge validation with reusable full-configuration buffers.
+/// Edge validation with reusable full-configuration buffers and an
+/// optional deadline.
 pub(crate) struct Edges<'a> {
     checker: &'a CollisionChecker,
     space: &'a ActiveSpace,
     resolution: f64,
     a: Vec<f64>,
     b: Vec<f64>,
+    deadline: Option<Instant>,
+    timed_out: bool,
     /// Motion checks run.
     pub checks: usize,
 }
@@ -114,17 +119,44 @@ impl<'a> Edges<'a> {
             resolution,
             a: space.locked.clone(),
             b: space.locked.clone(),
+            deadline: None,
+            timed_out: false,
             checks: 0,
         }
     }
 
-    /// Whether the straight motion from `q0` to `q1` (active) is free.
+    /// The same, giving up at `deadline`: once it has passed, every motion
+    /// counts as not free (unproven) and [`Edges::timed_out`] is true.
+    pub(crate) fn until(mut self, deadline: Instant) -> Self {
+        self.deadline = Some(deadline);
+        self
+    }
+
+    /// Whether the deadline passed during a check (the answers since then
+    /// were `false` without a check).
+    pub(crate) fn timed_out(&self) -> bool {
+        self.timed_out
+    }
+
+    /// Whether the straight motion from `q0` to `q1` (active) is free;
+    /// `false` once the deadline has passed.
     pub(crate) fn valid(&mut self, q0: &[f64], q1: &[f64]) -> bool {
+        if self.timed_out {
+            return false;
+        }
         self.checks += 1;
         self.space.expand_into(q0, &mut self.a);
         self.space.expand_into(q1, &mut self.b);
-        self.checker
-            .motion_valid_unchecked(&self.a, &self.b, self.resolution)
+        match self
+            .checker
+            .motion_valid_until(&self.a, &self.b, self.resolution, self.deadline)
+        {
+            Some(free) => free,
+            None => {
+                self.timed_out = true;
+                false
+            }
+        }
     }
 }
 
@@ -177,9 +209,23 @@ pub fn rrt_connect(
     goals: &[Vec<f64>],
     opts: &RrtOptions,
 ) -> (Result<Vec<Vec<f64>>, RrtFailure>, RrtStats) {
-    let began = Instant::now();
+    let deadline = Instant::now() + opts.time_limit;
+    rrt_connect_until(checker, space, start, goals, opts, deadline)
+}
+
+/// [`rrt_connect`] with an absolute deadline instead of `opts.time_limit`
+/// (the planner's deadline for the whole plan). Motion checks give up at
+/// the deadline too, so one long edge cannot overrun it.
+pub(crate) fn rrt_connect_until(
+    checker: &CollisionChecker,
+    space: &ActiveSpace,
+    start: &[f64],
+    goals: &[Vec<f64>],
+    opts: &RrtOptions,
+    deadline: Instant,
+) -> (Result<Vec<Vec<f64>>, RrtFailure>, RrtStats) {
     let dim = space.len();
-    let mut edges = Edges::new(checker, space, opts.resolution);
+    let mut edges = Edges::new(checker, space, opts.resolution).until(deadline);
     let mut stats = RrtStats::default();
     for g in goals {
         if edges.valid(start, g) {
@@ -206,7 +252,7 @@ pub fn rrt_connect(
         // Checked every sample (a clock read is small next to one motion
         // check), so that fine resolutions cannot overrun the limit by
         // many edges.
-        if began.elapsed() > opts.time_limit {
+        if edges.timed_out() || Instant::now() >= deadline {
             break RrtFailure::Timeout;
         }
         stats.samples += 1;

@@ -76,6 +76,10 @@ fn point(path: &[Vertex], s: usize, t: f64) -> Vec<f64> {
 
 /// Shortens a valid path (every edge checked whole); the result is valid
 /// at the edges' resolution, every edge checked whole, same end points.
+///
+/// When `edges` has a deadline and it passes, shortcutting stops: a check
+/// cut short answers "not free", so the edges kept are still only those
+/// checked whole (in the worst case the input path itself is returned).
 pub(crate) fn simplify(
     edges: &mut Edges<'_>,
     path: Vec<Vec<f64>>,
@@ -87,7 +91,7 @@ pub(crate) fn simplify(
     let vertex_only = path.clone();
     let mut failures = 0;
     for _ in 0..opts.max_shortcuts {
-        if path.len() < 3 || failures >= opts.max_failures {
+        if path.len() < 3 || failures >= opts.max_failures || edges.timed_out() {
             break;
         }
         let segs = path.len() - 1;

@@ -330,3 +330,51 @@ fn goal_inside_the_wall_is_refused() {
     assert!(!result.success());
     assert_eq!(result.status.name(), "goal_in_collision");
 }
+
+/// The time limit bounds the whole plan (issue 15): searching at 1 mm and
+/// checking at 1 um cannot finish in 1 us or 20 ms, so the plan is a timeout
+/// with no path (never the coarse, unchecked one), or, if the machine was
+/// fast enough, a solved plan whose path and trajectory keep the ball out of
+/// the wall by the closed-form distance.
+#[test]
+fn time_limit_bounds_every_stage_and_never_returns_an_unchecked_path() {
+    let planner = toy_planner();
+    let (start, goal) = ([-0.6, -0.5], [0.6, -0.5]);
+    for (limit, coarse_factor) in [(1e-6, 1e3), (0.02, 1e3), (0.02, 1.0)] {
+        let mut opts = PlanOptions::default();
+        opts.rrt.resolution = 1e-6;
+        opts.coarse_factor = coarse_factor;
+        opts.rrt.time_limit = Duration::from_secs_f64(limit);
+        let r = planner.plan(&start, &goal, &opts).unwrap();
+        match r.status.name() {
+            "timeout" => {
+                assert!(r.path.is_empty() && r.trajectory.is_none(), "{limit}");
+                assert!(r.message.contains("time limit"), "{}", r.message);
+            }
+            "solved" => {
+                for w in r.path.windows(2) {
+                    for k in 0..=1000 {
+                        let t = k as f64 / 1000.0;
+                        let (x, y) = (
+                            w[0][0] + (w[1][0] - w[0][0]) * t,
+                            w[0][1] + (w[1][1] - w[0][1]) * t,
+                        );
+                        assert!(clearance(x, y) > BALL, "path enters the wall at ({x}, {y})");
+                    }
+                }
+                let traj = r.trajectory.as_ref().unwrap();
+                for k in 0..=5000 {
+                    let (q, _, _) = sample(traj, traj.duration() * k as f64 / 5000.0);
+                    assert!(
+                        clearance(q[0], q[1]) > BALL,
+                        "trajectory enters the wall at {q:?}"
+                    );
+                }
+            }
+            other => panic!("{other}: {}", r.message),
+        }
+        if limit == 1e-6 {
+            assert_eq!(r.status.name(), "timeout");
+        }
+    }
+}
