@@ -10,7 +10,7 @@ use rayon::prelude::*;
 use ferrobot_model::RobotModel;
 pub use ferrobot_model::acm::AllowedCollisions;
 
-use crate::error::{CollisionError, Result};
+use crate::error::Result;
 use crate::robot_spheres::RobotSpheres;
 
 /// What [`AllowedCollisions::analyze`] found.
