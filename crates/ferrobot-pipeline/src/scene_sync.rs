@@ -192,7 +192,8 @@ fn same_source(a: &ObjectShape, b: &ObjectShape) -> bool {
 }
 
 /// Whether world object parts are exactly `shape` at the object's origin:
-/// the same shared mesh or cloud, or a primitive of the same kind and sizes.
+/// the same shared mesh or cloud, or a primitive of the same kind and sizes
+/// (compared exactly: they come from the same simulated shape).
 fn same_parts(parts: &[(ObstacleShape, Isometry3<f64>)], shape: &ObstacleShape) -> bool {
     let [(have, local)] = parts else {
         return false;
@@ -200,14 +201,33 @@ fn same_parts(parts: &[(ObstacleShape, Isometry3<f64>)], shape: &ObstacleShape) 
     if *local != Isometry3::identity() {
         return false;
     }
+    use ObstacleShape as S;
     match (have, shape) {
-        (ObstacleShape::Mesh(a), ObstacleShape::Mesh(b)) => Arc::ptr_eq(a, b),
-        (ObstacleShape::PointCloud(a), ObstacleShape::PointCloud(b)) => Arc::ptr_eq(a, b),
-        (ObstacleShape::Mesh(_) | ObstacleShape::PointCloud(_), _)
-        | (_, ObstacleShape::Mesh(_) | ObstacleShape::PointCloud(_)) => false,
-        // Primitives: a handful of numbers, compared through their full
-        // (round-trip) printed form.
-        _ => format!("{have:?}") == format!("{shape:?}"),
+        (S::Mesh(a), S::Mesh(b)) => Arc::ptr_eq(a, b),
+        (S::PointCloud(a), S::PointCloud(b)) => Arc::ptr_eq(a, b),
+        (S::Box { half_extents: a }, S::Box { half_extents: b }) => a == b,
+        (S::Sphere { radius: a }, S::Sphere { radius: b }) => a == b,
+        (
+            S::Cylinder {
+                radius: r,
+                half_length: h,
+            },
+            S::Cylinder {
+                radius: r2,
+                half_length: h2,
+            },
+        )
+        | (
+            S::Capsule {
+                radius: r,
+                half_length: h,
+            },
+            S::Capsule {
+                radius: r2,
+                half_length: h2,
+            },
+        ) => r == r2 && h == h2,
+        _ => false,
     }
 }
 
@@ -316,15 +336,17 @@ impl SceneSync {
             .filter(|(n, _, _)| options.ignores(n))
             .map(|(n, _, _)| n.clone())
             .collect();
-        let reused = wanted
+        // Whether each wanted object is in the world already, as it is.
+        let kept: Vec<bool> = wanted
             .iter()
-            .filter(|(n, s, _)| {
+            .map(|(n, s, _)| {
                 checker
                     .world()
                     .get(n)
                     .is_ok_and(|o| same_parts(&o.parts, s))
             })
-            .count();
+            .collect();
+        let reused = kept.iter().filter(|&&k| k).count();
         if reused == 0 && !wanted.is_empty() {
             self.stats.full_builds += 1;
         } else {
@@ -347,9 +369,9 @@ impl SceneSync {
                 w.remove(&n)?;
                 stats.removed += 1;
             }
-            for (name, shape, pose) in wanted {
+            for ((name, shape, pose), kept) in wanted.into_iter().zip(kept) {
                 match w.get(&name) {
-                    Ok(o) if same_parts(&o.parts, &shape) => {
+                    Ok(o) if kept => {
                         if o.pose != pose {
                             w.set_pose(&name, pose)?;
                             stats.moved += 1;
