@@ -55,7 +55,7 @@ def test_replaying_recorded_actions_reproduces_the_states_bit_for_bit(pp):
     stages = [f["stage"] for f in frames]
     assert stages[0] == "pregrasp" and stages[-1] == "verify" and "grasp" in stages
     world, robot, _ = build_world(spec)
-    stepper = ControlStepper(world, robot, arm_joint_indices=pp.arm_idx)
+    stepper = ControlStepper(world, robot, arm_joint_indices=result.episode.arm_idx)
     for k, f in enumerate(frames):
         # The dataset's float32 action, as a replaying environment would read it.
         assert f["action"].dtype == np.float32

@@ -19,8 +19,10 @@ import pytest
 import ferrobot
 from ferrobot.cli import main as cli
 from ferrobot.errors import InvalidArgumentError
-from ferrobot.pipeline import STAGES, TABLE_TOP, PickPlace, random_scene
+from ferrobot.pipeline import STAGES, TABLE_TOP, Episode, PickPlace, random_scene
 from ferrobot.pipeline.images import encode_png
+from ferrobot.pipeline.report import grasp_image, write_episode
+from ferrobot.pipeline.viewer import viewer_data
 
 
 @pytest.fixture(scope="module")
@@ -50,30 +52,37 @@ def decode_png(data: bytes) -> np.ndarray:
 def test_episode_places_the_target(pp, seed):
     spec = random_scene(seed)
     before = {o.name: np.array(o.pose[:3]) for o in spec.objects}
+    syncs = pp.planner.world_sync_stats
     result = pp.run(spec)
+    ep = result.episode
     assert result.success, (result.failed_stage, result.reason)
+    # The planner's world was built once and then kept in sync with the simulation in place (issue 16):
+    # every motion, IK goal set and attach re-syncs it.
+    after = pp.planner.world_sync_stats
+    assert after["full_builds"] - syncs["full_builds"] == 1
+    assert after["incremental"] - syncs["incremental"] >= 10
     assert [s.name for s in result.stages] == list(STAGES)
     assert all(s.ok for s in result.stages)
 
     # Where the simulator says the target is: at the place location, resting upright on the table.
     target = spec.object(spec.target)
-    pose = pp.world.get_object_pose(spec.target)
+    pose = ep.world.get_object_pose(spec.target)
     assert np.hypot(*(pose[:2, 3] - spec.place_xy)) < 0.03
     assert abs(pose[2, 3] - (TABLE_TOP + target.height / 2)) < 0.005
     if target.kind != "sphere":
         assert pose[2, 2] > 0.99  # its axis still vertical
-    lin, ang = pp.world.get_object_velocity(spec.target)
+    lin, ang = ep.world.get_object_velocity(spec.target)
     assert np.linalg.norm(lin) < 0.01
 
     # Collision-free motions: no other object was pushed.
     for o in spec.objects:
         if o.name != spec.target:
-            moved = np.linalg.norm(pp.world.get_object_pose(o.name)[:3, 3] - before[o.name])
+            moved = np.linalg.norm(ep.world.get_object_pose(o.name)[:3, 3] - before[o.name])
             assert moved < 0.01, f"{o.name} moved {moved * 1e3:.1f} mm"
 
     # The executed trajectory stayed within the joint limits.
-    q = pp.rec.arrays()["positions"]
-    assert q.shape[1] == pp.robot.num_dof and len(q) > 100
+    q = ep.recorder.arrays()["positions"]
+    assert q.shape[1] == ep.robot.num_dof and len(q) > 100
     assert (q >= pp.model.lower_limits - 0.01).all() and (q <= pp.model.upper_limits + 0.01).all()
 
 
@@ -120,6 +129,44 @@ def test_batch_summary_matches_episode_lines(tmp_path, capsys):
     assert summary["episodes_per_hour"] == pytest.approx(3 * 3600 / summary["wall_time_s"])
     printed = capsys.readouterr().out
     assert f"{summary['successes']}/3 succeeded" in printed
+
+
+def test_episode_record_and_deprecated_spellings(pp, tmp_path):
+    """run() returns its episode record (issue 16); the old per-episode attributes of PickPlace and the old
+    report/viewer calls taking the PickPlace still work for one release, with a DeprecationWarning."""
+    spec = random_scene(3)
+    unreachable = copy.deepcopy(spec)
+    o = unreachable.object(unreachable.target)
+    o.pose = [0.9, 0.0, o.pose[2], *o.pose[3:]]  # fails at select: frame and grasps, no choice
+    r = pp.run(unreachable, record_frames=True)
+    ep = r.episode
+    assert isinstance(ep, Episode) and ep.result is r and ep.spec is unreachable
+    assert ep.frame["depth"].shape == (480, 640) and len(ep.grasps_world) > 0
+    assert ep.choice is None and ep.q_pre is None and ep.hand_grasp is None
+    assert "episode" not in r.to_dict()
+
+    with pytest.warns(DeprecationWarning, match="result.episode.world"):
+        assert pp.world is ep.world
+    with pytest.warns(DeprecationWarning, match="result.episode.recorder"):
+        assert pp.rec is ep.recorder
+    with pytest.raises(AttributeError):
+        _ = pp.not_an_attribute
+
+    paths = write_episode(tmp_path / "new", r)
+    with pytest.warns(DeprecationWarning, match="write_episode"):
+        old = write_episode(tmp_path / "old", pp, r)
+    assert json.loads(paths["report"].read_text()) == json.loads(old["report"].read_text())
+    with pytest.warns(DeprecationWarning, match="grasp_image"):
+        np.testing.assert_array_equal(grasp_image(pp), grasp_image(ep))
+    with pytest.warns(DeprecationWarning, match="viewer_data"):
+        assert viewer_data(pp) == viewer_data(ep)
+
+    # The next episode gets a new record; the previous one keeps what its episode made.
+    bad = copy.deepcopy(spec)
+    bad.objects[0].kind = "cone"
+    r2 = pp.run(bad)
+    assert r2.episode is not ep and r2.episode.world is None and r2.episode.frame is None
+    assert ep.frame is not None and len(ep.grasps_world) > 0
 
 
 def test_demo_writes_its_folder(tmp_path, capsys):

@@ -77,9 +77,9 @@ def test_ik_goalset_and_collision_free(bundled_panda, panda_planner):
     p = Planner(bundled_panda, world)
     checker = CollisionChecker(bundled_panda, world)
     target = bundled_panda.fk(q)
-    plain = p.ik(target, seed=q[:7])
+    plain = p.ik(target, start=q[:7])
     assert plain.success and checker.in_collision(full(p, plain.q))
-    sol = p.ik(target, seed=q[:7], collision_free=True)
+    sol = p.ik(target, start=q[:7], collision_free=True)
     assert sol.success
     assert not checker.in_collision(full(p, sol.q))
     dp, dr = pose_errors(bundled_panda, full(p, sol.q), target)
@@ -176,7 +176,7 @@ def test_joint_reordering(bundled_panda, panda_planner):
     finger = bundled_panda.dof_names.index("panda_finger_joint1")
     assert panda_planner.locked_positions[finger] == bundled_panda.neutral_configuration()[finger]
     # IK in the same order.
-    ik = panda_planner.ik(bundled_panda.fk(np.r_[q1, 0.0]), seed=sim_start, joint_names=order)
+    ik = panda_planner.ik(bundled_panda.fk(np.r_[q1, 0.0]), start=sim_start, joint_names=order)
     assert ik.success and ik.q.shape == (9,)
 
 
@@ -251,3 +251,34 @@ def test_frames_against_scipy():
         back = base_to_world(got, base)
         np.testing.assert_allclose(back[:3], tp, atol=1e-12)
         np.testing.assert_allclose(world_to_base(np.eye(4), np.eye(4)), np.eye(4))
+
+
+def test_ik_start_and_seed_spellings(bundled_panda, panda_planner):
+    """``start`` is the IK start configuration and ``seed`` the random seed (issue 16); the old spellings
+    (``seed=<configuration>``, ``random_seed``, ``ik_batch(seeds=...)``) still work for one release, with a
+    DeprecationWarning, and give the same solutions; mixing old and new for one argument is an error."""
+    q = bundled_panda.named_state("ready")
+    target = bundled_panda.fk(q)
+    new = panda_planner.ik(target, start=q[:7], num_seeds=4, seed=5)
+    assert new.success
+    with pytest.warns(DeprecationWarning, match="start configuration is `start`"):
+        old = panda_planner.ik(target, seed=q[:7], num_seeds=4)
+    np.testing.assert_array_equal(old.q, panda_planner.ik(target, q[:7], num_seeds=4).q)
+    with pytest.warns(DeprecationWarning, match="random_seed"):
+        old = panda_planner.ik_goalset(target[None], num_seeds=4, random_seed=5)
+    np.testing.assert_array_equal(old.q, panda_planner.ik_goalset(target[None], num_seeds=4, seed=5).q)
+    far = target.copy()
+    far[:3, 3] += [0.05, 0.0, -0.05]
+    poses = np.stack([target, far])
+    starts = np.tile(q[:7], (2, 1))
+    new = panda_planner.ik_batch(poses, starts, num_seeds=4, seed=2)
+    with pytest.warns(DeprecationWarning, match="starts"):
+        old = panda_planner.ik_batch(poses, seeds=starts, num_seeds=4, seed=2)
+    np.testing.assert_array_equal(old.q, new.q)
+    with pytest.warns(DeprecationWarning, match="random_seed"):
+        old = panda_planner.ik_batch(poses, starts, num_seeds=4, random_seed=2)
+    np.testing.assert_array_equal(old.q, new.q)
+    with pytest.raises(E.InvalidArgumentError, match="not both"), pytest.warns(DeprecationWarning):
+        panda_planner.ik(target, q[:7], seed=q[:7])
+    with pytest.raises(E.InvalidArgumentError, match="not both"):
+        panda_planner.ik_batch(poses, starts, seeds=starts)

@@ -185,7 +185,7 @@ def test_ik_and_plan_inputs(seed, data):
     pose = PANDA.fk(q)
     x, ref = data.draw(variants(pose))
     # (float32 or integer poses are rarely rotations any more: both raise then.)
-    same_or_ferrobot_error(lambda a: PLANNER.ik(a, num_seeds=4, random_seed=1).q, x, ref)
+    same_or_ferrobot_error(lambda a: PLANNER.ik(a, num_seeds=4, seed=1).q, x, ref)
     start = PANDA.named_state("ready")
     pair = np.stack([start, start + 0.05])
     xs, refs = data.draw(variants(pair))

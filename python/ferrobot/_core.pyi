@@ -2,19 +2,63 @@
 
 from collections.abc import Sequence
 from os import PathLike
-from typing import Any
+from typing import Any, final
 
 import numpy as np
 import numpy.typing as npt
+from typing_extensions import Self
 
 __version__: str
+# The extension's exported names (checked against the module by tests/test_stubs.py).
+__all__ = [
+    "RobotModel",
+    "CollisionWorld",
+    "SphereModel",
+    "CollisionChecker",
+    "Planner",
+    "PlanResult",
+    "IkResult",
+    "JointTrajectory",
+    "World",
+    "Robot",
+    "Camera",
+    "JointPID",
+    "ResolvedRateController",
+    "depth_to_points",
+    "opencv_to_opengl",
+    "opengl_to_opencv",
+    "look_at",
+    "bundled_robot",
+    "ReactiveController",
+    "PotentialFieldController",
+    "grasp_backproject",
+    "grasp_detect",
+    "grasp_detect_rgbd",
+    "grasp_nms",
+    "grasp_transform",
+    "grasp_camera_to_world",
+    "step_worlds",
+    "execute_trajectories",
+    "CommandDelay",
+    "LinearPredictor",
+    "StreamGuard",
+    "urdf_check",
+    "gravity_torques",
+    "payload_regressor",
+    "identify_payload",
+    "identify_link_masses",
+    "identify_friction",
+    "trajectory_sample",
+    "__version__",
+]
 
-ArrayLike = npt.ArrayLike
-F64 = npt.NDArray[np.float64]
+_ArrayLike = npt.ArrayLike
+_F64 = npt.NDArray[np.float64]
 
 def bundled_robot(name: str) -> tuple[str, str, str]:
     """(URDF text, SRDF text, default ee link) of a bundled robot."""
 
+@final
 class RobotModel:
     """A robot model loaded from URDF (and optionally SRDF)."""
 
@@ -62,13 +106,13 @@ class RobotModel:
     @property
     def joint_names(self) -> list[str]: ...
     @property
-    def lower_limits(self) -> F64: ...
+    def lower_limits(self) -> _F64: ...
     @property
-    def upper_limits(self) -> F64: ...
+    def upper_limits(self) -> _F64: ...
     @property
-    def velocity_limits(self) -> F64: ...
+    def velocity_limits(self) -> _F64: ...
     @property
-    def effort_limits(self) -> F64: ...
+    def effort_limits(self) -> _F64: ...
     @property
     def base_link(self) -> str: ...
     @property
@@ -88,49 +132,53 @@ class RobotModel:
     @property
     def disabled_collision_pairs(self) -> list[tuple[str, str, str]]: ...
     def group_joint_names(self, group: str) -> list[str]: ...
-    def named_state(self, name: str, group: str | None = None) -> F64: ...
-    def neutral_configuration(self) -> F64: ...
+    def named_state(self, name: str, group: str | None = None) -> _F64: ...
+    def neutral_configuration(self) -> _F64: ...
     def joint_info(self, name: str) -> dict[str, Any]: ...
     def collision_geometry(self, link: str) -> list[dict[str, Any]]: ...
     def visual_geometry(self, link: str) -> list[dict[str, Any]]: ...
     def inertial(self, link: str) -> dict[str, Any]: ...
-    def fk(self, q: ArrayLike, link: str | None = None) -> F64:
+    def fk(self, q: _ArrayLike, link: str | None = None) -> _F64:
         """4x4 pose of ``link`` (default: ee) in the base frame."""
-    def fk_all(self, q: ArrayLike) -> F64:
+    def fk_all(self, q: _ArrayLike) -> _F64:
         """(num_links, 4, 4) poses in ``link_names`` order."""
-    def fk_batch(self, q: ArrayLike, link: str | None = None) -> F64:
+    def fk_batch(self, q: _ArrayLike, link: str | None = None) -> _F64:
         """(N, 7) poses ``[x, y, z, qw, qx, qy, qz]`` for (N, num_dof) configurations."""
-    def jacobian(self, q: ArrayLike, link: str | None = None) -> F64:
+    def jacobian(self, q: _ArrayLike, link: str | None = None) -> _F64:
         """(6, num_dof) geometric Jacobian in the base frame, linear rows first."""
 
-Pose = ArrayLike  # 4x4 matrix or [x, y, z, qw, qx, qy, qz]
+_Pose = _ArrayLike  # 4x4 matrix or [x, y, z, qw, qx, qy, qz]
 
+@final
 class CollisionWorld:
     """Named obstacles posed in the world (robot base) frame."""
 
-    def __init__(self) -> None: ...
+    def __new__(cls) -> Self: ...
     @staticmethod
-    def from_sim(world: World, ignore: str | list[str] | None = None, base_pose: Pose | None = None) -> CollisionWorld:
+    def from_sim(world: World, ignore: str | list[str] | None = None, base_pose: _Pose | None = None) -> CollisionWorld:
         """Obstacles of a simulated World at their current poses, in the frame of ``base_pose``; ``ignore``
         substrings leave objects out (the ground plane is a slab named "ground")."""
     @staticmethod
     def from_moveit_scene(path: str | PathLike[str]) -> CollisionWorld: ...
-    def add_box(self, name: str, size: ArrayLike, pose: Pose | None = None) -> None: ...
-    def add_sphere(self, name: str, radius: float, pose: Pose | None = None) -> None: ...
-    def add_cylinder(self, name: str, radius: float, length: float, pose: Pose | None = None) -> None: ...
-    def add_capsule(self, name: str, radius: float, length: float, pose: Pose | None = None) -> None: ...
-    def add_mesh(self, name: str, vertices: ArrayLike, faces: ArrayLike, pose: Pose | None = None) -> None: ...
-    def add_pointcloud(self, name: str, points: ArrayLike, radius: float = 0.005, pose: Pose | None = None) -> None: ...
+    def add_box(self, name: str, size: _ArrayLike, pose: _Pose | None = None) -> None: ...
+    def add_sphere(self, name: str, radius: float, pose: _Pose | None = None) -> None: ...
+    def add_cylinder(self, name: str, radius: float, length: float, pose: _Pose | None = None) -> None: ...
+    def add_capsule(self, name: str, radius: float, length: float, pose: _Pose | None = None) -> None: ...
+    def add_mesh(self, name: str, vertices: _ArrayLike, faces: _ArrayLike, pose: _Pose | None = None) -> None: ...
+    def add_pointcloud(
+        self, name: str, points: _ArrayLike, radius: float = 0.005, pose: _Pose | None = None
+    ) -> None: ...
     def remove(self, name: str) -> None: ...
-    def set_pose(self, name: str, pose: Pose) -> None: ...
-    def get_pose(self, name: str) -> F64: ...
+    def set_pose(self, name: str, pose: _Pose) -> None: ...
+    def get_pose(self, name: str) -> _F64: ...
     @property
     def names(self) -> list[str]: ...
     def kinds(self, name: str) -> list[str]: ...
-    def signed_distance(self, points: ArrayLike) -> F64: ...
+    def signed_distance(self, points: _ArrayLike) -> _F64: ...
     def __len__(self) -> int: ...
-    def __contains__(self, name: str) -> bool: ...
+    def __contains__(self, name: str, /) -> bool: ...
 
+@final
 class SphereModel:
     """A robot's sphere model: spheres per link in the link frame."""
 
@@ -151,31 +199,32 @@ class SphereModel:
     def to_yaml(self) -> str: ...
     @property
     def count(self) -> int: ...
-    def spheres(self, link: str) -> F64: ...
+    def spheres(self, link: str) -> _F64: ...
     @property
     def report(self) -> list[dict[str, Any]]: ...
 
+@final
 class CollisionChecker:
     """Collision queries for a robot in a world."""
 
-    def __init__(
-        self,
+    def __new__(
+        cls,
         model: RobotModel,
         world: CollisionWorld | None = None,
         spheres: SphereModel | None = None,
         *,
         margin: float = 0.0,
-    ) -> None: ...
+    ) -> Self: ...
     def update_world(self, world: CollisionWorld) -> None: ...
     @property
     def world(self) -> CollisionWorld: ...
     margin: float
-    def in_collision(self, q: ArrayLike) -> bool: ...
-    def in_collision_batch(self, q: ArrayLike) -> npt.NDArray[np.bool_]: ...
-    def motion_valid(self, q0: ArrayLike, q1: ArrayLike, resolution: float = 0.005) -> bool: ...
-    def distance(self, q: ArrayLike) -> dict[str, Any]: ...
-    def contacts(self, q: ArrayLike) -> list[dict[str, Any]]: ...
-    def explain(self, q: ArrayLike) -> str: ...
+    def in_collision(self, q: _ArrayLike) -> bool: ...
+    def in_collision_batch(self, q: _ArrayLike) -> npt.NDArray[np.bool_]: ...
+    def motion_valid(self, q0: _ArrayLike, q1: _ArrayLike, resolution: float = 0.005) -> bool: ...
+    def distance(self, q: _ArrayLike) -> dict[str, Any]: ...
+    def contacts(self, q: _ArrayLike) -> list[dict[str, Any]]: ...
+    def explain(self, q: _ArrayLike) -> str: ...
     def analyze_self_collisions(self, samples: int = 10000, seed: int = 0) -> dict[str, int]: ...
     @property
     def allowed_collision_pairs(self) -> list[tuple[str, str, str]]: ...
@@ -185,11 +234,11 @@ class CollisionChecker:
         name: str,
         link: str,
         shape: tuple[Any, ...],
-        pose: Pose | None = None,
+        pose: _Pose | None = None,
         touch_links: list[str] = ...,
     ) -> None: ...
-    def attach_world_object(self, name: str, link: str, q: ArrayLike, touch_links: list[str] = ...) -> None: ...
-    def detach(self, name: str, q: ArrayLike | None = None) -> None: ...
+    def attach_world_object(self, name: str, link: str, q: _ArrayLike, touch_links: list[str] = ...) -> None: ...
+    def detach(self, name: str, q: _ArrayLike | None = None) -> None: ...
     @property
     def attached(self) -> list[str]: ...
     @property
@@ -197,22 +246,23 @@ class CollisionChecker:
 
 # --- Simulation (ferrobot-sim on Rapier) ---
 
+@final
 class World:
     """A physics world: ground plane at z = 0, rigid objects, robots; z is up."""
 
-    def __init__(
-        self,
+    def __new__(
+        cls,
         dt: float = 1 / 240,
-        gravity: ArrayLike | None = None,
+        gravity: _ArrayLike | None = None,
         solver_iterations: int = 4,
         ground: bool = True,
         ground_friction: float = 0.8,
         *,
-        contact_frequency: float = 100.0,
-        allowed_penetration: float = 0.001,
-        contact_damping_ratio: float = 1.0,
+        contact_frequency: float = ...,  # 100.0 Hz
+        allowed_penetration: float = ...,  # 0.001 m
+        contact_damping_ratio: float = ...,  # 1.0
         friction_in_stabilization: bool = True,
-    ) -> None:
+    ) -> Self:
         """``friction_in_stabilization=True`` holds grasped objects to < 0.5 mm but topples stacks of 6+ boxes."""
     @property
     def dt(self) -> float: ...
@@ -227,9 +277,9 @@ class World:
         """Segmentation id -> name: 0 background, 1 ground, objects, "robot/link"."""
     def set_lighting(
         self,
-        ambient: ArrayLike | None = None,
+        ambient: _ArrayLike | None = None,
         headlight: float = 0.65,
-        lights: Sequence[tuple[ArrayLike, ArrayLike, float]] | None = None,
+        lights: Sequence[tuple[_ArrayLike, _ArrayLike, float]] | None = None,
     ) -> None:
         """Lambert lighting of RGB renders: ambient (r, g, b) in [0, 1] (default 0.35 each), headlight in [0, 1],
         at most 8 directional lights (direction of travel in the world frame, colour in [0, 1]^3, intensity in
@@ -240,79 +290,79 @@ class World:
     def add_box(
         self,
         name: str,
-        size: ArrayLike,
-        pose: Pose | None = None,
+        size: _ArrayLike,
+        pose: _Pose | None = None,
         *,
         mass: float = 1.0,
         friction: float = 0.5,
         restitution: float = 0.0,
         static_: bool = False,
-        color: ArrayLike | None = None,
+        color: _ArrayLike | None = None,
     ) -> str: ...
     def add_sphere(
         self,
         name: str,
         radius: float,
-        pose: Pose | None = None,
+        pose: _Pose | None = None,
         *,
         mass: float = 1.0,
         friction: float = 0.5,
         restitution: float = 0.0,
         static_: bool = False,
-        color: ArrayLike | None = None,
+        color: _ArrayLike | None = None,
     ) -> str: ...
     def add_cylinder(
         self,
         name: str,
         radius: float,
         length: float,
-        pose: Pose | None = None,
+        pose: _Pose | None = None,
         *,
         mass: float = 1.0,
         friction: float = 0.5,
         restitution: float = 0.0,
         static_: bool = False,
-        color: ArrayLike | None = None,
+        color: _ArrayLike | None = None,
     ) -> str: ...
     def add_capsule(
         self,
         name: str,
         radius: float,
         length: float,
-        pose: Pose | None = None,
+        pose: _Pose | None = None,
         *,
         mass: float = 1.0,
         friction: float = 0.5,
         restitution: float = 0.0,
         static_: bool = False,
-        color: ArrayLike | None = None,
+        color: _ArrayLike | None = None,
     ) -> str: ...
     def add_mesh(
         self,
         name: str,
-        vertices: ArrayLike,
-        faces: ArrayLike,
-        pose: Pose | None = None,
+        vertices: _ArrayLike,
+        faces: _ArrayLike,
+        pose: _Pose | None = None,
         *,
         approximation: str = "convex_hull",
         mass: float = 1.0,
         friction: float = 0.5,
         restitution: float = 0.0,
         static_: bool = False,
-        color: ArrayLike | None = None,
+        color: _ArrayLike | None = None,
     ) -> str:
         """``approximation``: "convex_hull", "convex_decomposition" or "trimesh" (static only)."""
-    def get_object_pose(self, name: str) -> F64: ...
-    def set_object_pose(self, name: str, pose: Pose) -> None: ...
-    def get_object_velocity(self, name: str) -> tuple[F64, F64]: ...
-    def set_object_velocity(self, name: str, linear: ArrayLike, angular: ArrayLike | None = None) -> None: ...
+    def get_object_pose(self, name: str) -> _F64: ...
+    def set_object_pose(self, name: str, pose: _Pose) -> None: ...
+    def get_object_velocity(self, name: str) -> tuple[_F64, _F64]: ...
+    def set_object_velocity(self, name: str, linear: _ArrayLike, angular: _ArrayLike | None = None) -> None: ...
     def add_robot(
         self,
         model: RobotModel,
-        pose: Pose | None = None,
+        pose: _Pose | None = None,
         *,
-        name: str = "robot",
-        q: ArrayLike | None = None,
+        name: str = ...,
+        q: _ArrayLike | None = None,
         gravity_compensation: bool = True,
         solver_iterations: int = 4,
         friction: float = 1.0,
@@ -322,6 +372,7 @@ class World:
     def reset(self) -> None: ...
     def mark_initial_state(self) -> None: ...
 
+@final
 class Robot:
     """A robot simulated in a World (API after Isaac Sim's Robot); joint vectors in ``dof_names`` order."""
 
@@ -333,62 +384,62 @@ class Robot:
     def dof_names(self) -> list[str]: ...
     @property
     def num_dof(self) -> int: ...
-    def get_joint_positions(self) -> F64: ...
-    def get_joint_velocities(self) -> F64: ...
-    def set_joint_positions(self, q: ArrayLike) -> None: ...
-    def set_joint_velocities(self, qd: ArrayLike) -> None: ...
-    def set_joint_position_targets(self, targets: ArrayLike, joint_indices: list[int] | None = None) -> None: ...
-    def set_joint_velocity_targets(self, targets: ArrayLike, joint_indices: list[int] | None = None) -> None: ...
-    def set_joint_efforts(self, efforts: ArrayLike, joint_indices: list[int] | None = None) -> None: ...
+    def get_joint_positions(self) -> _F64: ...
+    def get_joint_velocities(self) -> _F64: ...
+    def set_joint_positions(self, q: _ArrayLike) -> None: ...
+    def set_joint_velocities(self, qd: _ArrayLike) -> None: ...
+    def set_joint_position_targets(self, targets: _ArrayLike, joint_indices: list[int] | None = None) -> None: ...
+    def set_joint_velocity_targets(self, targets: _ArrayLike, joint_indices: list[int] | None = None) -> None: ...
+    def set_joint_efforts(self, efforts: _ArrayLike, joint_indices: list[int] | None = None) -> None: ...
     @property
     def command_latency(self) -> float:
         """Seconds between setting a drive target or effort and its effect (applied in World.step)."""
     def set_command_latency(self, latency: float) -> None: ...
     @property
     def pending_commands(self) -> int: ...
-    def get_joint_position_targets(self) -> F64: ...
-    def get_drive_gains(self) -> tuple[F64, F64, F64]: ...
+    def get_joint_position_targets(self) -> _F64: ...
+    def get_drive_gains(self) -> tuple[_F64, _F64, _F64]: ...
     def set_drive_gains(
         self,
-        stiffness: ArrayLike,
-        damping: ArrayLike,
-        max_force: ArrayLike | None = None,
+        stiffness: _ArrayLike,
+        damping: _ArrayLike,
+        max_force: _ArrayLike | None = None,
         joint_indices: list[int] | None = None,
     ) -> None: ...
     def set_solver_iterations(self, n: int) -> None:
         """Extra solver substeps for the robot's bodies while it touches something (default 4)."""
     # Isaac Sim shapes (issue 22)
-    def get_world_pose(self) -> tuple[F64, F64]:
+    def get_world_pose(self) -> tuple[_F64, _F64]:
         """Base link pose as (position (3,), orientation (w, x, y, z))."""
-    def get_world_transform(self) -> F64: ...
-    def set_world_pose(self, position: ArrayLike | None = None, orientation: ArrayLike | None = None) -> None: ...
+    def get_world_transform(self) -> _F64: ...
+    def set_world_pose(self, position: _ArrayLike | None = None, orientation: _ArrayLike | None = None) -> None: ...
     def initialize(self, physics_sim_view: Any = None) -> None: ...
     def get_joints_state(self) -> Any:
         """A ferrobot.compat.isaac.JointsState (positions, velocities, efforts)."""
-    def get_applied_joint_efforts(self) -> F64: ...
+    def get_applied_joint_efforts(self) -> _F64: ...
     def apply_action(self, control_actions: Any) -> None: ...
     def set_solver_position_iteration_count(self, count: int) -> None: ...
     def get_solver_position_iteration_count(self) -> int: ...
     def set_solver_velocity_iteration_count(self, count: int) -> None: ...
     def set_stabilization_threshold(self, threshold: float) -> None: ...
-    def get_link_pose(self, link: str | None = None) -> F64: ...
+    def get_link_pose(self, link: str | None = None) -> _F64: ...
     def open_gripper(self, force: float | None = None) -> None: ...
     def close_gripper(self, force: float | None = None) -> None: ...
-    def set_gripper(self, joint_names: list[str], open: ArrayLike, closed: ArrayLike) -> None: ...
-    def get_gripper_positions(self) -> F64: ...
+    def set_gripper(self, joint_names: list[str], open: _ArrayLike, closed: _ArrayLike) -> None: ...
+    def get_gripper_positions(self) -> _F64: ...
     def execute_trajectory(
         self,
-        positions: ArrayLike,
+        positions: _ArrayLike,
         dt: float,
-        velocities: ArrayLike | None = None,
+        velocities: _ArrayLike | None = None,
         joint_indices: list[int] | None = None,
         settle_time: float = 0.0,
-    ) -> dict[str, F64]:
+    ) -> dict[str, _F64]:
         """Keys: times, desired, actual, max_error, rms_error, final_error."""
-    def execute(self, trajectory: JointTrajectory | PlanResult, settle_time: float = 0.0) -> dict[str, F64]:
+    def execute(self, trajectory: JointTrajectory | PlanResult, settle_time: float = 0.0) -> dict[str, _F64]:
         """Runs a planned motion (joints matched by name; a PlanResult is sampled at the world's dt)."""
     # Sim-to-real additions.
-    def set_link_inertial(self, link: str, mass: float, com: ArrayLike, inertia: ArrayLike) -> None:
+    def set_link_inertial(self, link: str, mass: float, com: _ArrayLike, inertia: _ArrayLike) -> None:
         """Replaces a link's mass, centre of mass (3,) and inertia (3, 3) at run time."""
     def get_link_inertial(self, link: str) -> dict[str, Any]:
         """The simulated link's mass, com (3,) and inertia (3, 3) in the link frame."""
@@ -396,14 +447,15 @@ class Robot:
         """Sets a DOF's viscous damping and dry (Coulomb) friction."""
     def get_joint_dynamics(self, joint: str) -> tuple[float, float]:
         """A DOF's (damping, friction)."""
-    def get_measured_joint_efforts(self) -> F64:
+    def get_measured_joint_efforts(self) -> _F64:
         """Efforts the drives apply now (drive law at the current state, plus set efforts)."""
 
+@final
 class Camera:
     """Pinhole camera (OpenCV frame: x right, y down, z forward) fixed to the world or a robot link."""
 
-    def __init__(
-        self,
+    def __new__(
+        cls,
         world: World,
         width: int,
         height: int,
@@ -411,33 +463,33 @@ class Camera:
         fy: float | None = None,
         cx: float | None = None,
         cy: float | None = None,
-        pose: Pose | None = None,
+        pose: _Pose | None = None,
         *,
         robot: Robot | None = None,
         link: str | None = None,
         near: float = 0.01,
         far: float = 100.0,
-    ) -> None: ...
+    ) -> Self: ...
     @property
     def width(self) -> int: ...
     @property
     def height(self) -> int: ...
     @property
-    def intrinsic_matrix(self) -> F64: ...
-    def get_local_pose(self) -> F64: ...
-    def set_local_pose(self, pose: Pose) -> None: ...
-    def get_world_transform(self) -> F64: ...
-    def get_world_pose(self, camera_axes: str = "world") -> tuple[F64, F64]: ...
+    def intrinsic_matrix(self) -> _F64: ...
+    def get_local_pose(self) -> _F64: ...
+    def set_local_pose(self, pose: _Pose) -> None: ...
+    def get_world_transform(self) -> _F64: ...
+    def get_world_pose(self, camera_axes: str = "world") -> tuple[_F64, _F64]: ...
     def render(self, rgb: bool = True) -> dict[str, npt.NDArray[Any]]:
         """Keys "depth" (H, W) float32 (inf: no hit), "segmentation" (H, W) int32, "rgb" (H, W, 3) uint8."""
-    def depth_to_points(self, depth: ArrayLike) -> tuple[F64, npt.NDArray[np.int64]]: ...
+    def depth_to_points(self, depth: _ArrayLike) -> tuple[_F64, npt.NDArray[np.int64]]: ...
 
 def depth_to_points(
-    depth: ArrayLike, fx: float, fy: float, cx: float, cy: float
-) -> tuple[F64, npt.NDArray[np.int64]]: ...
-def opencv_to_opengl(pose: Pose) -> F64: ...
-def opengl_to_opencv(pose: Pose) -> F64: ...
-def look_at(eye: ArrayLike, target: ArrayLike, up: ArrayLike | None = None) -> F64: ...
+    depth: _ArrayLike, fx: float, fy: float, cx: float, cy: float
+) -> tuple[_F64, npt.NDArray[np.int64]]: ...
+def opencv_to_opengl(pose: _Pose) -> _F64: ...
+def opengl_to_opencv(pose: _Pose) -> _F64: ...
+def look_at(eye: _ArrayLike, target: _ArrayLike, up: _ArrayLike | None = None) -> _F64: ...
 
 # --- cameras (crates/ferrobot-py/src/camera.rs; used through ferrobot.camera) ---
 
@@ -447,7 +499,7 @@ def camera_check_intrinsics(
     """Raises the matching ferrobot.errors class for invalid intrinsics."""
 
 def camera_backproject(
-    depth: ArrayLike,
+    depth: _ArrayLike,
     width: int,
     height: int,
     fx: float,
@@ -455,36 +507,38 @@ def camera_backproject(
     cx: float,
     cy: float,
     depth_scale: float,
-    workspace: ArrayLike | None = None,
-) -> tuple[F64, npt.NDArray[np.int64]]:
+    workspace: _ArrayLike | None = None,
+) -> tuple[_F64, npt.NDArray[np.int64]]:
     """Back-projected points (N, 3) (OpenCV camera frame) and their pixels (N, 2) as (row, column)."""
 
-def camera_convert_pose(pose: ArrayLike, from_: str, to: str) -> F64:
+def camera_convert_pose(pose: _ArrayLike, from_: str, to: str) -> _F64:
     """The 4x4 pose in convention ``to`` of a camera whose pose in convention ``from_`` is ``pose``."""
 
+@final
 class JointPID:
     """Joint-space PID with anti-windup (integral clamp + conditional integration)."""
 
-    def __init__(
-        self,
-        kp: ArrayLike,
-        ki: ArrayLike | float,
-        kd: ArrayLike | float,
-        integral_limit: ArrayLike | float | None = None,
-        output_limit: ArrayLike | float | None = None,
-    ) -> None: ...
+    def __new__(
+        cls,
+        kp: _ArrayLike,
+        ki: _ArrayLike | float,
+        kd: _ArrayLike | float,
+        integral_limit: _ArrayLike | float | None = None,
+        output_limit: _ArrayLike | float | None = None,
+    ) -> Self: ...
     def update(
-        self, q: ArrayLike, qd: ArrayLike, target: ArrayLike, dt: float, target_velocity: ArrayLike | None = None
-    ) -> F64: ...
+        self, q: _ArrayLike, qd: _ArrayLike, target: _ArrayLike, dt: float, target_velocity: _ArrayLike | None = None
+    ) -> _F64: ...
     @property
-    def integral(self) -> F64: ...
+    def integral(self) -> _F64: ...
     def reset(self) -> None: ...
 
+@final
 class ResolvedRateController:
     """Cartesian resolved-rate control through the damped Jacobian pseudo-inverse."""
 
-    def __init__(
-        self,
+    def __new__(
+        cls,
         model: RobotModel,
         link: str | None = None,
         joint_indices: list[int] | None = None,
@@ -493,9 +547,10 @@ class ResolvedRateController:
         damping: float = 0.05,
         max_linear_speed: float = 0.5,
         max_angular_speed: float = 1.5,
-    ) -> None: ...
-    def compute(self, q: ArrayLike, target: Pose) -> F64: ...
+    ) -> Self: ...
+    def compute(self, q: _ArrayLike, target: _Pose) -> _F64: ...
 
+@final
 class JointTrajectory:
     """A trajectory sampled every ``dt`` seconds (the last sample at its end)."""
 
@@ -511,6 +566,7 @@ class JointTrajectory:
     def accelerations(self) -> npt.NDArray[np.float64]: ...
     def __len__(self) -> int: ...
 
+@final
 class PlanResult:
     """Outcome of ``Planner.plan``; failures are reported in ``status``, never raised."""
 
@@ -531,6 +587,7 @@ class PlanResult:
     def interpolated(self, dt: float = 0.01) -> JointTrajectory: ...
     def __bool__(self) -> bool: ...
 
+@final
 class IkResult:
     """IK outcome: scalars for one solve, arrays for a batch."""
 
@@ -549,18 +606,19 @@ class IkResult:
     def seeds_tried(self) -> int | npt.NDArray[np.int64]: ...
     def __len__(self) -> int: ...
 
+@final
 class Planner:
     """Multi-seed IK, RRT-Connect, shortcutting and time-parametrised smooth trajectories."""
 
-    def __init__(
-        self,
+    def __new__(
+        cls,
         model: RobotModel,
         world: CollisionWorld | None = None,
         spheres: SphereModel | None = None,
         *,
         margin: float = 0.0,
         ee_link: str | None = None,
-    ) -> None: ...
+    ) -> Self: ...
     joint_names: list[str]
     dof_names: list[str]
     ee_link: str
@@ -577,10 +635,19 @@ class Planner:
         jerk: npt.ArrayLike | None = None,
     ) -> None: ...
     def update_world(
-        self, world: CollisionWorld | World, ignore: str | list[str] | None = None, base_pose: Pose | None = None
+        self, world: CollisionWorld | World, ignore: str | list[str] | None = None, base_pose: _Pose | None = None
     ) -> None:
-        """Replaces the world: a CollisionWorld (base frame) or a simulated World seen from ``base_pose``;
-        objects matching an ``ignore`` substring and attached objects are left out."""
+        """Sets the world: a CollisionWorld (base frame; a copy without the ``ignore`` matches replaces it) or a
+        simulated World seen from ``base_pose``, synced in place (poses moved, objects added/removed, hulls
+        made once; ``ignore`` matches stay in the world but are ignored by every query). Attached objects
+        stay out."""
+    def set_object_enabled(self, name: str, enabled: bool) -> None:
+        """Ignores (False) or enables world object ``name`` without rebuilding the world."""
+    @property
+    def ignored_objects(self) -> list[str]: ...
+    @property
+    def world_sync_stats(self) -> dict[str, int]:
+        """Scene-sync counters: full_builds, incremental, shapes_built, added, removed, moved."""
     def attach_world_object(
         self,
         name: str,
@@ -601,7 +668,7 @@ class Planner:
     def ik(
         self,
         goal_pose: npt.ArrayLike,
-        seed: npt.ArrayLike | None = None,
+        start: npt.ArrayLike | None = None,
         *,
         link: str | None = None,
         joint_names: list[str] | None = None,
@@ -610,12 +677,15 @@ class Planner:
         num_seeds: int = 200,
         max_iterations: int = 60,
         collision_free: bool = False,
-        random_seed: int = 0,
-    ) -> IkResult: ...
+        seed: int | npt.ArrayLike | None = None,
+        random_seed: int | None = None,
+    ) -> IkResult:
+        """``start``: the first start configuration (then random ones); ``seed``: the random seed. Deprecated:
+        ``seed=<configuration>`` (use ``start``), ``random_seed`` (use ``seed``)."""
     def ik_goalset(
         self,
         goal_poses: npt.ArrayLike,
-        seed: npt.ArrayLike | None = None,
+        start: npt.ArrayLike | None = None,
         *,
         link: str | None = None,
         joint_names: list[str] | None = None,
@@ -624,12 +694,15 @@ class Planner:
         num_seeds: int = 200,
         max_iterations: int = 60,
         collision_free: bool = False,
-        random_seed: int = 0,
-    ) -> IkResult: ...
+        seed: int | npt.ArrayLike | None = None,
+        random_seed: int | None = None,
+    ) -> IkResult:
+        """``start``: the first start configuration (then random ones); ``seed``: the random seed. Deprecated:
+        ``seed=<configuration>`` (use ``start``), ``random_seed`` (use ``seed``)."""
     def ik_batch(
         self,
         goal_poses: npt.ArrayLike,
-        seeds: npt.ArrayLike | None = None,
+        starts: npt.ArrayLike | None = None,
         *,
         link: str | None = None,
         joint_names: list[str] | None = None,
@@ -638,8 +711,12 @@ class Planner:
         num_seeds: int = 200,
         max_iterations: int = 60,
         collision_free: bool = False,
-        random_seed: int = 0,
-    ) -> IkResult: ...
+        seed: int = 0,
+        seeds: npt.ArrayLike | None = None,
+        random_seed: int | None = None,
+    ) -> IkResult:
+        """``starts``: (N, k) start configurations; ``seed``: the random seed. Deprecated: ``seeds`` (use
+        ``starts``), ``random_seed`` (use ``seed``)."""
     def plan(
         self,
         start: npt.ArrayLike,
@@ -662,18 +739,18 @@ class Planner:
 
 # --- grasp detection (used through ferrobot.grasp) ---
 
-I64 = npt.NDArray[np.int64]
+_I64 = npt.NDArray[np.int64]
 
 def grasp_detect(
-    points: ArrayLike,
+    points: _ArrayLike,
     labels: npt.NDArray[np.int32] | None = None,
     seedable: npt.NDArray[np.bool_] | None = None,
     options: dict[str, Any] | None = None,
-) -> F64:
+) -> _F64:
     """Grasps (M, 17) detected in a point cloud (N, 3), best first."""
 
 def grasp_detect_rgbd(
-    depth: ArrayLike,
+    depth: _ArrayLike,
     fx: float,
     fy: float,
     cx: float,
@@ -681,18 +758,18 @@ def grasp_detect_rgbd(
     scale: float,
     mask: npt.NDArray[np.int32] | None = None,
     object_id: int | None = None,
-    workspace: ArrayLike | None = None,
+    workspace: _ArrayLike | None = None,
     options: dict[str, Any] | None = None,
-) -> F64:
+) -> _F64:
     """Grasps (M, 17) detected in a depth image (H, W), best first, camera frame."""
 
-def grasp_nms(grasps: ArrayLike, translation: float = 0.03, rotation: float = ...) -> I64:
+def grasp_nms(grasps: _ArrayLike, translation: float = 0.03, rotation: float = ...) -> _I64:
     """Indices of the grasps (N, 17) kept by non-maximum suppression, best first."""
 
-def grasp_transform(grasps: ArrayLike, pose: ArrayLike) -> F64:
+def grasp_transform(grasps: _ArrayLike, pose: _ArrayLike) -> _F64:
     """Grasps (N, 17) moved by a pose (4x4 or [x, y, z, qw, qx, qy, qz])."""
 
-def grasp_camera_to_world(camera_pose: ArrayLike, convention: str = "opencv") -> F64:
+def grasp_camera_to_world(camera_pose: _ArrayLike, convention: str = "opencv") -> _F64:
     """4x4 transform from OpenCV-optical camera coordinates to the world."""
 
 # batch stepping (crates/ferrobot-py/src/batch.rs)
@@ -702,7 +779,7 @@ def step_worlds(worlds: list[World], n: int = 1) -> None:
 def execute_trajectories(
     worlds: list[World],
     robots: list[str],
-    positions: list[ArrayLike],
+    positions: list[_ArrayLike],
     dt: float,
     joint_indices: list[list[int]],
 ) -> None:
@@ -718,64 +795,67 @@ def urdf_check(
 ) -> dict[str, Any]:
     """Checks a URDF: robot, source, tree (text) and findings (severity, code, line, element, message)."""
 
-def gravity_torques(model: RobotModel, q: ArrayLike, gravity: ArrayLike) -> F64:
+def gravity_torques(model: RobotModel, q: _ArrayLike, gravity: _ArrayLike) -> _F64:
     """Joint efforts holding the model still at q against gravity (base frame)."""
 
-def payload_regressor(model: RobotModel, q: ArrayLike, link: str, gravity: ArrayLike) -> F64:
+def payload_regressor(model: RobotModel, q: _ArrayLike, link: str, gravity: _ArrayLike) -> _F64:
     """(num_dof, 4) regressor: efforts = Y @ [m, m cx, m cy, m cz]."""
 
 def identify_payload(
     model: RobotModel,
     link: str,
-    qs: ArrayLike,
-    efforts: ArrayLike,
-    gravity: ArrayLike,
+    qs: _ArrayLike,
+    efforts: _ArrayLike,
+    gravity: _ArrayLike,
     dofs: list[int] | None = None,
 ) -> dict[str, Any]:
     """Payload (mass, com) on a link from static efforts, with the fit quality."""
 
 def identify_link_masses(
-    model: RobotModel, links: list[str], qs: ArrayLike, efforts: ArrayLike, gravity: ArrayLike
+    model: RobotModel, links: list[str], qs: _ArrayLike, efforts: _ArrayLike, gravity: _ArrayLike
 ) -> dict[str, Any]:
     """Mass offsets of links from static efforts, with the fit quality."""
 
-def identify_friction(velocities: ArrayLike, efforts: ArrayLike, min_speed: float = 1e-3) -> dict[str, float]:
+def identify_friction(velocities: _ArrayLike, efforts: _ArrayLike, min_speed: float = 1e-3) -> dict[str, float]:
     """Coulomb and viscous friction fitted to (velocity, effort) samples."""
 
-def trajectory_sample(positions: ArrayLike, dt: float, t: float) -> F64:
+def trajectory_sample(positions: _ArrayLike, dt: float, t: float) -> _F64:
     """A trajectory (N, n) sampled every dt, at time t (interpolated, held at the ends)."""
 
+@final
 class CommandDelay:
     """Commands issued at t take effect at t + delay."""
 
-    def __init__(self, delay: float, width: int) -> None: ...
+    def __new__(cls, delay: float, width: int) -> Self: ...
     @property
     def delay(self) -> float: ...
     @property
     def pending(self) -> int: ...
-    def push(self, t: float, command: ArrayLike) -> None: ...
-    def pop_due(self, t: float) -> F64 | None: ...
+    def push(self, t: float, command: _ArrayLike) -> None: ...
+    def pop_due(self, t: float) -> _F64 | None: ...
     def clear(self) -> None: ...
 
+@final
 class LinearPredictor:
     """Linear extrapolation of a command stream by a horizon."""
 
-    def __init__(self, horizon: float) -> None: ...
-    def update(self, t: float, c: ArrayLike) -> F64: ...
+    def __new__(cls, horizon: float) -> Self: ...
+    def update(self, t: float, c: _ArrayLike) -> _F64: ...
 
+@final
 class StreamGuard:
     """Holds on a command dropout and rate-limits the resume."""
 
-    def __init__(self, timeout: float, max_velocity: ArrayLike) -> None: ...
-    def update(self, t: float, command: ArrayLike | None, current: ArrayLike) -> dict[str, Any]: ...
+    def __new__(cls, timeout: float, max_velocity: _ArrayLike) -> Self: ...
+    def update(self, t: float, command: _ArrayLike | None, current: _ArrayLike) -> dict[str, Any]: ...
 
 # --- fault injection (ferrobot_control::faults; wrapped by ferrobot.scenarios) ---
 
 class EncoderNoise:
     """Gaussian joint encoder noise then quantisation."""
 
-    def __init__(self, sigma: ArrayLike, resolution: float = 0.0, seed: int = 0) -> None: ...
-    def apply(self, q: ArrayLike) -> F64: ...
+    def __init__(self, sigma: _ArrayLike, resolution: float = 0.0, seed: int = 0) -> None: ...
+    def apply(self, q: _ArrayLike) -> _F64: ...
 
 class DepthNoise:
     """Depth noise: axial sigma0 + sigma2 (z - z0)^2, random and edge dropout."""
@@ -791,9 +871,9 @@ class DepthNoise:
         missing_value: float,
         seed: int,
     ) -> None: ...
-    def sigma(self, z: ArrayLike) -> F64: ...
-    def edges(self, depth: ArrayLike) -> npt.NDArray[np.bool_]: ...
-    def apply(self, depth: ArrayLike) -> tuple[F64, npt.NDArray[np.bool_]]: ...
+    def sigma(self, z: _ArrayLike) -> _F64: ...
+    def edges(self, depth: _ArrayLike) -> npt.NDArray[np.bool_]: ...
+    def apply(self, depth: _ArrayLike) -> tuple[_F64, npt.NDArray[np.bool_]]: ...
 
 class Arbiter:
     """Priority, then latest command, then registration order; conflicts recorded."""
@@ -804,14 +884,14 @@ class Arbiter:
     @property
     def conflicts(self) -> list[dict[str, Any]]: ...
     def add_source(self, name: str, priority: int) -> None: ...
-    def command(self, source: str, t: float, joints: list[int], values: ArrayLike) -> None: ...
-    def resolve(self, t: float) -> tuple[F64, list[str | None]]: ...
+    def command(self, source: str, t: float, joints: list[int], values: _ArrayLike) -> None: ...
+    def resolve(self, t: float) -> tuple[_F64, list[str | None]]: ...
 
 # --- reactive control (ferrobot-control) ---
 
 class _ControllerBase:  # stub-only: the methods both controller classes define
-    def __init__(
-        self,
+    def __new__(
+        cls,
         model: RobotModel,
         world: CollisionWorld | None = None,
         spheres: SphereModel | None = None,
@@ -819,7 +899,7 @@ class _ControllerBase:  # stub-only: the methods both controller classes define
         ee_link: str | None = None,
         config: dict[str, float] | None = None,
         self_collision_samples: int = 2000,
-    ) -> None: ...
+    ) -> Self: ...
     @staticmethod
     def config_ranges() -> dict[str, tuple[float, float]]:
         """Every gain's accepted range {name: (low, high)}, inclusive."""
@@ -834,33 +914,35 @@ class _ControllerBase:  # stub-only: the methods both controller classes define
     def num_spheres(self) -> int: ...
     @property
     def num_self_pairs(self) -> int: ...
-    def set_target(self, pose: Pose, orientation: bool = True) -> None: ...
+    def set_target(self, pose: _Pose, orientation: bool = True) -> None: ...
     def clear_target(self) -> None: ...
     @property
-    def target(self) -> F64 | None: ...
-    def set_posture(self, q: ArrayLike) -> None: ...
+    def target(self) -> _F64 | None: ...
+    def set_posture(self, q: _ArrayLike) -> None: ...
     def update_world(self, world: CollisionWorld) -> None: ...
-    def set_obstacle_pose(self, name: str, pose: Pose, velocity: ArrayLike | None = None) -> None:
+    def set_obstacle_pose(self, name: str, pose: _Pose, velocity: _ArrayLike | None = None) -> None:
         """Moves an obstacle; ``velocity`` (3,) m/s or (6,) with angular rad/s, base frame."""
     def step(
-        self, q: ArrayLike, qd: ArrayLike, dt: float, joint_names: list[str] | None = None
-    ) -> tuple[F64, F64, F64]:
+        self, q: _ArrayLike, qd: _ArrayLike, dt: float, joint_names: list[str] | None = None
+    ) -> tuple[_F64, _F64, _F64]:
         """One control step: ``(q_target, qd_target, qdd)`` from the measured ``q``, ``qd``."""
     @property
     def last_step(self) -> dict[str, Any] | None: ...
-    def sphere_distances(self, q: ArrayLike, reach: float = 1.0) -> dict[str, F64]:
+    def sphere_distances(self, q: _ArrayLike, reach: float = 1.0) -> dict[str, _F64]:
         """Per sphere: ``distance``, ``direction`` (S, 3), ``gradient`` (S, num_dof), ``centers``, ``radii``."""
-    def exact_clearance(self, q: ArrayLike) -> dict[str, Any]:
+    def exact_clearance(self, q: _ArrayLike) -> dict[str, Any]:
         """Exact link-to-obstacle clearance (parry): ``distance`` and ``closest`` (link, object)."""
 
+@final
 class ReactiveController(_ControllerBase):
     """Reactive (RMPflow-style) control towards an end-effector target around obstacles."""
 
-    def set_waypoints(self, waypoints: ArrayLike) -> None:
+    def set_waypoints(self, waypoints: _ArrayLike) -> None:
         """Global guidance: joint-space waypoints (N, num_dof) or (N, len(active_joints))."""
     def clear_waypoints(self) -> None: ...
     @property
     def waypoints_remaining(self) -> int: ...
 
+@final
 class PotentialFieldController(_ControllerBase):
     """Potential-field control over voxelised distance fields of the obstacles."""

@@ -163,7 +163,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     )
     result = pp.run(spec, record_frames=not args.no_animation)
     print(format_report(result))
-    paths = write_episode(out, pp, result)
+    paths = write_episode(out, result)
     print("wrote " + ", ".join(str(p) for p in paths.values()))
     return 0 if result.success else 1
 

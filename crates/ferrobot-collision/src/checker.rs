@@ -92,6 +92,10 @@ pub struct CollisionChecker {
     pub(crate) margin: f64,
     pub(crate) robot: CompiledRobot,
     pub(crate) compiled_world: CompiledWorld,
+    /// Names of world objects the robot ignores (MoveIt's allowed-collision
+    /// entries for world objects): kept in the world, left out of every
+    /// query. Changing it recompiles the world from the shapes it holds.
+    pub(crate) disabled: std::collections::BTreeSet<String>,
     /// Whether bodies fixed to the base touch the world (true for every q).
     static_hit: bool,
     id: u64,
@@ -140,6 +144,7 @@ impl CollisionChecker {
             world,
             margin: 0.0,
             compiled_world,
+            disabled: Default::default(),
             static_hit: false,
             id: 0,
             exact_self: true,
@@ -215,8 +220,19 @@ impl CollisionChecker {
     }
 
     fn recompile_world(&mut self) {
-        self.compiled_world = CompiledWorld::new(&self.world);
+        let enabled = self.enabled_mask();
+        self.compiled_world = CompiledWorld::with_mask(&self.world, |i| enabled[i]);
         self.update_static();
+    }
+
+    /// Per world object (in `world().objects()` order): whether the robot
+    /// collides with it.
+    pub(crate) fn enabled_mask(&self) -> Vec<bool> {
+        self.world
+            .objects()
+            .iter()
+            .map(|o| !self.disabled.contains(&o.name))
+            .collect()
     }
 
     /// Tests the bodies fixed to the base against the world once.
@@ -268,9 +284,10 @@ impl CollisionChecker {
         &self.world
     }
 
-    /// Replaces the world.
+    /// Replaces the world (every object enabled).
     pub fn set_world(&mut self, world: CollisionWorld) {
         self.world = world;
+        self.disabled.clear();
         self.recompile_world();
     }
 
@@ -281,6 +298,67 @@ impl CollisionChecker {
     ) -> Result<T> {
         let out = f(&mut self.world);
         self.recompile_world();
+        out
+    }
+
+    /// Changes the world in place through `f` and sets the names of the
+    /// ignored world objects to `disabled`, recompiling once, and only if
+    /// the world (its revision) or the set changed: the incremental update
+    /// of a scene (poses moved, objects added or removed, objects ignored
+    /// or enabled by name), with every unchanged shape kept as it is.
+    /// Returns `f`'s value and whether anything changed.
+    pub fn sync_world<T>(
+        &mut self,
+        disabled: std::collections::BTreeSet<String>,
+        f: impl FnOnce(&mut CollisionWorld) -> Result<T>,
+    ) -> Result<(T, bool)> {
+        let revision = self.world.revision();
+        let out = f(&mut self.world);
+        let changed = self.world.revision() != revision || disabled != self.disabled;
+        self.disabled = disabled;
+        if changed {
+            self.recompile_world();
+        }
+        Ok((out?, changed))
+    }
+
+    /// Ignores (false) or enables (true) world object `name` for every
+    /// query, without rebuilding the world (MoveIt's allowed-collision
+    /// entry for a world object). The name must be in the world.
+    pub fn set_object_enabled(&mut self, name: &str, enabled: bool) -> Result<()> {
+        self.world.get(name)?;
+        let changed = if enabled {
+            self.disabled.remove(name)
+        } else {
+            self.disabled.insert(name.to_string())
+        };
+        if changed {
+            self.recompile_world();
+        }
+        Ok(())
+    }
+
+    /// Whether the robot collides with world object `name` (false when it
+    /// is ignored; an error when there is no such object).
+    pub fn is_object_enabled(&self, name: &str) -> Result<bool> {
+        self.world.get(name)?;
+        Ok(!self.disabled.contains(name))
+    }
+
+    /// Names of the world objects the robot ignores, sorted.
+    pub fn disabled_objects(&self) -> impl Iterator<Item = &str> {
+        self.disabled.iter().map(String::as_str)
+    }
+
+    /// The world without its ignored objects: what queries see.
+    pub fn enabled_world(&self) -> CollisionWorld {
+        let mut out = CollisionWorld::new();
+        for o in self.world.objects() {
+            if !self.disabled.contains(&o.name) {
+                out.add(&o.name, o.pose, o.parts.clone())
+                    .expect("names and shapes of a valid world");
+            }
+        }
         out
     }
 
@@ -560,6 +638,26 @@ impl CollisionChecker {
         Ok(())
     }
 
+    /// The links an object held by `link` may touch by default: `link`
+    /// and every link below it in the tree (a hand's fingers), in link
+    /// order.
+    pub fn default_touch_links(&self, link: usize) -> Vec<String> {
+        let model = &self.model;
+        model
+            .links()
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| {
+                *i == link
+                    || model
+                        .path_to(*i)
+                        .iter()
+                        .any(|&j| model.joints()[j].parent == link)
+            })
+            .map(|(_, l)| l.name.clone())
+            .collect()
+    }
+
     /// Moves world object `name` onto `link` at configuration `q` (it keeps
     /// its current world pose relative to the link).
     pub fn attach_world_object(
@@ -576,6 +674,8 @@ impl CollisionChecker {
         let pose_in_link = link_pose.inverse() * obj.pose;
         self.attach(name, link, pose_in_link, obj.parts.clone(), touch_links)?;
         self.world.remove(name)?;
+        // Attached, it is part of the robot: no world entry ignores it.
+        self.disabled.remove(name);
         self.recompile_world();
         Ok(())
     }

@@ -506,8 +506,18 @@ fn p32(p: &Point3<f64>) -> [f32; 3] {
 impl CompiledWorld {
     /// Compiles every part of every object of `world`.
     pub fn new(world: &CollisionWorld) -> Self {
+        Self::with_mask(world, |_| true)
+    }
+
+    /// Compiles every part of the objects of `world` for which
+    /// `enabled(object index)` holds (the others are ignored by every
+    /// query; obstacle `object` indices still index `world.objects()`).
+    pub fn with_mask(world: &CollisionWorld, enabled: impl Fn(usize) -> bool) -> Self {
         let mut obstacles = Vec::new();
         for (i, obj) in world.objects().iter().enumerate() {
+            if !enabled(i) {
+                continue;
+            }
             for (shape, local) in &obj.parts {
                 let pose = obj.pose * local;
                 let c = p32(&Point3::from(pose.translation.vector));

@@ -102,8 +102,10 @@ impl CollisionChecker {
         let placed = self.placed(q)?;
         let n = self.model.num_dof();
         let mut world = (f64::INFINITY, None::<(usize, Vector3<f64>, usize)>);
+        let enabled = self.enabled_mask();
         for (i, s) in placed.iter().enumerate() {
-            if let Some((d, dir, obj)) = self.world.signed_distance(&s.center) {
+            if let Some((d, dir, obj)) = self.world.signed_distance_where(&s.center, |k| enabled[k])
+            {
                 let d = d - s.radius;
                 if d < world.0 {
                     world = (d, Some((i, dir, obj)));
@@ -192,8 +194,15 @@ impl CollisionChecker {
                 });
             }
         };
+        let enabled = self.enabled_mask();
         for s in &placed {
-            for obj in self.world.objects() {
+            for (obj, _) in self
+                .world
+                .objects()
+                .iter()
+                .zip(&enabled)
+                .filter(|(_, on)| **on)
+            {
                 for (shape, local) in &obj.parts {
                     let pose = obj.pose * local;
                     let (d, _) = shape.signed_distance(&pose.inverse_transform_point(&s.center));

@@ -192,8 +192,21 @@ impl CollisionWorld {
     /// Signed distance from world point `p` to the nearest object, the
     /// direction it grows fastest and the object's index (None if empty).
     pub fn signed_distance(&self, p: &Point3<f64>) -> Option<(f64, Vector3<f64>, usize)> {
+        self.signed_distance_where(p, |_| true)
+    }
+
+    /// [`CollisionWorld::signed_distance`] over the objects for which
+    /// `enabled(object index)` holds.
+    pub fn signed_distance_where(
+        &self,
+        p: &Point3<f64>,
+        enabled: impl Fn(usize) -> bool,
+    ) -> Option<(f64, Vector3<f64>, usize)> {
         let mut best: Option<(f64, Vector3<f64>, usize)> = None;
         for (i, obj) in self.objects.iter().enumerate() {
+            if !enabled(i) {
+                continue;
+            }
             for (shape, local) in &obj.parts {
                 let pose = obj.pose * local;
                 let lp = pose.inverse_transform_point(p);

@@ -7,4 +7,4 @@
 
 pub mod scene_sync;
 
-pub use scene_sync::{SyncOptions, collision_world_from_sim};
+pub use scene_sync::{SceneSync, SyncOptions, SyncStats, collision_world_from_sim};

@@ -24,6 +24,8 @@ pub use error::{PlanningError, Result};
 pub use ik::{IkOptions, IkSolution, IkSolver};
 pub use joint_order::JointOrder;
 pub use limits::KinematicLimits;
-pub use planner::{PlanOptions, PlanResult, PlanStatus, Planner, StageTimes, TimedOut};
+pub use planner::{
+    Goal, PlanOptions, PlanRequest, PlanResult, PlanStatus, Planner, StageTimes, TimedOut,
+};
 pub use space::ActiveSpace;
 pub use spline::Trajectory;

@@ -198,6 +198,31 @@ impl PlanResult {
     }
 }
 
+/// What a plan request reaches.
+#[derive(Debug, Clone)]
+pub enum Goal {
+    /// One active configuration.
+    Configuration(Vec<f64>),
+    /// Any pose of a goal set of the IK link (base frame), reached through
+    /// collision-free IK.
+    Poses(Vec<Isometry3<f64>>),
+}
+
+/// One plan query: everything that varies between queries on one planner.
+#[derive(Debug, Clone)]
+pub struct PlanRequest {
+    /// Start, in the planner's active space.
+    pub start: Vec<f64>,
+    /// Goal.
+    pub goal: Goal,
+    /// A full configuration (`dof_names` order) whose entries for the
+    /// joints the planner does not move hold them for this query (a
+    /// gripper's measured opening, say); None keeps the planner's.
+    pub locked: Option<Vec<f64>>,
+    /// Options.
+    pub options: PlanOptions,
+}
+
 /// A motion planner for one robot, one sphere model and one world.
 #[derive(Debug, Clone)]
 pub struct Planner {
@@ -300,12 +325,12 @@ impl Planner {
         check_finite(what, q)
     }
 
-    fn in_collision(&self, q: &[f64]) -> bool {
-        self.checker.in_collision_unchecked(&self.space.expand(q))
+    fn in_collision(&self, space: &ActiveSpace, q: &[f64]) -> bool {
+        self.checker.in_collision_unchecked(&space.expand(q))
     }
 
-    fn explain(&self, q: &[f64]) -> String {
-        match self.checker.contacts(&self.space.expand(q)) {
+    fn explain(&self, space: &ActiveSpace, q: &[f64]) -> String {
+        match self.checker.contacts(&space.expand(q)) {
             Ok(c) if !c.is_empty() => c
                 .iter()
                 .take(3)
@@ -319,6 +344,54 @@ impl Planner {
     /// Plans from the active configuration `start` to the active
     /// configuration `goal`.
     pub fn plan(&self, start: &[f64], goal: &[f64], opts: &PlanOptions) -> Result<PlanResult> {
+        self.plan_in(&self.space, start, goal, opts)
+    }
+
+    /// Plans from `start` to any pose of the goal set `goals` (base frame)
+    /// of the IK link, through collision-free IK solutions.
+    pub fn plan_to_poses(
+        &self,
+        start: &[f64],
+        goals: &[Isometry3<f64>],
+        opts: &PlanOptions,
+    ) -> Result<PlanResult> {
+        self.plan_to_poses_in(&self.space, start, goals, opts)
+    }
+
+    /// Answers one plan request: its start, goal, locked joints and options
+    /// travel with the query, so concurrent queries with different locked
+    /// joints share one planner (and its compiled robot and world) instead
+    /// of each needing a copy.
+    pub fn solve(&self, request: &PlanRequest) -> Result<PlanResult> {
+        let local;
+        let space = match &request.locked {
+            Some(full) => {
+                self.model()
+                    .check_configuration("locked configuration", full)?;
+                let mut s = self.space.clone();
+                s.lock_from(full);
+                local = s;
+                &local
+            }
+            None => &self.space,
+        };
+        match &request.goal {
+            Goal::Configuration(goal) => {
+                self.plan_in(space, &request.start, goal, &request.options)
+            }
+            Goal::Poses(goals) => {
+                self.plan_to_poses_in(space, &request.start, goals, &request.options)
+            }
+        }
+    }
+
+    fn plan_in(
+        &self,
+        space: &ActiveSpace,
+        start: &[f64],
+        goal: &[f64],
+        opts: &PlanOptions,
+    ) -> Result<PlanResult> {
         self.check_active("start", start)?;
         self.check_active("goal", goal)?;
         opts.validate()?;
@@ -330,23 +403,22 @@ impl Planner {
                 StageTimes::default(),
             ));
         }
-        if let Some(r) = self.check_start(start, began) {
+        if let Some(r) = self.check_start(space, start, began) {
             return Ok(r);
         }
-        if self.in_collision(goal) {
+        if self.in_collision(space, goal) {
             return Ok(PlanResult::failed(
                 PlanStatus::GoalInCollision,
-                format!("goal in collision: {}", self.explain(goal)),
+                format!("goal in collision: {}", self.explain(space, goal)),
                 StageTimes::default(),
             ));
         }
-        Ok(self.search(start, &[goal.to_vec()], opts, began, 0.0))
+        Ok(self.search(space, start, &[goal.to_vec()], opts, began, 0.0))
     }
 
-    /// Plans from `start` to any pose of the goal set `goals` (base frame)
-    /// of the IK link, through collision-free IK solutions.
-    pub fn plan_to_poses(
+    fn plan_to_poses_in(
         &self,
+        space: &ActiveSpace,
         start: &[f64],
         goals: &[Isometry3<f64>],
         opts: &PlanOptions,
@@ -354,10 +426,10 @@ impl Planner {
         self.check_active("start", start)?;
         opts.validate()?;
         let began = Instant::now();
-        if let Some(r) = self.check_start(start, began) {
+        if let Some(r) = self.check_start(space, start, began) {
             return Ok(r);
         }
-        let solver = self.ik_solver(None)?;
+        let solver = IkSolver::new(self.checker.model(), space, self.link, Some(&self.checker))?;
         let ik_opts = IkOptions {
             collision_free: true,
             ..opts.ik.clone()
@@ -408,10 +480,15 @@ impl Planner {
         let dist =
             |q: &Vec<f64>| -> f64 { q.iter().zip(start).map(|(a, b)| (a - b) * (a - b)).sum() };
         goal_qs.sort_by(|a, b| dist(a).total_cmp(&dist(b)));
-        Ok(self.search(start, &goal_qs, opts, began, ik_time))
+        Ok(self.search(space, start, &goal_qs, opts, began, ik_time))
     }
 
-    fn check_start(&self, start: &[f64], began: Instant) -> Option<PlanResult> {
+    fn check_start(
+        &self,
+        space: &ActiveSpace,
+        start: &[f64],
+        began: Instant,
+    ) -> Option<PlanResult> {
         let times = StageTimes {
             total: began.elapsed().as_secs_f64(),
             ..StageTimes::default()
@@ -423,10 +500,10 @@ impl Planner {
                 times,
             ));
         }
-        if self.in_collision(start) {
+        if self.in_collision(space, start) {
             return Some(PlanResult::failed(
                 PlanStatus::StartInCollision,
-                format!("start in collision: {}", self.explain(start)),
+                format!("start in collision: {}", self.explain(space, start)),
                 times,
             ));
         }
@@ -435,6 +512,7 @@ impl Planner {
 
     fn search(
         &self,
+        space: &ActiveSpace,
         start: &[f64],
         goals: &[Vec<f64>],
         opts: &PlanOptions,
@@ -453,14 +531,14 @@ impl Planner {
         // final edges at the fine one; a path that fails there (rare) is
         // searched again at the fine resolution.
         let coarse = opts.rrt.resolution * opts.coarse_factor;
-        let mut attempt = self.find_path(start, goals, opts, coarse, deadline, &mut times);
+        let mut attempt =
+            self.find_path(space, start, goals, opts, coarse, deadline, &mut times);
         let mut unchecked = false;
         if opts.coarse_factor > 1.0
             && let (Ok(path), _) = &attempt
         {
             let t = Instant::now();
-            let mut fine =
-                Edges::new(&self.checker, &self.space, opts.rrt.resolution).until(deadline);
+            let mut fine = Edges::new(&self.checker, space, opts.rrt.resolution).until(deadline);
             let ok = path.windows(2).all(|w| fine.valid(&w[0], &w[1]));
             times.simplify += t.elapsed().as_secs_f64();
             if fine.timed_out() {
@@ -469,6 +547,7 @@ impl Planner {
                 unchecked = true;
             } else if !ok {
                 attempt = self.find_path(
+                    space,
                     start,
                     goals,
                     opts,
@@ -519,7 +598,7 @@ impl Planner {
                 .limits
                 .scaled(opts.velocity_scale, opts.acceleration_scale)
                 .expect("scales validated by the caller");
-            let (traj, fell_back, timed_out) = self.smooth(&path, &limits, opts, deadline);
+            let (traj, fell_back, timed_out) = self.smooth(space, &path, &limits, opts, deadline);
             stops = fell_back;
             if timed_out {
                 message = format!(
@@ -550,6 +629,7 @@ impl Planner {
     /// stage times are added to `times`.
     fn find_path(
         &self,
+        space: &ActiveSpace,
         start: &[f64],
         goals: &[Vec<f64>],
         opts: &PlanOptions,
@@ -565,13 +645,12 @@ impl Planner {
             resolution,
             ..opts.rrt.clone()
         };
-        let (found, stats) =
-            rrt_connect_until(&self.checker, &self.space, start, goals, &rrt, deadline);
+        let (found, stats) = rrt_connect_until(&self.checker, space, start, goals, &rrt, deadline);
         times.planning += t0.elapsed().as_secs_f64();
         let t1 = Instant::now();
         let found = found.map(|path| {
             if opts.simplify_path {
-                let mut edges = Edges::new(&self.checker, &self.space, resolution).until(deadline);
+                let mut edges = Edges::new(&self.checker, space, resolution).until(deadline);
                 let mut rng = SmallRng::seed_from_u64(opts.rrt.seed ^ 0x5EED);
                 simplify(&mut edges, path, &opts.simplify, &mut rng)
             } else {
@@ -589,6 +668,7 @@ impl Planner {
     /// (a dense re-check cut short).
     fn smooth(
         &self,
+        space: &ActiveSpace,
         path: &[Vec<f64>],
         limits: &KinematicLimits,
         opts: &PlanOptions,
@@ -600,7 +680,7 @@ impl Planner {
                 return (parametrize_polyline(path, limits), true, true);
             }
             let traj = parametrize(&waypoints, limits);
-            match self.first_collision_until(&traj, opts.rrt.resolution, Some(deadline)) {
+            match self.first_collision_in(space, &traj, opts.rrt.resolution, Some(deadline)) {
                 Err(TimedOut) => return (parametrize_polyline(path, limits), true, true),
                 Ok(None) => return (traj, false, false),
                 Ok(Some(seg)) => {
@@ -622,7 +702,7 @@ impl Planner {
     /// early exit at the first collision).
     pub fn first_collision(&self, traj: &Trajectory, resolution: f64) -> Option<usize> {
         // Without a deadline there is always an answer.
-        self.first_collision_until(traj, resolution, None)
+        self.first_collision_in(&self.space, traj, resolution, None)
             .unwrap_or(Some(0))
     }
 
@@ -630,6 +710,16 @@ impl Planner {
     /// (read between chunks of 4,096 configurations).
     pub fn first_collision_until(
         &self,
+        traj: &Trajectory,
+        resolution: f64,
+        deadline: Option<Instant>,
+    ) -> std::result::Result<Option<usize>, TimedOut> {
+        self.first_collision_in(&self.space, traj, resolution, deadline)
+    }
+
+    fn first_collision_in(
+        &self,
+        space: &ActiveSpace,
         traj: &Trajectory,
         resolution: f64,
         deadline: Option<Instant>,
@@ -649,7 +739,7 @@ impl Planner {
             found
         };
         let (mut q, mut v, mut a) = (vec![0.0; dim], vec![0.0; dim], vec![0.0; dim]);
-        let mut full = self.space.locked.clone();
+        let mut full = space.locked.clone();
         for i in 0..traj.times.len() - 1 {
             let h = traj.times[i + 1] - traj.times[i];
             let speed = (0..dim).map(|d| traj.max_speed(i, d)).fold(0.0, f64::max);
@@ -662,7 +752,7 @@ impl Planner {
                     &mut v,
                     &mut a,
                 );
-                self.space.expand_into(&q, &mut full);
+                space.expand_into(&q, &mut full);
                 configs.extend_from_slice(&full);
                 seg_of.push(traj.segment_of[i]);
                 if seg_of.len() == CHUNK {

@@ -164,6 +164,16 @@ pub fn read_pose(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<nalgebra::Isome
     }
 }
 
+/// Reads an optional pose (as [`read_pose`]); None is the identity.
+pub fn read_pose_or_identity(
+    obj: Option<&Bound<'_, PyAny>>,
+    what: &str,
+) -> PyResult<nalgebra::Isometry3<f64>> {
+    obj.map(|p| read_pose(p, what))
+        .transpose()
+        .map(|p| p.unwrap_or_else(nalgebra::Isometry3::identity))
+}
+
 /// Reads one pose or a batch of poses: shapes (7,), (4, 4), (N, 7) or
 /// (N, 4, 4), each checked as [`read_pose`] does.
 pub fn read_poses(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Vec<nalgebra::Isometry3<f64>>> {

@@ -14,15 +14,9 @@ use numpy::{IntoPyArray, PyArray1, PyArray2};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use crate::arrays::{read_array, read_pose};
+use crate::arrays::{read_array, read_pose, read_pose_or_identity};
 use crate::errors::{InvalidArgumentError, collision_err, guard};
 use crate::model::PyRobotModel;
-
-fn pose_or_identity(pose: Option<&Bound<'_, PyAny>>, what: &str) -> PyResult<Isometry3<f64>> {
-    pose.map(|p| read_pose(p, what))
-        .transpose()
-        .map(|p| p.unwrap_or_else(Isometry3::identity))
-}
 
 fn positive(what: &str, v: f64) -> PyResult<f64> {
     if v.is_finite() && v > 0.0 {
@@ -91,7 +85,7 @@ pub struct PyCollisionWorld {
 
 impl PyCollisionWorld {
     fn add(&mut self, name: &str, shape: Shape, pose: Option<&Bound<'_, PyAny>>) -> PyResult<()> {
-        let pose = pose_or_identity(pose, "pose")?;
+        let pose = read_pose_or_identity(pose, "pose")?;
         self.inner
             .add_shape(name, shape, pose)
             .map_err(collision_err)
@@ -797,7 +791,7 @@ impl PyCollisionChecker {
     ) -> PyResult<()> {
         guard(|| {
             let shape = shape_from_tuple(shape)?;
-            let pose = pose_or_identity(pose, "pose")?;
+            let pose = read_pose_or_identity(pose, "pose")?;
             let touch: Vec<&str> = touch_links.iter().map(String::as_str).collect();
             self.edit(|c| {
                 c.attach(

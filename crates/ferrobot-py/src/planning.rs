@@ -5,8 +5,8 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use ferrobot_planning::{
-    ActiveSpace, IkOptions, IkSolution, JointOrder, PlanOptions, PlanResult, Planner,
-    PlanningError, Trajectory,
+    ActiveSpace, Goal, IkOptions, IkSolution, JointOrder, PlanOptions, PlanRequest, PlanResult,
+    Planner, PlanningError, Trajectory,
 };
 use numpy::ndarray::{Array1, Array2};
 use numpy::{IntoPyArray, PyArray1, PyArray2};
@@ -17,6 +17,65 @@ use crate::arrays::{read_array, read_poses};
 use crate::collision::{PyCollisionWorld, PySphereModel, build_checker};
 use crate::errors::{InvalidArgumentError, ShapeError, collision_err, guard, model_err};
 use crate::model::PyRobotModel;
+
+/// Emits a `DeprecationWarning` (an old spelling kept for one release).
+pub(crate) fn deprecated(py: Python<'_>, msg: &str) -> PyResult<()> {
+    let cat = py.get_type::<pyo3::exceptions::PyDeprecationWarning>();
+    let msg = std::ffi::CString::new(msg).unwrap_or_default();
+    PyErr::warn(py, &cat, &msg, 1)
+}
+
+/// The IK start configuration and random seed from `start`, `seed` and the
+/// deprecated spellings: `seed` given a configuration (the old meaning)
+/// is the start; `random_seed` is the seed. Each old spelling warns.
+fn seed_args<'py>(
+    py: Python<'py>,
+    what: &str,
+    start_name: &str,
+    start: Option<&Bound<'py, PyAny>>,
+    seed: Option<&Bound<'py, PyAny>>,
+    random_seed: Option<u64>,
+) -> PyResult<(Option<Bound<'py, PyAny>>, u64)> {
+    let mut start = start.cloned();
+    let mut rng: Option<u64> = None;
+    if let Some(s) = seed {
+        let is_int = s.is_instance_of::<pyo3::types::PyInt>()
+            || s.hasattr("__index__")? && !s.hasattr("__len__")?;
+        if is_int {
+            rng = Some(s.extract::<u64>().map_err(|_| {
+                InvalidArgumentError::new_err(format!(
+                    "{what}: seed must be an integer in [0, 2^64 - 1] (the random seed)"
+                ))
+            })?);
+        } else {
+            deprecated(
+                py,
+                &format!(
+                    "{what}(seed=<configuration>) is deprecated: the start configuration is `{start_name}`; `seed` is the random seed"
+                ),
+            )?;
+            if start.is_some() {
+                return Err(InvalidArgumentError::new_err(format!(
+                    "{what}: give {start_name}, not both {start_name} and a configuration as seed"
+                )));
+            }
+            start = Some(s.clone());
+        }
+    }
+    if let Some(r) = random_seed {
+        deprecated(
+            py,
+            &format!("{what}(random_seed=...) is deprecated: use seed="),
+        )?;
+        if rng.is_some_and(|x| x != r) {
+            return Err(InvalidArgumentError::new_err(format!(
+                "{what}: give seed, not both seed and the deprecated random_seed"
+            )));
+        }
+        rng = Some(r);
+    }
+    Ok((start, rng.unwrap_or(0)))
+}
 
 /// Converts a planning error to the matching Python exception.
 pub fn planning_err(e: PlanningError) -> PyErr {
@@ -451,6 +510,9 @@ pub struct PyPlanner {
     /// `attach_world_object`, ...) edits a copy when a plan holds the
     /// current one, so concurrent plans always see one consistent world.
     inner: std::sync::RwLock<Arc<Planner>>,
+    /// Keeps the planner's world in sync with a simulated world
+    /// (`update_world(sim, ...)`): hulls cached, poses moved in place.
+    sync: std::sync::Mutex<ferrobot_pipeline::SceneSync>,
 }
 
 impl PyPlanner {
@@ -554,7 +616,7 @@ impl PyPlanner {
         num_seeds: usize,
         max_iterations: usize,
         collision_free: bool,
-        random_seed: u64,
+        seed: u64,
     ) -> PyResult<IkOptions> {
         let o = IkOptions {
             position_tolerance,
@@ -562,7 +624,7 @@ impl PyPlanner {
             num_seeds,
             max_iterations,
             collision_free,
-            seed: random_seed,
+            seed,
         };
         o.validate().map_err(planning_err)?;
         Ok(o)
@@ -601,6 +663,7 @@ impl PyPlanner {
                 inner: std::sync::RwLock::new(Arc::new(
                     Planner::new(checker, link).map_err(planning_err)?,
                 )),
+                sync: Default::default(),
             })
         })
     }
@@ -693,13 +756,17 @@ impl PyPlanner {
         })
     }
 
-    /// Replaces the planner's world. `world` is a `CollisionWorld` (robot
-    /// base frame; a copy is taken) or a simulated `World`, whose objects
-    /// are taken at their current poses and expressed in the frame of
-    /// `base_pose` (the robot base's pose in the simulation; identity by
-    /// default), with its ground plane as a slab named "ground". Objects
-    /// whose name contains one of the `ignore` substrings are left out, and
-    /// so are objects attached to the robot (by name).
+    /// Sets the planner's world. `world` is a `CollisionWorld` (robot base
+    /// frame; a copy replaces the planner's world, without the objects
+    /// whose name contains one of the `ignore` substrings) or a simulated
+    /// `World`, whose objects are taken at their current poses and expressed
+    /// in the frame of `base_pose` (the robot base's pose in the simulation;
+    /// identity by default), with its ground plane as a slab named "ground".
+    /// A simulated world is synced incrementally: objects are moved in
+    /// place, added or removed as the simulation changed, hulls made once
+    /// per object, and the objects matching `ignore` stay in the world but
+    /// are ignored by every query until a later sync enables them (see
+    /// `set_object_enabled`). Objects attached to the robot stay out.
     #[pyo3(signature = (world, ignore=None, base_pose=None))]
     fn update_world(
         &self,
@@ -709,6 +776,24 @@ impl PyPlanner {
     ) -> PyResult<()> {
         guard(|| {
             let ignore = crate::scene::ignore_list(ignore)?;
+            if let Ok(sim) = world.cast::<crate::sim::PyWorld>() {
+                let base = match base_pose {
+                    Some(p) => crate::arrays::read_pose(p, "base_pose")?,
+                    None => nalgebra::Isometry3::identity(),
+                };
+                let opts = ferrobot_pipeline::SyncOptions { ignore, base };
+                let shared = sim.borrow().shared();
+                let w = crate::sim::lock(&shared)?;
+                let mut sync = self
+                    .sync
+                    .lock()
+                    .unwrap_or_else(|poisoned| poisoned.into_inner());
+                return self.edit(|p| {
+                    sync.sync(&w, &opts, p.checker_mut())
+                        .map(|_| ())
+                        .map_err(collision_err)
+                });
+            }
             let attached: Vec<String> = self
                 .snap()
                 .checker()
@@ -721,6 +806,57 @@ impl PyPlanner {
                 p.update_world(w);
                 Ok(())
             })
+        })
+    }
+
+    /// Ignores (`enabled=False`) or enables world object `name` for every
+    /// query without rebuilding the world (MoveIt's allowed-collision
+    /// entry for a world object). Raises `UnknownNameError` for a name not
+    /// in the world.
+    #[pyo3(signature = (name, enabled))]
+    fn set_object_enabled(&self, name: &str, enabled: bool) -> PyResult<()> {
+        guard(|| {
+            self.edit(|p| {
+                p.checker_mut()
+                    .set_object_enabled(name, enabled)
+                    .map_err(collision_err)
+            })
+        })
+    }
+
+    /// Names of the world objects the planner ignores (sorted).
+    #[getter]
+    fn ignored_objects(&self) -> PyResult<Vec<String>> {
+        guard(|| {
+            Ok(self
+                .snap()
+                .checker()
+                .disabled_objects()
+                .map(String::from)
+                .collect())
+        })
+    }
+
+    /// Counters of the scene sync (`update_world` with a simulated world)
+    /// since the planner was made: `full_builds` (syncs that built the
+    /// world from scratch), `incremental` (syncs that updated it in place),
+    /// `added`, `removed`, `moved`
+    /// (objects).
+    #[getter]
+    fn world_sync_stats<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        guard(|| {
+            let s = self
+                .sync
+                .lock()
+                .unwrap_or_else(|poisoned| poisoned.into_inner())
+                .stats();
+            let d = PyDict::new(py);
+            d.set_item("full_builds", s.full_builds)?;
+            d.set_item("incremental", s.incremental)?;
+            d.set_item("added", s.added)?;
+            d.set_item("removed", s.removed)?;
+            d.set_item("moved", s.moved)?;
+            Ok(d)
         })
     }
 
@@ -748,19 +884,7 @@ impl PyPlanner {
             };
             let touch = match touch_links {
                 Some(t) => t,
-                None => model
-                    .links()
-                    .iter()
-                    .enumerate()
-                    .filter(|(i, _)| {
-                        *i == li
-                            || model
-                                .path_to(*i)
-                                .iter()
-                                .any(|&j| model.joints()[j].parent == li)
-                    })
-                    .map(|(_, l)| l.name.clone())
-                    .collect(),
+                None => inner.checker().default_touch_links(li),
             };
             let touch: Vec<&str> = touch.iter().map(String::as_str).collect();
             let link_name = model.links()[li].name.clone();
@@ -825,15 +949,14 @@ impl PyPlanner {
         })
     }
 
-    /// A copy of the planner's world.
+    /// A copy of the planner's world: the objects it collides with (the
+    /// ignored ones left out).
     #[getter]
     fn world(&self) -> PyResult<PyCollisionWorld> {
         guard(|| {
             let inner = self.snap();
-            Ok({
-                PyCollisionWorld {
-                    inner: inner.checker().world().clone(),
-                }
+            Ok(PyCollisionWorld {
+                inner: inner.checker().enabled_world(),
             })
         })
     }
@@ -860,17 +983,19 @@ impl PyPlanner {
     }
 
     /// IK for one pose (base frame; 4x4 or [x, y, z, qw, qx, qy, qz]):
-    /// `seed` first, then random seeds. With `collision_free`, solutions in
-    /// collision are rejected.
-    #[pyo3(signature = (goal_pose, seed=None, *, link=None, joint_names=None,
+    /// the `start` configuration first, then random starts drawn with the
+    /// random seed `seed`. With `collision_free`, solutions in collision are
+    /// rejected. (Deprecated: `seed=<configuration>` for `start`, and
+    /// `random_seed` for `seed`.)
+    #[pyo3(signature = (goal_pose, start=None, *, link=None, joint_names=None,
         position_tolerance=1e-3, rotation_tolerance=0.01, num_seeds=200, max_iterations=60,
-        collision_free=false, random_seed=0))]
+        collision_free=false, seed=None, random_seed=None))]
     #[allow(clippy::too_many_arguments)]
     fn ik(
         &self,
         py: Python<'_>,
         goal_pose: &Bound<'_, PyAny>,
-        seed: Option<&Bound<'_, PyAny>>,
+        start: Option<&Bound<'_, PyAny>>,
         link: Option<&str>,
         joint_names: Option<Vec<String>>,
         position_tolerance: f64,
@@ -878,9 +1003,11 @@ impl PyPlanner {
         num_seeds: usize,
         max_iterations: usize,
         collision_free: bool,
-        random_seed: u64,
+        seed: Option<&Bound<'_, PyAny>>,
+        random_seed: Option<u64>,
     ) -> PyResult<PyIkResult> {
         guard(|| {
+            let (start, rng) = seed_args(py, "ik", "start", start, seed, random_seed)?;
             let goals = read_poses(goal_pose, "goal_pose")?;
             if goals.len() != 1 {
                 return Err(ShapeError::new_err(
@@ -890,7 +1017,7 @@ impl PyPlanner {
             self.goalset(
                 py,
                 goals,
-                seed,
+                start.as_ref(),
                 link,
                 joint_names,
                 Self::ik_opts(
@@ -899,7 +1026,7 @@ impl PyPlanner {
                     num_seeds,
                     max_iterations,
                     collision_free,
-                    random_seed,
+                    rng,
                 )?,
             )
         })
@@ -907,15 +1034,16 @@ impl PyPlanner {
 
     /// IK for a goal set: any of the poses (N, 7) or (N, 4, 4) will do
     /// (grasp candidates, say); `goal_index` tells which was reached.
-    #[pyo3(signature = (goal_poses, seed=None, *, link=None, joint_names=None,
+    /// `start` and `seed` as in `ik`.
+    #[pyo3(signature = (goal_poses, start=None, *, link=None, joint_names=None,
         position_tolerance=1e-3, rotation_tolerance=0.01, num_seeds=200, max_iterations=60,
-        collision_free=false, random_seed=0))]
+        collision_free=false, seed=None, random_seed=None))]
     #[allow(clippy::too_many_arguments)]
     fn ik_goalset(
         &self,
         py: Python<'_>,
         goal_poses: &Bound<'_, PyAny>,
-        seed: Option<&Bound<'_, PyAny>>,
+        start: Option<&Bound<'_, PyAny>>,
         link: Option<&str>,
         joint_names: Option<Vec<String>>,
         position_tolerance: f64,
@@ -923,14 +1051,16 @@ impl PyPlanner {
         num_seeds: usize,
         max_iterations: usize,
         collision_free: bool,
-        random_seed: u64,
+        seed: Option<&Bound<'_, PyAny>>,
+        random_seed: Option<u64>,
     ) -> PyResult<PyIkResult> {
         guard(|| {
+            let (start, rng) = seed_args(py, "ik_goalset", "start", start, seed, random_seed)?;
             let goals = read_poses(goal_poses, "goal_poses")?;
             self.goalset(
                 py,
                 goals,
-                seed,
+                start.as_ref(),
                 link,
                 joint_names,
                 Self::ik_opts(
@@ -939,23 +1069,25 @@ impl PyPlanner {
                     num_seeds,
                     max_iterations,
                     collision_free,
-                    random_seed,
+                    rng,
                 )?,
             )
         })
     }
 
-    /// IK for each of N poses independently, in parallel; `seeds` (N, k)
-    /// optional. Results are arrays over the batch.
-    #[pyo3(signature = (goal_poses, seeds=None, *, link=None, joint_names=None,
+    /// IK for each of N poses independently, in parallel; `starts` (N, k)
+    /// optional start configurations, `seed` the random seed. Results are
+    /// arrays over the batch. (Deprecated: `seeds` for `starts`,
+    /// `random_seed` for `seed`.)
+    #[pyo3(signature = (goal_poses, starts=None, *, link=None, joint_names=None,
         position_tolerance=1e-3, rotation_tolerance=0.01, num_seeds=200, max_iterations=60,
-        collision_free=false, random_seed=0))]
+        collision_free=false, seed=0, seeds=None, random_seed=None))]
     #[allow(clippy::too_many_arguments)]
     fn ik_batch(
         &self,
         py: Python<'_>,
         goal_poses: &Bound<'_, PyAny>,
-        seeds: Option<&Bound<'_, PyAny>>,
+        starts: Option<&Bound<'_, PyAny>>,
         link: Option<&str>,
         joint_names: Option<Vec<String>>,
         position_tolerance: f64,
@@ -963,9 +1095,38 @@ impl PyPlanner {
         num_seeds: usize,
         max_iterations: usize,
         collision_free: bool,
-        random_seed: u64,
+        seed: u64,
+        seeds: Option<&Bound<'_, PyAny>>,
+        random_seed: Option<u64>,
     ) -> PyResult<PyIkResult> {
         guard(|| {
+            let starts = match (starts, seeds) {
+                (Some(_), Some(_)) => {
+                    return Err(InvalidArgumentError::new_err(
+                        "ik_batch: give starts, not both starts and the deprecated seeds",
+                    ));
+                }
+                (None, Some(s)) => {
+                    deprecated(
+                        py,
+                        "ik_batch(seeds=...) is deprecated: the start configurations are `starts`",
+                    )?;
+                    Some(s)
+                }
+                (s, None) => s,
+            };
+            let rng = match random_seed {
+                Some(r) => {
+                    deprecated(py, "ik_batch(random_seed=...) is deprecated: use seed=")?;
+                    if seed != 0 && seed != r {
+                        return Err(InvalidArgumentError::new_err(
+                            "ik_batch: give seed, not both seed and the deprecated random_seed",
+                        ));
+                    }
+                    r
+                }
+                None => seed,
+            };
             let inner = self.snap();
             let opts = Self::ik_opts(
                 position_tolerance,
@@ -973,18 +1134,18 @@ impl PyPlanner {
                 num_seeds,
                 max_iterations,
                 collision_free,
-                random_seed,
+                rng,
             )?;
             let goals = read_poses(goal_poses, "goal_poses")?;
             let order = self.order(joint_names)?;
-            let seeds: Option<Vec<Vec<f64>>> = match seeds {
+            let starts: Option<Vec<Vec<f64>>> = match starts {
                 None => None,
                 Some(s) => {
-                    let arr = read_array(s, "seeds", 2, &[None])?;
+                    let arr = read_array(s, "starts", 2, &[None])?;
                     let w = arr.shape[1];
                     if arr.shape[0] != goals.len() {
                         return Err(ShapeError::new_err(format!(
-                            "seeds: {} rows for {} goal poses",
+                            "starts: {} rows for {} goal poses",
                             arr.shape[0],
                             goals.len()
                         )));
@@ -992,7 +1153,7 @@ impl PyPlanner {
                     let mut out = Vec::with_capacity(goals.len());
                     for row in arr.data().chunks_exact(w.max(1)) {
                         let list = pyo3::types::PyList::new(py, row)?;
-                        out.push(self.config(list.as_any(), "seeds row", order.as_ref())?.0);
+                        out.push(self.config(list.as_any(), "starts row", order.as_ref())?.0);
                     }
                     Some(out)
                 }
@@ -1000,7 +1161,7 @@ impl PyPlanner {
             let link = self.link(link)?;
             let solver = inner.ik_solver(link).map_err(planning_err)?;
             let solutions = py
-                .detach(|| solver.solve_batch(&goals, seeds.as_deref(), &opts))
+                .detach(|| solver.solve_batch(&goals, starts.as_deref(), &opts))
                 .map_err(planning_err)?;
             Ok(PyIkResult {
                 solutions,
@@ -1064,36 +1225,32 @@ impl PyPlanner {
                 .map_err(planning_err)?;
             let order = self.order(joint_names)?;
             let (start, full) = self.config(start, "start", order.as_ref())?;
-            // A full start sets the locked joints for this plan.
-            let local;
-            let planner = match full {
-                Some(f) if f != inner.space().locked => {
-                    let mut p = (*inner).clone();
-                    p.set_locked(&f).map_err(planning_err)?;
-                    local = p;
-                    &local
-                }
-                _ => &*inner,
-            };
-            let result = match (goal_q, goal_pose) {
-                (Some(g), None) => {
-                    let (goal, _) = self.config(g, "goal_q", order.as_ref())?;
-                    py.detach(|| planner.plan(&start, &goal, &opts))
-                }
-                (None, Some(p)) => {
-                    let goals = read_poses(p, "goal_pose")?;
-                    py.detach(|| planner.plan_to_poses(&start, &goals, &opts))
-                }
+            // A full start sets the locked joints for this plan (the request
+            // carries them: the planner is shared, not copied).
+            let locked = full.filter(|f| *f != inner.space().locked);
+            let goal = match (goal_q, goal_pose) {
+                (Some(g), None) => Goal::Configuration(self.config(g, "goal_q", order.as_ref())?.0),
+                (None, Some(p)) => Goal::Poses(read_poses(p, "goal_pose")?),
                 _ => {
                     return Err(InvalidArgumentError::new_err(
                         "give exactly one of goal_q and goal_pose",
                     ));
                 }
+            };
+            let mut space = inner.space().clone();
+            if let Some(f) = &locked {
+                space.lock_from(f);
             }
-            .map_err(planning_err)?;
+            let request = PlanRequest {
+                start,
+                goal,
+                locked,
+                options: opts,
+            };
+            let result = py.detach(|| inner.solve(&request)).map_err(planning_err)?;
             Ok(PyPlanResult {
                 inner: result,
-                out: self.output(order, planner.space()),
+                out: self.output(order, &space),
             })
         })
     }
@@ -1118,15 +1275,15 @@ impl PyPlanner {
         &self,
         py: Python<'_>,
         goals: Vec<nalgebra::Isometry3<f64>>,
-        seed: Option<&Bound<'_, PyAny>>,
+        start: Option<&Bound<'_, PyAny>>,
         link: Option<&str>,
         joint_names: Option<Vec<String>>,
         opts: IkOptions,
     ) -> PyResult<PyIkResult> {
         let inner = self.snap();
         let order = self.order(joint_names)?;
-        let seeds = match seed {
-            Some(s) => vec![self.config(s, "seed", order.as_ref())?.0],
+        let seeds = match start {
+            Some(s) => vec![self.config(s, "start", order.as_ref())?.0],
             None => Vec::new(),
         };
         let link = self.link(link)?;

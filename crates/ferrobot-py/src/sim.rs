@@ -113,16 +113,6 @@ fn vec3_arg(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Vector3<f64>> {
     Ok(Vector3::new(d[0], d[1], d[2]))
 }
 
-fn pose_arg(pose: Option<&Bound<'_, PyAny>>, what: &str) -> PyResult<Isometry3<f64>> {
-    match pose {
-        None => Ok(Isometry3::identity()),
-        Some(p) => {
-            check_pose_finite(p, what)?;
-            read_pose(p, what)
-        }
-    }
-}
-
 /// A pose as Isaac Sim returns it: position (3,), orientation (w, x, y, z).
 fn pose_parts<'py>(py: Python<'py>, pose: &Isometry3<f64>) -> VecPair<'py> {
     let t = pose.translation.vector;
@@ -143,7 +133,7 @@ fn compose_pose(
     if let (Some(p), None) = (position, orientation) {
         let a = crate::arrays::read_array_any(p, "position")?;
         if matches!(a.shape.as_slice(), [7] | [4, 4]) {
-            return pose_arg(Some(p), "position");
+            return read_pose(p, "position");
         }
     }
     let t = match position {
@@ -162,7 +152,7 @@ fn compose_pose(
             let d = a.data();
             let v = [t.x, t.y, t.z, d[0], d[1], d[2], d[3]];
             let arr = Array1::from_vec(v.to_vec()).into_pyarray(o.py());
-            pose_arg(Some(arr.as_any()), "orientation")?.rotation
+            read_pose(arr.as_any(), "orientation")?.rotation
         }
         None => current.rotation,
     };
@@ -174,16 +164,6 @@ fn no_effect_warning(py: Python<'_>, msg: &str) -> PyResult<()> {
     let cat = py.get_type::<pyo3::exceptions::PyUserWarning>();
     let msg = std::ffi::CString::new(msg).unwrap_or_default();
     PyErr::warn(py, &cat, &msg, 1)
-}
-
-/// NaN in a pose is a `NonFiniteError` (read_pose would report it too;
-/// this keeps the message naming the argument).
-fn check_pose_finite(p: &Bound<'_, PyAny>, what: &str) -> PyResult<()> {
-    let a = crate::arrays::read_array_any(p, what)?;
-    if a.data().iter().any(|v| !v.is_finite()) {
-        return Err(NonFiniteError::new_err(format!("{what}: non-finite value")));
-    }
-    Ok(())
 }
 
 /// A physics world (Rapier): ground plane, rigid objects, robots, stepping,
@@ -204,7 +184,7 @@ fn object_desc(
     is_static: bool,
     color: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<ObjectDesc> {
-    let pose = pose_arg(pose, "pose")?;
+    let pose = crate::arrays::read_pose_or_identity(pose, "pose")?;
     check_all(
         &COORDINATE,
         "pose translation",
@@ -604,7 +584,7 @@ impl PyWorld {
     /// Teleports an object.
     fn set_object_pose(&self, name: &str, pose: &Bound<'_, PyAny>) -> PyResult<()> {
         guard(|| {
-            let p = pose_arg(Some(pose), "pose")?;
+            let p = read_pose(pose, "pose")?;
             let mut w = lock(&self.inner)?;
             let i = self.object(&w, name)?;
             w.set_object_pose(i, &p).map_err(sim_err)
@@ -661,7 +641,7 @@ impl PyWorld {
         friction: f64,
     ) -> PyResult<PyRobot> {
         let mut opts = RobotOptions::new(name);
-        opts.pose = pose_arg(pose, "pose")?;
+        opts.pose = crate::arrays::read_pose_or_identity(pose, "pose")?;
         opts.q = q
             .map(|q| {
                 read_array(q, "q", 1, &[Some(model.inner.num_dof())]).map(|a| a.data().to_vec())
@@ -1506,7 +1486,7 @@ impl PyCamera {
             };
             let camera = Camera {
                 intrinsics,
-                pose: pose_arg(pose, "pose")?,
+                pose: crate::arrays::read_pose_or_identity(pose, "pose")?,
                 mount,
                 near,
                 far,
@@ -1555,7 +1535,7 @@ impl PyCamera {
     /// Sets the pose relative to the mount (OpenCV frame).
     fn set_local_pose(&mut self, pose: &Bound<'_, PyAny>) -> PyResult<()> {
         guard(|| {
-            self.camera.pose = pose_arg(Some(pose), "pose")?;
+            self.camera.pose = read_pose(pose, "pose")?;
             Ok(())
         })
     }
@@ -1691,7 +1671,7 @@ pub fn opencv_to_opengl<'py>(
     guard(|| {
         Ok(matrix(
             py,
-            &ferrobot_camera::opencv_to_opengl(&pose_arg(Some(pose), "pose")?),
+            &ferrobot_camera::opencv_to_opengl(&read_pose(pose, "pose")?),
         ))
     })
 }
@@ -1705,7 +1685,7 @@ pub fn opengl_to_opencv<'py>(
     guard(|| {
         Ok(matrix(
             py,
-            &ferrobot_camera::opengl_to_opencv(&pose_arg(Some(pose), "pose")?),
+            &ferrobot_camera::opengl_to_opencv(&read_pose(pose, "pose")?),
         ))
     })
 }
@@ -1879,7 +1859,7 @@ impl PyResolvedRate {
             let q = read_array(q, "q", 1, &[Some(self.model.num_dof())])?
                 .data()
                 .to_vec();
-            let t = pose_arg(Some(target), "target")?;
+            let t = read_pose(target, "target")?;
             Ok(vec1(
                 py,
                 self.inner.compute(&self.model, &q, &t).map_err(sim_err)?,

@@ -351,7 +351,7 @@ def run_episode(cfg: dict, index: int, root: str) -> dict:
                 "success": bool(result.success),
                 "failed_stage": result.failed_stage,
                 "reason": result.reason,
-                "stages": pp.rec.stage_bounds,
+                "stages": result.episode.recorder.stage_bounds,
                 "randomization": rand,
                 "scene": spec.to_dict(),
                 "result": result.to_dict(),

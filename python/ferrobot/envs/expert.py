@@ -23,7 +23,7 @@ import numpy as np
 
 from .. import _core, transforms
 from ..errors import InvalidArgumentError
-from ..pipeline.pick_place import EpisodeResult, PickPlace, PickPlaceConfig, StageFailure
+from ..pipeline.pick_place import Episode, EpisodeResult, PickPlace, PickPlaceConfig, StageFailure
 from ..pipeline.scene import TABLE_SIZE, TABLE_TOP, TABLE_XY
 
 __all__ = ["ExpertPolicy"]
@@ -87,21 +87,27 @@ class ExpertPolicy:
         if self.pp is None or self.pp.model is not env.model:
             self.pp = PickPlace(self.config, model=env.model)
         pp = self.pp
-        for name in ("frame", "grasps_world", "grasps_camera", "choice"):
-            pp.__dict__.pop(name, None)
-        pp.spec, pp.world, pp.camera = env.spec_scene, env.world, env.scene_camera
-        pp.robot = env.robot
-        pp.base = env.base_pose
         (tx, ty), (sx, sy, _) = TABLE_XY, TABLE_SIZE
-        pp.workspace = [tx - sx / 2, tx + sx / 2, ty - sy / 2, ty + sy / 2, TABLE_TOP - 0.02, TABLE_TOP + 0.3]
-        pp.arm_idx = [env.robot.dof_names.index(n) for n in pp.arm]
-        if pp.arm_idx != list(env.arm_idx):
+        arm_idx = [env.robot.dof_names.index(n) for n in pp.arm]
+        if arm_idx != list(env.arm_idx):
             raise InvalidArgumentError("ExpertPolicy: the environment's arm joints differ from the planner's")
+        result = EpisodeResult(seed=env.spec_scene.seed, target=env.spec_scene.target)
+        pp.episode = Episode(
+            spec=env.spec_scene,
+            result=result,
+            model=env.model,
+            world=env.world,
+            robot=env.robot,
+            camera=env.scene_camera,
+            base=env.base_pose,
+            workspace=[tx - sx / 2, tx + sx / 2, ty - sy / 2, ty + sy / 2, TABLE_TOP - 0.02, TABLE_TOP + 0.3],
+            arm_idx=arm_idx,
+            recorder=_ActionRecorder(self, env.control_hz),
+        )
+        result.episode = pp.episode
         pp.planner.update_world(_core.CollisionWorld())
         for name in list(pp.planner.attached):
             pp.planner.detach(name)
-        pp.result = EpisodeResult(seed=env.spec_scene.seed, target=env.spec_scene.target)
-        pp.rec = _ActionRecorder(self, env.control_hz)
         self.env = env
         self.control_hz = env.control_hz
         self.failure = ""

@@ -438,7 +438,7 @@ class FerrobotEnv(gym.Env):
             goal = transforms.pose_to_matrix(np.concatenate([a[:3], a[3:7] / np.linalg.norm(a[3:7])]))
         seed = q[self.arm_idx]
         lo, hi = self.model.lower_limits[self.arm_idx], self.model.upper_limits[self.arm_idx]
-        res = self.planner.ik(goal, np.clip(seed, lo, hi), num_seeds=8, random_seed=0)
+        res = self.planner.ik(goal, np.clip(seed, lo, hi), num_seeds=8, seed=0)
         if res.success:
             arm = np.asarray(res.q, dtype=np.float64)
             return np.concatenate([arm, a[-1:]]), False

@@ -7,13 +7,14 @@ print(result.success, result.failed_stage, result.reason)
 
 from __future__ import annotations
 
-from .pick_place import STAGES, EpisodeResult, PickPlace, PickPlaceConfig, StageFailure, StageResult
+from .pick_place import STAGES, Episode, EpisodeResult, PickPlace, PickPlaceConfig, StageFailure, StageResult
 from .scene import HOME, TABLE_TOP, ObjectSpec, SceneSpec, build_world, random_scene
 
 __all__ = [
     "HOME",
     "STAGES",
     "TABLE_TOP",
+    "Episode",
     "EpisodeResult",
     "ObjectSpec",
     "PickPlace",

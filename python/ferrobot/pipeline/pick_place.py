@@ -21,7 +21,9 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+import warnings
+from dataclasses import dataclass, field, fields
+from typing import Any
 
 import numpy as np
 
@@ -29,7 +31,7 @@ from .. import _core, grasp, robots, transforms
 from .. import camera as camera_model
 from .scene import HOME, ROBOT_MOUNT, TABLE_SIZE, TABLE_TOP, TABLE_XY, SceneSpec, build_world
 
-__all__ = ["PickPlace", "PickPlaceConfig", "EpisodeResult", "StageResult", "StageFailure", "STAGES"]
+__all__ = ["PickPlace", "PickPlaceConfig", "Episode", "EpisodeResult", "StageResult", "StageFailure", "STAGES"]
 
 #: The stages of an episode, in order.
 STAGES = (
@@ -116,6 +118,9 @@ class EpisodeResult:
     sim_time_s: float = 0.0
     place_error_m: float | None = None
     target: str = ""
+    #: Everything the episode made (scene, frames, grasps, chosen configurations, recorder): what reports
+    #: and viewers read. Not part of :meth:`to_dict`.
+    episode: Episode | None = field(default=None, repr=False, compare=False)
 
     def to_dict(self) -> dict:
         return {
@@ -131,6 +136,70 @@ class EpisodeResult:
                 {"name": s.name, "ok": s.ok, "time_s": s.time_s, "reason": s.reason, **s.detail} for s in self.stages
             ],
         }
+
+
+@dataclass(eq=False)
+class Episode:
+    """The record of one episode: the scene it built and what each stage produced, in the order the stages
+    fill it in (None until then). :meth:`PickPlace.run` makes one per episode, so nothing of an episode leaks
+    into the next; reports (:func:`ferrobot.pipeline.report.write_episode`) and viewers read it."""
+
+    #: The scene description.
+    spec: SceneSpec
+    #: The outcome (its ``episode`` field points back here).
+    result: EpisodeResult
+    #: The robot model and the planner's sphere model (for viewers).
+    model: Any = None
+    spheres: Any = None
+    #: The simulated world, its robot and the perception camera (``scene``).
+    world: Any = None
+    robot: Any = None
+    camera: Any = None
+    #: Pose (4x4) of the robot base in the world.
+    base: np.ndarray | None = None
+    #: Grasp workspace [xmin, xmax, ymin, ymax, zmin, zmax] (world frame).
+    workspace: list[float] | None = None
+    #: Indices of the planner's joints in the simulated robot's DOFs.
+    arm_idx: list[int] = field(default_factory=list)
+    #: What recorded the robot's motion (:class:`Recorder` or a dataset recorder).
+    recorder: Any = None
+    #: The camera frame (``perceive``): depth, segmentation, rgb; and the target's segmentation id.
+    frame: dict | None = None
+    target_id: int | None = None
+    #: Detected grasps in the world and camera frames, and the target's top-surface centroid (``detect``).
+    grasps_world: Any = None
+    grasps_camera: Any = None
+    target_centroid: np.ndarray | None = None
+    #: Index of the chosen grasp in ``grasps_world``, its hand pose (base frame) and the pre-grasp and grasp
+    #: configurations (``select``).
+    choice: int | None = None
+    hand_grasp: np.ndarray | None = None
+    q_pre: np.ndarray | None = None
+    q_grasp: np.ndarray | None = None
+    #: Configurations of the lift, above the place location and at it; the place hand pose (``lift``,
+    #: ``transport``).
+    q_lift: np.ndarray | None = None
+    q_above: np.ndarray | None = None
+    q_place: np.ndarray | None = None
+    place_hand: np.ndarray | None = None
+
+    def scene_shapes(self) -> list[tuple[str, str, tuple, tuple]]:
+        """(name, kind, size, colour) of every object of the scene, table and robot mount included."""
+        return scene_shapes(self.spec)
+
+
+def scene_shapes(spec: SceneSpec) -> list[tuple[str, str, tuple, tuple]]:
+    """(name, kind, size, colour) of every object of ``spec``, table and robot mount included."""
+    out = [
+        ("table", "box", TABLE_SIZE, (0.55, 0.42, 0.30)),
+        (ROBOT_MOUNT, "box", (0.3, 0.3, TABLE_TOP), (0.3, 0.3, 0.32)),
+    ]
+    out += [(o.name, o.kind, tuple(o.size), o.color) for o in spec.objects]
+    return out
+
+
+#: Old per-episode attribute names of :class:`PickPlace` -> the :class:`Episode` field now holding them.
+_EPISODE_ATTRS = {f.name: f.name for f in fields(Episode) if f.name not in ("model", "spheres")} | {"rec": "recorder"}
 
 
 class Recorder:
@@ -266,12 +335,12 @@ class PickPlace:
 
     def _sync(self, ignore: list[str]) -> None:
         """Planner world := the simulation's objects (base frame), without ``ignore`` and attached objects."""
-        self.planner.update_world(self.world, ignore=[ROBOT_MOUNT, *ignore], base_pose=self.base)
+        self.planner.update_world(self.episode.world, ignore=[ROBOT_MOUNT, *ignore], base_pose=self.episode.base)
 
     def _q(self) -> np.ndarray:
         """The simulated arm's joint positions in planner order; positions a hair past a joint limit (at most
         ``limit_tolerance``) are put on the limit, larger violations are left for the planner to report."""
-        q = self.robot.get_joint_positions()[self.arm_idx]
+        q = self.episode.robot.get_joint_positions()[self.episode.arm_idx]
         lo, hi = self.lower, self.upper
         tol = self.config.limit_tolerance
         near = ((q < lo) & (q >= lo - tol)) | ((q > hi) & (q <= hi + tol))
@@ -291,78 +360,90 @@ class PickPlace:
             time_limit=self.config.plan_time_limit,
             velocity_scale=self.config.velocity_scale,
             acceleration_scale=self.config.acceleration_scale,
-            seed=self.spec.seed,
+            seed=self.episode.spec.seed,
         )
         plan_s = time.perf_counter() - t0
         if not res.success:
             raise StageFailure(stage, f"planning failed ({res.status}): {res.message}")
-        traj = res.interpolated(self.rec.sample_dt)
-        err = self.rec.execute(traj.positions, traj.velocities, self.arm_idx, stage)
-        self.rec.wait(0.1, stage)
+        traj = res.interpolated(self.episode.recorder.sample_dt)
+        err = self.episode.recorder.execute(traj.positions, traj.velocities, self.episode.arm_idx, stage)
+        self.episode.recorder.wait(0.1, stage)
         return {"plan_ms": 1e3 * plan_s, "duration_s": float(res.duration), "tracking_error_rad": err}
 
     def scene_shapes(self) -> list[tuple[str, str, tuple, tuple]]:
-        """(name, kind, size, colour) of every object of the scene, table and robot mount included."""
-        out = [
-            ("table", "box", TABLE_SIZE, (0.55, 0.42, 0.30)),
-            (ROBOT_MOUNT, "box", (0.3, 0.3, TABLE_TOP), (0.3, 0.3, 0.32)),
-        ]
-        out += [(o.name, o.kind, tuple(o.size), o.color) for o in self.spec.objects]
-        return out
+        """(name, kind, size, colour) of every object of the current episode's scene."""
+        return scene_shapes(self.episode.spec)
+
+    def __getattr__(self, name: str):
+        # Deprecated for one release: the per-episode attributes now live in the episode record.
+        target = _EPISODE_ATTRS.get(name)
+        ep = self.__dict__.get("episode")
+        if target is None or ep is None:
+            raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+        warnings.warn(
+            f"PickPlace.{name} is deprecated: read result.episode.{target} (the episode record)",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        return getattr(ep, target)
 
     def _hand_world(self) -> np.ndarray:
-        return self.robot.get_link_pose("panda_hand")
+        return self.episode.robot.get_link_pose("panda_hand")
 
     # -- the stages -------------------------------------------------------------------------------------------
 
     def perceive(self) -> dict:
-        self.frame = self.camera.render(rgb=True)
-        labels = self.world.segmentation_labels
-        self.target_id = next(i for i, n in labels.items() if n == self.spec.target)
-        visible = int(np.count_nonzero(self.frame["segmentation"] == self.target_id))
+        self.episode.frame = self.episode.camera.render(rgb=True)
+        labels = self.episode.world.segmentation_labels
+        self.episode.target_id = next(i for i, n in labels.items() if n == self.episode.spec.target)
+        visible = int(np.count_nonzero(self.episode.frame["segmentation"] == self.episode.target_id))
         if visible < 50:
-            raise StageFailure("perceive", f"target '{self.spec.target}' covers only {visible} pixels in the camera")
+            raise StageFailure(
+                "perceive", f"target '{self.episode.spec.target}' covers only {visible} pixels in the camera"
+            )
         return {"target_pixels": visible}
 
     def detect(self) -> dict:
         """Grasps on the target, sought in the world frame: the depth image is back-projected, moved to the
         world by the camera pose, cropped to the table's workspace, and searched with the approach
         preferred straight down; every other point is an obstacle for the hand."""
-        depth = np.where(np.isfinite(self.frame["depth"]), self.frame["depth"], 0.0)
-        k = self.camera.intrinsic_matrix
-        cam = self.camera.get_world_transform()
+        depth = np.where(np.isfinite(self.episode.frame["depth"]), self.episode.frame["depth"], 0.0)
+        k = self.episode.camera.intrinsic_matrix
+        cam = self.episode.camera.get_world_transform()
         intrinsics = camera_model.Intrinsics.from_matrix(k, depth.shape[1], depth.shape[0])
         points, pixels = camera_model.backproject(depth, intrinsics)
         points = grasp.transform_points(points, cam)
-        labels = self.frame["segmentation"][pixels[:, 0], pixels[:, 1]].astype(np.int64)
+        labels = self.episode.frame["segmentation"][pixels[:, 0], pixels[:, 1]].astype(np.int64)
         opts = {
             "approach_direction": (0.0, 0.0, -1.0),
             "viewpoint": tuple(cam[:3, 3]),
             **self.config.detect_options,
         }
-        gg = grasp.detect(points, labels=labels, seed_mask=labels == self.target_id, workspace=self.workspace, **opts)
+        gg = grasp.detect(
+            points, labels=labels, seed_mask=labels == self.episode.target_id, workspace=self.episode.workspace, **opts
+        )
         if len(gg) == 0:
-            w = np.asarray(self.workspace)
+            w = np.asarray(self.episode.workspace)
             inside = np.all((points >= w[0::2]) & (points <= w[1::2]), axis=1)
-            n = int(np.count_nonzero(inside & (labels == self.target_id)))
+            n = int(np.count_nonzero(inside & (labels == self.episode.target_id)))
             raise StageFailure("detect", f"no grasp found on the target ({n} of its points in the workspace)")
-        self.grasps_world = gg
+        self.episode.grasps_world = gg
         # Centre estimate of an upright object on the table: the centroid of its top surface (the points
         # within 5 mm of its highest), which the side faces seen by the camera do not bias.
-        tp = points[labels == self.target_id]
-        self.target_centroid = tp[tp[:, 2] > tp[:, 2].max() - 0.005].mean(axis=0)
-        self.grasps_camera = gg.transform(np.linalg.inv(cam))
+        tp = points[labels == self.episode.target_id]
+        self.episode.target_centroid = tp[tp[:, 2] > tp[:, 2].max() - 0.005].mean(axis=0)
+        self.episode.grasps_camera = gg.transform(np.linalg.inv(cam))
         return {"points": int(len(points)), "grasps": len(gg), "best_score": float(gg.scores[0])}
 
     def select(self) -> dict:
         cfg = self.config
-        gw = self.grasps_world
+        gw = self.episode.grasps_world
         approach = gw.rotation_matrices[:, :, 0]
         angle = np.arccos(np.clip(-approach[:, 2], -1.0, 1.0))
         # Rank: detector score, discounted for grasps far from the target's visible centroid (off-centre
         # grasps twist the object in the fingers) and for tilted approaches (which push it sideways).
         centre = gw.translations + 0.5 * gw.depths[:, None] * approach
-        off = np.linalg.norm((centre - self.target_centroid)[:, :2], axis=1)
+        off = np.linalg.norm((centre - self.episode.target_centroid)[:, :2], axis=1)
         rank = gw.scores * np.exp(-((off / cfg.centre_scale) ** 2)) * np.cos(angle)
         order = [i for i in np.argsort(-rank) if angle[i] <= cfg.max_approach_angle][: cfg.max_candidates]
         if not order:
@@ -370,14 +451,14 @@ class PickPlace:
                 "select", f"no grasp approaches within {math.degrees(cfg.max_approach_angle):.0f} deg of vertical"
             )
         hands_world = gw.to_panda_hand()[order]
-        to_base = transforms.world_to_base(np.eye(4), self.base)
+        to_base = transforms.world_to_base(np.eye(4), self.episode.base)
         hands = np.einsum("ij,njk->nik", to_base, hands_world)
         pre = _along_z(hands, -cfg.pregrasp_distance)
         # Pre-grasp: free of collision with everything, target included.
         self._sync([])
         ik_pre = self._ik(pre, None, collision_free=True)
         # Grasp: the fingers touch the target and come close to the table: both ignored.
-        self._sync([self.spec.target, "table"])
+        self._sync([self.episode.spec.target, "table"])
         ok = np.asarray(ik_pre.success)
         tried = 0
         for j in np.flatnonzero(ok):
@@ -388,9 +469,9 @@ class PickPlace:
             res = self.planner.plan(ik_pre.q[j], goal_q=ik_g.q, trajectory=False, time_limit=0.2)
             if not res.success:
                 continue
-            self.choice = order[j]
-            self.q_pre, self.q_grasp = ik_pre.q[j], ik_g.q
-            self.hand_grasp = hands[j]
+            self.episode.choice = order[j]
+            self.episode.q_pre, self.episode.q_grasp = ik_pre.q[j], ik_g.q
+            self.episode.hand_grasp = hands[j]
             g = gw[order[j]]
             return {
                 "candidates": len(order),
@@ -411,25 +492,27 @@ class PickPlace:
 
     def pick(self) -> None:
         cfg = self.config
-        self._stage("pregrasp", lambda: self._move("pregrasp", self.q_pre, []))
-        self._stage("approach", lambda: self._move("approach", self.q_grasp, [self.spec.target, "table"]))
+        self._stage("pregrasp", lambda: self._move("pregrasp", self.episode.q_pre, []))
+        self._stage(
+            "approach", lambda: self._move("approach", self.episode.q_grasp, [self.episode.spec.target, "table"])
+        )
 
         def close():
-            self.rec.set_gripper(True, cfg.grip_force)
-            self.rec.wait(0.3, "grasp")
-            width = float(np.sum(self.robot.get_gripper_positions()))
+            self.episode.recorder.set_gripper(True, cfg.grip_force)
+            self.episode.recorder.wait(0.3, "grasp")
+            width = float(np.sum(self.episode.robot.get_gripper_positions()))
             if width < 0.004:
                 raise StageFailure("grasp", f"the fingers closed on nothing (opening {1e3 * width:.1f} mm)")
             self._sync([])  # the target must be in the world to be attached
-            self.planner.attach_world_object(self.spec.target, self._q())
+            self.planner.attach_world_object(self.episode.spec.target, self._q())
             return {"opening_mm": 1e3 * width}
 
         self._stage("grasp", close)
 
         def lift():
-            up = _translate(self.hand_grasp, [0.0, 0.0, cfg.lift_height])
-            self.q_lift = self._ik_near(up, self._q(), "lift")
-            out = self._move("lift", self.q_lift, ["table"])
+            up = _translate(self.episode.hand_grasp, [0.0, 0.0, cfg.lift_height])
+            self.episode.q_lift = self._ik_near(up, self._q(), "lift")
+            out = self._move("lift", self.episode.q_lift, ["table"])
             self._check_held("lift")
             return out
 
@@ -439,9 +522,9 @@ class PickPlace:
         """Hand poses (base frame) that put the object at the place location: the grasp pose turned about
         the vertical through the object's perceived centre by 0, 180, 90 or -90 degrees (a parallel gripper
         can hold a box or a cylinder either way), then moved over the place location."""
-        to_base = transforms.world_to_base(np.eye(4), self.base)
-        c_world = np.array([*self.target_centroid[:2], TABLE_TOP, 1.0])
-        p_world = np.array([*self.spec.place_xy, TABLE_TOP, 1.0])
+        to_base = transforms.world_to_base(np.eye(4), self.episode.base)
+        c_world = np.array([*self.episode.target_centroid[:2], TABLE_TOP, 1.0])
+        p_world = np.array([*self.episode.spec.place_xy, TABLE_TOP, 1.0])
         c, p = (to_base @ c_world)[:3], (to_base @ p_world)[:3]
         up = to_base[:3, :3] @ np.array([0.0, 0.0, 1.0])
         out = []
@@ -451,7 +534,7 @@ class PickPlace:
             m = np.eye(4)
             m[:3, :3] = rot
             m[:3, 3] = p - rot @ c + self.config.place_clearance * up
-            out.append(m @ self.hand_grasp)
+            out.append(m @ self.episode.hand_grasp)
         return out
 
     def place(self) -> None:
@@ -461,14 +544,14 @@ class PickPlace:
             for k, hand in enumerate(self._place_poses()):
                 above = _translate(hand, [0.0, 0.0, cfg.lift_height])
                 self._sync([])
-                res = self.planner.ik(above, self.q_lift, num_seeds=32, collision_free=True)
+                res = self.planner.ik(above, self.episode.q_lift, num_seeds=32, collision_free=True)
                 if not res.success:
                     continue
                 self._sync(["table"])
                 low = self.planner.ik(hand, res.q, num_seeds=8, collision_free=True)
                 if not low.success:
                     continue
-                self.place_hand, self.q_place, self.q_above = hand, low.q, res.q
+                self.episode.place_hand, self.episode.q_place, self.episode.q_above = hand, low.q, res.q
                 out = self._move("transport", res.q, [])
                 self._check_held("transport")
                 return {**out, "turn_deg": [0, 180, 90, -90][k]}
@@ -477,37 +560,39 @@ class PickPlace:
         self._stage("transport", transport)
 
         def lower():
-            return self._move("lower", self.q_place, ["table"])
+            return self._move("lower", self.episode.q_place, ["table"])
 
         self._stage("lower", lower)
 
         def release():
-            self.rec.set_gripper(False)
-            self.rec.wait(0.3, "release")
-            self.planner.detach(self.spec.target)
+            self.episode.recorder.set_gripper(False)
+            self.episode.recorder.wait(0.3, "release")
+            self.planner.detach(self.episode.spec.target)
             return {}
 
         self._stage("release", release)
 
         def retreat():
-            hand = transforms.world_to_base(self._hand_world(), self.base)
+            hand = transforms.world_to_base(self._hand_world(), self.episode.base)
             back = _along_z(hand, -cfg.retreat_distance)
             res = self.planner.ik(back, self._q(), num_seeds=32)
             # Back along the approach; where that is out of reach, up to the pose the object was
             # carried in (its IK is known).
-            q, how = (res.q, "back along the approach") if res.success else (self.q_above, "up to the carry pose")
-            return {**self._move("retreat", q, [self.spec.target, "table"]), "retreat": how}
+            q, how = (
+                (res.q, "back along the approach") if res.success else (self.episode.q_above, "up to the carry pose")
+            )
+            return {**self._move("retreat", q, [self.episode.spec.target, "table"]), "retreat": how}
 
         self._stage("retreat", retreat)
 
     def verify(self) -> dict:
-        self.rec.wait(0.3, "verify")
-        pose = self.world.get_object_pose(self.spec.target)
-        err = float(np.hypot(pose[0, 3] - self.spec.place_xy[0], pose[1, 3] - self.spec.place_xy[1]))
-        spec = self.spec.object(self.spec.target)
+        self.episode.recorder.wait(0.3, "verify")
+        pose = self.episode.world.get_object_pose(self.episode.spec.target)
+        err = float(np.hypot(pose[0, 3] - self.episode.spec.place_xy[0], pose[1, 3] - self.episode.spec.place_xy[1]))
+        spec = self.episode.spec.object(self.episode.spec.target)
         rest_z = TABLE_TOP + spec.height / 2
-        lin, _ = self.world.get_object_velocity(self.spec.target)
-        self.result.place_error_m = err
+        lin, _ = self.episode.world.get_object_velocity(self.episode.spec.target)
+        self.episode.result.place_error_m = err
         detail = {
             "place_error_mm": 1e3 * err,
             "height_error_mm": 1e3 * (pose[2, 3] - rest_z),
@@ -530,8 +615,8 @@ class PickPlace:
         return res.q
 
     def _check_held(self, stage: str) -> None:
-        obj = self.world.get_object_pose(self.spec.target)[:3, 3]
-        tcp = self.robot.get_link_pose("panda_hand_tcp")[:3, 3]
+        obj = self.episode.world.get_object_pose(self.episode.spec.target)[:3, 3]
+        tcp = self.episode.robot.get_link_pose("panda_hand_tcp")[:3, 3]
         d = float(np.linalg.norm(obj - tcp))
         if d > 0.08:
             raise StageFailure(stage, f"the object slipped out of the hand ({1e3 * d:.0f} mm from the fingers)")
@@ -541,49 +626,57 @@ class PickPlace:
         try:
             detail = fn() or {}
         except StageFailure as f:
-            self.result.stages.append(StageResult(name, False, time.perf_counter() - t0, reason=f.reason))
+            self.episode.result.stages.append(StageResult(name, False, time.perf_counter() - t0, reason=f.reason))
             raise
         except Exception as e:  # a library error inside a stage is that stage's failure
             reason = f"{type(e).__name__}: {e}"
-            self.result.stages.append(StageResult(name, False, time.perf_counter() - t0, reason=reason))
+            self.episode.result.stages.append(StageResult(name, False, time.perf_counter() - t0, reason=reason))
             raise StageFailure(name, reason) from e
-        self.result.stages.append(StageResult(name, True, time.perf_counter() - t0, detail))
+        self.episode.result.stages.append(StageResult(name, True, time.perf_counter() - t0, detail))
 
     # -- one episode ------------------------------------------------------------------------------------------
 
     def run(self, spec: SceneSpec, record_frames: bool = False, frame_every: int = 20, recorder=None) -> EpisodeResult:
         """Runs one episode on ``spec``. With ``record_frames``, a second camera records RGB frames for an
-        animation (``self.recorder.frames``). ``recorder``: a callable ``(world, robot, camera, arm_indices)``
+        animation (``result.episode.recorder.frames``). ``recorder``: a callable ``(world, robot, camera, arm_indices)``
         returning a :class:`~ferrobot.pipeline.recording.ControlRecorder` (or anything with its interface)
         made once the scene is built: the motions then run at its control rate and it records every control
         step (dataset generation). Never raises for a failed stage: see the result."""
-        # Nothing of the previous episode may leak into this one's report.
-        for name in ("world", "robot", "camera", "rec", "frame", "grasps_world", "grasps_camera", "choice"):
-            self.__dict__.pop(name, None)
-        self.spec = spec
-        self.result = EpisodeResult(seed=spec.seed, target=spec.target)
+        # A new record per episode: nothing of the previous episode can leak into this one's report.
+        result = EpisodeResult(seed=spec.seed, target=spec.target)
+        self.episode = Episode(spec=spec, result=result, model=self.model, spheres=self.planner.sphere_model)
+        result.episode = self.episode
         t0 = time.perf_counter()
         try:
 
             def scene():
-                self.world, self.robot, self.camera = build_world(spec, self.model)
-                self.base = self.robot.get_world_transform()
+                self.episode.world, self.episode.robot, self.episode.camera = build_world(spec, self.model)
+                self.episode.base = self.episode.robot.get_world_transform()
                 # Grasp workspace: the table top and 30 cm above it.
                 (tx, ty), (sx, sy, _) = TABLE_XY, TABLE_SIZE
-                self.workspace = [tx - sx / 2, tx + sx / 2, ty - sy / 2, ty + sy / 2, TABLE_TOP - 0.02, TABLE_TOP + 0.3]
-                self.arm_idx = [self.robot.dof_names.index(n) for n in self.arm]
+                self.episode.workspace = [
+                    tx - sx / 2,
+                    tx + sx / 2,
+                    ty - sy / 2,
+                    ty + sy / 2,
+                    TABLE_TOP - 0.02,
+                    TABLE_TOP + 0.3,
+                ]
+                self.episode.arm_idx = [self.episode.robot.dof_names.index(n) for n in self.arm]
                 self.planner.update_world(_core.CollisionWorld())
                 for name in list(self.planner.attached):
                     self.planner.detach(name)
                 cam = None
                 if record_frames:
                     view = _core.look_at([1.05, -0.85, 1.05], [0.42, 0.0, TABLE_TOP + 0.08])
-                    cam = _core.Camera(self.world, 400, 300, 330.0, 330.0, 199.5, 149.5, view)
+                    cam = _core.Camera(self.episode.world, 400, 300, 330.0, 330.0, 199.5, 149.5, view)
                 if recorder is not None:
-                    self.rec = recorder(self.world, self.robot, self.camera, self.arm_idx)
+                    self.episode.recorder = recorder(
+                        self.episode.world, self.episode.robot, self.episode.camera, self.episode.arm_idx
+                    )
                 else:
-                    self.rec = Recorder(self.world, self.robot, cam, frame_every)
-                self.rec.snapshot("scene")
+                    self.episode.recorder = Recorder(self.episode.world, self.episode.robot, cam, frame_every)
+                self.episode.recorder.snapshot("scene")
                 return {"objects": len(spec.objects)}
 
             self._stage("scene", scene)
@@ -593,13 +686,13 @@ class PickPlace:
             self.pick()
             self.place()
             self._stage("verify", self.verify)
-            self.result.success = True
+            self.episode.result.success = True
         except StageFailure as f:
-            self.result.failed_stage = f.stage
-            self.result.reason = f.reason
-        self.result.wall_time_s = time.perf_counter() - t0
-        self.result.sim_time_s = float(self.world.time) if hasattr(self, "world") else 0.0
-        return self.result
+            self.episode.result.failed_stage = f.stage
+            self.episode.result.reason = f.reason
+        result.wall_time_s = time.perf_counter() - t0
+        result.sim_time_s = float(self.episode.world.time) if self.episode.world is not None else 0.0
+        return result
 
 
 def home_configuration() -> np.ndarray:

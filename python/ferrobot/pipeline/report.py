@@ -5,12 +5,13 @@ trajectory (``trajectory.npz``), the camera view with the grasps drawn (``grasp.
 from __future__ import annotations
 
 import json
+import warnings
 from pathlib import Path
 
 import numpy as np
 
 from .images import draw_segments, project, write_flipbook, write_png
-from .pick_place import EpisodeResult, PickPlace
+from .pick_place import Episode, EpisodeResult, PickPlace
 from .viewer import viewer_data, write_viewer
 
 __all__ = ["format_report", "write_episode", "grasp_image"]
@@ -39,16 +40,18 @@ def _fmt(v) -> str:
     return str(v)
 
 
-def grasp_image(pp: PickPlace, top: int = 8) -> np.ndarray | None:
-    """The perception camera's RGB frame with the best ``top`` detected grasps (yellow) and the chosen one
-    (green, thick) drawn on it; None before detection."""
-    if not hasattr(pp, "grasps_world") or not hasattr(pp, "frame"):
+def grasp_image(episode: Episode | PickPlace, top: int = 8) -> np.ndarray | None:
+    """The perception camera's RGB frame of ``episode`` (an :class:`Episode` record, ``result.episode``) with
+    the best ``top`` detected grasps (yellow) and the chosen one (green, thick) drawn on it; None before
+    detection."""
+    ep = _record(episode, "grasp_image(pp)", "grasp_image(result.episode)")
+    if ep.grasps_world is None or ep.frame is None:
         return None
-    img = pp.frame["rgb"].copy()
-    cam, k = pp.camera.get_world_transform(), pp.camera.intrinsic_matrix
-    gw = pp.grasps_world
+    img = ep.frame["rgb"].copy()
+    cam, k = ep.camera.get_world_transform(), ep.camera.intrinsic_matrix
+    gw = ep.grasps_world
     lines = gw.gripper_lines()
-    chosen = getattr(pp, "choice", None)
+    chosen = ep.choice
     for i in range(min(top, len(gw))):
         if i == chosen:
             continue
@@ -60,35 +63,60 @@ def grasp_image(pp: PickPlace, top: int = 8) -> np.ndarray | None:
     return img
 
 
-def write_episode(out: Path, pp: PickPlace, result: EpisodeResult) -> dict[str, Path]:
-    """Writes the episode's folder; returns the paths written."""
+def _record(obj, old: str, new: str) -> Episode:
+    """The episode record of ``obj``: a record, or (deprecated) a :class:`PickPlace` after ``run``."""
+    if isinstance(obj, PickPlace):
+        warnings.warn(f"{old} is deprecated: pass the episode record, {new}", DeprecationWarning, stacklevel=3)
+        return obj.episode
+    return obj
+
+
+def write_episode(out: Path, result: EpisodeResult, *deprecated) -> dict[str, Path]:
+    """Writes the folder of the episode ``result`` (from :meth:`PickPlace.run`, which carries its record in
+    ``result.episode``); returns the paths written. The old call ``write_episode(out, pp, result)`` works for
+    one release with a DeprecationWarning."""
+    if isinstance(result, PickPlace):
+        if len(deprecated) != 1:
+            raise TypeError("write_episode(out, result): one episode result expected")
+        warnings.warn(
+            "write_episode(out, pp, result) is deprecated: call write_episode(out, result)",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        result = deprecated[0]
+    elif deprecated:
+        raise TypeError("write_episode(out, result): one episode result expected")
+    ep = result.episode
+    if ep is None:
+        raise TypeError("write_episode: the result carries no episode record (made by PickPlace.run?)")
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     paths = {}
-    report = {"result": result.to_dict(), "scene": pp.spec.to_dict()}
-    if hasattr(pp, "choice"):
-        g = pp.grasps_world[pp.choice]
+    report = {"result": result.to_dict(), "scene": ep.spec.to_dict()}
+    if ep.choice is not None:
+        g = ep.grasps_world[ep.choice]
         report["grasp"] = {
             "score": g.score,
             "width": g.width,
             "depth": g.depth,
             "translation_world": g.translation.tolist(),
             "rotation_world": g.rotation_matrix.tolist(),
-            "hand_pose_base": pp.hand_grasp.tolist(),
+            "hand_pose_base": ep.hand_grasp.tolist(),
         }
     paths["report"] = out / "report.json"
     paths["report"].write_text(json.dumps(report, indent=2))
-    if hasattr(pp, "rec") and pp.rec.q:
-        arrays = pp.rec.arrays()
+    rec = ep.recorder
+    if rec is not None and rec.q:
+        arrays = rec.arrays()
         paths["trajectory"] = out / "trajectory.npz"
-        np.savez_compressed(paths["trajectory"], joint_names=np.array(pp.robot.dof_names), **arrays)
-    img = grasp_image(pp)
+        np.savez_compressed(paths["trajectory"], joint_names=np.array(ep.robot.dof_names), **arrays)
+    img = grasp_image(ep)
     if img is not None:
         paths["grasp_png"] = write_png(out / "grasp.png", img)
-    if hasattr(pp, "rec") and pp.rec.frames:
+    if rec is not None and rec.frames:
         title = f"ferrobot pick-and-place, seed {result.seed}: " + (
             "success" if result.success else f"failed at {result.failed_stage}"
         )
-        paths["animation"] = write_flipbook(out / "animation.html", pp.rec.frames, title)
-        paths["viewer"] = write_viewer(out / "viewer.html", viewer_data(pp), title)
+        paths["animation"] = write_flipbook(out / "animation.html", rec.frames, title)
+        paths["viewer"] = write_viewer(out / "viewer.html", viewer_data(ep), title)
     return paths

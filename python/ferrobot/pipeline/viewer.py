@@ -259,42 +259,56 @@ def scene_data(
     }
 
 
-def viewer_data(pp) -> dict:
-    """What the viewer draws, from a :class:`~ferrobot.pipeline.PickPlace` that ran with recorded frames."""
-    states = pp.rec.states
+def viewer_data(episode) -> dict:
+    """What the viewer draws, from an episode record (:class:`~ferrobot.pipeline.Episode`, ``result.episode``)
+    of a :class:`~ferrobot.pipeline.PickPlace` run with recorded frames. The sphere model is the planner's,
+    recorded in the episode (``episode.spheres``). Passing the ``PickPlace`` itself is deprecated."""
+    from .pick_place import PickPlace
+
+    if isinstance(episode, PickPlace):
+        import warnings
+
+        warnings.warn(
+            "viewer_data(pp) is deprecated: pass the episode record, viewer_data(result.episode)",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        episode = episode.episode
+    ep = episode
+    states = ep.recorder.states
     objects = [
         {"name": name, "kind": kind, "size": size, "color": color, "base": name in ("table", ROBOT_MOUNT)}
-        for name, kind, size, color in pp.scene_shapes()
+        for name, kind, size, color in ep.scene_shapes()
     ]
     grasp = None
-    if getattr(pp, "choice", None) is not None:
-        grasp = pp.grasps_world[pp.choice : pp.choice + 1].gripper_lines()[0]
+    if ep.choice is not None:
+        grasp = ep.grasps_world[ep.choice : ep.choice + 1].gripper_lines()[0]
     cameras = []
-    if getattr(pp, "camera", None) is not None:
-        k = pp.camera.intrinsic_matrix
+    if ep.camera is not None:
+        k = ep.camera.intrinsic_matrix
         cameras.append(
             {
-                "pose": pp.camera.get_world_transform(),
+                "pose": ep.camera.get_world_transform(),
                 "fx": k[0, 0],
                 "fy": k[1, 1],
                 "cx": k[0, 2],
                 "cy": k[1, 2],
-                "width": pp.camera.width,
-                "height": pp.camera.height,
+                "width": ep.camera.width,
+                "height": ep.camera.height,
             }
         )
     return scene_data(
-        pp.model,
+        ep.model,
         [st["q"] for st in states],
-        base=pp.base,
+        base=ep.base,
         times=[st["t"] for st in states],
         stages=[st["stage"] for st in states],
         objects=objects,
         object_poses=[st["objects"] for st in states],
         grasp_lines=grasp,
         cameras=cameras,
-        spheres=pp.planner.sphere_model,
-        place=pp.spec.place_xy,
+        spheres=ep.spheres,
+        place=ep.spec.place_xy,
     )
 
 
