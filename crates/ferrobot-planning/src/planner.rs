@@ -531,8 +531,7 @@ impl Planner {
         // final edges at the fine one; a path that fails there (rare) is
         // searched again at the fine resolution.
         let coarse = opts.rrt.resolution * opts.coarse_factor;
-        let mut attempt =
-            self.find_path(space, start, goals, opts, coarse, deadline, &mut times);
+        let mut attempt = self.find_path(space, start, goals, opts, coarse, deadline, &mut times);
         let mut unchecked = false;
         if opts.coarse_factor > 1.0
             && let (Ok(path), _) = &attempt
@@ -627,6 +626,7 @@ impl Planner {
 
     /// RRT-Connect and shortcutting with motion checks at `resolution`;
     /// stage times are added to `times`.
+    #[allow(clippy::too_many_arguments)]
     fn find_path(
         &self,
         space: &ActiveSpace,

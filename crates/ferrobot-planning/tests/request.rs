@@ -7,7 +7,7 @@ use std::sync::Arc;
 
 use ferrobot_collision::spherize::{SpherizeOptions, spherize_robot};
 use ferrobot_collision::{
-    AllowedCollisions, CollisionChecker, CollisionWorld, ObstacleShape, RobotSpheres,
+    AllowedCollisions, CollisionChecker, CollisionWorld, RobotSpheres, Shape,
 };
 use ferrobot_planning::{Goal, PlanOptions, PlanRequest, PlanStatus, Planner};
 use nalgebra::Isometry3;
@@ -32,7 +32,7 @@ fn planner_and_ready() -> (Planner, Vec<f64>) {
     let centre = hand * Isometry3::translation(0.0, 0.0, 0.102);
     let mut world = CollisionWorld::new();
     world
-        .add_shape("ball", ObstacleShape::Sphere { radius: 0.005 }, centre)
+        .add_shape("ball", Shape::Sphere { radius: 0.005 }, centre)
         .unwrap();
     let checker = CollisionChecker::new(model, spheres, acm, world).unwrap();
     (Planner::new(checker, None).unwrap(), ready)

@@ -5,9 +5,9 @@
 
 use std::sync::Arc;
 
+use ferrobot_camera::look_at;
 use ferrobot_sim::camera::{Camera, CameraMount, Intrinsics};
-use ferrobot_sim::conventions::look_at;
-use ferrobot_sim::{Frame, ObjectDesc, ObjectShape, RobotOptions, World, WorldConfig};
+use ferrobot_sim::{Frame, ObjectDesc, RobotOptions, Shape, World, WorldConfig};
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
 
 struct Rng(u64);
@@ -56,22 +56,16 @@ fn random_scene(rng: &mut Rng) -> (World, usize) {
         })
         .collect();
     let shapes = vec![
-        ObjectShape::Box {
+        Shape::Box {
             half_extents: Vector3::new(0.03, 0.05, 0.02),
         },
-        ObjectShape::Box {
+        Shape::Box {
             half_extents: Vector3::new(0.2, 0.3, 0.01),
         },
-        ObjectShape::Sphere { radius: 0.03 },
-        ObjectShape::Cylinder {
-            radius: 0.025,
-            length: 0.1,
-        },
-        ObjectShape::Capsule {
-            radius: 0.02,
-            length: 0.08,
-        },
-        ObjectShape::ConvexHull { points: hull },
+        Shape::Sphere { radius: 0.03 },
+        Shape::cylinder_from_length(0.025, 0.1),
+        Shape::capsule_from_length(0.02, 0.08),
+        Shape::ConvexHull(Arc::new(ferrobot_geometry::Hull::new(hull).unwrap())),
     ];
     for (i, s) in shapes.into_iter().enumerate() {
         let mut d = ObjectDesc::new(format!("o{i}"), s, pose(rng));
@@ -214,7 +208,7 @@ fn box_depth_is_analytic() {
         Translation3::new(0.05, -0.02, 0.0),
         UnitQuaternion::from_euler_angles(0.3, -0.5, 0.9),
     );
-    let mut d = ObjectDesc::new("b", ObjectShape::Box { half_extents: he }, bpose);
+    let mut d = ObjectDesc::new("b", Shape::Box { half_extents: he }, bpose);
     d.is_static = true;
     w.add_object(d).unwrap();
     let eye = Point3::new(0.6, 0.4, 0.5);
