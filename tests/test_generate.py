@@ -175,7 +175,6 @@ def test_bad_arguments_leave_existing_data_untouched(tmp_path, capsys):
         (["--clutter", "9"], "clutter"),
         (["--cameras", "top:10x10"], "cameras"),
         (["--fps", "7"], "control_hz"),
-        (["--segmentation"], "segmentation"),
     ]:
         assert cli(["generate", "--episodes", "1", "--out", str(tmp_path / "x"), *argv]) == 1
         assert what in capsys.readouterr().err
