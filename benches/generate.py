@@ -1,7 +1,7 @@
 """Recorded-episode generation throughput: `ferrobot generate` as a benchmark.
 
     python benches/generate.py [--episodes 8] [--seed 0] [--format lerobot] [--cameras scene:640x480,wrist:320x240]
-                               [--ray] [--keep] [--json FILE]
+                               [--ray] [--keep] [--json FILE] [--no-segmentation]
 
 Generates the same episodes with 1 local worker, then with 2 (all cores of this machine), then with a local
 Ray instance when ``--ray`` is given, each into a fresh directory, and reports episodes per hour, recorded
@@ -58,9 +58,13 @@ def breakdown(cameras: list[dict]) -> dict:
         out[f"render_{name}_{cam.width}x{cam.height}_ms"] = 1e3 * (time.perf_counter() - t) / 10
         out[f"render_{name}_{cam.width}x{cam.height}_cpu_ms"] = 1e3 * (time.process_time() - c) / 10
         with tempfile.TemporaryDirectory() as d:
-            for kind, depth in (("rgb", False), ("depth", True)):
-                v = _Video(Path(d) / f"{kind}.mp4", cam.width, cam.height, 10, depth)
-                img = np.where(np.isfinite(frame["depth"]), frame["depth"], 0) if depth else frame["rgb"]
+            images = {
+                "rgb": frame["rgb"],
+                "depth": np.where(np.isfinite(frame["depth"]), frame["depth"], 0),
+                "segmentation": frame["segmentation"],
+            }
+            for kind, img in images.items():
+                v = _Video(Path(d) / f"{kind}.mp4", cam.width, cam.height, 10, kind)
                 t = time.perf_counter()
                 for _ in range(20):
                     v.add(img)
@@ -78,7 +82,11 @@ def breakdown(cameras: list[dict]) -> dict:
 def run(label: str, args, workers: int | None, ray: str) -> dict:
     out = Path(tempfile.mkdtemp(prefix="ferrobot-bench-")) / "ds"
     cfg = GenerateConfig(
-        episodes=args.episodes, seed=args.seed, format=args.format, cameras=parse_cameras(args.cameras)
+        episodes=args.episodes,
+        seed=args.seed,
+        format=args.format,
+        cameras=parse_cameras(args.cameras),
+        segmentation=args.segmentation,
     )
     c0, t0 = cpu_seconds(), time.perf_counter()
     s = generate(out, cfg, workers=workers, ray=ray, progress=False)
@@ -128,9 +136,18 @@ def main() -> None:
     ap.add_argument("--ray", action="store_true", help="also run on a local Ray instance")
     ap.add_argument("--keep", action="store_true", help="keep the generated datasets")
     ap.add_argument("--json", type=Path)
+    ap.add_argument(
+        "--segmentation",
+        action=argparse.BooleanOptionalAction,
+        default=True,
+        help="record segmentation (the default of `ferrobot generate`)",
+    )
     args = ap.parse_args()
     cores = os.cpu_count() or 1
-    print(f"ferrobot {ferrobot.__version__}, {cores} cores, load {os.getloadavg()}, cameras {args.cameras}")
+    print(
+        f"ferrobot {ferrobot.__version__}, {cores} cores, load {os.getloadavg()}, cameras {args.cameras}, "
+        f"segmentation {args.segmentation}"
+    )
     bd = breakdown(parse_cameras(args.cameras))
     print("per-frame costs (ms): " + ", ".join(f"{k} {v:.1f}" for k, v in bd.items()), flush=True)
     runs = [run("local, 1 worker", args, 1, "off"), run(f"local, {cores} workers", args, cores, "off")]
@@ -139,7 +156,13 @@ def main() -> None:
     base = runs[0]["episodes_per_hour"]
     for r in runs[1:]:
         print(f"scaling {r['label']}: x{r['episodes_per_hour'] / base:.2f} over 1 worker")
-    result = {"breakdown_ms": bd, "runs": runs, "cameras": args.cameras, "format": args.format}
+    result = {
+        "breakdown_ms": bd,
+        "runs": runs,
+        "cameras": args.cameras,
+        "format": args.format,
+        "segmentation": args.segmentation,
+    }
     if not args.keep:
         for r in runs:
             shutil.rmtree(Path(r["path"]).parent, ignore_errors=True)

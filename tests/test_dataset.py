@@ -4,7 +4,8 @@
   scene, reproduce every recorded simulator state bit for bit.
 * LeRobot v3.0 read back with independent readers: pyarrow for the tables (layout and field names as
   LeRobot's source writes them), PyAV decoding every video frame and comparing with the frames rendered by a
-  second run of the same episodes (RGB within H.264 tolerance; depth exactly, as uint16 millimetres).
+  second run of the same episodes (RGB within H.264 tolerance; depth exactly, as uint16 millimetres;
+  segmentation label ids exactly, as uint16).
 * robomimic HDF5 read back with h5py.
 """
 
@@ -36,14 +37,18 @@ def pp():
 def record(pp, spec, cams=CAMS, rand=None):
     """Runs ``spec`` recording every frame; ``rand``: the episode's randomisation (lighting, wrist camera)."""
     frames = []
+    labels = {}
     specs = episode_cameras({"cameras": parse_cameras(cams)}, rand or {})
 
     def factory(world, robot, camera, arm):
         apply_lighting(world, rand or {})
         cameras = make_cameras(world, robot, camera.get_world_transform(), specs, scene_fov_deg=scene_fov(spec))
-        return ControlRecorder(world, robot, cameras, frames.append, arm_joint_indices=arm)
+        labels.update(world.segmentation_labels)
+        return ControlRecorder(world, robot, cameras, frames.append, arm_joint_indices=arm, segmentation=True)
 
     result = pp.run(spec, recorder=factory)
+    for f in frames:
+        f["segmentation_labels"] = labels
     return result, frames
 
 
@@ -116,6 +121,14 @@ def test_lerobot_layout_with_pyarrow(lerobot_dataset):
         assert f[key]["dtype"] == "float32"
     assert f["observation.images.scene"]["dtype"] == "video" and f["observation.images.scene"]["shape"] == [48, 64, 3]
     assert info["depth_features"]["observation.depth.wrist"]["shape"] == [24, 32]
+    # Segmentation (recorded by default): lossless uint16 label ids, beside depth, not in `features`.
+    seg = info["segmentation_features"]
+    assert sorted(seg) == ["observation.segmentation.scene", "observation.segmentation.wrist"]
+    assert seg["observation.segmentation.scene"]["shape"] == [48, 64]
+    assert seg["observation.segmentation.scene"]["dtype"] == "uint16"
+    assert seg["observation.segmentation.wrist"]["info"]["video.pix_fmt"] == "gray16le"
+    assert seg["observation.segmentation.wrist"]["info"]["video.codec"] == "ffv1"
+    assert not any(k.startswith("observation.segmentation.") for k in f)
     data = pq.read_table(out / "data/chunk-000/file-000.parquet")
     assert data.num_rows == info["total_frames"]  # several episodes in one file
     assert sorted(set(data["episode_index"].to_pylist())) == [0, 1]
@@ -132,6 +145,10 @@ def test_lerobot_layout_with_pyarrow(lerobot_dataset):
         assert frames["frame_index"].to_pylist() == list(range(e["length"]))
         np.testing.assert_allclose(frames["timestamp"].to_numpy(), np.arange(e["length"]) / 10, atol=1e-6)
         assert e["videos/observation.images.scene/from_timestamp"] == pytest.approx(start / 10)
+        assert e["videos/observation.segmentation.wrist/from_timestamp"] == pytest.approx(start / 10)
+        assert e["videos/observation.segmentation.wrist/to_timestamp"] == pytest.approx((start + e["length"]) / 10)
+        labels = json.loads(e["segmentation_labels"])
+        assert labels["0"] == "background" and any(v.startswith("panda/") for v in labels.values())
         assert e["seed"] in [episode_seed(11, e["episode_index"], k) for k in range(10)]
         stages = json.loads(e["stages"])
         assert stages[0][1] == 0 and stages[-1][2] == e["length"]
@@ -157,8 +174,12 @@ def test_lerobot_videos_decode_to_what_was_rendered(lerobot_dataset, pp):
     rgb = _decode(out / "videos/observation.images.scene/chunk-000/file-000.mp4", "rgb24")
     depth = _decode(out / "videos/observation.depth.scene/chunk-000/file-000.mp4", "gray16le")
     wrist = _decode(out / "videos/observation.images.wrist/chunk-000/file-000.mp4", "rgb24")
+    seg = {
+        cam: _decode(out / f"videos/observation.segmentation.{cam}/chunk-000/file-000.mp4", "gray16le")
+        for cam in ("scene", "wrist")
+    }
     total = sum(e["length"] for e in eps)
-    assert len(rgb) == len(depth) == len(wrist) == total
+    assert len(rgb) == len(depth) == len(wrist) == len(seg["scene"]) == len(seg["wrist"]) == total
     for e in eps:
         # Run the episode again (it depends only on its seed) and keep what the cameras rendered.
         spec, rand = episode_spec(cfg.to_dict(), e["seed"])
@@ -172,6 +193,16 @@ def test_lerobot_videos_decode_to_what_was_rendered(lerobot_dataset, pp):
             # H.264 with 4:2:0 chroma: lossy, most at colour edges (these test images are tiny).
             assert psnr(rgb[a + k], f["observation.images.scene"]) > 28.0, k
             assert psnr(wrist[a + k], f["observation.images.wrist"]) > 26.0, k
+            for cam in ("scene", "wrist"):
+                # Label ids exactly (int32 ids as rendered, compared as integers: no wrap-around possible).
+                assert seg[cam][a + k].dtype == np.uint16
+                np.testing.assert_array_equal(
+                    seg[cam][a + k].astype(np.int64), f[f"observation.segmentation.{cam}"].astype(np.int64)
+                )
+        # The stored id -> name table is the rendered world's, and the images hold objects, robot and table.
+        assert {int(i): n for i, n in json.loads(e["segmentation_labels"]).items()} == frames[0]["segmentation_labels"]
+        ids = np.unique(np.concatenate([s.ravel() for s in seg["scene"][a : a + len(frames)]]))
+        assert len(ids) >= 4 and set(ids.tolist()) <= set(frames[0]["segmentation_labels"])
 
 
 def test_hdf5_layout_with_h5py(tmp_path, pp):
@@ -211,6 +242,23 @@ def test_hdf5_layout_with_h5py(tmp_path, pp):
         )
         np.testing.assert_array_equal(g["obs/depth.scene"][:], np.stack([x["observation.depth.scene"] for x in frames]))
         np.testing.assert_array_equal(g["states"][:], np.stack([x["state"] for x in frames]))
+        np.testing.assert_array_equal(
+            g["obs/segmentation.scene"][:], np.stack([x["observation.segmentation.scene"] for x in frames])
+        )
+        labels = {int(i): n for i, n in json.loads(g.attrs["segmentation_labels"]).items()}
+        assert labels == frames[0]["segmentation_labels"]
+
+
+def test_segmentation_ids_outside_uint16_raise_instead_of_wrapping():
+    from ferrobot.dataset.staging import labels_to_u16
+    from ferrobot.errors import InvalidArgumentError
+
+    ids = np.array([[0, 1], [65535, 7]], dtype=np.int32)
+    assert labels_to_u16(ids).dtype == np.uint16
+    np.testing.assert_array_equal(labels_to_u16(ids).astype(np.int64), ids)
+    for bad in (65536, -1):
+        with pytest.raises(InvalidArgumentError, match="segmentation"):
+            labels_to_u16(np.array([[0, bad]], dtype=np.int32))
 
 
 def test_replaying_a_lerobot_episode_from_its_files(lerobot_dataset, pp):

@@ -34,8 +34,8 @@ def _cmd(out, *extra, env=None, fault=None):
 
 
 def _content(out: Path) -> dict:
-    """What a user reads: the frame table, the episode table's identity columns, every decoded depth frame
-    and the scene video's packets (bytes)."""
+    """What a user reads: the frame table, the episode table's identity columns, every decoded depth and
+    wrist segmentation frame and the scene video's packets (bytes)."""
     import av
     import pyarrow.parquet as pq
 
@@ -43,12 +43,15 @@ def _content(out: Path) -> dict:
     eps = pq.read_table(out / "meta/episodes/chunk-000/file-000.parquet").to_pydict()
     with av.open(str(out / "videos/observation.depth.scene/chunk-000/file-000.mp4")) as c:
         depth = [f.to_ndarray(format="gray16le") for f in c.decode(video=0)]
+    with av.open(str(out / "videos/observation.segmentation.wrist/chunk-000/file-000.mp4")) as c:
+        seg = [f.to_ndarray(format="gray16le") for f in c.decode(video=0)]
     with av.open(str(out / "videos/observation.images.scene/chunk-000/file-000.mp4")) as c:
         packets = [bytes(p) for p in c.demux(video=0) if p.size]
     return {
         "data": data,
         "eps": {k: eps[k] for k in ("episode_index", "seed", "length", "success", "tasks", "dataset_from_index")},
         "depth": np.stack(depth),
+        "seg": np.stack(seg),
         "packets": packets,
         "info": json.loads((out / "meta/info.json").read_text())["total_frames"],
     }
@@ -58,6 +61,8 @@ def _same(a: dict, b: dict) -> None:
     assert a["eps"] == b["eps"]
     assert a["data"] == b["data"]
     np.testing.assert_array_equal(a["depth"], b["depth"])
+    np.testing.assert_array_equal(a["seg"], b["seg"])
+    assert len(a["seg"]) == len(a["data"]["index"])
     assert a["packets"] == b["packets"]
     assert a["info"] == b["info"]
 
@@ -133,6 +138,25 @@ def test_worker_killed_mid_episode_is_retried(tmp_path, reference):
     _no_duplicates(out, 3)
 
 
+def test_no_segmentation_leaves_the_streams_out(tmp_path):
+    import pyarrow.parquet as pq
+
+    out = tmp_path / "ds"
+    cmd, env = _cmd(out, "--workers", "1", "--no-segmentation")
+    cmd[cmd.index("--episodes") + 1] = "1"
+    subprocess.run(cmd, env=env, check=True, timeout=300)
+    info = json.loads((out / "meta/info.json").read_text())
+    assert info["segmentation_features"] == {} and info["ferrobot"]["segmentation"] is False
+    assert sorted(p.name for p in (out / "videos").iterdir()) == [
+        "observation.depth.scene",
+        "observation.depth.wrist",
+        "observation.images.scene",
+        "observation.images.wrist",
+    ]
+    eps = pq.read_table(out / "meta/episodes/chunk-000/file-000.parquet")
+    assert not any(c.startswith("videos/observation.segmentation.") for c in eps.column_names)
+
+
 def test_bad_arguments_leave_existing_data_untouched(tmp_path, capsys):
     cams = parse_cameras(CAMS)
     with pytest.raises(InvalidArgumentError, match="format"):
@@ -175,7 +199,6 @@ def test_bad_arguments_leave_existing_data_untouched(tmp_path, capsys):
         (["--clutter", "9"], "clutter"),
         (["--cameras", "top:10x10"], "cameras"),
         (["--fps", "7"], "control_hz"),
-        (["--segmentation"], "segmentation"),
     ]:
         assert cli(["generate", "--episodes", "1", "--out", str(tmp_path / "x"), *argv]) == 1
         assert what in capsys.readouterr().err

@@ -413,7 +413,12 @@ def main(argv: list[str] | None = None) -> int:
     p_gen.add_argument("--clutter", type=int, default=None, help="objects on the table, 1 to 6 (default 3-5)")
     p_gen.add_argument("--cameras", default="scene:640x480,wrist:320x240", help="NAME:WxH,... of scene and/or wrist")
     p_gen.add_argument("--fps", type=int, default=10, help="control and recording rate (Hz), divides 240")
-    p_gen.add_argument("--segmentation", action="store_true", help="also record segmentation (HDF5 only)")
+    p_gen.add_argument(
+        "--segmentation",
+        action=argparse.BooleanOptionalAction,
+        default=True,
+        help="record segmentation label images (lossless uint16 ids; default on, --no-segmentation leaves them out)",
+    )
     p_gen.add_argument("--no-randomize", action="store_true", help="no domain randomisation")
     p_gen.add_argument(
         "--ray", default="auto", help="auto (Ray if installed, else local processes), off, or a cluster ADDRESS"

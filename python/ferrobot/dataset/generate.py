@@ -125,7 +125,7 @@ class GenerateConfig:
     cameras: list = field(default_factory=lambda: parse_cameras("scene:640x480,wrist:320x240"))
     control_hz: int = 10
     randomize: bool = True
-    segmentation: bool = False
+    segmentation: bool = True
 
     def validate(self) -> None:
         if self.format not in FORMATS:
@@ -140,11 +140,6 @@ class GenerateConfig:
             )
         if self.clutter is not None and not 1 <= self.clutter <= 6:
             raise InvalidArgumentError(f"clutter: expected 1 to 6 objects on the table, got {self.clutter}")
-        if self.segmentation and self.format == "lerobot":
-            raise InvalidArgumentError(
-                "segmentation: not recorded in the LeRobot format (no lossless integer video stream for it); "
-                "use --format hdf5"
-            )
         if self.control_hz not in (1, 2, 3, 4, 5, 6, 8, 10, 12, 15, 16, 20, 24, 30, 40, 48, 60, 80, 120, 240):
             raise InvalidArgumentError(f"control_hz: must divide the 240 Hz physics rate, got {self.control_hz}")
 
@@ -317,6 +312,7 @@ def run_episode(cfg: dict, index: int, root: str) -> dict:
         specs = episode_cameras(cfg, rand)
         writer = writer_cls(staging, name, fps)
         frames = [0]
+        labels: dict = {}
 
         def sink(frame, writer=writer, frames=frames):
             writer(frame)
@@ -324,8 +320,9 @@ def run_episode(cfg: dict, index: int, root: str) -> dict:
             if frames[0] == 3:
                 _fault("worker", index)
 
-        def factory(world, robot, camera, arm_idx, spec=spec, sink=sink, specs=specs, rand=rand):
+        def factory(world, robot, camera, arm_idx, spec=spec, sink=sink, specs=specs, rand=rand, labels=labels):
             apply_lighting(world, rand)
+            labels.update({str(k): v for k, v in world.segmentation_labels.items()})
             cameras = make_cameras(world, robot, camera.get_world_transform(), specs, scene_fov_deg=scene_fov(spec))
             return ControlRecorder(
                 world,
@@ -355,6 +352,7 @@ def run_episode(cfg: dict, index: int, root: str) -> dict:
                 "randomization": rand,
                 "scene": spec.to_dict(),
                 "result": result.to_dict(),
+                "segmentation_labels": labels,
             }
             writer.finish(meta)
         except BaseException:

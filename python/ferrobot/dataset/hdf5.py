@@ -5,6 +5,7 @@ Layout (robomimic's ``get_dataset`` conventions, as MimicGen-style generators wr
     data                      attrs: total (frames), env_args (JSON: env_name, type, env_kwargs), fps,
                                      ferrobot (JSON: generation config)
     data/demo_<i>             attrs: num_samples, seed, success, task, stages (JSON), randomization (JSON),
+                                     segmentation_labels (JSON: segmentation id -> name),
                                      model_file (JSON scene: ``scene_from_dict`` rebuilds it)
         obs/<key>             key = the observation name without "observation.": state, velocity, ee_pose,
                               gripper_opening, images.<camera> (T, H, W, 3) uint8, depth.<camera> (T, H, W)
@@ -48,6 +49,7 @@ def finalize_hdf5(root: Path, episode_dirs: list[Path], info_extra: dict, work: 
             g.attrs["task"] = meta["task"]
             g.attrs["stages"] = json.dumps(meta["stages"])
             g.attrs["randomization"] = json.dumps(meta.get("randomization", {}))
+            g.attrs["segmentation_labels"] = json.dumps(meta.get("segmentation_labels", {}))
             total += int(g.attrs["num_samples"])
             names.append(name)
             if meta["success"]:

@@ -9,7 +9,8 @@ Layout (checked against huggingface/lerobot's ``datasets/utils.py`` and ``lerobo
                                                  dataset_from_index/to_index, data/chunk_index, data/file_index,
                                                  videos/<key>/{chunk_index,file_index,from_timestamp,to_timestamp},
                                                  meta/episodes/{chunk_index,file_index}, stats/<feature>/<stat>,
-                                                 plus ferrobot's success, seed, stages, randomization and scene
+                                                 plus ferrobot's success, seed, stages, randomization,
+                                                 segmentation_labels (JSON id -> name) and scene
                                                  (JSON; ``scene_from_dict`` rebuilds the SceneSpec for a replay)
     data/chunk-XXX/file-XXX.parquet              frames of several episodes: the low-dimensional features,
                                                  timestamp, frame_index, episode_index, index, task_index,
@@ -21,6 +22,17 @@ Layout (checked against huggingface/lerobot's ``datasets/utils.py`` and ``lerobo
 and timestamp columns as the RGB streams. LeRobot's loader decodes RGB videos only, so depth streams are
 listed in ``info.json`` under ``depth_features`` (not ``features``): ``LeRobotDataset`` loads the dataset
 and ignores them; read them with PyAV (``frame.to_ndarray(format="gray16le") / 1000`` gives metres).
+
+**Segmentation** (recorded by default; ``--no-segmentation`` leaves it out) is stored losslessly the same way:
+uint16 label ids (the ids of ``World.segmentation_labels``, 0 = background) in FFV1 gray16le MP4 files under
+``videos/observation.segmentation.<camera>/``, with chunk/file/timestamp columns like every video. They are
+listed in ``info.json`` under ``segmentation_features`` (dtype "uint16"; the id -> name table of each
+episode's world is the episode row's ``segmentation_labels`` column, JSON); read them with PyAV
+(``frame.to_ndarray(format="gray16le")`` gives the ids). No stats are kept for them (averages of ids mean
+nothing). Why beside ``features`` and not in it (checked in lerobot 0.4.4's ``datasets/utils.py`` and
+``video_utils.py``): every non-"video"/"image" feature must be a column of the frame parquet files, and
+"video" features are decoded to 8-bit RGB tensors scaled to [0, 1], which would not keep 16-bit ids or
+millimetres; streams listed outside ``features`` are ignored by ``LeRobotDataset`` and load unchanged with PyAV.
 
 Episodes are assigned to files in episode order; a file is closed once it exceeds ``data_files_size_in_mb`` /
 ``video_files_size_in_mb``; ``chunks_size`` files per chunk directory.
@@ -34,7 +46,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .staging import DEPTH_CODEC, DEPTH_PIX_FMT, LOWDIM_KEYS, RGB_PIX_FMT
+from .staging import DEPTH_CODEC, DEPTH_PIX_FMT, LOWDIM_KEYS, RGB_PIX_FMT, SEG_CODEC, SEG_PIX_FMT
 
 __all__ = ["finalize_lerobot", "CODEBASE_VERSION", "DATA_PATH", "VIDEO_PATH"]
 
@@ -133,7 +145,9 @@ def finalize_lerobot(root: Path, episode_dirs: list[Path], info_extra: dict, wor
     tasks: dict[str, int] = {}
     for m in metas:
         tasks.setdefault(m["task"], len(tasks))
-    video_keys = sorted(k for k, f in info_extra["features"].items() if f["dtype"] in ("video", "depth"))
+    video_keys = sorted(
+        k for k, f in info_extra["features"].items() if f["dtype"] in ("video", "depth", "segmentation")
+    )
     rgb_keys = [k for k in video_keys if k.startswith("observation.images.")]
     depth_keys = [k for k in video_keys if k.startswith("observation.depth.")]
 
@@ -194,6 +208,7 @@ def finalize_lerobot(root: Path, episode_dirs: list[Path], info_extra: dict, wor
         row["stages"] = json.dumps(m["stages"])
         row["randomization"] = json.dumps(m.get("randomization", {}))
         row["scene"] = json.dumps(m.get("scene", {}))
+        row["segmentation_labels"] = json.dumps(m.get("segmentation_labels", {}))
         rows.append(row)
         index += n
 
@@ -251,8 +266,16 @@ def finalize_lerobot(root: Path, episode_dirs: list[Path], info_extra: dict, wor
             "no_reading": 0,
             "info": {"video.codec": DEPTH_CODEC, "video.pix_fmt": DEPTH_PIX_FMT, "video.fps": fps, "lossless": True},
         }
-    for key in [k for k in features if k.startswith("observation.segmentation.")]:
-        features.pop(key)  # not recorded in LeRobot output (no lossless integer stream for it yet)
+    segmentation_features = {}
+    for key in [k for k in video_keys if k.startswith("observation.segmentation.")]:
+        f = features.pop(key)
+        segmentation_features[key] = {
+            **f,
+            "dtype": "uint16",
+            "meaning": "segmentation label id (World.segmentation_labels), 0 = background",
+            "background": 0,
+            "info": {"video.codec": SEG_CODEC, "video.pix_fmt": SEG_PIX_FMT, "video.fps": fps, "lossless": True},
+        }
     features.update(
         {
             "timestamp": scalar,
@@ -279,6 +302,7 @@ def finalize_lerobot(root: Path, episode_dirs: list[Path], info_extra: dict, wor
         "video_path": VIDEO_PATH,
         "features": features,
         "depth_features": depth_features,
+        "segmentation_features": segmentation_features,
         "ferrobot": info_extra.get("ferrobot", {}),
     }
     (work / "meta" / "info.json").write_text(json.dumps(info, indent=2))

@@ -6,7 +6,8 @@ copies are identical, since an episode depends only on its seed.
 
 Layout of a staged LeRobot episode (``ep-000007/``): ``frames.parquet`` (one row per control step, the
 low-dimensional features), ``<video key>.mp4`` per RGB stream (H.264, yuv420p), ``<depth key>.mp4`` per depth
-stream (FFV1, gray16le millimetres: lossless), ``episode.json`` (task, success, stages, seed, randomisation,
+stream (FFV1, gray16le millimetres: lossless), ``<segmentation key>.mp4`` per segmentation stream (FFV1,
+gray16le label ids: lossless), ``episode.json`` (task, success, stages, seed, randomisation,
 per-feature statistics). A staged HDF5 episode is ``episode.hdf5`` (one robomimic ``demo`` group) plus
 ``episode.json``.
 """
@@ -21,7 +22,15 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["LeRobotEpisodeWriter", "Hdf5EpisodeWriter", "publish", "DEPTH_SCALE", "depth_to_mm", "mm_to_depth"]
+__all__ = [
+    "LeRobotEpisodeWriter",
+    "Hdf5EpisodeWriter",
+    "publish",
+    "DEPTH_SCALE",
+    "depth_to_mm",
+    "mm_to_depth",
+    "labels_to_u16",
+]
 
 #: Depth in stored videos: uint16 millimetres (1 mm resolution, 0 = no reading, up to 65.535 m).
 DEPTH_SCALE = 1000.0
@@ -31,6 +40,11 @@ RGB_PIX_FMT = "yuv420p"
 RGB_CRF = 18
 DEPTH_CODEC = "ffv1"
 DEPTH_PIX_FMT = "gray16le"
+#: Segmentation streams: the label ids of ``World.segmentation_labels`` (0 = background) as uint16, FFV1 gray16le.
+SEG_CODEC = "ffv1"
+SEG_PIX_FMT = "gray16le"
+#: Largest segmentation id a LeRobot segmentation stream holds (ids are numbered from 1 in creation order).
+SEG_MAX_ID = 65535
 
 LOWDIM_KEYS = (
     "observation.state",
@@ -51,6 +65,20 @@ def depth_to_mm(depth: np.ndarray) -> np.ndarray:
 
 def mm_to_depth(mm: np.ndarray) -> np.ndarray:
     return np.asarray(mm, dtype=np.float32) / np.float32(DEPTH_SCALE)
+
+
+def labels_to_u16(seg: np.ndarray) -> np.ndarray:
+    """Segmentation ids -> uint16, exactly; raises InvalidArgumentError when an id is outside [0, 65535] (a world with
+    more than 65,535 labelled bodies and links) rather than storing a wrong label."""
+    seg = np.asarray(seg)
+    if seg.size and (int(seg.min()) < 0 or int(seg.max()) > SEG_MAX_ID):
+        from ..errors import InvalidArgumentError
+
+        raise InvalidArgumentError(
+            f"segmentation: ids must be in [0, {SEG_MAX_ID}] to be stored as uint16 video, "
+            f"got [{int(seg.min())}, {int(seg.max())}]"
+        )
+    return seg.astype(np.uint16)
 
 
 def publish(tmp: Path, final: Path) -> bool:
@@ -109,15 +137,17 @@ class _Stats:
 
 
 class _Video:
-    def __init__(self, path: Path, width: int, height: int, fps: int, depth: bool):
+    """One MP4 stream; ``kind``: "rgb" (H.264), "depth" (FFV1 uint16 mm) or "segmentation" (FFV1 uint16 ids)."""
+
+    def __init__(self, path: Path, width: int, height: int, fps: int, kind: str):
         import av
 
         self.av = av
-        self.depth = depth
+        self.kind = kind
         self.container = av.open(str(path), "w")
-        if depth:
-            self.stream = self.container.add_stream(DEPTH_CODEC, rate=fps)
-            self.stream.pix_fmt = DEPTH_PIX_FMT
+        if kind in ("depth", "segmentation"):
+            self.stream = self.container.add_stream(DEPTH_CODEC if kind == "depth" else SEG_CODEC, rate=fps)
+            self.stream.pix_fmt = DEPTH_PIX_FMT if kind == "depth" else SEG_PIX_FMT
         else:
             self.stream = self.container.add_stream(
                 RGB_CODEC, rate=fps, options={"crf": str(RGB_CRF), "preset": "ultrafast", "bf": "0"}
@@ -127,8 +157,10 @@ class _Video:
         self.stream.thread_count = 1
 
     def add(self, image: np.ndarray) -> None:
-        if self.depth:
+        if self.kind == "depth":
             frame = self.av.VideoFrame.from_ndarray(depth_to_mm(image), format="gray16le")
+        elif self.kind == "segmentation":
+            frame = self.av.VideoFrame.from_ndarray(labels_to_u16(image), format="gray16le")
         else:
             frame = self.av.VideoFrame.from_ndarray(np.ascontiguousarray(image), format="rgb24")
         for p in self.stream.encode(frame):
@@ -138,6 +170,17 @@ class _Video:
         for p in self.stream.encode():
             self.container.mux(p)
         self.container.close()
+
+
+def _video_kind(key: str) -> str | None:
+    for prefix, kind in (
+        ("observation.images.", "rgb"),
+        ("observation.depth.", "depth"),
+        ("observation.segmentation.", "segmentation"),
+    ):
+        if key.startswith(prefix):
+            return kind
+    return None
 
 
 class LeRobotEpisodeWriter:
@@ -154,15 +197,16 @@ class LeRobotEpisodeWriter:
 
     def __call__(self, frame: dict) -> None:
         for key, value in frame.items():
-            if key.startswith("observation.images.") or key.startswith("observation.depth."):
+            kind = _video_kind(key)
+            if kind is not None:
                 if key not in self.videos:
                     h, w = value.shape[:2]
-                    self.videos[key] = _Video(
-                        self.dir / f"{key}.mp4", w, h, self.fps, key.startswith("observation.depth.")
-                    )
+                    self.videos[key] = _Video(self.dir / f"{key}.mp4", w, h, self.fps, kind)
                 self.videos[key].add(value)
+                if kind == "segmentation":
+                    continue  # label ids: min/max/mean of ids mean nothing, no stats
                 st = self.stats.setdefault(key, _Stats())
-                if key.startswith("observation.images."):
+                if kind == "rgb":
                     st.add(value.reshape(-1, 3)[::16] / 255.0, axis=(0,))  # every 16th pixel: per-channel stats
                 else:
                     st.add(value.reshape(-1, 1)[::16], axis=(0,))
