@@ -221,6 +221,19 @@ def test_parameters_that_ran_unbounded_or_overflowed_float32_are_refused(panda):
     assert world.names == ["floor"]
 
 
+def test_solver_iterations_are_bounded(panda):
+    """10**9 solver substeps were accepted and made one step run for hours (README "Limits")."""
+    with pytest.raises(errors.InvalidArgumentError, match="solver_iterations"):
+        ferrobot.World(solver_iterations=10**9)
+    world = ferrobot.World(solver_iterations=256)  # the largest valid value
+    with pytest.raises(errors.InvalidArgumentError, match="solver_iterations"):
+        world.add_robot(panda, solver_iterations=257)
+    robot = world.add_robot(panda, solver_iterations=0)
+    with pytest.raises(errors.InvalidArgumentError, match="solver_iterations"):
+        robot.set_solver_iterations(10**6)
+    robot.set_solver_iterations(8)
+
+
 def test_sphere_model_without_spheres_is_an_error(panda, tmp_path):
     empty = tmp_path / "empty.yml"
     empty.write_text("{}")

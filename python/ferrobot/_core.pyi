@@ -31,7 +31,6 @@ __all__ = [
     "bundled_robot",
     "ReactiveController",
     "PotentialFieldController",
-    "grasp_backproject",
     "grasp_detect",
     "grasp_detect_rgbd",
     "grasp_nms",
@@ -42,6 +41,12 @@ __all__ = [
     "CommandDelay",
     "LinearPredictor",
     "StreamGuard",
+    "EncoderNoise",
+    "DepthNoise",
+    "Arbiter",
+    "camera_backproject",
+    "camera_check_intrinsics",
+    "camera_convert_pose",
     "urdf_check",
     "gravity_torques",
     "payload_regressor",
@@ -851,17 +856,19 @@ class StreamGuard:
 
 # --- fault injection (ferrobot_control::faults; wrapped by ferrobot.scenarios) ---
 
+@final
 class EncoderNoise:
     """Gaussian joint encoder noise then quantisation."""
 
-    def __init__(self, sigma: _ArrayLike, resolution: float = 0.0, seed: int = 0) -> None: ...
+    def __new__(cls, sigma: _ArrayLike, resolution: float = 0.0, seed: int = 0) -> Self: ...
     def apply(self, q: _ArrayLike) -> _F64: ...
 
+@final
 class DepthNoise:
     """Depth noise: axial sigma0 + sigma2 (z - z0)^2, random and edge dropout."""
 
-    def __init__(
-        self,
+    def __new__(
+        cls,
         sigma0: float,
         sigma2: float,
         z0: float,
@@ -870,15 +877,16 @@ class DepthNoise:
         edge_dropout: float,
         missing_value: float,
         seed: int,
-    ) -> None: ...
+    ) -> Self: ...
     def sigma(self, z: _ArrayLike) -> _F64: ...
     def edges(self, depth: _ArrayLike) -> npt.NDArray[np.bool_]: ...
     def apply(self, depth: _ArrayLike) -> tuple[_F64, npt.NDArray[np.bool_]]: ...
 
+@final
 class Arbiter:
     """Priority, then latest command, then registration order; conflicts recorded."""
 
-    def __init__(self, num_joints: int, timeout: float, tolerance: float) -> None: ...
+    def __new__(cls, num_joints: int, timeout: float, tolerance: float) -> Self: ...
     @property
     def sources(self) -> list[str]: ...
     @property

@@ -958,12 +958,7 @@ impl PyRobot {
     /// Extra solver substeps for the robot's bodies, used while the robot
     /// touches something (grasps hold better; a free robot does not need them).
     fn set_solver_iterations(&self, n: usize) -> PyResult<()> {
-        guard(|| {
-            self.with(|r, s| {
-                r.set_solver_iterations(s, n);
-                Ok(())
-            })
-        })
+        guard(|| self.with(|r, s| r.set_solver_iterations(s, n)))
     }
 
     // --- Isaac Sim shapes (issue 22): world pose as (position, wxyz),

@@ -20,6 +20,27 @@ impl From<RangeError> for SimError {
     }
 }
 
+/// The world's solver substeps per step (`WorldConfig::solver_iterations`):
+/// each is a full constraint solve, so a step's cost grows linearly with
+/// it; 4 is the default and 256 is far beyond what a manipulation scene
+/// needs (a larger count only makes a step take minutes).
+pub const WORLD_SOLVER_ITERATIONS: Range = Range {
+    name: "solver_iterations",
+    min: 1.0,
+    max: 256.0,
+    unit: "substeps",
+};
+
+/// A robot's extra solver substeps while it touches something
+/// (`RobotOptions::solver_iterations`, `Robot::set_solver_iterations`): 0
+/// to 256, for the same reason as [`WORLD_SOLVER_ITERATIONS`].
+pub const ROBOT_SOLVER_ITERATIONS: Range = Range {
+    name: "solver_iterations",
+    min: 0.0,
+    max: 256.0,
+    unit: "substeps",
+};
+
 /// Joint efforts (N·m or N), per joint, either sign.
 pub const EFFORT: Range = Range {
     name: "efforts",
