@@ -652,7 +652,7 @@ class Planner:
     def ignored_objects(self) -> list[str]: ...
     @property
     def world_sync_stats(self) -> dict[str, int]:
-        """Scene-sync counters: full_builds, incremental, shapes_built, added, removed, moved."""
+        """Scene-sync counters: full_builds, incremental, added, removed, moved."""
     def attach_world_object(
         self,
         name: str,
