@@ -28,6 +28,7 @@ __all__ = [
     "opencv_to_opengl",
     "opengl_to_opencv",
     "look_at",
+    "load_mesh",
     "bundled_robot",
     "ReactiveController",
     "PotentialFieldController",
