@@ -310,6 +310,7 @@ def run_scene(spec: clutter.ClutterSpec, hand_model, pb, options: dict) -> dict:
         "removed": removed,
         "remaining": len(state.objects),
         "lost": total - removed - len(state.objects),
+        "final_state": {n: ge.pose7(state.poses[n]) for n in state.objects},
         "attempts": attempts,
         "files": [o.source for o in spec.objects],
     }

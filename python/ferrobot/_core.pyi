@@ -524,6 +524,7 @@ def load_mesh(
     max_convex_hulls: int = 32,
 ) -> dict[str, Any]:
     """An object mesh, checked and decomposed (cached): vertices, faces, parts [(vertices, faces)], volume, closed."""
+
 def look_at(eye: _ArrayLike, target: _ArrayLike, up: _ArrayLike | None = None) -> _F64: ...
 
 # --- cameras (crates/ferrobot-py/src/camera.rs; used through ferrobot.camera) ---

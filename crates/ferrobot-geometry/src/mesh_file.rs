@@ -183,6 +183,33 @@ pub fn check_object_mesh(data: &TriMesh, scale: &Vector3<f64>, path: &Path) -> R
     Ok(())
 }
 
+/// The mesh with bit-identical vertices merged (parsers repeat a vertex
+/// per face), so that its topology (closed or not) is visible.
+fn merge_duplicates(mesh: TriMesh) -> TriMesh {
+    let mut ids: HashMap<[u64; 3], u32> = HashMap::new();
+    let mut vertices = Vec::new();
+    let remap: Vec<u32> = mesh
+        .vertices
+        .iter()
+        .map(|p| {
+            let key = [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()];
+            *ids.entry(key).or_insert_with(|| {
+                vertices.push(*p);
+                (vertices.len() - 1) as u32
+            })
+        })
+        .collect();
+    let triangles = mesh
+        .triangles
+        .iter()
+        .map(|t| t.map(|i| remap.get(i as usize).copied().unwrap_or(u32::MAX)))
+        .collect();
+    TriMesh {
+        vertices,
+        triangles,
+    }
+}
+
 fn file_key(path: &Path) -> Result<FileKey> {
     let meta = std::fs::metadata(path).map_err(|e| bad(path, format!("cannot read: {e}")))?;
     if !meta.is_file() {
@@ -223,7 +250,7 @@ fn load_file(path: &Path, key: &FileKey) -> Result<Arc<TriMesh>> {
     // The third-party parsers may panic on content that is not a mesh.
     let loaded = std::panic::catch_unwind(|| TriMesh::load(path))
         .unwrap_or_else(|_| Err("the parser failed: not a valid mesh file".into()));
-    let data = Arc::new(loaded.map_err(|e| bad(path, e))?);
+    let data = Arc::new(merge_duplicates(loaded.map_err(|e| bad(path, e))?));
     if let Ok(mut c) = files().lock() {
         if c.len() >= CACHE_ENTRIES {
             c.clear();
