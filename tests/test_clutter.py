@@ -295,3 +295,25 @@ def test_clearing_counts_match_the_simulator(objects_dir, tmp_path):
     for n in final:
         assert w.get_object_pose(n)[2, 3] > bench.TABLE_TOP - 0.01
     assert not set(final) & set(removed)
+
+
+def test_demo_clutter_arguments_are_checked(capsys):
+    from ferrobot import cli
+
+    assert cli.main(["demo", "--objects", "/no/such/folder"]) == 2
+    assert "--clutter" in capsys.readouterr().err
+    assert cli.main(["demo", "--clutter", "40"]) == 2
+    assert "between 1 and 15" in capsys.readouterr().err
+    assert cli.main(["demo", "--clutter", "3", "--objects", "/no/such/folder"]) == 2
+    assert "/no/such/folder" in capsys.readouterr().err
+
+
+def test_clutter_scene_is_a_pick_place_scene(objects_dir):
+    from ferrobot.pipeline import build_world, clutter_scene
+
+    spec = clutter_scene(5, 4, objects_dir, bin=True)
+    assert spec.target == spec.objects[-1].name and all(o.kind == "mesh" for o in spec.objects)
+    world, _robot, _camera = build_world(spec)
+    assert {o.name for o in spec.objects} | {"bin_wall_x0"} <= set(world.object_names)
+    with pytest.raises(InvalidArgumentError, match="no object 'nope'"):
+        clutter_scene(5, 4, objects_dir, target="nope")
