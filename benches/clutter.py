@@ -18,7 +18,9 @@ Each attempt (the setting of VGN's clutter removal, with grasp_eval's floating P
   instance masks), every pixel (neighbours, bin walls, table) an obstacle, the world's -z as the preferred
   approach; the top-scored grasp is executed (no grasp: a failed attempt);
 - the floating Panda hand of ``benches/grasp_eval.py`` (pybullet_data's hand and finger meshes on three
-  driven slides) runs pre-grasp 5 cm back, approach, close (20 N per finger), lift 10 cm, hold 2 s;
+  driven slides) runs pre-grasp 5 cm back, approach, close (20 N per finger), lift 10 cm, hold 2 s; in a
+  bin the lift goes back along the approach until the hand has risen 10 cm (a tilted hand lifted straight
+  up drags along the walls);
 - success: an object rose >= 8 cm and the fingers did not close on nothing; objects that rose are removed
   (a clean lift removes exactly one); objects pushed off the table or out of the bin are lost (not
   cleared); the scene ends when no object remains or after 2 failed attempts in a row, or after 2 K
@@ -202,6 +204,24 @@ class PyBulletClutterJudge(ge.PyBulletJudge):
         return {"success": bool(lifted) and opening > ge.MIN_OPENING, "lifted": lifted, "opening": opening}
 
 
+def bin_schedule(base: np.ndarray) -> list[tuple[np.ndarray, float]]:
+    """grasp_eval's schedule, but the lift goes back along the approach (as the pick-and-place pipeline's
+    retreat) far enough to rise ``LIFT``: a tilted hand lifted straight up drags along the bin's walls."""
+    up = max(-float(base[2, 2]), 0.5)  # the approach's downward component
+    q_grasp = np.array([0.0, 0.0, ge.PREGRASP])
+    q_lift = q_grasp - np.array([0.0, 0.0, ge.LIFT / up])
+    steps: list[tuple[np.ndarray, float]] = []
+    for q in ge.smooth(np.zeros(3), q_grasp, ge.APPROACH_S):
+        steps.append((np.r_[q, ge.OPEN, ge.OPEN], 0.0))
+    for _ in range(int(round(ge.CLOSE_S / DT))):
+        steps.append((np.r_[q_grasp, 0.0, 0.0], ge.FINGER_FORCE))
+    for q in ge.smooth(q_grasp, q_lift, ge.LIFT_S):
+        steps.append((np.r_[q, 0.0, 0.0], ge.FINGER_FORCE))
+    for _ in range(int(round(ge.HOLD_S / DT))):
+        steps.append((np.r_[q_lift, 0.0, 0.0], ge.FINGER_FORCE))
+    return steps
+
+
 def attempt(state: State, hand_model, pb, options: dict) -> dict:
     """One perceive-grasp-lift attempt; updates ``state`` (removes lifted and lost objects)."""
     t_cpu = time.process_time()
@@ -245,7 +265,7 @@ def attempt(state: State, hand_model, pb, options: dict) -> dict:
     hand = top.to_panda_hand(ge.TCP_OFFSET)[0]
     base = hand.copy()
     base[:3, 3] -= ge.PREGRASP * hand[:3, 2]
-    steps = ge.hand_schedule(base)
+    steps = bin_schedule(base) if state.spec.bin is not None else ge.hand_schedule(base)
     robot = w.add_robot(hand_model, ge.pose7(base), name="hand", q=np.array([0, 0, 0, ge.OPEN, ge.OPEN]))
     robot.set_drive_gains(stiffness=[2.0e4] * 3, damping=[1.0e3] * 3, joint_indices=[0, 1, 2])
     robot.set_gripper(["panda_finger_joint1", "panda_finger_joint2"], [ge.OPEN, ge.OPEN], [0.0, 0.0])
