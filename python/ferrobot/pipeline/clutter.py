@@ -8,7 +8,8 @@ referenced by a URDF in the same folder. The default folders are PyPI ``pybullet
 A :class:`ClutterSpec` is plain data drawn from a seed by :func:`random_clutter`: which files, at which
 scale (the file's scale times a factor in ``scale_range``, then shrunk if its middle extent exceeds
 ``max_middle_extent`` so the hand's 8 cm opening fits), mass (the URDF's or ``density`` times the volume,
-times a factor in ``mass_range``), friction (drawn in ``friction_range``) and drop pose (a random rotation
+times a factor in ``mass_range``, then limited to 0.01-2 kg, the sampler's documented range), friction (the
+URDF's ``lateral_friction``, else drawn in ``friction_range``) and drop pose (a random rotation
 over a small disc or over the bin, stacked upward so objects land on each other). :func:`add_clutter` adds
 a bin (four static walls on the table) and the objects to a :class:`ferrobot.World` as convex
 decompositions (``World.add_mesh_file``: the decomposition is computed once per file, scale and
@@ -293,7 +294,6 @@ def random_clutter(
         mass = (of.mass if of.mass is not None else density * info["volume"]) * rng.uniform(*mass_range)
         mass = float(min(max(mass, 0.01), 2.0))
         friction = float(rng.uniform(*friction_range)) if of.friction is None else float(of.friction)
-        friction = float(min(friction, friction_range[1]) if of.friction is None else friction)
         q = _random_rotation(rng)
         verts = _rotate(q, info["vertices"])
         centre = 0.5 * (verts.max(axis=0) + verts.min(axis=0))
