@@ -317,3 +317,17 @@ def test_clutter_scene_is_a_pick_place_scene(objects_dir):
     assert {o.name for o in spec.objects} | {"bin_wall_x0"} <= set(world.object_names)
     with pytest.raises(InvalidArgumentError, match="no object 'nope'"):
         clutter_scene(5, 4, objects_dir, target="nope")
+
+
+def test_planner_world_gets_mesh_file_objects(tmp_path):
+    from ferrobot.pipeline.scene import HOME
+
+    model = ferrobot.robots.panda()
+    path = write_obj(tmp_path / "cube.obj", *cube(0.04))
+    hand = model.fk(HOME, "panda_hand")[:3, 3]
+    for dz, expected in ((0.0, True), (0.3, False)):
+        w = ferrobot.World(ground=False, gravity=[0, 0, 0])
+        w.add_mesh_file("cube", path, [hand[0], hand[1], hand[2] + dz, 1, 0, 0, 0])
+        planner = ferrobot.Planner(model)
+        planner.update_world(w, base_pose=[0, 0, 0, 1, 0, 0, 0])
+        assert planner.in_collision(HOME) is expected
