@@ -28,6 +28,7 @@ __all__ = [
     "opencv_to_opengl",
     "opengl_to_opencv",
     "look_at",
+    "load_mesh",
     "bundled_robot",
     "ReactiveController",
     "PotentialFieldController",
@@ -357,6 +358,26 @@ class World:
         color: _ArrayLike | None = None,
     ) -> str:
         """``approximation``: "convex_hull", "convex_decomposition" or "trimesh" (static only)."""
+    def add_mesh_file(
+        self,
+        name: str,
+        path: str | PathLike[str],
+        pose: _Pose | None = None,
+        *,
+        scale: float | _ArrayLike | None = None,
+        approximation: str | None = None,
+        mass: float | None = None,
+        density: float | None = None,
+        friction: float = 0.5,
+        restitution: float = 0.0,
+        static_: bool = False,
+        color: _ArrayLike | None = None,
+        resolution: int = 64,
+        concavity: float = 0.01,
+        max_convex_hulls: int = 32,
+    ) -> str:
+        """A mesh file (OBJ, STL, DAE); ``approximation`` None: "trimesh" if static, else "convex_decomposition"
+        (V-HACD, cached per file, scale and parameters); mass or density (kg/m^3). Bad files raise MeshError."""
     def get_object_pose(self, name: str) -> _F64: ...
     def set_object_pose(self, name: str, pose: _Pose) -> None: ...
     def get_object_velocity(self, name: str) -> tuple[_F64, _F64]: ...
@@ -494,6 +515,16 @@ def depth_to_points(
 ) -> tuple[_F64, npt.NDArray[np.int64]]: ...
 def opencv_to_opengl(pose: _Pose) -> _F64: ...
 def opengl_to_opencv(pose: _Pose) -> _F64: ...
+def load_mesh(
+    path: str | PathLike[str],
+    scale: float | _ArrayLike | None = None,
+    *,
+    resolution: int = 64,
+    concavity: float = 0.01,
+    max_convex_hulls: int = 32,
+) -> dict[str, Any]:
+    """An object mesh, checked and decomposed (cached): vertices, faces, parts [(vertices, faces)], volume, closed."""
+
 def look_at(eye: _ArrayLike, target: _ArrayLike, up: _ArrayLike | None = None) -> _F64: ...
 
 # --- cameras (crates/ferrobot-py/src/camera.rs; used through ferrobot.camera) ---

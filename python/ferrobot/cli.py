@@ -110,7 +110,83 @@ def cmd_serve_grasp(args: argparse.Namespace) -> int:
     return 0
 
 
+def _objects_arg(text: str):
+    """``--objects``: a count, or a folder of object files (for ``--clutter``)."""
+    return int(text) if text.strip().lstrip("-").isdigit() else text
+
+
+def _demo_clutter(args: argparse.Namespace) -> int:
+    """``ferrobot demo --clutter K [--objects DIR] [--bin] [--clear]``: pick-and-place from clutter."""
+    from pathlib import Path
+
+    from .errors import FerrobotError
+    from .pipeline import PickPlace, PickPlaceConfig
+    from .pipeline.report import format_report, write_episode
+    from .pipeline.scene import TABLE_TOP, ObjectSpec, SceneSpec, clutter_scene
+    from .transforms import matrix_to_pose
+
+    if not 1 <= args.clutter <= 15:
+        print("ferrobot: error: --clutter must be between 1 and 15", file=sys.stderr)
+        return 2
+    if isinstance(args.objects, int):
+        print("ferrobot: error: with --clutter, --objects is a folder of object files", file=sys.stderr)
+        return 2
+    try:
+        spec = clutter_scene(args.seed, args.clutter, args.objects, bin=args.bin, target=args.target)
+    except FerrobotError as e:
+        print(f"ferrobot: error: {e}", file=sys.stderr)
+        return 2
+    out = Path(args.out)
+    pp = PickPlace(PickPlaceConfig())
+    where = "in a bin" if args.bin else "in a pile"
+    print(f"ferrobot demo: {len(spec.objects)} mesh objects {where} ({', '.join(o.name for o in spec.objects)})")
+    if not args.clear:
+        print(f"pick '{spec.target}' and place it at ({spec.place_xy[0]:.3f}, {spec.place_xy[1]:.3f})")
+        result = pp.run(spec, record_frames=not args.no_animation)
+        print(format_report(result))
+        paths = write_episode(out, result)
+        print("wrote " + ", ".join(str(p) for p in paths.values()))
+        return 0 if result.success else 1
+    # Clearing: each episode picks the top object of what is left and places it aside; the next scene holds
+    # the objects left where the simulator left them (the placed object is taken away).
+    objects, total, removed, fails, k = list(spec.objects), len(spec.objects), 0, 0, 0
+    while objects and fails < 2:
+        target = max(objects, key=lambda o: o.pose[2]).name
+        scene = SceneSpec(
+            seed=spec.seed,
+            objects=objects,
+            target=target,
+            place_xy=spec.place_xy,
+            bin=spec.bin,
+            camera_target=spec.camera_target,
+        )
+        result = pp.run(scene, record_frames=not args.no_animation and k == 0)
+        world = result.episode.world
+        print(f"episode {k}: {format_report(result)}")
+        if k == 0:
+            write_episode(out, result)
+        k += 1
+        left = []
+        for o in objects:
+            pose = world.get_object_pose(o.name)
+            p = pose[:3, 3]
+            gone = o.name == target and result.success
+            if gone or p[2] < TABLE_TOP - 0.05:
+                continue
+            left.append(ObjectSpec(**{**o.__dict__, "pose": [float(x) for x in matrix_to_pose(pose)]}))
+        removed += 1 if result.success else 0
+        fails = 0 if result.success else fails + 1
+        objects = left
+    print(f"cleared {removed}/{total} objects in {k} episodes; wrote the first episode to {out}")
+    return 0 if removed == total else 1
+
+
 def cmd_demo(args: argparse.Namespace) -> int:
+    if getattr(args, "clutter", None) is not None:
+        return _demo_clutter(args)
+    if isinstance(args.objects, str):
+        print("ferrobot: error: --objects DIR needs --clutter K", file=sys.stderr)
+        return 2
     from pathlib import Path
 
     from .pipeline import PickPlace, PickPlaceConfig, random_scene
@@ -345,7 +421,16 @@ def main(argv: list[str] | None = None) -> int:
     p_demo.add_argument("--episodes", type=int, default=1, help="number of episodes (> 1: a batch run)")
     p_demo.add_argument("--seed", type=int, default=0, help="scene seed (batch: seeds seed, seed + 1, ...)")
     p_demo.add_argument("--out", default="ferrobot-demo", help="output folder (default ./ferrobot-demo)")
-    p_demo.add_argument("--objects", type=int, default=None, help="objects on the table (default 3-5 at random)")
+    p_demo.add_argument(
+        "--objects",
+        type=_objects_arg,
+        default=None,
+        help="objects on the table (default 3-5 at random); with --clutter: a folder of URDF / OBJ / STL / DAE objects",
+    )
+    p_demo.add_argument("--clutter", type=int, default=None, metavar="K", help="a pile of K (1-15) mesh objects")
+    p_demo.add_argument("--bin", action="store_true", help="with --clutter: the pile is in a bin")
+    p_demo.add_argument("--clear", action="store_true", help="with --clutter: pick and place until the pile is gone")
+    p_demo.add_argument("--target", default=None, help="with --clutter: the object to pick (default: the top one)")
     p_demo.add_argument("--no-animation", action="store_true", help="single episode: skip the animation")
     p_demo.add_argument("--quiet", action="store_true", help="batch: no progress bar")
     p_demo.add_argument(

@@ -42,7 +42,9 @@ class UrdfError(ModelError):
 
 
 class MeshError(UrdfError):
-    """A mesh named by the URDF is missing or unreadable (the message lists the paths tried)."""
+    """A mesh named by the URDF is missing or unreadable (the message lists the paths tried); also an object
+    mesh file (``World.add_mesh_file``, ``load_mesh``) that is missing, unreadable, empty, huge, degenerate or
+    non-manifold (the message names the file)."""
 
 
 class SrdfError(ModelError):

@@ -15,13 +15,17 @@
 //! rebuilds them.
 
 pub mod cloud;
+pub mod decomposition;
 pub mod error;
 pub mod mesh;
+pub mod mesh_file;
 pub mod shape;
 pub mod trimesh;
 
 pub use cloud::PointCloud;
+pub use decomposition::DecompositionParams;
 pub use error::{GeometryError, Result};
 pub use mesh::{Hull, Mesh, MeshSource};
+pub use mesh_file::{MAX_EXTENT, MAX_TRIANGLES, check_object_mesh, load_object_mesh};
 pub use shape::{MeshAs, Shape, box_sdf, cylinder_sdf};
 pub use trimesh::TriMesh;

@@ -9,6 +9,7 @@ use parry3d::math::Vector as PVec;
 use parry3d::query::PointQuery;
 use parry3d::shape::{SharedShape, TriMeshFlags};
 
+use crate::decomposition::DecompositionParams;
 use crate::error::{GeometryError, Result};
 use crate::trimesh::TriMesh;
 
@@ -38,6 +39,8 @@ pub struct Mesh {
     source: Option<MeshSource>,
     bounding_radius: f64,
     query: OnceLock<std::result::Result<MeshQuery, GeometryError>>,
+    decomposition_params: DecompositionParams,
+    decomposition: OnceLock<std::result::Result<SharedShape, GeometryError>>,
 }
 
 fn check_data(vertices: &[Point3<f64>], triangles: &[[u32; 3]]) -> Result<()> {
@@ -97,7 +100,39 @@ impl Mesh {
             source,
             bounding_radius,
             query: OnceLock::new(),
+            decomposition_params: DecompositionParams::default(),
+            decomposition: OnceLock::new(),
         }
+    }
+
+    /// The same mesh with other convex decomposition parameters (checked
+    /// when the decomposition is computed); to be called before the mesh is
+    /// shared, since the decomposition is computed once per mesh.
+    pub fn with_decomposition_params(mut self, params: DecompositionParams) -> Self {
+        self.decomposition_params = params;
+        self.decomposition = OnceLock::new();
+        self
+    }
+
+    /// The parameters of [`Mesh::convex_decomposition`].
+    pub fn decomposition_params(&self) -> &DecompositionParams {
+        &self.decomposition_params
+    }
+
+    /// The mesh's convex parts (V-HACD, see [`crate::decomposition`]) as a
+    /// parry compound, computed on the first call and shared by every clone
+    /// of this mesh (and so by the simulator and the planner's world).
+    pub fn convex_decomposition(&self) -> Result<&SharedShape> {
+        self.decomposition
+            .get_or_init(|| {
+                crate::decomposition::decompose(
+                    &self.parry_vertices(),
+                    &self.data.triangles,
+                    &self.decomposition_params,
+                )
+            })
+            .as_ref()
+            .map_err(Clone::clone)
     }
 
     /// The shared vertex data, unscaled.

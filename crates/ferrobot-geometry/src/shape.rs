@@ -307,10 +307,7 @@ impl Shape {
                     id,
                 ),
             },
-            Self::ConvexDecomposition(m) => (
-                SharedShape::convex_decomposition(&m.parry_vertices(), m.triangles()),
-                id,
-            ),
+            Self::ConvexDecomposition(m) => (m.convex_decomposition()?.clone(), id),
             Self::PointCloud(_) => {
                 return Err(GeometryError::InvalidShape(
                     "a point cloud has no parry shape".into(),

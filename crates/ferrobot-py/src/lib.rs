@@ -11,6 +11,7 @@ mod control;
 mod errors;
 mod faults;
 mod grasp;
+mod mesh_objects;
 mod model;
 mod planning;
 mod scene;
@@ -70,6 +71,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(camera::camera_backproject, m)?)?;
     m.add_function(wrap_pyfunction!(camera::camera_convert_pose, m)?)?;
     m.add_function(wrap_pyfunction!(bundled_robot, m)?)?;
+    m.add_function(wrap_pyfunction!(mesh_objects::load_mesh, m)?)?;
     m.add_class::<control::PyReactiveController>()?;
     m.add_class::<control::PyPotentialFieldController>()?;
     m.add_function(wrap_pyfunction!(grasp::grasp_detect, m)?)?;

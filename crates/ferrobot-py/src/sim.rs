@@ -568,6 +568,103 @@ impl PyWorld {
         })
     }
 
+    /// Adds an object whose geometry is a mesh file (OBJ, STL, DAE) scaled
+    /// by `scale` (one factor or three). `approximation`: None picks
+    /// "trimesh" for a static object and "convex_decomposition" (V-HACD with
+    /// `resolution`, `concavity`, `max_convex_hulls`, computed once per file,
+    /// scale and parameters) for a dynamic one; "convex_hull" also works.
+    /// Give `mass` (kg) or `density` (kg/m³, times the approximation's
+    /// volume), not both; neither means 1 kg. Bad files raise `MeshError`
+    /// naming the file.
+    #[pyo3(signature = (name, path, pose=None, *, scale=None, approximation=None, mass=None, density=None, friction=0.5, restitution=0.0, static_=false, color=None, resolution=64, concavity=0.01, max_convex_hulls=32))]
+    #[allow(clippy::too_many_arguments)]
+    fn add_mesh_file(
+        &self,
+        py: Python<'_>,
+        name: String,
+        path: std::path::PathBuf,
+        pose: Option<&Bound<'_, PyAny>>,
+        scale: Option<&Bound<'_, PyAny>>,
+        approximation: Option<&str>,
+        mass: Option<f64>,
+        density: Option<f64>,
+        friction: f64,
+        restitution: f64,
+        static_: bool,
+        color: Option<&Bound<'_, PyAny>>,
+        resolution: u32,
+        concavity: f64,
+        max_convex_hulls: u32,
+    ) -> PyResult<String> {
+        use crate::mesh_objects::{decomposition_params, object_mesh, scale_arg};
+        guard(|| {
+            let scale = scale_arg(scale)?;
+            let params = decomposition_params(resolution, concavity, max_convex_hulls)?;
+            let approximation = approximation.unwrap_or(if static_ {
+                "trimesh"
+            } else {
+                "convex_decomposition"
+            });
+            let decompose = approximation == "convex_decomposition";
+            let mesh = object_mesh(py, &path, scale, params, decompose)?;
+            let file_err = |e: ferrobot_geometry::GeometryError| {
+                crate::errors::MeshError::new_err(format!("mesh file '{}': {e}", path.display()))
+            };
+            let shape = match approximation {
+                "convex_decomposition" => Shape::ConvexDecomposition(mesh),
+                "convex_hull" => Shape::ConvexHull(Arc::new(
+                    Hull::new(mesh.vertices().collect()).map_err(file_err)?,
+                )),
+                "trimesh" => Shape::Mesh(mesh),
+                other => {
+                    return Err(InvalidArgumentError::new_err(format!(
+                        "approximation must be 'convex_hull', 'convex_decomposition' or 'trimesh', got '{other}'"
+                    )));
+                }
+            };
+            let mass = match (mass, density) {
+                (Some(_), Some(_)) => {
+                    return Err(InvalidArgumentError::new_err(
+                        "give mass or density, not both",
+                    ));
+                }
+                (Some(m), None) => m,
+                (None, Some(d)) => {
+                    if !(d.is_finite() && d > 0.0 && d <= 1e5) {
+                        return Err(InvalidArgumentError::new_err(format!(
+                            "density must be in (0, 1e5] kg/m3, got {d}"
+                        )));
+                    }
+                    let vol = shape.volume().ok_or_else(|| {
+                        InvalidArgumentError::new_err(
+                            "density needs a solid: use mass with approximation 'trimesh'",
+                        )
+                    })?;
+                    d * vol
+                }
+                (None, None) => 1.0,
+            };
+            let desc = object_desc(
+                name,
+                shape,
+                pose,
+                mass,
+                friction,
+                restitution,
+                static_,
+                color,
+            )?;
+            let inner = self.inner.clone();
+            let name = desc.name.clone();
+            py.detach(|| -> Result<(), SimError> {
+                let mut w = lock_world(&inner);
+                w.add_object(desc).map(|_| ())
+            })
+            .map_err(sim_err)?;
+            Ok(name)
+        })
+    }
+
     /// World pose (4x4) of an object.
     fn get_object_pose<'py>(
         &self,

@@ -8,7 +8,7 @@ print(result.success, result.failed_stage, result.reason)
 from __future__ import annotations
 
 from .pick_place import STAGES, Episode, EpisodeResult, PickPlace, PickPlaceConfig, StageFailure, StageResult
-from .scene import HOME, TABLE_TOP, ObjectSpec, SceneSpec, build_world, random_scene
+from .scene import HOME, TABLE_TOP, ObjectSpec, SceneSpec, build_world, clutter_scene, random_scene
 
 __all__ = [
     "HOME",
@@ -23,5 +23,6 @@ __all__ = [
     "StageFailure",
     "StageResult",
     "build_world",
+    "clutter_scene",
     "random_scene",
 ]

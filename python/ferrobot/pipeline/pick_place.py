@@ -600,7 +600,7 @@ class PickPlace:
         }
         if err > self.config.place_tolerance:
             raise StageFailure("verify", f"object rests {1e3 * err:.0f} mm from the place location")
-        if abs(pose[2, 3] - rest_z) > 0.01 and spec.kind != "sphere":
+        if abs(pose[2, 3] - rest_z) > 0.01 and spec.kind not in ("sphere", "mesh"):
             raise StageFailure("verify", f"object is not resting upright on the table (centre {pose[2, 3]:.3f} m)")
         return detail
 

@@ -17,8 +17,9 @@ import numpy as np
 
 from .. import _core, robots
 from ..errors import InvalidArgumentError
+from .clutter import BinSpec, add_bin, random_clutter, settle
 
-__all__ = ["ObjectSpec", "SceneSpec", "random_scene", "build_world", "TABLE_TOP", "HOME"]
+__all__ = ["ObjectSpec", "SceneSpec", "random_scene", "clutter_scene", "build_world", "TABLE_TOP", "HOME"]
 
 #: Height (m) of the table's top face.
 TABLE_TOP = 0.40
@@ -61,6 +62,9 @@ class ObjectSpec:
     mass: float = 0.15
     friction: float = 0.9
     color: tuple[float, float, float] = (0.6, 0.6, 0.6)
+    #: kind "mesh": the mesh file and its scale (3,); ``size`` then holds the drop pose's bounding-box extents.
+    mesh: str | None = None
+    scale: tuple[float, float, float] = (1.0, 1.0, 1.0)
 
     @property
     def height(self) -> float:
@@ -69,12 +73,14 @@ class ObjectSpec:
             return self.size[2]
         if self.kind == "cylinder":
             return self.size[1]
+        if self.kind == "mesh":
+            return self.size[2]
         return 2 * self.size[0]
 
     @property
     def footprint(self) -> float:
         """Radius (m) of a circle around the object's footprint."""
-        if self.kind == "box":
+        if self.kind in ("box", "mesh"):
             return 0.5 * math.hypot(self.size[0], self.size[1])
         return self.size[0]
 
@@ -92,6 +98,8 @@ class SceneSpec:
     camera_size: tuple[int, int] = (640, 480)
     camera_f: float = 525.0
     base_pose: list[float] = field(default_factory=lambda: BASE_POSE.tolist())
+    #: A bin on the table (``ferrobot.pipeline.clutter.BinSpec``) or None.
+    bin: BinSpec | None = None
 
     def object(self, name: str) -> ObjectSpec:
         for o in self.objects:
@@ -169,8 +177,15 @@ def build_world(spec: SceneSpec, model=None):
             world.add_cylinder(o.name, o.size[0], o.size[1], o.pose, **common)
         elif o.kind == "sphere":
             world.add_sphere(o.name, o.size[0], o.pose, **common)
+        elif o.kind == "mesh":
+            world.add_mesh_file(o.name, o.mesh, o.pose, scale=o.scale, **common)
+            world.step(24)  # dropped one by one: a pile
         else:
-            raise InvalidArgumentError(f"object '{o.name}': unknown kind '{o.kind}' (box, cylinder, sphere)")
+            raise InvalidArgumentError(f"object '{o.name}': unknown kind '{o.kind}' (box, cylinder, sphere, mesh)")
+    if spec.bin is not None:
+        add_bin(world, spec.bin if isinstance(spec.bin, BinSpec) else BinSpec(**spec.bin), TABLE_TOP)
+    if any(o.kind == "mesh" for o in spec.objects):
+        settle(world, [o.name for o in spec.objects if o.kind == "mesh"])
     robot = world.add_robot(model, spec.base_pose, name="panda", q=HOME)
     robot.set_joint_position_targets(HOME)
     w, h = spec.camera_size
@@ -179,3 +194,54 @@ def build_world(spec: SceneSpec, model=None):
     world.step(60)
     world.mark_initial_state()
     return world, robot, camera
+
+
+#: Centre (x, y) of clutter piles and bins, and the place location of clutter scenes.
+CLUTTER_CENTER = (0.55, 0.09)
+CLUTTER_PLACE = (0.50, -0.22)
+
+
+def clutter_scene(seed: int, num_objects: int = 8, objects=None, *, bin: bool = False, target: str | None = None):
+    """A clutter scene for pick-and-place: ``num_objects`` mesh objects from ``objects`` (a folder of URDFs /
+    meshes; default pybullet_data's, see :func:`ferrobot.pipeline.clutter.random_clutter`) dropped in a pile
+    (or a bin) at :data:`CLUTTER_CENTER`; the target is ``target`` (an object name) or the last object
+    dropped (on top of the pile); the place location :data:`CLUTTER_PLACE` is clear of the pile."""
+    c = random_clutter(seed, num_objects, objects, bin=bin, table_top=TABLE_TOP, center=CLUTTER_CENTER)
+    objs = []
+    for o in c.objects:
+        info = _core.load_mesh(o.mesh, o.scale)
+        q = np.asarray(o.pose[3:])
+        w, x, y, z = q
+        r = np.array(
+            [
+                [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+            ]
+        )
+        v = info["vertices"] @ r.T
+        ext = tuple(float(e) for e in v.max(axis=0) - v.min(axis=0))
+        objs.append(
+            ObjectSpec(
+                name=o.name,
+                kind="mesh",
+                size=ext,
+                pose=o.pose,
+                mass=o.mass,
+                friction=o.friction,
+                color=o.color,
+                mesh=o.mesh,
+                scale=o.scale,
+            )
+        )
+    names = [o.name for o in objs]
+    if target is not None and target not in names:
+        raise InvalidArgumentError(f"target: the scene has no object '{target}'; objects: {names}")
+    return SceneSpec(
+        seed=seed,
+        objects=objs,
+        target=target or names[-1],
+        place_xy=CLUTTER_PLACE,
+        bin=c.bin,
+        camera_target=(CLUTTER_CENTER[0], CLUTTER_CENTER[1], TABLE_TOP),
+    )

@@ -22,8 +22,9 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import _core
 from ..grasp._group import _BOX_FACES
-from .scene import ROBOT_MOUNT
+from .scene import ROBOT_MOUNT, TABLE_TOP
 
 __all__ = ["DEFAULT_VIEW", "mesh_of", "project", "robot_meshes", "scene_data", "viewer_data", "write_viewer"]
 
@@ -280,6 +281,17 @@ def viewer_data(episode) -> dict:
         {"name": name, "kind": kind, "size": size, "color": color, "base": name in ("table", ROBOT_MOUNT)}
         for name, kind, size, color in ep.scene_shapes()
     ]
+    for o in objects:
+        if o["kind"] == "mesh":  # mesh objects (clutter scenes): their scaled file mesh
+            spec = ep.spec.object(o["name"])
+            info = _core.load_mesh(spec.mesh, spec.scale)
+            o["vertices"], o["faces"] = info["vertices"], info["faces"]
+    if getattr(ep.spec, "bin", None) is not None:
+        from .clutter import BinSpec
+
+        b = ep.spec.bin if isinstance(ep.spec.bin, BinSpec) else BinSpec(**ep.spec.bin)
+        for name, size, _pose in b.walls(TABLE_TOP):
+            objects.append({"name": name, "kind": "box", "size": size, "color": (0.45, 0.47, 0.52), "base": True})
     grasp = None
     if ep.choice is not None:
         grasp = ep.grasps_world[ep.choice : ep.choice + 1].gripper_lines()[0]

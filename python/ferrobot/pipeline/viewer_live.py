@@ -120,7 +120,7 @@ def episode_scene(folder, max_frames: int = 300) -> dict:
     """The scene of a ``ferrobot demo`` output folder (``report.json``, ``trajectory.npz``): the robot replaying
     its executed joint positions, the objects at their start poses (the trajectory file records the robot
     only; ``viewer.html`` in the folder has the objects moving), the camera and the chosen grasp."""
-    from .. import robots
+    from .. import _core, robots
     from ..grasp import GraspGroup
     from .scene import ROBOT_MOUNT, TABLE_SIZE, TABLE_TOP, ObjectSpec, SceneSpec, build_world
 
@@ -141,9 +141,28 @@ def episode_scene(folder, max_frames: int = 300) -> dict:
             size = TABLE_SIZE if name == "table" else (0.3, 0.3, TABLE_TOP)
             color = (0.55, 0.42, 0.30) if name == "table" else (0.3, 0.3, 0.32)
             objects.append({"name": name, "kind": kind, "size": size, "color": color, "base": True})
+        elif kind == "mesh":  # mesh objects (clutter scenes): their scaled file mesh
+            info = _core.load_mesh(o.mesh, o.scale)
+            objects.append(
+                {
+                    "name": name,
+                    "kind": kind,
+                    "size": o.size,
+                    "color": o.color,
+                    "vertices": info["vertices"],
+                    "faces": info["faces"],
+                }
+            )
         else:
             objects.append({"name": name, "kind": kind, "size": o.size, "color": o.color})
         poses[name] = world.get_object_pose(name)
+    if spec.bin is not None:
+        from .clutter import BinSpec
+
+        b = spec.bin if isinstance(spec.bin, BinSpec) else BinSpec(**spec.bin)
+        for name, size, _pose in b.walls(TABLE_TOP):
+            objects.append({"name": name, "kind": "box", "size": size, "color": (0.45, 0.47, 0.52), "base": True})
+            poses[name] = world.get_object_pose(name)
     traj = folder / "trajectory.npz"
     if traj.is_file():
         with np.load(traj) as z:

@@ -1,0 +1,436 @@
+"""Clutter clearing: perceive, grasp, remove until the table (or bin) is empty or 2 attempts in a row fail.
+
+    python benches/clutter.py [--objects DIR] [--scenes N] [--objects-per-scene K] [--bin] [--json FILE]
+                              [--seed S] [--no-pybullet] [--option KEY=JSON ...]
+
+Objects: ``ferrobot.pipeline.clutter`` draws K files per scene from DIR (URDFs, OBJ, STL, DAE; default
+``pybullet_data/random_urdfs`` and ``pybullet_data/objects``) with random scale (within the hand's
+opening), mass, friction and orientation, drops them onto a 2 x 2 m table (top at 0.4 m) over a disc
+(touching, partly stacked) or into a 30 x 24 x 10 cm bin (``--bin``), as convex decompositions (V-HACD,
+cached per file and scale), and lets them settle.
+
+Each attempt (the setting of VGN's clutter removal, with grasp_eval's floating Panda hand):
+
+- the scene is rebuilt from the objects' current poses in a fresh ``ferrobot.World`` (240 Hz) and settles
+  for up to 1 s; one 640 x 480 camera (fx = fy = 525) 0.7 m from the pile's centre, 60 degrees above
+  the table, renders depth and segmentation;
+- ``detect_from_rgbd`` runs once on the whole frame, grasps sought on the remaining objects' pixels (the
+  instance masks), every pixel (neighbours, bin walls, table) an obstacle, the world's -z as the preferred
+  approach; the top-scored grasp is executed (no grasp: a failed attempt);
+- the floating Panda hand of ``benches/grasp_eval.py`` (pybullet_data's hand and finger meshes on three
+  driven slides) runs pre-grasp 5 cm back, approach, close (20 N per finger), lift 10 cm, hold 2 s; in a
+  bin the lift goes back along the approach until the hand has risen 10 cm (a tilted hand lifted straight
+  up drags along the walls);
+- success: an object rose >= 8 cm and the fingers did not close on nothing; objects that rose are removed
+  (a clean lift removes exactly one); objects pushed off the table or out of the bin are lost (not
+  cleared); the scene ends when no object remains or after 2 failed attempts in a row, or after 2 K
+  attempts.
+
+The **PyBullet judge** replays every attempt: the same objects (each the same convex parts, as OBJ files)
+at the poses they settled to in ferrobot, the same hand URDF, base pose and joint targets per step, and the
+same success test. The sequence of the scene follows ferrobot's outcome; PyBullet's success rate is per
+attempt.
+
+Reported: completion rate (objects removed / objects), grasp success per attempt under each judge, clean
+lifts, attempts per removed object, detection time per frame, and time per pick (CPU seconds of this
+process per attempt: rebuilding, rendering, detection, simulating the 4 s hand sequence; plus the
+simulated seconds of the sequence).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import grasp_eval as ge  # noqa: E402
+
+import ferrobot  # noqa: E402
+import ferrobot.grasp as fg  # noqa: E402
+from ferrobot.pipeline import clutter  # noqa: E402
+
+DT = ge.DT
+TABLE_TOP = ge.TABLE_TOP
+CENTER = (0.0, 0.0)
+CAM_DISTANCE, CAM_ELEVATION = 0.7, 60.0
+SETTLE_S = 1.0
+LOST_DROP = 0.05
+
+
+class State:
+    """The objects still in play and their poses (4x4)."""
+
+    def __init__(self, spec: clutter.ClutterSpec):
+        self.spec = spec
+        self.objects = {o.name: o for o in spec.objects}
+        self.poses: dict[str, np.ndarray] = {}
+
+    def build(self) -> ferrobot.World:
+        w = ferrobot.World(dt=DT)
+        w.add_box(
+            "table",
+            [ge.TABLE_SIZE, ge.TABLE_SIZE, TABLE_TOP],
+            [CENTER[0], CENTER[1], TABLE_TOP / 2, 1, 0, 0, 0],
+            static_=True,
+            friction=1.0,
+        )
+        if self.spec.bin is not None:
+            clutter.add_bin(w, self.spec.bin, TABLE_TOP)
+        for name, o in self.objects.items():
+            pose = ge.pose7(self.poses[name]) if name in self.poses else o.pose
+            w.add_mesh_file(name, o.mesh, pose, scale=o.scale, mass=o.mass, friction=o.friction, color=o.color)
+        return w
+
+    def in_play(self, name: str, pose: np.ndarray) -> bool:
+        """Whether an object is still on the table (and in the bin, with one)."""
+        p = pose[:3, 3]
+        if p[2] < TABLE_TOP - LOST_DROP:
+            return False
+        b = self.spec.bin
+        if b is not None:
+            if (
+                abs(p[0] - b.center[0]) > b.inner[0] / 2 + b.thickness
+                or abs(p[1] - b.center[1]) > b.inner[1] / 2 + b.thickness
+            ):
+                return False
+        return abs(p[0] - CENTER[0]) < ge.TABLE_SIZE / 2 and abs(p[1] - CENTER[1]) < ge.TABLE_SIZE / 2
+
+
+def camera_pose() -> np.ndarray:
+    target = np.array([CENTER[0], CENTER[1], TABLE_TOP])
+    e = np.radians(CAM_ELEVATION)
+    eye = target + CAM_DISTANCE * np.array([np.cos(e), 0.0, np.sin(e)])
+    return np.asarray(ferrobot.look_at(eye, target))
+
+
+def part_files(o: clutter.ClutterObject, tmp: Path, cache: dict) -> tuple[list[str], np.ndarray]:
+    """OBJ files of an object's convex parts and the decomposition's centre of mass (mesh frame)."""
+    key = (o.mesh, tuple(o.scale))
+    if key in cache:
+        return cache[key]
+    info = ferrobot.load_mesh(o.mesh, o.scale)
+    files, com, vol = [], np.zeros(3), 0.0
+    for k, (v, f) in enumerate(info["parts"]):
+        path = tmp / f"part_{len(cache)}_{k}.obj"
+        lines = [f"v {x:.9g} {y:.9g} {z:.9g}" for x, y, z in v] + [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in f]
+        path.write_text("\n".join(lines) + "\n")
+        files.append(str(path))
+        o_ = v.mean(axis=0)
+        tri = v[f]
+        tv = np.einsum("ij,ij->i", tri[:, 0] - o_, np.cross(tri[:, 1] - o_, tri[:, 2] - o_)) / 6.0
+        com += ((tri.sum(axis=1) + o_) / 4.0 * tv[:, None]).sum(axis=0)
+        vol += tv.sum()
+    cache[key] = (files, com / vol if vol > 0 else np.zeros(3))
+    return cache[key]
+
+
+class PyBulletClutterJudge(ge.PyBulletJudge):
+    """Replays an attempt on the whole pile in PyBullet."""
+
+    def __init__(self, hand_urdf: str, tmp: Path):
+        super().__init__(hand_urdf)
+        self.tmp = tmp
+        self.parts: dict = {}
+
+    def run_pile(self, state: State, poses: dict, base: np.ndarray, steps) -> dict:
+        p, c = self.p, self.cid
+        p.resetSimulation(physicsClientId=c)
+        p.setGravity(0, 0, -9.81, physicsClientId=c)
+        p.setTimeStep(DT, physicsClientId=c)
+        half = [ge.TABLE_SIZE / 2, ge.TABLE_SIZE / 2, TABLE_TOP / 2]
+        tid = p.createMultiBody(
+            0,
+            p.createCollisionShape(p.GEOM_BOX, halfExtents=half, physicsClientId=c),
+            -1,
+            [CENTER[0], CENTER[1], TABLE_TOP / 2],
+            physicsClientId=c,
+        )
+        p.changeDynamics(tid, -1, lateralFriction=1.0, physicsClientId=c)
+        if state.spec.bin is not None:
+            for _, size, pose in state.spec.bin.walls(TABLE_TOP):
+                sid = p.createCollisionShape(p.GEOM_BOX, halfExtents=[s / 2 for s in size], physicsClientId=c)
+                bid = p.createMultiBody(0, sid, -1, pose[:3], physicsClientId=c)
+                p.changeDynamics(bid, -1, lateralFriction=0.6, physicsClientId=c)
+        ids = {}
+        for name, pose in poses.items():
+            o = state.objects[name]
+            files, com = part_files(o, self.tmp, self.parts)
+            sid = p.createCollisionShapeArray(shapeTypes=[p.GEOM_MESH] * len(files), fileNames=files, physicsClientId=c)
+            bid = p.createMultiBody(
+                o.mass,
+                sid,
+                -1,
+                list(pose[:3, 3]),
+                ge.xyzw(pose),
+                baseInertialFramePosition=list(com),
+                physicsClientId=c,
+            )
+            p.changeDynamics(bid, -1, lateralFriction=o.friction, physicsClientId=c)
+            ids[name] = bid
+        for _ in range(60):
+            p.stepSimulation(physicsClientId=c)
+        hand = p.loadURDF(self.hand_urdf, list(base[:3, 3]), ge.xyzw(base), useFixedBase=True, physicsClientId=c)
+        joints = list(range(5))
+        for j, q in zip(joints, [0, 0, 0, ge.OPEN, ge.OPEN], strict=True):
+            p.resetJointState(hand, j, q, physicsClientId=c)
+        for j in (3, 4):
+            p.changeDynamics(hand, j, lateralFriction=1.0, physicsClientId=c)
+        z0 = {n: p.getBasePositionAndOrientation(b, physicsClientId=c)[0][2] for n, b in ids.items()}
+        for target, _force in steps:
+            p.setJointMotorControlArray(
+                hand,
+                joints,
+                p.POSITION_CONTROL,
+                targetPositions=list(target),
+                forces=[ge.MOVE_FORCE] * 3 + [ge.FINGER_FORCE] * 2,
+                physicsClientId=c,
+            )
+            p.stepSimulation(physicsClientId=c)
+        opening = sum(p.getJointState(hand, j, physicsClientId=c)[0] for j in (3, 4))
+        lifted = [
+            n
+            for n, b in ids.items()
+            if p.getBasePositionAndOrientation(b, physicsClientId=c)[0][2] - z0[n] >= ge.MIN_RISE
+        ]
+        return {"success": bool(lifted) and opening > ge.MIN_OPENING, "lifted": lifted, "opening": opening}
+
+
+def bin_schedule(base: np.ndarray) -> list[tuple[np.ndarray, float]]:
+    """grasp_eval's schedule, but the lift goes back along the approach (as the pick-and-place pipeline's
+    retreat) far enough to rise ``LIFT``: a tilted hand lifted straight up drags along the bin's walls."""
+    up = max(-float(base[2, 2]), 0.5)  # the approach's downward component
+    q_grasp = np.array([0.0, 0.0, ge.PREGRASP])
+    q_lift = q_grasp - np.array([0.0, 0.0, ge.LIFT / up])
+    steps: list[tuple[np.ndarray, float]] = []
+    for q in ge.smooth(np.zeros(3), q_grasp, ge.APPROACH_S):
+        steps.append((np.r_[q, ge.OPEN, ge.OPEN], 0.0))
+    for _ in range(int(round(ge.CLOSE_S / DT))):
+        steps.append((np.r_[q_grasp, 0.0, 0.0], ge.FINGER_FORCE))
+    for q in ge.smooth(q_grasp, q_lift, ge.LIFT_S):
+        steps.append((np.r_[q, 0.0, 0.0], ge.FINGER_FORCE))
+    for _ in range(int(round(ge.HOLD_S / DT))):
+        steps.append((np.r_[q_lift, 0.0, 0.0], ge.FINGER_FORCE))
+    return steps
+
+
+def attempt(state: State, hand_model, pb, options: dict) -> dict:
+    """One perceive-grasp-lift attempt; updates ``state`` (removes lifted and lost objects)."""
+    t_cpu = time.process_time()
+    w = state.build()
+    names = list(state.objects)
+    clutter.settle(w, names, max_seconds=SETTLE_S)
+    settled = {n: w.get_object_pose(n) for n in names}
+    for n in names:
+        if not state.in_play(n, settled[n]):
+            del state.objects[n]
+            state.poses.pop(n, None)
+    names = list(state.objects)
+    rec: dict = {"objects_before": len(names)}
+    if not names:
+        return rec
+    cam_pose = camera_pose()
+    cam = ferrobot.Camera(w, ge.WIDTH, ge.HEIGHT, fx=ge.F, cx=ge.CX, cy=ge.CY, pose=cam_pose)
+    frame = cam.render(rgb=False)
+    masks = clutter.instance_masks(frame["segmentation"], w, names)
+    ids = {i: n for i, n in w.segmentation_labels.items() if n in state.objects}
+    seg = np.where(np.isin(frame["segmentation"], list(ids)), frame["segmentation"], 0).astype(np.int32)
+    rec["visible"] = sum(bool(m.any()) for m in masks.values())
+    depth = np.where(np.isfinite(frame["depth"]), frame["depth"], 0.0)
+    opts = dict(options)
+    opts.setdefault("approach_direction", tuple(cam_pose[:3, :3].T @ np.array([0.0, 0.0, -1.0])))
+    t0, c0 = time.perf_counter(), time.process_time()
+    gg = fg.detect_from_rgbd(depth, ge.F, ge.F, ge.CX, ge.CY, scale=1.0, mask=seg, **opts)
+    rec["detect_ms"] = (time.perf_counter() - t0) * 1e3
+    rec["detect_cpu_ms"] = (time.process_time() - c0) * 1e3
+    rec["num_grasps"] = len(gg)
+    if len(gg) == 0:
+        rec["ferrobot"] = {"success": False, "reason": "no grasp"}
+        if pb:
+            rec["pybullet"] = {"success": False, "reason": "no grasp"}
+        for n in names:
+            state.poses[n] = settled[n]
+        rec["cpu_s"] = time.process_time() - t_cpu
+        return rec
+    top = gg[:1].transform(fg.camera_to_world(cam_pose, "opencv"))
+    rec["target"] = ids.get(int(top.object_ids[0]), None)
+    hand = top.to_panda_hand(ge.TCP_OFFSET)[0]
+    base = hand.copy()
+    base[:3, 3] -= ge.PREGRASP * hand[:3, 2]
+    steps = bin_schedule(base) if state.spec.bin is not None else ge.hand_schedule(base)
+    robot = w.add_robot(hand_model, ge.pose7(base), name="hand", q=np.array([0, 0, 0, ge.OPEN, ge.OPEN]))
+    robot.set_drive_gains(stiffness=[2.0e4] * 3, damping=[1.0e3] * 3, joint_indices=[0, 1, 2])
+    robot.set_gripper(["panda_finger_joint1", "panda_finger_joint2"], [ge.OPEN, ge.OPEN], [0.0, 0.0])
+    robot.set_joint_position_targets(np.array([0, 0, 0, ge.OPEN, ge.OPEN]))
+    z0 = {n: settled[n][2, 3] for n in names}
+    closing = False
+    for target, force in steps:
+        robot.set_joint_position_targets(target[:3], joint_indices=[0, 1, 2])
+        if force > 0 and not closing:
+            robot.close_gripper(force=force)
+            closing = True
+        elif force == 0:
+            robot.set_joint_position_targets(target[3:], joint_indices=[3, 4])
+        w.step(1)
+    q = robot.get_joint_positions()
+    opening = float(q[3] + q[4])
+    after = {n: w.get_object_pose(n) for n in names}
+    lifted = [n for n in names if after[n][2, 3] - z0[n] >= ge.MIN_RISE]
+    success = bool(lifted) and opening > ge.MIN_OPENING
+    rec["ferrobot"] = {"success": success, "lifted": lifted, "opening": opening, "clean": success and len(lifted) == 1}
+    if pb:
+        rec["pybullet"] = pb.run_pile(state, settled, base, steps)
+    removed = lifted if success else []
+    for n in names:
+        if n in removed:
+            del state.objects[n]
+            state.poses.pop(n, None)
+        else:
+            state.poses[n] = after[n]
+    rec["removed"] = removed
+    rec["cpu_s"] = time.process_time() - t_cpu
+    rec["sim_s"] = len(steps) * DT
+    return rec
+
+
+def run_scene(spec: clutter.ClutterSpec, hand_model, pb, options: dict) -> dict:
+    """Clears one scene; returns its record (counts are read from the simulator's state)."""
+    # Settle the drop once in its own world: the first state.
+    w = ferrobot.World(dt=DT)
+    w.add_box(
+        "table",
+        [ge.TABLE_SIZE, ge.TABLE_SIZE, TABLE_TOP],
+        [*CENTER, TABLE_TOP / 2, 1, 0, 0, 0],
+        static_=True,
+        friction=1.0,
+    )
+    names = clutter.add_clutter(w, spec)
+    state = State(spec)
+    state.poses = {n: w.get_object_pose(n) for n in names}
+    total = len(names)
+    attempts, fails = [], 0
+    while state.objects and fails < 2 and len(attempts) < 2 * total:
+        rec = attempt(state, hand_model, pb, options)
+        if "ferrobot" not in rec:
+            break
+        attempts.append(rec)
+        fails = 0 if rec["ferrobot"]["success"] else fails + 1
+    removed = sum(len(a.get("removed", [])) for a in attempts)
+    return {
+        "seed": spec.seed,
+        "objects": total,
+        "removed": removed,
+        "remaining": len(state.objects),
+        "lost": total - removed - len(state.objects),
+        "final_state": {n: ge.pose7(state.poses[n]) for n in state.objects},
+        "attempts": attempts,
+        "files": [o.source for o in spec.objects],
+    }
+
+
+def summarise(scenes: list[dict], use_pybullet: bool) -> dict:
+    att = [a for s in scenes for a in s["attempts"]]
+    n_obj = sum(s["objects"] for s in scenes)
+    removed = sum(s["removed"] for s in scenes)
+    out = {
+        "scenes": len(scenes),
+        "objects": n_obj,
+        "removed": removed,
+        "lost": sum(s["lost"] for s in scenes),
+        "completion_rate": removed / n_obj if n_obj else 0.0,
+        "attempts": len(att),
+        "grasp_success": {"ferrobot": sum(a["ferrobot"]["success"] for a in att) / len(att) if att else 0.0},
+        "clean_lifts": sum(a["ferrobot"].get("clean", False) for a in att),
+        "attempts_per_removed_object": len(att) / removed if removed else None,
+        "median_detection_ms": statistics.median(a["detect_ms"] for a in att) if att else None,
+        "median_detection_cpu_ms": statistics.median(a["detect_cpu_ms"] for a in att) if att else None,
+        "median_cpu_s_per_attempt": statistics.median(a["cpu_s"] for a in att) if att else None,
+        "sim_s_per_pick": max((a.get("sim_s", 0.0) for a in att), default=None),
+    }
+    if use_pybullet:
+        out["grasp_success"]["pybullet"] = sum(a["pybullet"]["success"] for a in att) / len(att) if att else 0.0
+    return out
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--objects", type=Path, default=None, help="folder of URDFs / OBJ / STL / DAE files")
+    ap.add_argument("--scenes", type=int, default=10)
+    ap.add_argument("--objects-per-scene", type=int, default=8)
+    ap.add_argument("--bin", action="store_true", help="drop the objects into a bin")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--json", type=Path, default=None)
+    ap.add_argument("--no-pybullet", action="store_true")
+    ap.add_argument("--option", action="append", default=[], metavar="KEY=VALUE", help="a detection option (JSON)")
+    args = ap.parse_args()
+    if not 1 <= args.objects_per_scene <= 30:
+        raise SystemExit("--objects-per-scene: expected 1 to 30")
+    options = {}
+    for kv in args.option:
+        key, _, value = kv.partition("=")
+        options[key] = json.loads(value)
+    files = clutter.find_object_files(args.objects) if args.objects else None
+    print(f"cores {os.cpu_count()}, load {ge.load_avg()}", flush=True)
+    t0 = time.perf_counter()
+    scenes = []
+    with tempfile.TemporaryDirectory() as tmp:
+        urdf, hand_model = ge.hand_files(Path(tmp))
+        pb = None if args.no_pybullet else PyBulletClutterJudge(urdf, Path(tmp))
+        try:
+            for k in range(args.scenes):
+                spec = clutter.random_clutter(
+                    args.seed + k, args.objects_per_scene, files, bin=args.bin, table_top=TABLE_TOP, center=CENTER
+                )
+                s = run_scene(spec, hand_model, pb, options)
+                scenes.append(s)
+                sm = summarise(scenes, pb is not None)
+                print(
+                    f"scene {k + 1}/{args.scenes}: removed {s['removed']}/{s['objects']} in {len(s['attempts'])} "
+                    f"attempts; so far cleared {sm['completion_rate'] * 100:.1f}%, success "
+                    + ", ".join(f"{j} {r * 100:.1f}%" for j, r in sm["grasp_success"].items()),
+                    flush=True,
+                )
+        finally:
+            if pb:
+                pb.close()
+    res = summarise(scenes, not args.no_pybullet)
+    res.update(
+        object_set=str(args.objects or "pybullet_data random_urdfs + objects"),
+        objects_per_scene=args.objects_per_scene,
+        bin=args.bin,
+        seed=args.seed,
+        detect_options=options,
+        cores=os.cpu_count(),
+        load_average=ge.load_avg(),
+        wall_s=time.perf_counter() - t0,
+    )
+    print(
+        f"cleared {res['removed']}/{res['objects']} ({res['completion_rate'] * 100:.1f}%), lost {res['lost']}, "
+        f"attempts {res['attempts']} ({res['attempts_per_removed_object'] or float('nan'):.2f} per removed object), "
+        f"clean lifts {res['clean_lifts']}"
+    )
+    for judge, rate in res["grasp_success"].items():
+        print(f"grasp success per attempt, {judge:8s}: {rate * 100:.1f}%")
+    if res["attempts"]:
+        print(
+            f"detection per {ge.WIDTH}x{ge.HEIGHT} frame: median {res['median_detection_ms']:.1f} ms wall, "
+            f"{res['median_detection_cpu_ms']:.1f} ms CPU; per attempt {res['median_cpu_s_per_attempt']:.2f} CPU s "
+            f"(+ {res['sim_s_per_pick']:.2f} simulated s of hand motion)"
+        )
+    print(f"total {res['wall_s']:.0f} s, load {ge.load_avg()}")
+    if args.json:
+        res["scene_records"] = scenes
+        args.json.write_text(json.dumps(res, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
