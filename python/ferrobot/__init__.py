@@ -17,11 +17,14 @@ from ._core import (
     CollisionChecker,
     CollisionWorld,
     CommandDelay,
+    DetectOptions,
+    IkOptions,
     IkResult,
     JointPID,
     JointTrajectory,
     LinearPredictor,
     Planner,
+    PlanOptions,
     PlanResult,
     PotentialFieldController,
     ReactiveController,
@@ -69,6 +72,9 @@ __all__ = [
     "transforms",
     "robots",
     "__version__",
+    "DetectOptions",
+    "IkOptions",
+    "PlanOptions",
 ]
 
 

@@ -2,11 +2,11 @@
 
 from collections.abc import Sequence
 from os import PathLike
-from typing import Any, final
+from typing import Any, TypedDict, final
 
 import numpy as np
 import numpy.typing as npt
-from typing_extensions import Self
+from typing_extensions import Self, Unpack
 
 __version__: str
 # The extension's exported names (checked against the module by tests/test_stubs.py).
@@ -54,6 +54,9 @@ __all__ = [
     "identify_link_masses",
     "identify_friction",
     "trajectory_sample",
+    "PlanOptions",
+    "IkOptions",
+    "DetectOptions",
     "__version__",
 ]
 
@@ -677,13 +680,10 @@ class Planner:
         *,
         link: str | None = None,
         joint_names: list[str] | None = None,
-        position_tolerance: float = 1e-3,
-        rotation_tolerance: float = 0.01,
-        num_seeds: int = 200,
-        max_iterations: int = 60,
-        collision_free: bool = False,
+        options: IkOptions | None = None,
         seed: int | npt.ArrayLike | None = None,
         random_seed: int | None = None,
+        **overrides: Unpack[_IkOverrides],
     ) -> IkResult:
         """``start``: the first start configuration (then random ones); ``seed``: the random seed. Deprecated:
         ``seed=<configuration>`` (use ``start``), ``random_seed`` (use ``seed``)."""
@@ -694,13 +694,10 @@ class Planner:
         *,
         link: str | None = None,
         joint_names: list[str] | None = None,
-        position_tolerance: float = 1e-3,
-        rotation_tolerance: float = 0.01,
-        num_seeds: int = 200,
-        max_iterations: int = 60,
-        collision_free: bool = False,
+        options: IkOptions | None = None,
         seed: int | npt.ArrayLike | None = None,
         random_seed: int | None = None,
+        **overrides: Unpack[_IkOverrides],
     ) -> IkResult:
         """``start``: the first start configuration (then random ones); ``seed``: the random seed. Deprecated:
         ``seed=<configuration>`` (use ``start``), ``random_seed`` (use ``seed``)."""
@@ -711,14 +708,11 @@ class Planner:
         *,
         link: str | None = None,
         joint_names: list[str] | None = None,
-        position_tolerance: float = 1e-3,
-        rotation_tolerance: float = 0.01,
-        num_seeds: int = 200,
-        max_iterations: int = 60,
-        collision_free: bool = False,
-        seed: int = 0,
+        options: IkOptions | None = None,
+        seed: int | None = None,
         seeds: npt.ArrayLike | None = None,
         random_seed: int | None = None,
+        **overrides: Unpack[_IkOverrides],
     ) -> IkResult:
         """``starts``: (N, k) start configurations; ``seed``: the random seed. Deprecated: ``seeds`` (use
         ``starts``), ``random_seed`` (use ``seed``)."""
@@ -729,18 +723,10 @@ class Planner:
         goal_pose: npt.ArrayLike | None = None,
         joint_names: list[str] | None = None,
         *,
-        time_limit: float = 1.0,
-        max_samples: int = 100_000,
-        resolution: float = 0.005,
-        range: float = 1.0,
-        seed: int = 0,
-        velocity_scale: float = 1.0,
-        acceleration_scale: float = 1.0,
-        simplify: bool = True,
-        trajectory: bool = True,
-        goal_solutions: int = 4,
-        coarse_factor: float = 4.0,
-    ) -> PlanResult: ...
+        options: PlanOptions | None = None,
+        **overrides: Unpack[_PlanOverrides],
+    ) -> PlanResult:
+        """Options: ``options`` (default ``PlanOptions()``) with ``**overrides`` (any ``PlanOptions`` field)."""
 
 # --- grasp detection (used through ferrobot.grasp) ---
 
@@ -750,7 +736,8 @@ def grasp_detect(
     points: _ArrayLike,
     labels: npt.NDArray[np.int32] | None = None,
     seedable: npt.NDArray[np.bool_] | None = None,
-    options: dict[str, Any] | None = None,
+    options: DetectOptions | None = None,
+    **overrides: Unpack[_DetectOverrides],
 ) -> _F64:
     """Grasps (M, 17) detected in a point cloud (N, 3), best first."""
 
@@ -764,7 +751,8 @@ def grasp_detect_rgbd(
     mask: npt.NDArray[np.int32] | None = None,
     object_id: int | None = None,
     workspace: _ArrayLike | None = None,
-    options: dict[str, Any] | None = None,
+    options: DetectOptions | None = None,
+    **overrides: Unpack[_DetectOverrides],
 ) -> _F64:
     """Grasps (M, 17) detected in a depth image (H, W), best first, camera frame."""
 
@@ -954,3 +942,126 @@ class ReactiveController(_ControllerBase):
 @final
 class PotentialFieldController(_ControllerBase):
     """Potential-field control over voxelised distance fields of the obstacles."""
+
+# Option classes (crates/ferrobot-py/src/options.rs): defaults from the Rust `Default`, checks from the crates'
+# `validate`; every field is also a keyword (`**overrides`) of the calls that take the options.
+
+class _PlanOverrides(TypedDict, total=False):
+    time_limit: float
+    max_samples: int
+    resolution: float
+    range: float
+    seed: int
+    velocity_scale: float
+    acceleration_scale: float
+    simplify: bool
+    trajectory: bool
+    goal_solutions: int
+    coarse_factor: float
+    refinements: int
+
+class _IkOverrides(TypedDict, total=False):
+    position_tolerance: float
+    rotation_tolerance: float
+    num_seeds: int
+    max_iterations: int
+    collision_free: bool
+
+class _DetectOverrides(TypedDict, total=False):
+    voxel_size: float
+    normal_radius: float
+    num_seeds: int
+    seed_spacing: float
+    num_rotations: int
+    approach_tilts: Sequence[float]
+    depths: Sequence[float]
+    friction: float
+    viewpoint: Sequence[float]
+    approach_direction: Sequence[float]
+    nms_translation: float
+    nms_rotation: float
+    max_grasps: int
+    seed: int
+    support_plane: bool
+    plane_threshold: float
+    torque_scale: float
+    max_width: float
+    finger_depth: float
+    finger_width: float
+    height: float
+    approach_distance: float
+    clearance: float
+    palm_width: float
+    palm_height: float
+    palm_depth: float
+
+@final
+class PlanOptions:
+    """Options of ``Planner.plan``: ranges in each field's documentation; out of range raises on set."""
+
+    def __new__(cls, **overrides: Unpack[_PlanOverrides]) -> Self: ...
+    def replace(self, **overrides: Unpack[_PlanOverrides]) -> PlanOptions: ...
+    def to_dict(self) -> dict[str, Any]: ...
+    def __eq__(self, value: object, /) -> bool: ...
+    time_limit: float
+    max_samples: int
+    resolution: float
+    range: float
+    seed: int
+    velocity_scale: float
+    acceleration_scale: float
+    simplify: bool
+    trajectory: bool
+    goal_solutions: int
+    coarse_factor: float
+    refinements: int
+
+@final
+class IkOptions:
+    """Options of ``Planner.ik``, ``ik_goalset`` and ``ik_batch``."""
+
+    def __new__(cls, **overrides: Unpack[_IkOverrides]) -> Self: ...
+    def replace(self, **overrides: Unpack[_IkOverrides]) -> IkOptions: ...
+    def to_dict(self) -> dict[str, Any]: ...
+    def __eq__(self, value: object, /) -> bool: ...
+    position_tolerance: float
+    rotation_tolerance: float
+    num_seeds: int
+    max_iterations: int
+    collision_free: bool
+    seed: int
+
+@final
+class DetectOptions:
+    """Options of grasp detection (``ferrobot.grasp.detect``, ``detect_from_rgbd``)."""
+
+    def __new__(cls, **overrides: Unpack[_DetectOverrides]) -> Self: ...
+    def replace(self, **overrides: Unpack[_DetectOverrides]) -> DetectOptions: ...
+    def to_dict(self) -> dict[str, Any]: ...
+    def __eq__(self, value: object, /) -> bool: ...
+    voxel_size: float
+    normal_radius: float
+    num_seeds: int
+    seed_spacing: float
+    num_rotations: int
+    approach_tilts: list[float]
+    depths: list[float]
+    friction: float
+    viewpoint: list[float]
+    approach_direction: list[float]
+    nms_translation: float
+    nms_rotation: float
+    max_grasps: int
+    seed: int
+    support_plane: bool
+    plane_threshold: float
+    torque_scale: float
+    max_width: float
+    finger_depth: float
+    finger_width: float
+    height: float
+    approach_distance: float
+    clearance: float
+    palm_width: float
+    palm_height: float
+    palm_depth: float

@@ -12,6 +12,7 @@ mod errors;
 mod faults;
 mod grasp;
 mod model;
+mod options;
 mod planning;
 mod scene;
 mod sim;
@@ -81,6 +82,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(batch::execute_trajectories, m)?)?;
     sim2real_register(m)?;
     faults::register(m)?;
+    options_register(m)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }
@@ -97,5 +99,13 @@ fn sim2real_register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sim2real::identify_link_masses, m)?)?;
     m.add_function(wrap_pyfunction!(sim2real::identify_friction, m)?)?;
     m.add_function(wrap_pyfunction!(sim2real::trajectory_sample, m)?)?;
+    Ok(())
+}
+
+/// Registers the option classes (`options.rs`).
+fn options_register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<options::PyPlanOptions>()?;
+    m.add_class::<options::PyIkOptions>()?;
+    m.add_class::<options::PyDetectOptions>()?;
     Ok(())
 }
