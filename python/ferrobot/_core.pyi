@@ -63,6 +63,15 @@ __all__ = [
 _ArrayLike = npt.ArrayLike
 _F64 = npt.NDArray[np.float64]
 
+class _ObjectProps(TypedDict, total=False):
+    """Keywords of every ``World.add_*``: defaults mass 1 kg, friction 0.5, restitution 0, fixed False, grey."""
+
+    mass: float
+    friction: float
+    restitution: float
+    fixed: bool
+    color: _ArrayLike | None
+
 def bundled_robot(name: str) -> tuple[str, str, str]:
     """(URDF text, SRDF text, default ee link) of a bundled robot."""
 
@@ -300,24 +309,14 @@ class World:
         name: str,
         size: _ArrayLike,
         pose: _Pose | None = None,
-        *,
-        mass: float = 1.0,
-        friction: float = 0.5,
-        restitution: float = 0.0,
-        static_: bool = False,
-        color: _ArrayLike | None = None,
+        **props: Unpack[_ObjectProps],
     ) -> str: ...
     def add_sphere(
         self,
         name: str,
         radius: float,
         pose: _Pose | None = None,
-        *,
-        mass: float = 1.0,
-        friction: float = 0.5,
-        restitution: float = 0.0,
-        static_: bool = False,
-        color: _ArrayLike | None = None,
+        **props: Unpack[_ObjectProps],
     ) -> str: ...
     def add_cylinder(
         self,
@@ -325,12 +324,7 @@ class World:
         radius: float,
         length: float,
         pose: _Pose | None = None,
-        *,
-        mass: float = 1.0,
-        friction: float = 0.5,
-        restitution: float = 0.0,
-        static_: bool = False,
-        color: _ArrayLike | None = None,
+        **props: Unpack[_ObjectProps],
     ) -> str: ...
     def add_capsule(
         self,
@@ -338,12 +332,7 @@ class World:
         radius: float,
         length: float,
         pose: _Pose | None = None,
-        *,
-        mass: float = 1.0,
-        friction: float = 0.5,
-        restitution: float = 0.0,
-        static_: bool = False,
-        color: _ArrayLike | None = None,
+        **props: Unpack[_ObjectProps],
     ) -> str: ...
     def add_mesh(
         self,
@@ -353,11 +342,7 @@ class World:
         pose: _Pose | None = None,
         *,
         approximation: str = "convex_hull",
-        mass: float = 1.0,
-        friction: float = 0.5,
-        restitution: float = 0.0,
-        static_: bool = False,
-        color: _ArrayLike | None = None,
+        **props: Unpack[_ObjectProps],
     ) -> str:
         """``approximation``: "convex_hull", "convex_decomposition" or "trimesh" (static only)."""
     def get_object_pose(self, name: str) -> _F64: ...
@@ -396,13 +381,22 @@ class Robot:
     def get_joint_velocities(self) -> _F64: ...
     def set_joint_positions(self, q: _ArrayLike) -> None: ...
     def set_joint_velocities(self, qd: _ArrayLike) -> None: ...
-    def set_joint_position_targets(self, targets: _ArrayLike, joint_indices: list[int] | None = None) -> None: ...
-    def set_joint_velocity_targets(self, targets: _ArrayLike, joint_indices: list[int] | None = None) -> None: ...
-    def set_joint_efforts(self, efforts: _ArrayLike, joint_indices: list[int] | None = None) -> None: ...
+    def set_joint_position_targets(
+        self, targets: _ArrayLike, joint_indices: list[int] | None = None, *, joint_names: list[str] | None = None
+    ) -> None: ...
+    def set_joint_velocity_targets(
+        self, targets: _ArrayLike, joint_indices: list[int] | None = None, *, joint_names: list[str] | None = None
+    ) -> None: ...
+    def set_joint_efforts(
+        self, efforts: _ArrayLike, joint_indices: list[int] | None = None, *, joint_names: list[str] | None = None
+    ) -> None: ...
     @property
     def command_latency(self) -> float:
         """Seconds between setting a drive target or effort and its effect (applied in World.step)."""
-    def set_command_latency(self, latency: float) -> None: ...
+    @command_latency.setter
+    def command_latency(self, latency: float) -> None: ...
+    def set_command_latency(self, latency: float) -> None:
+        """Deprecated: assign ``command_latency``."""
     @property
     def pending_commands(self) -> int: ...
     def get_joint_position_targets(self) -> _F64: ...
@@ -413,6 +407,8 @@ class Robot:
         damping: _ArrayLike,
         max_force: _ArrayLike | None = None,
         joint_indices: list[int] | None = None,
+        *,
+        joint_names: list[str] | None = None,
     ) -> None: ...
     def set_solver_iterations(self, n: int) -> None:
         """Extra solver substeps for the robot's bodies while it touches something (default 4)."""
@@ -442,6 +438,8 @@ class Robot:
         velocities: _ArrayLike | None = None,
         joint_indices: list[int] | None = None,
         settle_time: float = 0.0,
+        *,
+        joint_names: list[str] | None = None,
     ) -> dict[str, _F64]:
         """Keys: times, desired, actual, max_error, rms_error, final_error."""
     def execute(self, trajectory: JointTrajectory | PlanResult, settle_time: float = 0.0) -> dict[str, _F64]:
@@ -632,7 +630,10 @@ class Planner:
     ee_link: str
     @property
     def locked_positions(self) -> npt.NDArray[np.float64]: ...
-    def set_locked_positions(self, q: npt.ArrayLike) -> None: ...
+    @locked_positions.setter
+    def locked_positions(self, q: npt.ArrayLike) -> None: ...
+    def set_locked_positions(self, q: npt.ArrayLike) -> None:
+        """Deprecated: assign ``locked_positions``."""
     @property
     def limits(self) -> dict[str, npt.NDArray[np.float64]]: ...
     def set_limits(
@@ -857,15 +858,18 @@ class DepthNoise:
 
     def __new__(
         cls,
-        sigma0: float,
-        sigma2: float,
-        z0: float,
-        dropout: float,
-        edge_threshold: float,
-        edge_dropout: float,
-        missing_value: float,
-        seed: int,
-    ) -> Self: ...
+        *,
+        sigma0: float | None = None,
+        sigma2: float | None = None,
+        z0: float | None = None,
+        dropout: float | None = None,
+        edge_threshold: float | None = None,
+        edge_dropout: float | None = None,
+        missing_value: float | None = None,
+        seed: int | None = None,
+    ) -> Self:
+        """Parameters left out take the Rust defaults (``DepthNoiseParams::default()``)."""
+    def params(self) -> dict[str, float]: ...
     def sigma(self, z: _ArrayLike) -> _F64: ...
     def edges(self, depth: _ArrayLike) -> npt.NDArray[np.bool_]: ...
     def apply(self, depth: _ArrayLike) -> tuple[_F64, npt.NDArray[np.bool_]]: ...

@@ -662,12 +662,22 @@ impl PyPlanner {
 
     /// Sets the joints the planner does not move (fingers, say) from a full
     /// configuration in `dof_names` order.
-    fn set_locked_positions(&self, q: &Bound<'_, PyAny>) -> PyResult<()> {
+    #[setter(locked_positions)]
+    fn set_locked_positions_value(&self, q: &Bound<'_, PyAny>) -> PyResult<()> {
         guard(|| {
             let n = self.snap().model().num_dof();
             let arr = read_array(q, "q", 1, &[Some(n)])?;
             self.edit(|p| p.set_locked(arr.data()).map_err(planning_err))
         })
+    }
+
+    /// Deprecated: assign `locked_positions` instead.
+    fn set_locked_positions(&self, q: &Bound<'_, PyAny>) -> PyResult<()> {
+        deprecated(
+            q.py(),
+            "Planner.set_locked_positions(q) is deprecated: assign Planner.locked_positions = q",
+        )?;
+        self.set_locked_positions_value(q)
     }
 
     /// Limits of the planned joints: lower, upper, velocity, acceleration,
