@@ -485,7 +485,6 @@ impl PyWorld {
     #[pyo3(signature = (name, vertices, faces, pose=None, *, approximation="convex_hull", **props))]
     fn add_mesh(
         &self,
-        py: Python<'_>,
         name: String,
         vertices: &Bound<'_, PyAny>,
         faces: &Bound<'_, PyAny>,
@@ -493,6 +492,7 @@ impl PyWorld {
         approximation: &str,
         props: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<String> {
+        let py = vertices.py();
         let v = read_array(vertices, "vertices", 2, &[Some(3)])?;
         let pts: Vec<Point3<f64>> = v
             .data()
@@ -1293,7 +1293,12 @@ impl PyRobot {
             let (cols, ix): (Vec<usize>, Vec<usize>) = self
                 .model
                 .dof_columns(s.names)
-                .map_err(model_err)?
+                .map_err(|e| {
+                    UnknownNameError::new_err(format!(
+                        "trajectory: {e} (not a joint of robot '{}')",
+                        self.model.name()
+                    ))
+                })?
                 .into_iter()
                 .unzip();
             let pick = |src: &[f64]| -> Vec<f64> {
