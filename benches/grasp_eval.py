@@ -341,7 +341,7 @@ class Scene:
     def __init__(self, spec: ObjectSpec, rng: random.Random):
         self.world = w = ferrobot.World(dt=DT)
         w.add_box(
-            "table", [TABLE_SIZE, TABLE_SIZE, TABLE_TOP], [0, 0, TABLE_TOP / 2, 1, 0, 0, 0], static_=True, friction=1.0
+            "table", [TABLE_SIZE, TABLE_SIZE, TABLE_TOP], [0, 0, TABLE_TOP / 2, 1, 0, 0, 0], fixed=True, friction=1.0
         )
         yaw = rng.uniform(-np.pi, np.pi)
         drop = yaw_pose(yaw, [0.0, 0.0, 0.0])

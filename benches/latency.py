@@ -3,7 +3,7 @@
 The bundled Panda (gravity compensation on, default drives, dt = 1/240 s)
 tracks a planned motion (RRT-Connect + time scaling, 7 arm joints) whose
 position and velocity commands go through the simulated robot's own command
-latency (``Robot.set_command_latency``: a command issued at world time t takes
+latency (``Robot.command_latency``: a command issued at world time t takes
 effect at the first step starting at or after t + delay, applied inside
 ``World.step``). Modes:
 
@@ -41,7 +41,7 @@ def run(delay: float, mode: str, dt: float = 1 / 240) -> dict:
     robot.set_joint_position_targets(q0)
     positions, velocities, idx = _planned_motion(model, q0, dt)
     k = len(idx)
-    robot.set_command_latency(delay)
+    robot.command_latency = delay
     latency = robot.command_latency
     pred = _core.LinearPredictor(latency)
     prev_p = None

@@ -195,7 +195,7 @@ def build_ferrobot(model: ferrobot.RobotModel | None, s: Settings, q0: np.ndarra
         if q0 is not None:
             r.set_joint_position_targets(q0)
     for o in s.objects:
-        kw = dict(mass=o.mass, friction=o.friction, static_=o.static)
+        kw = dict(mass=o.mass, friction=o.friction, fixed=o.static)
         if o.kind == "box":
             w.add_box(o.name, o.dims, list(o.pose), **kw)
         elif o.kind == "sphere":

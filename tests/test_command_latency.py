@@ -48,7 +48,7 @@ def test_delayed_run_equals_the_shifted_undelayed_run(latency):
     n = 60
     # Delayed: commands issued every step from step 0.
     world, robot, q0 = _world()
-    robot.set_command_latency(latency)
+    robot.command_latency = latency
     assert robot.command_latency == pytest.approx(latency)
     cmds = _commands(q0, n)
     delayed = []
@@ -78,11 +78,11 @@ def test_delayed_run_equals_the_shifted_undelayed_run(latency):
 
 def test_latency_applies_to_efforts_and_is_validated():
     world, robot, q0 = _world()
-    robot.set_command_latency(0.02)  # 4.8 steps: applied at the start of step 5 (0-based), t = 5 dt
+    robot.command_latency = 0.02  # 4.8 steps: applied at the start of step 5 (0-based), t = 5 dt
     robot.set_joint_efforts(np.full(robot.num_dof, 0.0))
     for bad in (-0.01, float("nan"), 11.0):
         with pytest.raises(InvalidArgumentError, match="latency"):
-            robot.set_command_latency(bad)
+            robot.command_latency = bad
     assert robot.command_latency == pytest.approx(0.02)
     assert robot.pending_commands == 1
     world.step(5)  # steps 0-4 start before 0.02 s
@@ -95,7 +95,7 @@ def test_lookahead_compensates_a_known_trajectory():
     """Look-ahead by the robot's own latency (sample t + L issued at t) tracks the plan as well as
     the undelayed run does, up to the sub-step rounding."""
     world, robot, q0 = _world()
-    robot.set_command_latency(12 * DT)
+    robot.command_latency = 12 * DT
     cmds = _commands(q0, 72)
     positions = np.array([c[0] for c in cmds])
     err = []
@@ -106,7 +106,7 @@ def test_lookahead_compensates_a_known_trajectory():
         world.step(1)
         err.append(np.abs(robot.get_joint_positions() - positions[k + 1]).max())
     world2, robot2, _ = _world()
-    robot2.set_command_latency(12 * DT)
+    robot2.command_latency = 12 * DT
     err_uncomp = []
     for k in range(60):
         robot2.set_joint_position_targets(positions[k])

@@ -236,7 +236,7 @@ def test_random_scenes_are_deterministic_and_free():
 
 def test_scene_sync_to_planner_world():
     w = ferrobot.World()
-    w.add_box("table", [0.8, 1.2, 0.4], [0.6, 0.0, 0.2, 1, 0, 0, 0], static_=True)
+    w.add_box("table", [0.8, 1.2, 0.4], [0.6, 0.0, 0.2, 1, 0, 0, 0], fixed=True)
     w.add_cylinder("target_can", 0.03, 0.12, [0.5, 0.1, 0.46, 1, 0, 0, 0], mass=0.2)
     # A base raised 0.4 m and turned 90 degrees about z: world (x, y, z) -> base (y, -x, z - 0.4).
     base = np.array([0.0, 0.0, 0.4, np.cos(np.pi / 4), 0.0, 0.0, np.sin(np.pi / 4)])

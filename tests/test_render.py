@@ -16,7 +16,7 @@ W, H = 65, 49  # odd: the principal point (32, 24) is a pixel centre, its ray al
 def _top_view(**lighting):
     """A static box whose top face (z = 0.05, normal +z) fills the view of a camera 1 m above it looking down."""
     w = ferrobot.World(ground=False)
-    w.add_box("slab", (2.0, 2.0, 0.1), np.eye(4), static_=True, color=COLOR)
+    w.add_box("slab", (2.0, 2.0, 0.1), np.eye(4), fixed=True, color=COLOR)
     if lighting:
         w.set_lighting(**lighting)
     pose = ferrobot.look_at((0.0, 0.0, 1.0), (0.0, 0.0, 0.0), (0.0, 1.0, 0.0))

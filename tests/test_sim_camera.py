@@ -39,7 +39,7 @@ def test_depth_of_ground_plane_from_tilted_camera():
 def test_depth_of_sphere_matches_ray_sphere_intersection():
     w = ferrobot.World(ground=False)
     center, radius = np.array([0.05, -0.02, 1.0]), 0.2
-    w.add_sphere("ball", radius, [*center, 1, 0, 0, 0], static_=True, color=[1.0, 0.0, 0.0])
+    w.add_sphere("ball", radius, [*center, 1, 0, 0, 0], fixed=True, color=[1.0, 0.0, 0.0])
     cam = ferrobot.Camera(w, 128, 96, 100.0)  # at the origin looking along +z
     out = cam.render()
     d = rays(cam)
@@ -70,7 +70,7 @@ def test_capsule_depth_along_the_centre_row():
     w = ferrobot.World(ground=False)
     depth_c, r, length = 1.0, 0.1, 0.6
     c = np.cos(np.pi / 4)
-    w.add_capsule("cap", r, length, [0, 0, depth_c, c, 0, c, 0], static_=True)  # z axis -> x axis
+    w.add_capsule("cap", r, length, [0, 0, depth_c, c, 0, c, 0], fixed=True)  # z axis -> x axis
     cam = ferrobot.Camera(w, 200, 41, 100.0)
     row = cam.render(rgb=False)["depth"][20]
     a = (np.arange(200) - cam.intrinsic_matrix[0, 2]) / 100.0
@@ -95,8 +95,8 @@ def test_cylinder_and_rotated_box_depth():
     # radius r at depth D - L / 2; a box rotated about the optical axis shows
     # its front face at a constant depth
     w = ferrobot.World(ground=False)
-    w.add_cylinder("cyl", 0.1, 0.4, [-0.3, 0, 2.0, 1, 0, 0, 0], static_=True)
-    w.add_box("box", [0.2, 0.2, 0.2], [0.3, 0, 2.0, np.cos(0.15), 0, 0, np.sin(0.15)], static_=True)  # 0.3 rad
+    w.add_cylinder("cyl", 0.1, 0.4, [-0.3, 0, 2.0, 1, 0, 0, 0], fixed=True)
+    w.add_box("box", [0.2, 0.2, 0.2], [0.3, 0, 2.0, np.cos(0.15), 0, 0, np.sin(0.15)], fixed=True)  # 0.3 rad
     c, s_ = np.cos(0.3), np.sin(0.3)
     cam = ferrobot.Camera(w, 120, 60, 100.0)
     out = cam.render(rgb=False)
@@ -123,8 +123,8 @@ def test_cylinder_and_rotated_box_depth():
 
 def test_box_face_depth_and_occlusion():
     w = ferrobot.World(ground=False)
-    w.add_box("back", [2.0, 2.0, 0.1], [0, 0, 2.05, 1, 0, 0, 0], static_=True)
-    w.add_box("front", [0.2, 0.2, 0.2], [0, 0, 1.1, 1, 0, 0, 0], static_=True)
+    w.add_box("back", [2.0, 2.0, 0.1], [0, 0, 2.05, 1, 0, 0, 0], fixed=True)
+    w.add_box("front", [0.2, 0.2, 0.2], [0, 0, 1.1, 1, 0, 0, 0], fixed=True)
     cam = ferrobot.Camera(w, 64, 64, 64.0)
     out = cam.render(rgb=False)
     labels = {v: k for k, v in w.segmentation_labels.items()}

@@ -76,7 +76,7 @@ def test_resting_contact_height(kind, dims, height):
 
 def test_static_object_does_not_move_and_supports():
     w = ferrobot.World()
-    w.add_box("table", [1.0, 1.0, 0.4], [0, 0, 0.2, 1, 0, 0, 0], static_=True)
+    w.add_box("table", [1.0, 1.0, 0.4], [0, 0, 0.2, 1, 0, 0, 0], fixed=True)
     w.add_box("cube", [0.05, 0.05, 0.05], [0, 0, 0.6, 1, 0, 0, 0], mass=0.3)
     w.step(480)
     assert w.get_object_pose("table")[:3, 3] == pytest.approx([0, 0, 0.2])
@@ -146,7 +146,7 @@ def test_mesh_objects():
     w = ferrobot.World()
     w.add_mesh("hull", v, f, [0, 0, 0.3, 1, 0, 0, 0], approximation="convex_hull")
     w.add_mesh("deco", v, f, [1, 0, 0.3, 1, 0, 0, 0], approximation="convex_decomposition")
-    w.add_mesh("static", v, f, [2, 0, 0.05, 1, 0, 0, 0], approximation="trimesh", static_=True)
+    w.add_mesh("static", v, f, [2, 0, 0.05, 1, 0, 0, 0], approximation="trimesh", fixed=True)
     w.step(480)
     assert w.get_object_pose("hull")[2, 3] == pytest.approx(0.05, abs=1.5e-3)
     assert w.get_object_pose("deco")[2, 3] == pytest.approx(0.05, abs=1.5e-3)
@@ -239,7 +239,7 @@ def test_invalid_inputs():
         w.set_object_pose("b", [np.nan, 0, 0, 1, 0, 0, 0])
     with pytest.raises(errors.InvalidArgumentError, match="quaternion"):
         w.set_object_pose("b", [0, 0, 0, 2, 0, 0, 0])
-    w.add_box("fixed", [0.1, 0.1, 0.1], static_=True)
+    w.add_box("fixed", [0.1, 0.1, 0.1], fixed=True)
     with pytest.raises(errors.InvalidArgumentError, match="static"):
         w.set_object_velocity("fixed", [1, 0, 0])
 
@@ -260,7 +260,7 @@ def test_objects_rest_on_a_table_for_10000_steps():
     top = 0.4
     c = np.cos(np.pi / 4)
     w = ferrobot.World()
-    w.add_box("table", [0.8, 1.2, top], [0.6, 0, top / 2, 1, 0, 0, 0], static_=True, friction=0.8)
+    w.add_box("table", [0.8, 1.2, top], [0.6, 0, top / 2, 1, 0, 0, 0], fixed=True, friction=0.8)
     w.add_box("box", [0.05] * 3, [0.5, 0, top + 0.025, 1, 0, 0, 0], mass=0.5, friction=1.0)
     w.add_cylinder("can", 0.03, 0.12, [0.6, 0.25, top + 0.06, 1, 0, 0, 0], mass=0.3)
     w.add_sphere("ball", 0.04, [0.7, -0.25, top + 0.04, 1, 0, 0, 0], mass=0.2)

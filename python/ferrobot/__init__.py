@@ -17,11 +17,14 @@ from ._core import (
     CollisionChecker,
     CollisionWorld,
     CommandDelay,
+    DetectOptions,
+    IkOptions,
     IkResult,
     JointPID,
     JointTrajectory,
     LinearPredictor,
     Planner,
+    PlanOptions,
     PlanResult,
     PotentialFieldController,
     ReactiveController,
@@ -71,6 +74,9 @@ __all__ = [
     "transforms",
     "robots",
     "__version__",
+    "DetectOptions",
+    "IkOptions",
+    "PlanOptions",
 ]
 
 

@@ -2,11 +2,11 @@
 
 from collections.abc import Sequence
 from os import PathLike
-from typing import Any, final
+from typing import Any, TypedDict, final
 
 import numpy as np
 import numpy.typing as npt
-from typing_extensions import Self
+from typing_extensions import Self, Unpack
 
 __version__: str
 # The extension's exported names (checked against the module by tests/test_stubs.py).
@@ -55,11 +55,23 @@ __all__ = [
     "identify_link_masses",
     "identify_friction",
     "trajectory_sample",
+    "PlanOptions",
+    "IkOptions",
+    "DetectOptions",
     "__version__",
 ]
 
 _ArrayLike = npt.ArrayLike
 _F64 = npt.NDArray[np.float64]
+
+class _ObjectProps(TypedDict, total=False):
+    """Keywords of every ``World.add_*``: defaults mass 1 kg, friction 0.5, restitution 0, fixed False, grey."""
+
+    mass: float
+    friction: float
+    restitution: float
+    fixed: bool
+    color: _ArrayLike | None
 
 def bundled_robot(name: str) -> tuple[str, str, str]:
     """(URDF text, SRDF text, default ee link) of a bundled robot."""
@@ -298,24 +310,14 @@ class World:
         name: str,
         size: _ArrayLike,
         pose: _Pose | None = None,
-        *,
-        mass: float = 1.0,
-        friction: float = 0.5,
-        restitution: float = 0.0,
-        static_: bool = False,
-        color: _ArrayLike | None = None,
+        **props: Unpack[_ObjectProps],
     ) -> str: ...
     def add_sphere(
         self,
         name: str,
         radius: float,
         pose: _Pose | None = None,
-        *,
-        mass: float = 1.0,
-        friction: float = 0.5,
-        restitution: float = 0.0,
-        static_: bool = False,
-        color: _ArrayLike | None = None,
+        **props: Unpack[_ObjectProps],
     ) -> str: ...
     def add_cylinder(
         self,
@@ -323,12 +325,7 @@ class World:
         radius: float,
         length: float,
         pose: _Pose | None = None,
-        *,
-        mass: float = 1.0,
-        friction: float = 0.5,
-        restitution: float = 0.0,
-        static_: bool = False,
-        color: _ArrayLike | None = None,
+        **props: Unpack[_ObjectProps],
     ) -> str: ...
     def add_capsule(
         self,
@@ -336,12 +333,7 @@ class World:
         radius: float,
         length: float,
         pose: _Pose | None = None,
-        *,
-        mass: float = 1.0,
-        friction: float = 0.5,
-        restitution: float = 0.0,
-        static_: bool = False,
-        color: _ArrayLike | None = None,
+        **props: Unpack[_ObjectProps],
     ) -> str: ...
     def add_mesh(
         self,
@@ -351,11 +343,7 @@ class World:
         pose: _Pose | None = None,
         *,
         approximation: str = "convex_hull",
-        mass: float = 1.0,
-        friction: float = 0.5,
-        restitution: float = 0.0,
-        static_: bool = False,
-        color: _ArrayLike | None = None,
+        **props: Unpack[_ObjectProps],
     ) -> str:
         """``approximation``: "convex_hull", "convex_decomposition" or "trimesh" (static only)."""
     def add_mesh_file(
@@ -414,13 +402,22 @@ class Robot:
     def get_joint_velocities(self) -> _F64: ...
     def set_joint_positions(self, q: _ArrayLike) -> None: ...
     def set_joint_velocities(self, qd: _ArrayLike) -> None: ...
-    def set_joint_position_targets(self, targets: _ArrayLike, joint_indices: list[int] | None = None) -> None: ...
-    def set_joint_velocity_targets(self, targets: _ArrayLike, joint_indices: list[int] | None = None) -> None: ...
-    def set_joint_efforts(self, efforts: _ArrayLike, joint_indices: list[int] | None = None) -> None: ...
+    def set_joint_position_targets(
+        self, targets: _ArrayLike, joint_indices: list[int] | None = None, *, joint_names: list[str] | None = None
+    ) -> None: ...
+    def set_joint_velocity_targets(
+        self, targets: _ArrayLike, joint_indices: list[int] | None = None, *, joint_names: list[str] | None = None
+    ) -> None: ...
+    def set_joint_efforts(
+        self, efforts: _ArrayLike, joint_indices: list[int] | None = None, *, joint_names: list[str] | None = None
+    ) -> None: ...
     @property
     def command_latency(self) -> float:
         """Seconds between setting a drive target or effort and its effect (applied in World.step)."""
-    def set_command_latency(self, latency: float) -> None: ...
+    @command_latency.setter
+    def command_latency(self, latency: float) -> None: ...
+    def set_command_latency(self, latency: float) -> None:
+        """Deprecated: assign ``command_latency``."""
     @property
     def pending_commands(self) -> int: ...
     def get_joint_position_targets(self) -> _F64: ...
@@ -431,6 +428,8 @@ class Robot:
         damping: _ArrayLike,
         max_force: _ArrayLike | None = None,
         joint_indices: list[int] | None = None,
+        *,
+        joint_names: list[str] | None = None,
     ) -> None: ...
     def set_solver_iterations(self, n: int) -> None:
         """Extra solver substeps for the robot's bodies while it touches something (default 4)."""
@@ -460,6 +459,8 @@ class Robot:
         velocities: _ArrayLike | None = None,
         joint_indices: list[int] | None = None,
         settle_time: float = 0.0,
+        *,
+        joint_names: list[str] | None = None,
     ) -> dict[str, _F64]:
         """Keys: times, desired, actual, max_error, rms_error, final_error."""
     def execute(self, trajectory: JointTrajectory | PlanResult, settle_time: float = 0.0) -> dict[str, _F64]:
@@ -660,7 +661,10 @@ class Planner:
     ee_link: str
     @property
     def locked_positions(self) -> npt.NDArray[np.float64]: ...
-    def set_locked_positions(self, q: npt.ArrayLike) -> None: ...
+    @locked_positions.setter
+    def locked_positions(self, q: npt.ArrayLike) -> None: ...
+    def set_locked_positions(self, q: npt.ArrayLike) -> None:
+        """Deprecated: assign ``locked_positions``."""
     @property
     def limits(self) -> dict[str, npt.NDArray[np.float64]]: ...
     def set_limits(
@@ -708,13 +712,10 @@ class Planner:
         *,
         link: str | None = None,
         joint_names: list[str] | None = None,
-        position_tolerance: float = 1e-3,
-        rotation_tolerance: float = 0.01,
-        num_seeds: int = 200,
-        max_iterations: int = 60,
-        collision_free: bool = False,
+        options: IkOptions | None = None,
         seed: int | npt.ArrayLike | None = None,
         random_seed: int | None = None,
+        **overrides: Unpack[_IkOverrides],
     ) -> IkResult:
         """``start``: the first start configuration (then random ones); ``seed``: the random seed. Deprecated:
         ``seed=<configuration>`` (use ``start``), ``random_seed`` (use ``seed``)."""
@@ -725,13 +726,10 @@ class Planner:
         *,
         link: str | None = None,
         joint_names: list[str] | None = None,
-        position_tolerance: float = 1e-3,
-        rotation_tolerance: float = 0.01,
-        num_seeds: int = 200,
-        max_iterations: int = 60,
-        collision_free: bool = False,
+        options: IkOptions | None = None,
         seed: int | npt.ArrayLike | None = None,
         random_seed: int | None = None,
+        **overrides: Unpack[_IkOverrides],
     ) -> IkResult:
         """``start``: the first start configuration (then random ones); ``seed``: the random seed. Deprecated:
         ``seed=<configuration>`` (use ``start``), ``random_seed`` (use ``seed``)."""
@@ -742,14 +740,11 @@ class Planner:
         *,
         link: str | None = None,
         joint_names: list[str] | None = None,
-        position_tolerance: float = 1e-3,
-        rotation_tolerance: float = 0.01,
-        num_seeds: int = 200,
-        max_iterations: int = 60,
-        collision_free: bool = False,
-        seed: int = 0,
+        options: IkOptions | None = None,
+        seed: int | None = None,
         seeds: npt.ArrayLike | None = None,
         random_seed: int | None = None,
+        **overrides: Unpack[_IkOverrides],
     ) -> IkResult:
         """``starts``: (N, k) start configurations; ``seed``: the random seed. Deprecated: ``seeds`` (use
         ``starts``), ``random_seed`` (use ``seed``)."""
@@ -760,18 +755,10 @@ class Planner:
         goal_pose: npt.ArrayLike | None = None,
         joint_names: list[str] | None = None,
         *,
-        time_limit: float = 1.0,
-        max_samples: int = 100_000,
-        resolution: float = 0.005,
-        range: float = 1.0,
-        seed: int = 0,
-        velocity_scale: float = 1.0,
-        acceleration_scale: float = 1.0,
-        simplify: bool = True,
-        trajectory: bool = True,
-        goal_solutions: int = 4,
-        coarse_factor: float = 4.0,
-    ) -> PlanResult: ...
+        options: PlanOptions | None = None,
+        **overrides: Unpack[_PlanOverrides],
+    ) -> PlanResult:
+        """Options: ``options`` (default ``PlanOptions()``) with ``**overrides`` (any ``PlanOptions`` field)."""
 
 # --- grasp detection (used through ferrobot.grasp) ---
 
@@ -781,7 +768,8 @@ def grasp_detect(
     points: _ArrayLike,
     labels: npt.NDArray[np.int32] | None = None,
     seedable: npt.NDArray[np.bool_] | None = None,
-    options: dict[str, Any] | None = None,
+    options: DetectOptions | None = None,
+    **overrides: Unpack[_DetectOverrides],
 ) -> _F64:
     """Grasps (M, 17) detected in a point cloud (N, 3), best first."""
 
@@ -795,7 +783,8 @@ def grasp_detect_rgbd(
     mask: npt.NDArray[np.int32] | None = None,
     object_id: int | None = None,
     workspace: _ArrayLike | None = None,
-    options: dict[str, Any] | None = None,
+    options: DetectOptions | None = None,
+    **overrides: Unpack[_DetectOverrides],
 ) -> _F64:
     """Grasps (M, 17) detected in a depth image (H, W), best first, camera frame."""
 
@@ -900,15 +889,18 @@ class DepthNoise:
 
     def __new__(
         cls,
-        sigma0: float,
-        sigma2: float,
-        z0: float,
-        dropout: float,
-        edge_threshold: float,
-        edge_dropout: float,
-        missing_value: float,
-        seed: int,
-    ) -> Self: ...
+        *,
+        sigma0: float | None = None,
+        sigma2: float | None = None,
+        z0: float | None = None,
+        dropout: float | None = None,
+        edge_threshold: float | None = None,
+        edge_dropout: float | None = None,
+        missing_value: float | None = None,
+        seed: int | None = None,
+    ) -> Self:
+        """Parameters left out take the Rust defaults (``DepthNoiseParams::default()``)."""
+    def params(self) -> dict[str, float]: ...
     def sigma(self, z: _ArrayLike) -> _F64: ...
     def edges(self, depth: _ArrayLike) -> npt.NDArray[np.bool_]: ...
     def apply(self, depth: _ArrayLike) -> tuple[_F64, npt.NDArray[np.bool_]]: ...
@@ -985,3 +977,126 @@ class ReactiveController(_ControllerBase):
 @final
 class PotentialFieldController(_ControllerBase):
     """Potential-field control over voxelised distance fields of the obstacles."""
+
+# Option classes (crates/ferrobot-py/src/options.rs): defaults from the Rust `Default`, checks from the crates'
+# `validate`; every field is also a keyword (`**overrides`) of the calls that take the options.
+
+class _PlanOverrides(TypedDict, total=False):
+    time_limit: float
+    max_samples: int
+    resolution: float
+    range: float
+    seed: int
+    velocity_scale: float
+    acceleration_scale: float
+    simplify: bool
+    trajectory: bool
+    goal_solutions: int
+    coarse_factor: float
+    refinements: int
+
+class _IkOverrides(TypedDict, total=False):
+    position_tolerance: float
+    rotation_tolerance: float
+    num_seeds: int
+    max_iterations: int
+    collision_free: bool
+
+class _DetectOverrides(TypedDict, total=False):
+    voxel_size: float
+    normal_radius: float
+    num_seeds: int
+    seed_spacing: float
+    num_rotations: int
+    approach_tilts: Sequence[float]
+    depths: Sequence[float]
+    friction: float
+    viewpoint: Sequence[float]
+    approach_direction: Sequence[float]
+    nms_translation: float
+    nms_rotation: float
+    max_grasps: int
+    seed: int
+    support_plane: bool
+    plane_threshold: float
+    torque_scale: float
+    max_width: float
+    finger_depth: float
+    finger_width: float
+    height: float
+    approach_distance: float
+    clearance: float
+    palm_width: float
+    palm_height: float
+    palm_depth: float
+
+@final
+class PlanOptions:
+    """Options of ``Planner.plan``: ranges in each field's documentation; out of range raises on set."""
+
+    def __new__(cls, **overrides: Unpack[_PlanOverrides]) -> Self: ...
+    def replace(self, **overrides: Unpack[_PlanOverrides]) -> PlanOptions: ...
+    def to_dict(self) -> dict[str, Any]: ...
+    def __eq__(self, value: object, /) -> bool: ...
+    time_limit: float
+    max_samples: int
+    resolution: float
+    range: float
+    seed: int
+    velocity_scale: float
+    acceleration_scale: float
+    simplify: bool
+    trajectory: bool
+    goal_solutions: int
+    coarse_factor: float
+    refinements: int
+
+@final
+class IkOptions:
+    """Options of ``Planner.ik``, ``ik_goalset`` and ``ik_batch``."""
+
+    def __new__(cls, **overrides: Unpack[_IkOverrides]) -> Self: ...
+    def replace(self, **overrides: Unpack[_IkOverrides]) -> IkOptions: ...
+    def to_dict(self) -> dict[str, Any]: ...
+    def __eq__(self, value: object, /) -> bool: ...
+    position_tolerance: float
+    rotation_tolerance: float
+    num_seeds: int
+    max_iterations: int
+    collision_free: bool
+    seed: int
+
+@final
+class DetectOptions:
+    """Options of grasp detection (``ferrobot.grasp.detect``, ``detect_from_rgbd``)."""
+
+    def __new__(cls, **overrides: Unpack[_DetectOverrides]) -> Self: ...
+    def replace(self, **overrides: Unpack[_DetectOverrides]) -> DetectOptions: ...
+    def to_dict(self) -> dict[str, Any]: ...
+    def __eq__(self, value: object, /) -> bool: ...
+    voxel_size: float
+    normal_radius: float
+    num_seeds: int
+    seed_spacing: float
+    num_rotations: int
+    approach_tilts: list[float]
+    depths: list[float]
+    friction: float
+    viewpoint: list[float]
+    approach_direction: list[float]
+    nms_translation: float
+    nms_rotation: float
+    max_grasps: int
+    seed: int
+    support_plane: bool
+    plane_threshold: float
+    torque_scale: float
+    max_width: float
+    finger_depth: float
+    finger_width: float
+    height: float
+    approach_distance: float
+    clearance: float
+    palm_width: float
+    palm_height: float
+    palm_depth: float

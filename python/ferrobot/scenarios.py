@@ -117,37 +117,31 @@ class DepthNoise:
 
     def __init__(
         self,
-        sigma0: float = 0.0012,
-        sigma2: float = 0.0019,
-        z0: float = 0.4,
-        dropout: float = 0.01,
-        edge_threshold: float = 0.02,
-        edge_dropout: float = 0.5,
-        missing_value: float = 0.0,
-        seed: int = 0,
+        sigma0: float | None = None,
+        sigma2: float | None = None,
+        z0: float | None = None,
+        dropout: float | None = None,
+        edge_threshold: float | None = None,
+        edge_dropout: float | None = None,
+        missing_value: float | None = None,
+        seed: int | None = None,
     ):
-        self.sigma0 = _positive(sigma0, "sigma0", allow_zero=True)
-        self.sigma2 = _positive(sigma2, "sigma2", allow_zero=True)
-        self.z0 = float(z0)
-        if not np.isfinite(self.z0):
-            raise InvalidArgumentError(f"z0 must be finite, got {z0}")
-        for v, what in ((dropout, "dropout"), (edge_dropout, "edge_dropout")):
-            if not (np.isfinite(v) and 0.0 <= v <= 1.0):
-                raise InvalidArgumentError(f"{what} must be in [0, 1], got {v}")
-        self.dropout = float(dropout)
-        self.edge_dropout = float(edge_dropout)
-        self.edge_threshold = _positive(edge_threshold, "edge_threshold")
-        self.missing_value = float(missing_value)
+        """Each parameter left out takes its default from Rust (``DepthNoiseParams::default()``: sigma0 0.0012 m,
+        sigma2 0.0019 1/m, z0 0.4 m, dropout 0.01, edge_threshold 0.02 m, edge_dropout 0.5, missing_value 0,
+        seed 0); ranges: sigma0, sigma2 >= 0, z0 finite, dropout and edge_dropout in [0, 1], edge_threshold > 0.
+        """
         self._inner = _core.DepthNoise(
-            self.sigma0,
-            self.sigma2,
-            self.z0,
-            self.dropout,
-            self.edge_threshold,
-            self.edge_dropout,
-            self.missing_value,
-            int(seed),
+            sigma0=sigma0,
+            sigma2=sigma2,
+            z0=z0,
+            dropout=dropout,
+            edge_threshold=edge_threshold,
+            edge_dropout=edge_dropout,
+            missing_value=missing_value,
+            seed=seed,
         )
+        for k, v in self._inner.params().items():
+            setattr(self, k, v)
 
     def sigma(self, z) -> np.ndarray:
         """Axial standard deviation (m) at depth ``z`` (m)."""
@@ -419,8 +413,8 @@ def sensor_noise(
         if k * dt > 0.5:
             max_err = max(max_err, float(np.max(np.abs(robot.get_joint_positions()[:7] - q0[:7]))))
     # Depth noise on a rendered frame.
-    world.add_box("table", [0.8, 1.0, 0.4], [0.6, 0.0, 0.2, 1, 0, 0, 0], static_=True)
-    world.add_box("box", [0.1, 0.1, 0.1], [0.55, 0.0, 0.45, 1, 0, 0, 0], static_=True)
+    world.add_box("table", [0.8, 1.0, 0.4], [0.6, 0.0, 0.2, 1, 0, 0, 0], fixed=True)
+    world.add_box("box", [0.1, 0.1, 0.1], [0.55, 0.0, 0.45, 1, 0, 0, 0], fixed=True)
     cam = Camera(world, 160, 120, fx=140.0, pose=look_at([1.3, 0.0, 1.1], [0.55, 0.0, 0.4]))
     depth = cam.render(rgb=False)["depth"].astype(np.float64)
     noise = DepthNoise(seed=seed, dropout=0.05, edge_dropout=0.5)

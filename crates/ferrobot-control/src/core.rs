@@ -482,3 +482,30 @@ impl Core {
         }
     }
 }
+
+/// What every controller shares through its [`Core`]: one definition of
+/// the accessors (the model, the target and posture, the obstacles' poses)
+/// instead of a copy per controller.
+pub trait ControllerCore {
+    /// The shared core (target, posture, world, geometry).
+    fn core(&self) -> &Core;
+
+    /// The shared core, mutable.
+    fn core_mut(&mut self) -> &mut Core;
+
+    /// The model.
+    fn model(&self) -> &Arc<RobotModel> {
+        self.core().model()
+    }
+
+    /// Moves one world object, with its velocity if known (a potential
+    /// field moves with its object).
+    fn set_obstacle_pose(
+        &mut self,
+        name: &str,
+        pose: Isometry3<f64>,
+        velocity: Option<[f64; 6]>,
+    ) -> Result<()> {
+        self.core_mut().world.set_pose(name, pose, velocity)
+    }
+}

@@ -136,19 +136,59 @@ pub struct DepthNoise {
     rng: StdRng,
 }
 
+/// The parameters of a [`DepthNoise`] model; `Default` holds the defaults
+/// (the one definition; the Python `DepthNoise` takes them from here).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DepthNoiseParams {
+    /// Axial standard deviation at `z0` (m), >= 0 (default 0.0012).
+    pub sigma0: f64,
+    /// Quadratic growth of the standard deviation (1/m), >= 0
+    /// (default 0.0019).
+    pub sigma2: f64,
+    /// Depth (m) of the smallest noise, finite (default 0.4).
+    pub z0: f64,
+    /// Probability that any valid pixel is missing, [0, 1] (default 0.01).
+    pub dropout: f64,
+    /// Depth jump (m) between 4-neighbours that makes a discontinuity, > 0
+    /// (default 0.02).
+    pub edge_threshold: f64,
+    /// Extra probability that a pixel on a discontinuity is missing, [0, 1]
+    /// (default 0.5).
+    pub edge_dropout: f64,
+    /// Value written into missing pixels (finite or not; default 0).
+    pub missing_value: f64,
+    /// Seed of the noise (default 0).
+    pub seed: u64,
+}
+
+impl Default for DepthNoiseParams {
+    fn default() -> Self {
+        Self {
+            sigma0: 0.0012,
+            sigma2: 0.0019,
+            z0: 0.4,
+            dropout: 0.01,
+            edge_threshold: 0.02,
+            edge_dropout: 0.5,
+            missing_value: 0.0,
+            seed: 0,
+        }
+    }
+}
+
 impl DepthNoise {
     /// A model with the given parameters (ranges as documented on the fields).
-    #[allow(clippy::too_many_arguments)]
-    pub fn new(
-        sigma0: f64,
-        sigma2: f64,
-        z0: f64,
-        dropout: f64,
-        edge_threshold: f64,
-        edge_dropout: f64,
-        missing_value: f64,
-        seed: u64,
-    ) -> Result<Self> {
+    pub fn new(p: DepthNoiseParams) -> Result<Self> {
+        let DepthNoiseParams {
+            sigma0,
+            sigma2,
+            z0,
+            dropout,
+            edge_threshold,
+            edge_dropout,
+            missing_value,
+            seed,
+        } = p;
         if !z0.is_finite() {
             return Err(invalid(format!("z0 must be finite, got {z0}")));
         }

@@ -27,10 +27,10 @@ pub mod reactive;
 pub mod world;
 
 pub use config::{PotentialFieldConfig, ReactiveConfig};
-pub use core::{Core, StepInfo, StepOutput};
+pub use core::{ControllerCore, Core, StepInfo, StepOutput};
 pub use error::{ControlError, Result};
 pub use exact::LinkClearance;
-pub use faults::{Arbiter, Conflict, DepthNoise, EncoderNoise};
+pub use faults::{Arbiter, Conflict, DepthNoise, DepthNoiseParams, EncoderNoise};
 pub use field::VoxelField;
 pub use potential::PotentialFieldController;
 pub use reactive::ReactiveController;

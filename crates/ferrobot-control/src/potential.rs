@@ -19,11 +19,8 @@
 //! other: forces simply add, which is what produces the local minima and
 //! oscillations this controller is known for.
 
-use std::sync::Arc;
-
 use ferrobot_collision::{CollisionChecker, CollisionWorld};
-use ferrobot_model::RobotModel;
-use nalgebra::{Isometry3, Vector3};
+use nalgebra::Vector3;
 
 use crate::config::PotentialFieldConfig;
 use crate::core::{Core, StepInfo, StepOutput};
@@ -70,21 +67,6 @@ impl PotentialFieldController {
         })
     }
 
-    /// The shared core (target, posture, world, geometry).
-    pub fn core(&self) -> &Core {
-        &self.core
-    }
-
-    /// The shared core, mutable.
-    pub fn core_mut(&mut self) -> &mut Core {
-        &mut self.core
-    }
-
-    /// The model.
-    pub fn model(&self) -> &Arc<RobotModel> {
-        self.core.model()
-    }
-
     /// The gains.
     pub fn config(&self) -> &PotentialFieldConfig {
         &self.config
@@ -111,16 +93,6 @@ impl PotentialFieldController {
         w.build_fields(self.config.field_resolution, self.config.field_padding)?;
         self.core.world = w;
         Ok(())
-    }
-
-    /// Moves one world object (its field moves with it).
-    pub fn set_obstacle_pose(
-        &mut self,
-        name: &str,
-        pose: Isometry3<f64>,
-        velocity: Option<[f64; 6]>,
-    ) -> Result<()> {
-        self.core.world.set_pose(name, pose, velocity)
     }
 
     /// One control step from the measured state; see
@@ -247,5 +219,15 @@ impl PotentialFieldController {
             cfg.default_velocity_limit,
             &mut info,
         ))
+    }
+}
+
+impl crate::core::ControllerCore for PotentialFieldController {
+    fn core(&self) -> &Core {
+        &self.core
+    }
+
+    fn core_mut(&mut self) -> &mut Core {
+        &mut self.core
     }
 }

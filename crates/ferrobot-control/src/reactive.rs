@@ -42,10 +42,7 @@
 //!
 //! The acceleration then goes through [`Core`]'s limits and integration.
 
-use std::sync::Arc;
-
 use ferrobot_collision::CollisionChecker;
-use ferrobot_model::RobotModel;
 use nalgebra::{Isometry3, Vector3};
 
 use crate::config::ReactiveConfig;
@@ -254,21 +251,6 @@ impl ReactiveController {
         })
     }
 
-    /// The shared core (target, posture, world, geometry).
-    pub fn core(&self) -> &Core {
-        &self.core
-    }
-
-    /// The shared core, mutable.
-    pub fn core_mut(&mut self) -> &mut Core {
-        &mut self.core
-    }
-
-    /// The model.
-    pub fn model(&self) -> &Arc<RobotModel> {
-        self.core.model()
-    }
-
     /// The gains.
     pub fn config(&self) -> &ReactiveConfig {
         &self.config
@@ -285,16 +267,6 @@ impl ReactiveController {
     pub fn set_world(&mut self, world: ferrobot_collision::CollisionWorld) -> Result<()> {
         self.core.world = ControlWorld::new(world);
         Ok(())
-    }
-
-    /// Moves one world object, with its velocity if known.
-    pub fn set_obstacle_pose(
-        &mut self,
-        name: &str,
-        pose: Isometry3<f64>,
-        velocity: Option<[f64; 6]>,
-    ) -> Result<()> {
-        self.core.world.set_pose(name, pose, velocity)
     }
 
     /// Global guidance: joint-space waypoints (each a full DOF vector, or
@@ -625,5 +597,15 @@ impl ReactiveController {
             cfg.default_velocity_limit,
             &mut info,
         ))
+    }
+}
+
+impl crate::core::ControllerCore for ReactiveController {
+    fn core(&self) -> &Core {
+        &self.core
+    }
+
+    fn core_mut(&mut self) -> &mut Core {
+        &mut self.core
     }
 }

@@ -7,6 +7,7 @@ use std::sync::{Arc, OnceLock};
 use ferrobot_collision::acm::{AllowedCollisions, AnalyzeCollisions};
 use ferrobot_collision::spherize::{SpherizeOptions, spherize_robot};
 use ferrobot_collision::{CollisionChecker, CollisionWorld, RobotSpheres, Shape};
+use ferrobot_control::ControllerCore;
 use ferrobot_control::{
     LinkClearance, PotentialFieldConfig, PotentialFieldController, ReactiveConfig,
     ReactiveController,

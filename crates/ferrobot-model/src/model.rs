@@ -366,6 +366,28 @@ impl RobotModel {
             })
     }
 
+    /// Where the columns of a joint vector named `names` (a trajectory in
+    /// another tool's joint order) go: (column, DOF index) pairs for the
+    /// independent joints. Mimic joints are skipped (their drivers move
+    /// them); any other name is an `UnknownName` error.
+    pub fn dof_columns(&self, names: &[String]) -> Result<Vec<(usize, usize)>> {
+        let mut out = Vec::with_capacity(names.len());
+        for (c, name) in names.iter().enumerate() {
+            match self.dof(name) {
+                Ok(d) => out.push((c, d)),
+                Err(e) => {
+                    let mimic = self
+                        .joint(name)
+                        .is_ok_and(|j| self.joints[j].mimic.is_some());
+                    if !mimic {
+                        return Err(e);
+                    }
+                }
+            }
+        }
+        Ok(out)
+    }
+
     /// The robot's name.
     pub fn name(&self) -> &str {
         &self.name

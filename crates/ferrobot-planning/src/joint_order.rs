@@ -148,3 +148,83 @@ impl JointOrder {
             .collect()
     }
 }
+
+/// A configuration as a caller gave it, read for `space`: the active
+/// configuration, and the full configuration (`dof_names` order) when the
+/// caller's values also set joints the planner does not move to values
+/// other than `space`'s locked ones (a request then carries them as its
+/// locked joints).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Configuration {
+    /// The planned joints, in the planner's order.
+    pub active: Vec<f64>,
+    /// The full configuration, when it overrides locked joints.
+    pub full: Option<Vec<f64>>,
+}
+
+impl Configuration {
+    /// Reads `values` (the argument `what`): in `order` if given (entries
+    /// of joints the planner does not move set them where they differ from
+    /// the locked values); else a full vector in `dof_names` order (which
+    /// sets the locked joints) or the planned joints in the planner's order.
+    pub fn read(
+        model: &RobotModel,
+        space: &ActiveSpace,
+        order: Option<&JointOrder>,
+        what: &str,
+        values: &[f64],
+    ) -> Result<Self> {
+        if let Some(o) = order {
+            let active = o.to_active(what, values)?;
+            let locked = o.locked_values(values);
+            let full = if locked.iter().any(|&(d, x)| x != space.locked[d]) {
+                let mut full = space.expand(&active);
+                for (d, x) in locked {
+                    full[d] = x;
+                }
+                Some(full)
+            } else {
+                None
+            };
+            return Ok(Self { active, full });
+        }
+        let n = model.num_dof();
+        if values.len() == space.len() {
+            Ok(Self {
+                active: values.to_vec(),
+                full: None,
+            })
+        } else if values.len() == n {
+            Ok(Self {
+                active: space.restrict(values),
+                full: Some(values.to_vec()),
+            })
+        } else {
+            Err(ModelError::Shape {
+                what: what.into(),
+                expected: format!(
+                    "({n},) in dof_names order or ({},) in planner joint_names order {:?}",
+                    space.len(),
+                    space.names
+                ),
+                got: format!("({},)", values.len()),
+            }
+            .into())
+        }
+    }
+
+    /// The full configuration: the given one, or the active one with the
+    /// locked joints at `space`'s values.
+    pub fn into_full(self, space: &ActiveSpace) -> Vec<f64> {
+        match self.full {
+            Some(f) => f,
+            None => space.expand(&self.active),
+        }
+    }
+
+    /// The locked joints this configuration sets for a query: its full
+    /// configuration if that differs from `space`'s locked values.
+    pub fn locked_override(&self, space: &ActiveSpace) -> Option<Vec<f64>> {
+        self.full.clone().filter(|f| *f != space.locked)
+    }
+}

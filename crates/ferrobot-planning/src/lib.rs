@@ -22,7 +22,7 @@ pub mod timing;
 
 pub use error::{PlanningError, Result};
 pub use ik::{IkOptions, IkSolution, IkSolver};
-pub use joint_order::JointOrder;
+pub use joint_order::{Configuration, JointOrder};
 pub use limits::KinematicLimits;
 pub use planner::{
     Goal, PlanOptions, PlanRequest, PlanResult, PlanStatus, Planner, StageTimes, TimedOut,

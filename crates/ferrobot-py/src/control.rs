@@ -4,8 +4,8 @@
 
 use ferrobot_collision::{AllowedCollisions, AnalyzeCollisions};
 use ferrobot_control::{
-    ControlError, LinkClearance, PotentialFieldConfig, PotentialFieldController, ReactiveConfig,
-    ReactiveController, StepInfo,
+    ControlError, ControllerCore, LinkClearance, PotentialFieldConfig, PotentialFieldController,
+    ReactiveConfig, ReactiveController, StepInfo,
 };
 use numpy::ndarray::{Array1, Array2};
 use numpy::{IntoPyArray, PyArray1};

@@ -2,7 +2,7 @@
 //! (encoder noise, depth noise, command arbitration); `ferrobot.scenarios`
 //! wraps them.
 
-use ferrobot_control::{Arbiter, ControlError, DepthNoise, EncoderNoise};
+use ferrobot_control::{Arbiter, ControlError, DepthNoise, DepthNoiseParams, EncoderNoise};
 use numpy::ndarray::{Array1, ArrayD, IxDyn};
 use numpy::{IntoPyArray, PyArray1, PyArrayDyn};
 use pyo3::prelude::*;
@@ -84,31 +84,59 @@ fn depth_arg<'py>(depth: &Bound<'py, PyAny>) -> PyResult<(Vec<f64>, usize, usize
 
 #[pymethods]
 impl PyDepthNoise {
-    /// The model's parameters (see `ferrobot.scenarios.DepthNoise`).
+    /// The model's parameters (see `ferrobot.scenarios.DepthNoise`); each
+    /// one left out (None) takes its default from the Rust
+    /// `DepthNoiseParams::default()`.
     #[new]
+    #[pyo3(signature = (*, sigma0=None, sigma2=None, z0=None, dropout=None, edge_threshold=None,
+        edge_dropout=None, missing_value=None, seed=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
-        sigma0: f64,
-        sigma2: f64,
-        z0: f64,
-        dropout: f64,
-        edge_threshold: f64,
-        edge_dropout: f64,
-        missing_value: f64,
-        seed: u64,
+        sigma0: Option<f64>,
+        sigma2: Option<f64>,
+        z0: Option<f64>,
+        dropout: Option<f64>,
+        edge_threshold: Option<f64>,
+        edge_dropout: Option<f64>,
+        missing_value: Option<f64>,
+        seed: Option<u64>,
     ) -> PyResult<Self> {
-        Ok(Self {
-            inner: DepthNoise::new(
-                sigma0,
-                sigma2,
-                z0,
-                dropout,
-                edge_threshold,
-                edge_dropout,
-                missing_value,
-                seed,
-            )
-            .map_err(fault_err)?,
+        guard(|| {
+            let d = DepthNoiseParams::default();
+            let p = DepthNoiseParams {
+                sigma0: sigma0.unwrap_or(d.sigma0),
+                sigma2: sigma2.unwrap_or(d.sigma2),
+                z0: z0.unwrap_or(d.z0),
+                dropout: dropout.unwrap_or(d.dropout),
+                edge_threshold: edge_threshold.unwrap_or(d.edge_threshold),
+                edge_dropout: edge_dropout.unwrap_or(d.edge_dropout),
+                missing_value: missing_value.unwrap_or(d.missing_value),
+                seed: seed.unwrap_or(d.seed),
+            };
+            Ok(Self {
+                inner: DepthNoise::new(p).map_err(fault_err)?,
+            })
+        })
+    }
+
+    /// The parameters as a dict (sigma0, sigma2, z0, dropout,
+    /// edge_threshold, edge_dropout, missing_value).
+    fn params<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
+        guard(|| {
+            let d = pyo3::types::PyDict::new(py);
+            let n = &self.inner;
+            for (k, v) in [
+                ("sigma0", n.sigma0),
+                ("sigma2", n.sigma2),
+                ("z0", n.z0),
+                ("dropout", n.dropout),
+                ("edge_threshold", n.edge_threshold),
+                ("edge_dropout", n.edge_dropout),
+                ("missing_value", n.missing_value),
+            ] {
+                d.set_item(k, v)?;
+            }
+            Ok(d)
         })
     }
 

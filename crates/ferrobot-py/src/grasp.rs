@@ -5,7 +5,7 @@ use ferrobot_grasp::detect::detect_rgbd;
 use ferrobot_grasp::frames::transform_group;
 use ferrobot_grasp::grasp::GRASP_COLUMNS;
 use ferrobot_grasp::{DetectOptions, GraspError, GraspGroup, Workspace, detect};
-use nalgebra::{Isometry3, Point3, Vector3};
+use nalgebra::{Isometry3, Point3};
 use numpy::ndarray::{Array1, Array2};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
@@ -13,6 +13,7 @@ use pyo3::types::PyDict;
 
 use crate::arrays::{read_array, read_pose};
 use crate::errors::{InvalidArgumentError, NonFiniteError, ShapeError, guard};
+use crate::options::PyDetectOptions;
 
 /// Converts a grasp error to the matching Python exception.
 pub(crate) fn grasp_err(e: GraspError) -> PyErr {
@@ -23,74 +24,12 @@ pub(crate) fn grasp_err(e: GraspError) -> PyErr {
     }
 }
 
-fn vec3(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Vector3<f64>> {
-    let a = read_array(obj, what, 1, &[Some(3)])?;
-    let d = a.data();
-    Ok(Vector3::new(d[0], d[1], d[2]))
-}
-
-/// Detection options from a dict of keyword options (unknown keys raise).
-fn options(opts: Option<&Bound<'_, PyDict>>) -> PyResult<DetectOptions> {
-    let mut o = DetectOptions::default();
-    let Some(opts) = opts else { return Ok(o) };
-    for (k, v) in opts.iter() {
-        let key: String = k.extract()?;
-        let f = |v: &Bound<'_, PyAny>| -> PyResult<f64> {
-            v.extract::<f64>().map_err(|_| {
-                InvalidArgumentError::new_err(format!("option {key}: expected a number"))
-            })
-        };
-        let n = |v: &Bound<'_, PyAny>| -> PyResult<usize> {
-            v.extract::<usize>().map_err(|_| {
-                InvalidArgumentError::new_err(format!(
-                    "option {key}: expected a non-negative integer"
-                ))
-            })
-        };
-        let list = |v: &Bound<'_, PyAny>| -> PyResult<Vec<f64>> {
-            let a = read_array(v, &format!("option {key}"), 1, &[None])?;
-            Ok(a.data().to_vec())
-        };
-        match key.as_str() {
-            "voxel_size" => o.voxel_size = f(&v)?,
-            "normal_radius" => o.normal_radius = f(&v)?,
-            "num_seeds" => o.num_seeds = n(&v)?,
-            "seed_spacing" => o.seed_spacing = f(&v)?,
-            "num_rotations" => o.num_rotations = n(&v)?,
-            "approach_tilts" => o.approach_tilts = list(&v)?,
-            "depths" => o.depths = list(&v)?,
-            "friction" => o.friction = f(&v)?,
-            "viewpoint" => o.viewpoint = Point3::from(vec3(&v, "option viewpoint")?),
-            "approach_direction" => o.approach_direction = vec3(&v, "option approach_direction")?,
-            "nms_translation" => o.nms_translation = f(&v)?,
-            "nms_rotation" => o.nms_rotation = f(&v)?,
-            "max_grasps" => o.max_grasps = n(&v)?,
-            "rng_seed" => o.rng_seed = n(&v)? as u64,
-            "support_plane" => {
-                o.support_plane = v.extract::<bool>().map_err(|_| {
-                    InvalidArgumentError::new_err(format!("option {key}: expected a bool"))
-                })?
-            }
-            "plane_threshold" => o.plane_threshold = f(&v)?,
-            "torque_scale" => o.torque_scale = f(&v)?,
-            "max_width" => o.gripper.max_width = f(&v)?,
-            "finger_depth" => o.gripper.finger_depth = f(&v)?,
-            "finger_width" => o.gripper.finger_width = f(&v)?,
-            "height" => o.gripper.height = f(&v)?,
-            "approach_distance" => o.gripper.approach_distance = f(&v)?,
-            "clearance" => o.gripper.clearance = f(&v)?,
-            "palm_width" => o.gripper.palm_width = f(&v)?,
-            "palm_height" => o.gripper.palm_height = f(&v)?,
-            "palm_depth" => o.gripper.palm_depth = f(&v)?,
-            other => {
-                return Err(InvalidArgumentError::new_err(format!(
-                    "unknown grasp option '{other}'"
-                )));
-            }
-        }
-    }
-    o.validate().map_err(grasp_err)?;
-    Ok(o)
+/// Detection options: `options` (or the defaults) with `overrides`.
+fn options(
+    options: Option<&Bound<'_, PyDetectOptions>>,
+    overrides: Option<&Bound<'_, PyDict>>,
+) -> PyResult<DetectOptions> {
+    PyDetectOptions::resolve(options, overrides)
 }
 
 pub(crate) fn workspace(obj: Option<&Bound<'_, PyAny>>) -> PyResult<Option<Workspace>> {
@@ -128,16 +67,17 @@ fn group(obj: &Bound<'_, PyAny>) -> PyResult<GraspGroup> {
 
 /// Detects grasps in a point cloud (N, 3); returns an (M, 17) array.
 #[pyfunction]
-#[pyo3(signature = (points, labels=None, seedable=None, options=None))]
+#[pyo3(signature = (points, labels=None, seedable=None, options=None, **overrides))]
 pub fn grasp_detect<'py>(
     py: Python<'py>,
     points: &Bound<'py, PyAny>,
     labels: Option<PyReadonlyArray1<'py, i32>>,
     seedable: Option<PyReadonlyArray1<'py, bool>>,
-    options: Option<&Bound<'py, PyDict>>,
+    options: Option<&Bound<'py, PyDetectOptions>>,
+    overrides: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyArray2<f64>>> {
     guard(|| {
-        let opts = self::options(options)?;
+        let opts = self::options(options, overrides)?;
         let p = read_array(points, "points", 2, &[Some(3)])?;
         let pts: Vec<Point3<f64>> = p
             .data()
@@ -155,7 +95,7 @@ pub fn grasp_detect<'py>(
 
 /// Detects grasps in a depth image (H, W); returns an (M, 17) array.
 #[pyfunction]
-#[pyo3(signature = (depth, fx, fy, cx, cy, scale, mask=None, object_id=None, workspace=None, options=None))]
+#[pyo3(signature = (depth, fx, fy, cx, cy, scale, mask=None, object_id=None, workspace=None, options=None, **overrides))]
 #[allow(clippy::too_many_arguments)]
 pub fn grasp_detect_rgbd<'py>(
     py: Python<'py>,
@@ -168,13 +108,14 @@ pub fn grasp_detect_rgbd<'py>(
     mask: Option<PyReadonlyArray2<'py, i32>>,
     object_id: Option<i32>,
     workspace: Option<&Bound<'py, PyAny>>,
-    options: Option<&Bound<'py, PyDict>>,
+    options: Option<&Bound<'py, PyDetectOptions>>,
+    overrides: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyArray2<f64>>> {
     guard(|| {
         let d = crate::camera::read_depth(depth, [None, None])?;
         let (h, w) = (d.shape[0], d.shape[1]);
         let k = crate::camera::intrinsics(w, h, fx, fy, cx, cy, scale)?;
-        let opts = self::options(options)?;
+        let opts = self::options(options, overrides)?;
         let ws = self::workspace(workspace)?;
         let mask: Option<Vec<i32>> = match mask {
             None => None,

@@ -13,6 +13,7 @@ mod faults;
 mod grasp;
 mod mesh_objects;
 mod model;
+mod options;
 mod planning;
 mod scene;
 mod sim;
@@ -83,6 +84,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(batch::execute_trajectories, m)?)?;
     sim2real_register(m)?;
     faults::register(m)?;
+    options_register(m)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }
@@ -99,5 +101,13 @@ fn sim2real_register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sim2real::identify_link_masses, m)?)?;
     m.add_function(wrap_pyfunction!(sim2real::identify_friction, m)?)?;
     m.add_function(wrap_pyfunction!(sim2real::trajectory_sample, m)?)?;
+    Ok(())
+}
+
+/// Registers the option classes (`options.rs`).
+fn options_register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<options::PyPlanOptions>()?;
+    m.add_class::<options::PyIkOptions>()?;
+    m.add_class::<options::PyDetectOptions>()?;
     Ok(())
 }

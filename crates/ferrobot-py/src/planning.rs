@@ -2,10 +2,9 @@
 //! plan results, and the interpolated joint trajectory.
 
 use std::sync::Arc;
-use std::time::Duration;
 
 use ferrobot_planning::{
-    ActiveSpace, Goal, IkOptions, IkSolution, JointOrder, PlanOptions, PlanRequest, PlanResult,
+    ActiveSpace, Configuration, Goal, IkOptions, IkSolution, JointOrder, PlanRequest, PlanResult,
     Planner, PlanningError, Trajectory,
 };
 use numpy::ndarray::{Array1, Array2};
@@ -17,6 +16,7 @@ use crate::arrays::{read_array, read_poses};
 use crate::collision::{PyCollisionWorld, PySphereModel, build_checker};
 use crate::errors::{InvalidArgumentError, ShapeError, collision_err, guard, model_err};
 use crate::model::PyRobotModel;
+use crate::options::{PyIkOptions, PyPlanOptions};
 
 /// Emits a `DeprecationWarning` (an old spelling kept for one release).
 pub(crate) fn deprecated(py: Python<'_>, msg: &str) -> PyResult<()> {
@@ -35,7 +35,7 @@ fn seed_args<'py>(
     start: Option<&Bound<'py, PyAny>>,
     seed: Option<&Bound<'py, PyAny>>,
     random_seed: Option<u64>,
-) -> PyResult<(Option<Bound<'py, PyAny>>, u64)> {
+) -> PyResult<(Option<Bound<'py, PyAny>>, Option<u64>)> {
     let mut start = start.cloned();
     let mut rng: Option<u64> = None;
     if let Some(s) = seed {
@@ -74,7 +74,21 @@ fn seed_args<'py>(
         }
         rng = Some(r);
     }
-    Ok((start, rng.unwrap_or(0)))
+    Ok((start, rng))
+}
+
+/// IK options: `options` (or the defaults) with `overrides`, the random
+/// seed from the call's `seed` keyword when given.
+fn ik_options(
+    options: Option<&Bound<'_, PyIkOptions>>,
+    overrides: Option<&Bound<'_, PyDict>>,
+    seed: Option<u64>,
+) -> PyResult<IkOptions> {
+    let mut o = PyIkOptions::resolve(options, overrides)?;
+    if let Some(s) = seed {
+        o.seed = s;
+    }
+    Ok(o)
 }
 
 /// Converts a planning error to the matching Python exception.
@@ -551,55 +565,23 @@ impl PyPlanner {
     ) -> PyResult<Vec<f64>> {
         let inner = self.snap();
         let order = self.order(joint_names)?;
-        let (active, full) = self.config(q, "q", order.as_ref())?;
-        Ok(match full {
-            Some(f) => f,
-            None => inner.space().expand(&active),
-        })
+        Ok(self
+            .config(q, "q", order.as_ref())?
+            .into_full(inner.space()))
     }
 
-    /// Reads a configuration: in `order` if given (its entries for joints
-    /// the planner does not move set those joints); else a full vector in
-    /// `dof_names` order (which also sets the locked joints) or the planned
-    /// joints in `joint_names` order. Returns (active, full if given).
+    /// Reads a configuration (`Configuration::read` of the planning crate
+    /// decides the order and the locked-joint overrides).
     fn config(
         &self,
         obj: &Bound<'_, PyAny>,
         what: &str,
         order: Option<&JointOrder>,
-    ) -> PyResult<(Vec<f64>, Option<Vec<f64>>)> {
+    ) -> PyResult<Configuration> {
         let inner = self.snap();
         let arr = read_array(obj, what, 1, &[None])?;
-        let v = arr.data();
-        let space = inner.space();
-        let n = inner.model().num_dof();
-        if let Some(o) = order {
-            let active = o.to_active(what, v).map_err(planning_err)?;
-            // Values for joints the planner does not move (a simulator's
-            // fingers) set them, as a full vector does, where they differ.
-            let locked = o.locked_values(v);
-            if locked.iter().any(|&(d, x)| x != space.locked[d]) {
-                let mut full = space.expand(&active);
-                for (d, x) in locked {
-                    full[d] = x;
-                }
-                return Ok((active, Some(full)));
-            }
-            return Ok((active, None));
-        }
-        if v.len() == space.len() {
-            Ok((v.to_vec(), None))
-        } else if v.len() == n {
-            Ok((space.restrict(v), Some(v.to_vec())))
-        } else {
-            Err(ShapeError::new_err(format!(
-                "{what}: expected ({},) in dof_names order or ({},) in planner joint_names order {:?}, got ({},)",
-                n,
-                space.len(),
-                space.names,
-                v.len()
-            )))
-        }
+        Configuration::read(inner.model(), inner.space(), order, what, arr.data())
+            .map_err(planning_err)
     }
 
     fn output(&self, order: Option<JointOrder>, space: &ActiveSpace) -> Output {
@@ -607,27 +589,6 @@ impl PyPlanner {
             space: space.clone(),
             order,
         }
-    }
-
-    #[allow(clippy::too_many_arguments)]
-    fn ik_opts(
-        position_tolerance: f64,
-        rotation_tolerance: f64,
-        num_seeds: usize,
-        max_iterations: usize,
-        collision_free: bool,
-        seed: u64,
-    ) -> PyResult<IkOptions> {
-        let o = IkOptions {
-            position_tolerance,
-            rotation_tolerance,
-            num_seeds,
-            max_iterations,
-            collision_free,
-            seed,
-        };
-        o.validate().map_err(planning_err)?;
-        Ok(o)
     }
 
     fn link(&self, link: Option<&str>) -> PyResult<Option<usize>> {
@@ -701,12 +662,22 @@ impl PyPlanner {
 
     /// Sets the joints the planner does not move (fingers, say) from a full
     /// configuration in `dof_names` order.
-    fn set_locked_positions(&self, q: &Bound<'_, PyAny>) -> PyResult<()> {
+    #[setter(locked_positions)]
+    fn set_locked_positions_value(&self, q: &Bound<'_, PyAny>) -> PyResult<()> {
         guard(|| {
             let n = self.snap().model().num_dof();
             let arr = read_array(q, "q", 1, &[Some(n)])?;
             self.edit(|p| p.set_locked(arr.data()).map_err(planning_err))
         })
+    }
+
+    /// Deprecated: assign `locked_positions` instead.
+    fn set_locked_positions(&self, q: &Bound<'_, PyAny>) -> PyResult<()> {
+        deprecated(
+            q.py(),
+            "Planner.set_locked_positions(q) is deprecated: assign Planner.locked_positions = q",
+        )?;
+        self.set_locked_positions_value(q)
     }
 
     /// Limits of the planned joints: lower, upper, velocity, acceleration,
@@ -971,25 +942,26 @@ impl PyPlanner {
         guard(|| {
             let inner = self.snap();
             let order = self.order(joint_names)?;
-            let (active, full) = self.config(q, "q", order.as_ref())?;
+            let c = self.config(q, "q", order.as_ref())?;
             let mut space = inner.space().clone();
-            if let Some(f) = full {
-                space.lock_from(&f);
+            if let Some(f) = &c.full {
+                space.lock_from(f);
             }
             Ok(inner
                 .checker()
-                .in_collision_unchecked(&space.expand(&active)))
+                .in_collision_unchecked(&space.expand(&c.active)))
         })
     }
 
     /// IK for one pose (base frame; 4x4 or [x, y, z, qw, qx, qy, qz]):
     /// the `start` configuration first, then random starts drawn with the
-    /// random seed `seed`. With `collision_free`, solutions in collision are
-    /// rejected. (Deprecated: `seed=<configuration>` for `start`, and
+    /// random seed `seed`. Options: `options` (an `IkOptions`, default
+    /// `IkOptions()`) with `**overrides` (any `IkOptions` field, e.g.
+    /// `collision_free=True`); with `collision_free`, solutions in collision
+    /// are rejected. (Deprecated: `seed=<configuration>` for `start`, and
     /// `random_seed` for `seed`.)
     #[pyo3(signature = (goal_pose, start=None, *, link=None, joint_names=None,
-        position_tolerance=1e-3, rotation_tolerance=0.01, num_seeds=200, max_iterations=60,
-        collision_free=false, seed=None, random_seed=None))]
+        options=None, seed=None, random_seed=None, **overrides))]
     #[allow(clippy::too_many_arguments)]
     fn ik(
         &self,
@@ -998,46 +970,29 @@ impl PyPlanner {
         start: Option<&Bound<'_, PyAny>>,
         link: Option<&str>,
         joint_names: Option<Vec<String>>,
-        position_tolerance: f64,
-        rotation_tolerance: f64,
-        num_seeds: usize,
-        max_iterations: usize,
-        collision_free: bool,
+        options: Option<&Bound<'_, PyIkOptions>>,
         seed: Option<&Bound<'_, PyAny>>,
         random_seed: Option<u64>,
+        overrides: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<PyIkResult> {
         guard(|| {
             let (start, rng) = seed_args(py, "ik", "start", start, seed, random_seed)?;
+            let opts = ik_options(options, overrides, rng)?;
             let goals = read_poses(goal_pose, "goal_pose")?;
             if goals.len() != 1 {
                 return Err(ShapeError::new_err(
                     "goal_pose: one pose expected (use ik_goalset or ik_batch for several)",
                 ));
             }
-            self.goalset(
-                py,
-                goals,
-                start.as_ref(),
-                link,
-                joint_names,
-                Self::ik_opts(
-                    position_tolerance,
-                    rotation_tolerance,
-                    num_seeds,
-                    max_iterations,
-                    collision_free,
-                    rng,
-                )?,
-            )
+            self.goalset(py, goals, start.as_ref(), link, joint_names, opts)
         })
     }
 
     /// IK for a goal set: any of the poses (N, 7) or (N, 4, 4) will do
     /// (grasp candidates, say); `goal_index` tells which was reached.
-    /// `start` and `seed` as in `ik`.
+    /// `start`, `seed`, `options` and `**overrides` as in `ik`.
     #[pyo3(signature = (goal_poses, start=None, *, link=None, joint_names=None,
-        position_tolerance=1e-3, rotation_tolerance=0.01, num_seeds=200, max_iterations=60,
-        collision_free=false, seed=None, random_seed=None))]
+        options=None, seed=None, random_seed=None, **overrides))]
     #[allow(clippy::too_many_arguments)]
     fn ik_goalset(
         &self,
@@ -1046,42 +1001,25 @@ impl PyPlanner {
         start: Option<&Bound<'_, PyAny>>,
         link: Option<&str>,
         joint_names: Option<Vec<String>>,
-        position_tolerance: f64,
-        rotation_tolerance: f64,
-        num_seeds: usize,
-        max_iterations: usize,
-        collision_free: bool,
+        options: Option<&Bound<'_, PyIkOptions>>,
         seed: Option<&Bound<'_, PyAny>>,
         random_seed: Option<u64>,
+        overrides: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<PyIkResult> {
         guard(|| {
             let (start, rng) = seed_args(py, "ik_goalset", "start", start, seed, random_seed)?;
+            let opts = ik_options(options, overrides, rng)?;
             let goals = read_poses(goal_poses, "goal_poses")?;
-            self.goalset(
-                py,
-                goals,
-                start.as_ref(),
-                link,
-                joint_names,
-                Self::ik_opts(
-                    position_tolerance,
-                    rotation_tolerance,
-                    num_seeds,
-                    max_iterations,
-                    collision_free,
-                    rng,
-                )?,
-            )
+            self.goalset(py, goals, start.as_ref(), link, joint_names, opts)
         })
     }
 
     /// IK for each of N poses independently, in parallel; `starts` (N, k)
-    /// optional start configurations, `seed` the random seed. Results are
-    /// arrays over the batch. (Deprecated: `seeds` for `starts`,
-    /// `random_seed` for `seed`.)
+    /// optional start configurations, `seed` the random seed, `options`
+    /// and `**overrides` as in `ik`. Results are arrays over the batch.
+    /// (Deprecated: `seeds` for `starts`, `random_seed` for `seed`.)
     #[pyo3(signature = (goal_poses, starts=None, *, link=None, joint_names=None,
-        position_tolerance=1e-3, rotation_tolerance=0.01, num_seeds=200, max_iterations=60,
-        collision_free=false, seed=0, seeds=None, random_seed=None))]
+        options=None, seed=None, seeds=None, random_seed=None, **overrides))]
     #[allow(clippy::too_many_arguments)]
     fn ik_batch(
         &self,
@@ -1090,14 +1028,11 @@ impl PyPlanner {
         starts: Option<&Bound<'_, PyAny>>,
         link: Option<&str>,
         joint_names: Option<Vec<String>>,
-        position_tolerance: f64,
-        rotation_tolerance: f64,
-        num_seeds: usize,
-        max_iterations: usize,
-        collision_free: bool,
-        seed: u64,
+        options: Option<&Bound<'_, PyIkOptions>>,
+        seed: Option<u64>,
         seeds: Option<&Bound<'_, PyAny>>,
         random_seed: Option<u64>,
+        overrides: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<PyIkResult> {
         guard(|| {
             let starts = match (starts, seeds) {
@@ -1118,24 +1053,17 @@ impl PyPlanner {
             let rng = match random_seed {
                 Some(r) => {
                     deprecated(py, "ik_batch(random_seed=...) is deprecated: use seed=")?;
-                    if seed != 0 && seed != r {
+                    if seed.is_some_and(|s| s != r) {
                         return Err(InvalidArgumentError::new_err(
                             "ik_batch: give seed, not both seed and the deprecated random_seed",
                         ));
                     }
-                    r
+                    Some(r)
                 }
                 None => seed,
             };
             let inner = self.snap();
-            let opts = Self::ik_opts(
-                position_tolerance,
-                rotation_tolerance,
-                num_seeds,
-                max_iterations,
-                collision_free,
-                rng,
-            )?;
+            let opts = ik_options(options, overrides, rng)?;
             let goals = read_poses(goal_poses, "goal_poses")?;
             let order = self.order(joint_names)?;
             let starts: Option<Vec<Vec<f64>>> = match starts {
@@ -1153,7 +1081,10 @@ impl PyPlanner {
                     let mut out = Vec::with_capacity(goals.len());
                     for row in arr.data().chunks_exact(w.max(1)) {
                         let list = pyo3::types::PyList::new(py, row)?;
-                        out.push(self.config(list.as_any(), "starts row", order.as_ref())?.0);
+                        out.push(
+                            self.config(list.as_any(), "starts row", order.as_ref())?
+                                .active,
+                        );
                     }
                     Some(out)
                 }
@@ -1175,61 +1106,39 @@ impl PyPlanner {
     /// pose of the IK link in the base frame, or a goal set (N, 7) /
     /// (N, 4, 4), reached through collision-free IK). Configurations are in
     /// `joint_names` order if given, else full `dof_names` vectors or the
-    /// planner's `joint_names`. Failures are reported in the result's
+    /// planner's `joint_names`. Options: `options` (a `PlanOptions`, default
+    /// `PlanOptions()`) with `**overrides` (any `PlanOptions` field, e.g.
+    /// `time_limit=2.0, seed=3`). Failures are reported in the result's
     /// `status`, not raised.
     #[pyo3(signature = (start, goal_q=None, goal_pose=None, joint_names=None, *,
-        time_limit=1.0, max_samples=100_000, resolution=0.005, range=1.0, seed=0,
-        velocity_scale=1.0, acceleration_scale=1.0, simplify=true, trajectory=true,
-        goal_solutions=4, coarse_factor=4.0))]
-    #[allow(clippy::too_many_arguments)]
+        options=None, **overrides))]
     fn plan(
         &self,
-        py: Python<'_>,
         start: &Bound<'_, PyAny>,
         goal_q: Option<&Bound<'_, PyAny>>,
         goal_pose: Option<&Bound<'_, PyAny>>,
         joint_names: Option<Vec<String>>,
-        time_limit: f64,
-        max_samples: usize,
-        resolution: f64,
-        range: f64,
-        seed: u64,
-        velocity_scale: f64,
-        acceleration_scale: f64,
-        simplify: bool,
-        trajectory: bool,
-        goal_solutions: usize,
-        coarse_factor: f64,
+        options: Option<&Bound<'_, PyPlanOptions>>,
+        overrides: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<PyPlanResult> {
         guard(|| {
+            let py = start.py();
             let inner = self.snap();
-            ferrobot_model::ranges::TIME_LIMIT
-                .check(time_limit)
-                .map_err(|e| InvalidArgumentError::new_err(e.0))?;
-            let mut opts = PlanOptions::default();
-            opts.rrt.time_limit = Duration::from_secs_f64(time_limit);
-            opts.rrt.max_samples = max_samples;
-            opts.rrt.resolution = resolution;
-            opts.rrt.range = range;
-            opts.rrt.seed = seed;
-            opts.velocity_scale = velocity_scale;
-            opts.acceleration_scale = acceleration_scale;
-            opts.simplify_path = simplify;
-            opts.trajectory = trajectory;
-            opts.goal_solutions = goal_solutions;
-            opts.coarse_factor = coarse_factor;
-            opts.validate().map_err(planning_err)?;
+            let opts = PyPlanOptions::resolve(options, overrides)?;
             inner
                 .limits()
-                .scaled(velocity_scale, acceleration_scale)
+                .scaled(opts.velocity_scale, opts.acceleration_scale)
                 .map_err(planning_err)?;
             let order = self.order(joint_names)?;
-            let (start, full) = self.config(start, "start", order.as_ref())?;
+            let start = self.config(start, "start", order.as_ref())?;
             // A full start sets the locked joints for this plan (the request
             // carries them: the planner is shared, not copied).
-            let locked = full.filter(|f| *f != inner.space().locked);
+            let locked = start.locked_override(inner.space());
+            let start = start.active;
             let goal = match (goal_q, goal_pose) {
-                (Some(g), None) => Goal::Configuration(self.config(g, "goal_q", order.as_ref())?.0),
+                (Some(g), None) => {
+                    Goal::Configuration(self.config(g, "goal_q", order.as_ref())?.active)
+                }
                 (None, Some(p)) => Goal::Poses(read_poses(p, "goal_pose")?),
                 _ => {
                     return Err(InvalidArgumentError::new_err(
@@ -1283,7 +1192,7 @@ impl PyPlanner {
         let inner = self.snap();
         let order = self.order(joint_names)?;
         let seeds = match start {
-            Some(s) => vec![self.config(s, "start", order.as_ref())?.0],
+            Some(s) => vec![self.config(s, "start", order.as_ref())?.active],
             None => Vec::new(),
         };
         let link = self.link(link)?;

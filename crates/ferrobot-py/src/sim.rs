@@ -24,7 +24,7 @@ use crate::errors::{
 };
 use crate::model::PyRobotModel;
 use crate::planning::{PyJointTrajectory, PyPlanResult};
-use ferrobot_sim::validate::{
+use ferrobot_model::ranges::sim::{
     COEFFICIENT, COORDINATE, EFFORT, GAIN, GRAVITY, MASS, MAX_FORCE, POSITION, VELOCITY, check_all,
     check_all_or_inf,
 };
@@ -173,16 +173,15 @@ pub struct PyWorld {
     inner: Shared,
 }
 
-#[allow(clippy::too_many_arguments)]
+/// The properties every `World.add_*` takes as keywords: `mass` (kg, in
+/// [1e-6, 1e6]; ignored when fixed), `friction` and `restitution` (in
+/// [0, 1000]), `fixed` (a static body; `static_` is its deprecated name)
+/// and `color` (RGB in [0, 1]). Defaults from `ObjectDesc::new`.
 fn object_desc(
     name: String,
     shape: Shape,
     pose: Option<&Bound<'_, PyAny>>,
-    mass: f64,
-    friction: f64,
-    restitution: f64,
-    is_static: bool,
-    color: Option<&Bound<'_, PyAny>>,
+    props: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<ObjectDesc> {
     let pose = crate::arrays::read_pose_or_identity(pose, "pose")?;
     check_all(
@@ -191,25 +190,67 @@ fn object_desc(
         pose.translation.vector.as_slice(),
     )
     .map_err(sim_err)?;
-    if !is_static {
-        MASS.check(mass)
+    let mut d = ObjectDesc::new(name, shape, pose);
+    let mut fixed_given = false;
+    for (k, v) in props.into_iter().flat_map(|p| p.iter()) {
+        let key = k.cast::<pyo3::types::PyString>()?.to_cow()?;
+        let number = |what: &str| -> PyResult<f64> {
+            if v.is_instance_of::<pyo3::types::PyBool>() {
+                return Err(InvalidArgumentError::new_err(format!(
+                    "{what}: expected a number, got a bool"
+                )));
+            }
+            v.extract::<f64>().map_err(|_| {
+                InvalidArgumentError::new_err(format!("{what}: expected a number, got {v}"))
+            })
+        };
+        let flag = |what: &str| -> PyResult<bool> {
+            v.extract::<bool>().map_err(|_| {
+                InvalidArgumentError::new_err(format!("{what}: expected a bool, got {v}"))
+            })
+        };
+        match key.as_ref() {
+            "mass" => d.mass = number("mass")?,
+            "friction" => d.friction = number("friction")?,
+            "restitution" => d.restitution = number("restitution")?,
+            "fixed" | "static_" => {
+                if key == "static_" {
+                    crate::planning::deprecated(
+                        v.py(),
+                        "World.add_*(static_=...) is deprecated: use fixed=",
+                    )?;
+                }
+                if fixed_given {
+                    return Err(InvalidArgumentError::new_err(
+                        "give fixed, not both fixed and the deprecated static_",
+                    ));
+                }
+                fixed_given = true;
+                d.is_static = flag(&key)?;
+            }
+            "color" => {
+                if !v.is_none() {
+                    let c = vec3_arg(&v, "color")?;
+                    d.color = [c.x, c.y, c.z];
+                }
+            }
+            other => {
+                return Err(InvalidArgumentError::new_err(format!(
+                    "unknown object property '{other}'; known: mass, friction, restitution, fixed, color"
+                )));
+            }
+        }
+    }
+    if !d.is_static {
+        MASS.check(d.mass)
             .map_err(|e| InvalidArgumentError::new_err(e.0))?;
     }
     COEFFICIENT
-        .check_as("friction", friction)
+        .check_as("friction", d.friction)
         .map_err(|e| InvalidArgumentError::new_err(e.0))?;
     COEFFICIENT
-        .check_as("restitution", restitution)
+        .check_as("restitution", d.restitution)
         .map_err(|e| InvalidArgumentError::new_err(e.0))?;
-    let mut d = ObjectDesc::new(name, shape, pose);
-    d.mass = mass;
-    d.friction = friction;
-    d.restitution = restitution;
-    d.is_static = is_static;
-    if let Some(c) = color {
-        let c = vec3_arg(c, "color")?;
-        d.color = [c.x, c.y, c.z];
-    }
     Ok(d)
 }
 
@@ -377,142 +418,81 @@ impl PyWorld {
     }
 
     /// Adds a box of full edge lengths `size`.
-    #[pyo3(signature = (name, size, pose=None, *, mass=1.0, friction=0.5, restitution=0.0, static_=false, color=None))]
-    #[allow(clippy::too_many_arguments)]
+    #[pyo3(signature = (name, size, pose=None, **props))]
     fn add_box(
         &self,
         name: String,
         size: &Bound<'_, PyAny>,
         pose: Option<&Bound<'_, PyAny>>,
-        mass: f64,
-        friction: f64,
-        restitution: f64,
-        static_: bool,
-        color: Option<&Bound<'_, PyAny>>,
+        props: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<String> {
         guard(|| {
             let s = vec3_arg(size, "size")?;
             let shape = Shape::cuboid_from_size(s);
-            self.add(object_desc(
-                name,
-                shape,
-                pose,
-                mass,
-                friction,
-                restitution,
-                static_,
-                color,
-            )?)
+            self.add(object_desc(name, shape, pose, props)?)
         })
     }
 
     /// Adds a sphere.
-    #[pyo3(signature = (name, radius, pose=None, *, mass=1.0, friction=0.5, restitution=0.0, static_=false, color=None))]
-    #[allow(clippy::too_many_arguments)]
+    #[pyo3(signature = (name, radius, pose=None, **props))]
     fn add_sphere(
         &self,
         name: String,
         radius: f64,
         pose: Option<&Bound<'_, PyAny>>,
-        mass: f64,
-        friction: f64,
-        restitution: f64,
-        static_: bool,
-        color: Option<&Bound<'_, PyAny>>,
+        props: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<String> {
         guard(|| {
             let shape = Shape::Sphere { radius };
-            self.add(object_desc(
-                name,
-                shape,
-                pose,
-                mass,
-                friction,
-                restitution,
-                static_,
-                color,
-            )?)
+            self.add(object_desc(name, shape, pose, props)?)
         })
     }
 
     /// Adds a cylinder along its z axis.
-    #[pyo3(signature = (name, radius, length, pose=None, *, mass=1.0, friction=0.5, restitution=0.0, static_=false, color=None))]
-    #[allow(clippy::too_many_arguments)]
+    #[pyo3(signature = (name, radius, length, pose=None, **props))]
     fn add_cylinder(
         &self,
         name: String,
         radius: f64,
         length: f64,
         pose: Option<&Bound<'_, PyAny>>,
-        mass: f64,
-        friction: f64,
-        restitution: f64,
-        static_: bool,
-        color: Option<&Bound<'_, PyAny>>,
+        props: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<String> {
         guard(|| {
             let shape = Shape::cylinder_from_length(radius, length);
-            self.add(object_desc(
-                name,
-                shape,
-                pose,
-                mass,
-                friction,
-                restitution,
-                static_,
-                color,
-            )?)
+            self.add(object_desc(name, shape, pose, props)?)
         })
     }
 
     /// Adds a capsule along its z axis (`length` of the cylindrical part).
-    #[pyo3(signature = (name, radius, length, pose=None, *, mass=1.0, friction=0.5, restitution=0.0, static_=false, color=None))]
-    #[allow(clippy::too_many_arguments)]
+    #[pyo3(signature = (name, radius, length, pose=None, **props))]
     fn add_capsule(
         &self,
         name: String,
         radius: f64,
         length: f64,
         pose: Option<&Bound<'_, PyAny>>,
-        mass: f64,
-        friction: f64,
-        restitution: f64,
-        static_: bool,
-        color: Option<&Bound<'_, PyAny>>,
+        props: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<String> {
         guard(|| {
             let shape = Shape::capsule_from_length(radius, length);
-            self.add(object_desc(
-                name,
-                shape,
-                pose,
-                mass,
-                friction,
-                restitution,
-                static_,
-                color,
-            )?)
+            self.add(object_desc(name, shape, pose, props)?)
         })
     }
 
     /// Adds a mesh (vertices (N, 3), faces (M, 3)) approximated as
     /// "convex_hull", "convex_decomposition" or "trimesh" (static only).
-    #[pyo3(signature = (name, vertices, faces, pose=None, *, approximation="convex_hull", mass=1.0, friction=0.5, restitution=0.0, static_=false, color=None))]
-    #[allow(clippy::too_many_arguments)]
+    #[pyo3(signature = (name, vertices, faces, pose=None, *, approximation="convex_hull", **props))]
     fn add_mesh(
         &self,
-        py: Python<'_>,
         name: String,
         vertices: &Bound<'_, PyAny>,
         faces: &Bound<'_, PyAny>,
         pose: Option<&Bound<'_, PyAny>>,
         approximation: &str,
-        mass: f64,
-        friction: f64,
-        restitution: f64,
-        static_: bool,
-        color: Option<&Bound<'_, PyAny>>,
+        props: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<String> {
+        let py = vertices.py();
         let v = read_array(vertices, "vertices", 2, &[Some(3)])?;
         let pts: Vec<Point3<f64>> = v
             .data()
@@ -546,16 +526,7 @@ impl PyWorld {
                 )));
             }
         };
-        let desc = object_desc(
-            name,
-            shape,
-            pose,
-            mass,
-            friction,
-            restitution,
-            static_,
-            color,
-        )?;
+        let desc = object_desc(name, shape, pose, props)?;
         let inner = self.inner.clone();
         guard(|| {
             let name = desc.name.clone();
@@ -773,7 +744,7 @@ impl PyWorld {
         }
         let inner = self.inner.clone();
         guard(|| {
-            ferrobot_sim::validate::steps_for("step(n)", n as f64, 1.0).map_err(sim_err)?;
+            ferrobot_model::ranges::sim::steps_for("step(n)", n as f64, 1.0).map_err(sim_err)?;
             py.detach(|| run_steps(&inner, |w| w.step(n)))
                 .map_err(diverged)?
                 .map_err(sim_err)
@@ -853,6 +824,27 @@ impl PyRobot {
         })
     }
 
+    /// The DOFs a call addresses: `joint_names` (the names used across the
+    /// Python API, resolved by the model) or `joint_indices` (DOF indices,
+    /// Isaac Sim's spelling); all DOFs when neither is given.
+    fn subset(
+        &self,
+        joint_indices: Option<Vec<i64>>,
+        joint_names: Option<Vec<String>>,
+    ) -> PyResult<Option<Vec<usize>>> {
+        match (joint_indices, joint_names) {
+            (Some(_), Some(_)) => Err(InvalidArgumentError::new_err(
+                "give joint_names or joint_indices, not both",
+            )),
+            (None, Some(names)) => names
+                .iter()
+                .map(|n| self.model.dof(n).map_err(model_err))
+                .collect::<PyResult<Vec<usize>>>()
+                .map(Some),
+            (ix, None) => indices_arg(ix),
+        }
+    }
+
     fn targets_len(&self, ix: &Option<Vec<usize>>) -> Option<usize> {
         ix.as_ref().map(|v| v.len()).or(Some(self.model.num_dof()))
     }
@@ -917,15 +909,17 @@ impl PyRobot {
         })
     }
 
-    /// Drive position targets for `joint_indices` (all DOFs when None).
-    #[pyo3(signature = (targets, joint_indices=None))]
+    /// Drive position targets for the DOFs `joint_names` or `joint_indices`
+    /// (all DOFs when None).
+    #[pyo3(signature = (targets, joint_indices=None, *, joint_names=None))]
     fn set_joint_position_targets(
         &self,
         targets: &Bound<'_, PyAny>,
         joint_indices: Option<Vec<i64>>,
+        joint_names: Option<Vec<String>>,
     ) -> PyResult<()> {
         guard(|| {
-            let ix = indices_arg(joint_indices)?;
+            let ix = self.subset(joint_indices, joint_names)?;
             let t = read_array(targets, "targets", 1, &[self.targets_len(&ix)])?
                 .data()
                 .to_vec();
@@ -934,15 +928,17 @@ impl PyRobot {
         })
     }
 
-    /// Drive velocity targets for `joint_indices` (all DOFs when None).
-    #[pyo3(signature = (targets, joint_indices=None))]
+    /// Drive velocity targets for the DOFs `joint_names` or `joint_indices`
+    /// (all DOFs when None).
+    #[pyo3(signature = (targets, joint_indices=None, *, joint_names=None))]
     fn set_joint_velocity_targets(
         &self,
         targets: &Bound<'_, PyAny>,
         joint_indices: Option<Vec<i64>>,
+        joint_names: Option<Vec<String>>,
     ) -> PyResult<()> {
         guard(|| {
-            let ix = indices_arg(joint_indices)?;
+            let ix = self.subset(joint_indices, joint_names)?;
             let t = read_array(targets, "targets", 1, &[self.targets_len(&ix)])?
                 .data()
                 .to_vec();
@@ -961,8 +957,18 @@ impl PyRobot {
 
     /// Sets the command latency (s, finite, in [0, 10]); commands already
     /// waiting keep their due times.
-    fn set_command_latency(&self, latency: f64) -> PyResult<()> {
+    #[setter(command_latency)]
+    fn set_command_latency_value(&self, latency: f64) -> PyResult<()> {
         self.with(|r, _| r.set_command_latency(latency))
+    }
+
+    /// Deprecated: assign `command_latency` instead.
+    fn set_command_latency(&self, py: Python<'_>, latency: f64) -> PyResult<()> {
+        crate::planning::deprecated(
+            py,
+            "Robot.set_command_latency(s) is deprecated: assign Robot.command_latency = s",
+        )?;
+        self.set_command_latency_value(latency)
     }
 
     /// Commands waiting in the latency buffer.
@@ -972,14 +978,15 @@ impl PyRobot {
     }
 
     /// Efforts (N·m or N) applied every step on top of the drives.
-    #[pyo3(signature = (efforts, joint_indices=None))]
+    #[pyo3(signature = (efforts, joint_indices=None, *, joint_names=None))]
     fn set_joint_efforts(
         &self,
         efforts: &Bound<'_, PyAny>,
         joint_indices: Option<Vec<i64>>,
+        joint_names: Option<Vec<String>>,
     ) -> PyResult<()> {
         guard(|| {
-            let ix = indices_arg(joint_indices)?;
+            let ix = self.subset(joint_indices, joint_names)?;
             let e = read_array(efforts, "efforts", 1, &[self.targets_len(&ix)])?
                 .data()
                 .to_vec();
@@ -1021,17 +1028,19 @@ impl PyRobot {
         })
     }
 
-    /// Drive gains and force limits (inf: unlimited) for `joint_indices`.
-    #[pyo3(signature = (stiffness, damping, max_force=None, joint_indices=None))]
+    /// Drive gains and force limits (inf: unlimited) for `joint_names` or
+    /// `joint_indices` (all DOFs when None).
+    #[pyo3(signature = (stiffness, damping, max_force=None, joint_indices=None, *, joint_names=None))]
     fn set_drive_gains(
         &self,
         stiffness: &Bound<'_, PyAny>,
         damping: &Bound<'_, PyAny>,
         max_force: Option<&Bound<'_, PyAny>>,
         joint_indices: Option<Vec<i64>>,
+        joint_names: Option<Vec<String>>,
     ) -> PyResult<()> {
         guard(|| {
-            let ix = indices_arg(joint_indices)?;
+            let ix = self.subset(joint_indices, joint_names)?;
             let n = self.targets_len(&ix);
             let k = read_array(stiffness, "stiffness", 1, &[n])?.data().to_vec();
             let d = read_array(damping, "damping", 1, &[n])?.data().to_vec();
@@ -1321,18 +1330,19 @@ impl PyRobot {
     /// feed-forward), then holds the last point for `settle_time` s.
     /// Returns a dict: times, desired, actual, max_error, rms_error,
     /// final_error.
-    #[pyo3(signature = (positions, dt, velocities=None, joint_indices=None, settle_time=0.0))]
+    #[pyo3(signature = (positions, dt, velocities=None, joint_indices=None, settle_time=0.0, *, joint_names=None))]
     fn execute_trajectory<'py>(
         &self,
-        py: Python<'py>,
         positions: &Bound<'py, PyAny>,
         dt: f64,
         velocities: Option<&Bound<'py, PyAny>>,
         joint_indices: Option<Vec<i64>>,
         settle_time: f64,
+        joint_names: Option<Vec<String>>,
     ) -> PyResult<Bound<'py, PyDict>> {
         guard(|| {
-            let ix = indices_arg(joint_indices)?;
+            let py = positions.py();
+            let ix = self.subset(joint_indices, joint_names)?;
             let k = self.targets_len(&ix);
             let p = read_array(positions, "positions", 2, &[k])?.data().to_vec();
             let v = velocities
@@ -1377,29 +1387,17 @@ impl PyRobot {
             };
             let s = traj.samples();
             let width = s.names.len();
-            let mut cols = Vec::new();
-            let mut ix = Vec::new();
-            for (c, name) in s.names.iter().enumerate() {
-                match self.model.dof(name) {
-                    Ok(d) => {
-                        cols.push(c);
-                        ix.push(d);
-                    }
-                    Err(_) => {
-                        let mimic = self
-                            .model
-                            .joint(name)
-                            .is_ok_and(|j| self.model.joints()[j].mimic.is_some());
-                        if !mimic {
-                            return Err(UnknownNameError::new_err(format!(
-                                "trajectory joint '{name}' is not a joint of robot '{}' (dof_names: {:?})",
-                                self.model.name(),
-                                self.model.dof_names()
-                            )));
-                        }
-                    }
-                }
-            }
+            let (cols, ix): (Vec<usize>, Vec<usize>) = self
+                .model
+                .dof_columns(s.names)
+                .map_err(|e| {
+                    UnknownNameError::new_err(format!(
+                        "trajectory: {e} (not a joint of robot '{}')",
+                        self.model.name()
+                    ))
+                })?
+                .into_iter()
+                .unzip();
             let pick = |src: &[f64]| -> Vec<f64> {
                 src.chunks_exact(width.max(1))
                     .flat_map(|row| cols.iter().map(move |&c| row[c]))
@@ -1464,7 +1462,7 @@ impl PyRobot {
         let world = self.world.clone();
         let index = self.index;
         let rep = guard(|| {
-            use ferrobot_sim::validate::{
+            use ferrobot_model::ranges::sim::{
                 POSITION, SETTLE_TIME, TRAJECTORY_DT, VELOCITY, check_all, steps_for,
             };
             TRAJECTORY_DT

@@ -89,3 +89,11 @@ impl From<ferrobot_camera::CameraError> for SimError {
         }
     }
 }
+
+/// A value outside its range (`ferrobot_model::ranges`, the simulation's
+/// float32 ranges in `ranges::sim`) is an invalid argument.
+impl From<ferrobot_model::ranges::RangeError> for SimError {
+    fn from(e: ferrobot_model::ranges::RangeError) -> Self {
+        SimError::InvalidArgument(e.0)
+    }
+}

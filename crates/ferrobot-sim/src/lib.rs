@@ -28,7 +28,6 @@ pub mod objects;
 pub mod robot;
 pub mod state;
 pub mod trajectory;
-pub mod validate;
 pub mod world;
 
 pub use camera::{Camera, CameraMount, DirectionalLight, Frame, Intrinsics, Lighting};

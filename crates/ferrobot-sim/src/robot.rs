@@ -602,9 +602,9 @@ impl Robot {
     /// one of its limits. Otherwise the robot runs at the world's substeps
     /// while it moves and at 1 while it holds still (see
     /// [`Robot::active_substeps`]).
-    /// `n` in [`crate::validate::ROBOT_SOLVER_ITERATIONS`] (0 to 256).
+    /// `n` in [`ferrobot_model::ranges::sim::ROBOT_SOLVER_ITERATIONS`] (0 to 256).
     pub fn set_solver_iterations(&mut self, state: &mut PhysState, n: usize) -> Result<()> {
-        crate::validate::ROBOT_SOLVER_ITERATIONS.check(n as f64)?;
+        ferrobot_model::ranges::sim::ROBOT_SOLVER_ITERATIONS.check(n as f64)?;
         self.solver_iterations = n;
         if self.applied_iterations != 0 {
             self.apply_substeps(state, self.world_substeps + n);

@@ -179,7 +179,8 @@ impl World {
                 "solver_iterations must be >= 1".into(),
             ));
         }
-        crate::validate::WORLD_SOLVER_ITERATIONS.check(config.solver_iterations as f64)?;
+        ferrobot_model::ranges::sim::WORLD_SOLVER_ITERATIONS
+            .check(config.solver_iterations as f64)?;
         check_finite("ground friction", &[config.ground_friction])?;
         if config.ground_friction < 0.0 {
             return Err(SimError::InvalidArgument(format!(
@@ -343,7 +344,8 @@ impl World {
                 "robot name must not be empty".into(),
             ));
         }
-        crate::validate::ROBOT_SOLVER_ITERATIONS.check(options.solver_iterations as f64)?;
+        ferrobot_model::ranges::sim::ROBOT_SOLVER_ITERATIONS
+            .check(options.solver_iterations as f64)?;
         check_finite("robot friction", &[options.friction])?;
         if options.friction < 0.0 {
             return Err(SimError::InvalidArgument(format!(

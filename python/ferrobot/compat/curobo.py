@@ -492,7 +492,7 @@ class RobotConfig:
             for n, v in self.lock_joints.items():
                 if n in dof:
                     q[dof.index(n)] = v
-            planner.set_locked_positions(q)
+            planner.locked_positions = q
         self._apply_limits(planner)
         return planner
 

@@ -17,6 +17,7 @@ The HTTP service (``ferrobot serve-grasp``) is :mod:`ferrobot.grasp.server`; its
 
 from __future__ import annotations
 
+from .._core import DetectOptions
 from ._detect import OPTIONS, backproject, detect, detect_from_rgbd
 from ._group import GRASP_COLUMNS, GRASP_TO_PANDA_HAND, PANDA_TCP_OFFSET, Grasp, GraspGroup
 from .frames import camera_to_world, transform_points, world_to_base
@@ -31,6 +32,7 @@ def to_panda_hand(grasps: GraspGroup | Grasp, tcp_offset: float = PANDA_TCP_OFFS
 
 
 __all__ = [
+    "DetectOptions",
     "GRASP_COLUMNS",
     "GRASP_TO_PANDA_HAND",
     "OPTIONS",

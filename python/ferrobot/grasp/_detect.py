@@ -7,41 +7,16 @@ import warnings
 import numpy as np
 
 from .. import camera as _camera
-from .._core import grasp_detect, grasp_detect_rgbd
+from .._core import DetectOptions, grasp_detect, grasp_detect_rgbd
 from ..errors import InvalidArgumentError, NonFiniteError, ShapeError
 from ._group import GraspGroup
 
 __all__ = ["backproject", "detect", "detect_from_rgbd", "OPTIONS"]
 
-#: Detection options accepted as keyword arguments, with their defaults.
-OPTIONS = {
-    "voxel_size": 0.005,
-    "normal_radius": 0.015,
-    "num_seeds": 128,
-    "seed_spacing": 0.0,
-    "num_rotations": 8,
-    "approach_tilts": (0.0, -0.4, 0.4),
-    "depths": (0.04, 0.03, 0.02, 0.015),
-    "friction": 1.0,
-    "viewpoint": (0.0, 0.0, 0.0),
-    "approach_direction": (0.0, 0.0, 1.0),
-    "nms_translation": 0.03,
-    "nms_rotation": np.pi / 6,
-    "max_grasps": 0,
-    "rng_seed": 0,
-    "support_plane": True,
-    "plane_threshold": 0.005,
-    "torque_scale": 0.01,
-    "max_width": 0.08,
-    "finger_depth": 0.05,
-    "finger_width": 0.01,
-    "height": 0.02,
-    "approach_distance": 0.03,
-    "clearance": 0.002,
-    "palm_width": 0.208,
-    "palm_height": 0.063,
-    "palm_depth": 0.092,
-}
+#: Detection options accepted as keyword arguments, with their defaults: a snapshot of
+#: ``DetectOptions().to_dict()`` (the defaults are defined once, in the Rust crate). Prefer
+#: :class:`ferrobot.DetectOptions`.
+OPTIONS = DetectOptions().to_dict()
 
 
 def _mask(mask, shape) -> np.ndarray | None:
@@ -96,21 +71,18 @@ def backproject(depth, fx: float, fy: float, cx: float, cy: float, scale: float 
     return _camera.backproject(d, k, workspace=workspace)
 
 
-def _options(options: dict) -> dict:
-    unknown = set(options) - set(OPTIONS)
-    if unknown:
-        raise InvalidArgumentError(f"unknown grasp option(s) {sorted(unknown)}; known: {sorted(OPTIONS)}")
-    return options
-
-
-def detect(points, *, labels=None, seed_mask=None, workspace=None, **options) -> GraspGroup:
+def detect(
+    points, *, labels=None, seed_mask=None, workspace=None, options: DetectOptions | None = None, **overrides
+) -> GraspGroup:
     """Detects grasps in a point cloud (N, 3); returns a :class:`GraspGroup` sorted by score, after NMS.
 
     Every point is an obstacle for the gripper. ``seed_mask`` (N,) bool restricts where grasps are sought;
     ``labels`` (N,) int gives object ids copied to the grasps. ``workspace`` crops to
     ``[xmin, xmax, ymin, ymax, zmin, zmax]``. ``viewpoint`` (the camera position, default the origin) and
-    ``approach_direction`` (default +z, the camera's view direction) are in the cloud's frame; see
-    ``OPTIONS`` for every option. An empty cloud gives an empty group.
+    ``approach_direction`` (default +z, the camera's view direction) are in the cloud's frame. Options:
+    ``options`` (a :class:`ferrobot.DetectOptions`, default ``DetectOptions()``) with ``**overrides``
+    (any of its fields, e.g. ``max_grasps=10``; unknown names and values out of range raise
+    ``InvalidArgumentError``). An empty cloud gives an empty group.
     """
     p = np.asarray(points, dtype=np.float64)
     if p.ndim != 2 or p.shape[1] != 3:
@@ -144,7 +116,8 @@ def detect(points, *, labels=None, seed_mask=None, workspace=None, **options) ->
         np.ascontiguousarray(p),
         None if lab is None else np.ascontiguousarray(lab, dtype=np.int32),
         None if seeds is None else np.ascontiguousarray(seeds),
-        _options(options),
+        options,
+        **overrides,
     )
     return GraspGroup(arr)
 
@@ -161,7 +134,8 @@ def detect_from_rgbd(
     mask=None,
     object_id: int | None = None,
     workspace=None,
-    **options,
+    options: DetectOptions | None = None,
+    **overrides,
 ) -> GraspGroup:
     """Detects grasps in a depth image (H, W) with pinhole intrinsics; grasps are in the camera (OpenCV) frame.
 
@@ -174,5 +148,5 @@ def detect_from_rgbd(
     d = _depth(depth)
     _check_colors(colors, d.shape)
     m = _mask(mask, d.shape)
-    arr = grasp_detect_rgbd(d, fx, fy, cx, cy, scale, m, object_id, workspace, _options(options))
+    arr = grasp_detect_rgbd(d, fx, fy, cx, cy, scale, m, object_id, workspace, options, **overrides)
     return GraspGroup(arr)

@@ -255,7 +255,7 @@ OPTION_RANGES: dict[str, Range] = {
     "nms_translation": Range("float", 0.0, 1.0, lo_open=True, doc="NMS distance, metres"),
     "nms_rotation": Range("float", 0.0, _PI, lo_open=True, doc="NMS angle, radians"),
     "max_grasps": FIELD_RANGES["max_grasps"],
-    "rng_seed": Range("int", 0, 2**63 - 1, doc="seed of the random sampling"),
+    "seed": Range("int", 0, 2**63 - 1, doc="seed of the random sampling"),
     "support_plane": Range("bool", doc="find the table plane by RANSAC"),
     "plane_threshold": Range("float", 0.0, 0.1, lo_open=True, doc="plane inlier distance, metres"),
     "torque_scale": Range("float", 0.0, 1.0, doc="lever-arm scale of the score, metres (0: off)"),
@@ -525,6 +525,10 @@ def _run(data: dict, limits: ServiceLimits, bools: bool = True):
         raw_options = {}
     if not isinstance(raw_options, dict):
         raise _BadRequest(422, f"field 'options': expected an object, got {_type(raw_options)}")
+    if "rng_seed" in raw_options:  # the old name of "seed" (deprecated; accepted for one release)
+        if "seed" in raw_options:
+            raise _BadRequest(422, "fields 'options.seed' and 'options.rng_seed' (deprecated) are aliases: give one")
+        raw_options = {("seed" if k == "rng_seed" else k): v for k, v in raw_options.items()}
     unknown = sorted(set(raw_options) - set(OPTION_RANGES))
     if unknown:
         raise _BadRequest(422, f"field 'options': unknown option(s) {unknown}")

@@ -165,9 +165,9 @@ def build_world(spec: SceneSpec, model=None):
     model = robots.panda() if model is None else model
     world = _core.World()
     tx, ty = TABLE_XY
-    world.add_box("table", TABLE_SIZE, [tx, ty, TABLE_TOP / 2, 1, 0, 0, 0], static_=True, color=(0.55, 0.42, 0.30))
+    world.add_box("table", TABLE_SIZE, [tx, ty, TABLE_TOP / 2, 1, 0, 0, 0], fixed=True, color=(0.55, 0.42, 0.30))
     world.add_box(
-        ROBOT_MOUNT, (0.3, 0.3, TABLE_TOP), [0.0, 0.0, TABLE_TOP / 2, 1, 0, 0, 0], static_=True, color=(0.3, 0.3, 0.32)
+        ROBOT_MOUNT, (0.3, 0.3, TABLE_TOP), [0.0, 0.0, TABLE_TOP / 2, 1, 0, 0, 0], fixed=True, color=(0.3, 0.3, 0.32)
     )
     for o in spec.objects:
         common = dict(mass=o.mass, friction=o.friction, color=o.color)

@@ -1,0 +1,96 @@
+"""Per-call cost of ``Planner.plan`` and ``ferrobot.grasp.detect`` from Python, with keyword options, for two
+builds of ferrobot compared A/B, interleaved (issue 16: options as pyclasses must not make calls slower).
+
+Each round runs one child process per build (``PYTHONPATH`` set to the build's ``python`` directory, so the
+build's own ``_core`` extension is imported) and alternates which build goes first; each child reports CPU
+time per call (best of 5 batches):
+
+* ``plan (early exit)``: a goal outside the joint limits, so the call is option parsing, argument
+  conversion and the limit check (the binding's share of a call);
+* ``plan (easy)``: the direct connection of ``benches/plan_call.py``'s scene (a realistic cheap plan);
+* ``detect (tiny)``: ``detect`` on a 3-point cloud with 4 keyword options (options and conversion only);
+* ``detect (cloud)``: a 4,800-point box cloud with the same options.
+
+    python benches/call_overhead.py /work/main/python /work/wt/arch16/python [--rounds 6]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+
+CHILD = r"""
+import json, time
+import numpy as np
+import ferrobot
+import ferrobot.grasp as fg
+
+def per_call(f, n, batches=5):
+    best = float("inf")
+    for _ in range(batches):
+        t = time.process_time()
+        for i in range(n):
+            f(i)
+        best = min(best, time.process_time() - t)
+    return best / n * 1e6
+
+m = ferrobot.robots.panda()
+w = ferrobot.CollisionWorld()
+w.add_box("table", [0.8, 1.2, 0.05], [0.55, 0.0, 0.0, 1, 0, 0, 0])
+w.add_cylinder("post", 0.04, 0.5, [0.5, -0.05, 0.25, 1, 0, 0, 0])
+p = ferrobot.Planner(m, w)
+q0 = m.named_state("ready")[:7]
+goal = p.ik([0.45, 0.25, 0.30, 0.0, 1.0, 0.0, 0.0], collision_free=True).q
+bad = q0.copy(); bad[0] = 10.0
+g = np.linspace(-0.02, 0.02, 40); u, v = np.meshgrid(g, g)
+top = np.stack([u.ravel(), v.ravel(), np.full(u.size, 0.48)], axis=1)
+side = np.stack([np.full(u.size, 0.02), u.ravel(), 0.5 + v.ravel()], axis=1)
+side2 = np.stack([np.full(u.size, -0.02), u.ravel(), 0.5 + v.ravel()], axis=1)
+cloud = np.concatenate([top, side, side2])
+tiny = cloud[:3]
+kw = dict(support_plane=False, num_seeds=32, max_grasps=5, voxel_size=0.005)
+out = {
+    "plan (early exit)": per_call(lambda s: p.plan(q0, goal_q=bad, seed=s, time_limit=1.0, resolution=0.005), 400),
+    "plan (easy)": per_call(lambda s: p.plan(q0, goal_q=goal, seed=s, time_limit=1.0), 40),
+    "detect (tiny)": per_call(lambda s: fg.detect(tiny, **kw), 400),
+    "detect (cloud)": per_call(lambda s: fg.detect(cloud, **kw), 10),
+}
+assert not p.plan(q0, goal_q=bad).success
+print(json.dumps(out))
+"""
+
+
+def run(path: str) -> dict[str, float]:
+    env = dict(os.environ, PYTHONPATH=path)
+    proc = subprocess.run([sys.executable, "-c", CHILD], env=env, capture_output=True, text=True, check=True)
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("before", help="python/ directory of the 'before' build")
+    ap.add_argument("after", help="python/ directory of the 'after' build")
+    ap.add_argument("--rounds", type=int, default=6)
+    a = ap.parse_args()
+    res: dict[str, list[dict[str, float]]] = {"before": [], "after": []}
+    for r in range(a.rounds):
+        order = [("before", a.before), ("after", a.after)]
+        if r % 2:
+            order.reverse()
+        for label, path in order:
+            res[label].append(run(path))
+    print(f"load average: {os.getloadavg()}")
+    keys = list(res["before"][0])
+    print(f"{'us per call (CPU), median of rounds':40s} {'before':>10s} {'after':>10s} {'after/before':>13s}")
+    for k in keys:
+        b = statistics.median(x[k] for x in res["before"])
+        f = statistics.median(x[k] for x in res["after"])
+        print(f"{k:40s} {b:10.1f} {f:10.1f} {f / b:13.3f}")
+
+
+if __name__ == "__main__":
+    main()
