@@ -80,7 +80,7 @@ class State:
             "table",
             [ge.TABLE_SIZE, ge.TABLE_SIZE, TABLE_TOP],
             [CENTER[0], CENTER[1], TABLE_TOP / 2, 1, 0, 0, 0],
-            static_=True,
+            fixed=True,
             friction=1.0,
         )
         if self.spec.bin is not None:
@@ -309,7 +309,7 @@ def run_scene(spec: clutter.ClutterSpec, hand_model, pb, options: dict) -> dict:
         "table",
         [ge.TABLE_SIZE, ge.TABLE_SIZE, TABLE_TOP],
         [*CENTER, TABLE_TOP / 2, 1, 0, 0, 0],
-        static_=True,
+        fixed=True,
         friction=1.0,
     )
     names = clutter.add_clutter(w, spec)

@@ -159,7 +159,7 @@ def test_bad_mesh_files_raise_naming_the_file(tmp_path):
 def test_mesh_file_objects_mass_density_and_static_trimesh(tmp_path):
     path = write_obj(tmp_path / "cube.obj", *cube(0.1))
     w = ferrobot.World(dt=1 / 240)
-    w.add_mesh_file("ground_block", path, [0, 0, 0.05, 1, 0, 0, 0], scale=[4.0, 4.0, 1.0], static_=True)
+    w.add_mesh_file("ground_block", path, [0, 0, 0.05, 1, 0, 0, 0], scale=[4.0, 4.0, 1.0], fixed=True)
     w.add_mesh_file("box", path, [0, 0, 0.2, 1, 0, 0, 0], density=1000.0)
     w.step(240)
     # Rests on the static triangle mesh (top at 0.1 m): centre at 0.15 m.
@@ -168,7 +168,7 @@ def test_mesh_file_objects_mass_density_and_static_trimesh(tmp_path):
 
 def _table_world(spec):
     w = ferrobot.World(dt=1 / 240)
-    w.add_box("table", [1.0, 1.0, spec.table_top], [*spec.center, spec.table_top / 2, 1, 0, 0, 0], static_=True)
+    w.add_box("table", [1.0, 1.0, spec.table_top], [*spec.center, spec.table_top / 2, 1, 0, 0, 0], fixed=True)
     return w
 
 
@@ -287,7 +287,7 @@ def test_clearing_counts_match_the_simulator(objects_dir, tmp_path):
     final = rec["final_state"]
     assert len(final) == rec["remaining"]
     w = ferrobot.World(dt=bench.DT)
-    w.add_box("table", [2, 2, bench.TABLE_TOP], [0, 0, bench.TABLE_TOP / 2, 1, 0, 0, 0], static_=True)
+    w.add_box("table", [2, 2, bench.TABLE_TOP], [0, 0, bench.TABLE_TOP / 2, 1, 0, 0, 0], fixed=True)
     for o in spec.objects:
         if o.name in final:
             w.add_mesh_file(o.name, o.mesh, final[o.name], scale=o.scale, mass=o.mass)

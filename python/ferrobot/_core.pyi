@@ -354,17 +354,13 @@ class World:
         *,
         scale: float | _ArrayLike | None = None,
         approximation: str | None = None,
-        mass: float | None = None,
         density: float | None = None,
-        friction: float = 0.5,
-        restitution: float = 0.0,
-        static_: bool = False,
-        color: _ArrayLike | None = None,
         resolution: int = 64,
         concavity: float = 0.01,
         max_convex_hulls: int = 32,
+        **props: Unpack[_ObjectProps],
     ) -> str:
-        """A mesh file (OBJ, STL, DAE); ``approximation`` None: "trimesh" if static, else "convex_decomposition"
+        """A mesh file (OBJ, STL, DAE); ``approximation`` None: "trimesh" if fixed, else "convex_decomposition"
         (V-HACD, cached per file, scale and parameters); mass or density (kg/m^3). Bad files raise MeshError."""
     def get_object_pose(self, name: str) -> _F64: ...
     def set_object_pose(self, name: str, pose: _Pose) -> None: ...

@@ -547,7 +547,7 @@ impl PyWorld {
     /// Give `mass` (kg) or `density` (kg/m³, times the approximation's
     /// volume), not both; neither means 1 kg. Bad files raise `MeshError`
     /// naming the file.
-    #[pyo3(signature = (name, path, pose=None, *, scale=None, approximation=None, mass=None, density=None, friction=0.5, restitution=0.0, static_=false, color=None, resolution=64, concavity=0.01, max_convex_hulls=32))]
+    #[pyo3(signature = (name, path, pose=None, *, scale=None, approximation=None, density=None, resolution=64, concavity=0.01, max_convex_hulls=32, **props))]
     #[allow(clippy::too_many_arguments)]
     fn add_mesh_file(
         &self,
@@ -557,21 +557,26 @@ impl PyWorld {
         pose: Option<&Bound<'_, PyAny>>,
         scale: Option<&Bound<'_, PyAny>>,
         approximation: Option<&str>,
-        mass: Option<f64>,
         density: Option<f64>,
-        friction: f64,
-        restitution: f64,
-        static_: bool,
-        color: Option<&Bound<'_, PyAny>>,
         resolution: u32,
         concavity: f64,
         max_convex_hulls: u32,
+        props: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<String> {
         use crate::mesh_objects::{decomposition_params, object_mesh, scale_arg};
         guard(|| {
             let scale = scale_arg(scale)?;
             let params = decomposition_params(resolution, concavity, max_convex_hulls)?;
-            let approximation = approximation.unwrap_or(if static_ {
+            // The shared properties (mass, friction, restitution, fixed,
+            // color) are read once, by `object_desc`; the shape is set below
+            // because its default approximation depends on `fixed`.
+            let mass_given = match props {
+                Some(p) => p.contains("mass")?,
+                None => false,
+            };
+            let placeholder = Shape::Sphere { radius: 1.0 };
+            let mut desc = object_desc(name, placeholder, pose, props)?;
+            let approximation = approximation.unwrap_or(if desc.is_static {
                 "trimesh"
             } else {
                 "convex_decomposition"
@@ -593,38 +598,30 @@ impl PyWorld {
                     )));
                 }
             };
-            let mass = match (mass, density) {
-                (Some(_), Some(_)) => {
+            if let Some(d) = density {
+                if mass_given {
                     return Err(InvalidArgumentError::new_err(
                         "give mass or density, not both",
                     ));
                 }
-                (Some(m), None) => m,
-                (None, Some(d)) => {
-                    if !(d.is_finite() && d > 0.0 && d <= 1e5) {
-                        return Err(InvalidArgumentError::new_err(format!(
-                            "density must be in (0, 1e5] kg/m3, got {d}"
-                        )));
-                    }
-                    let vol = shape.volume().ok_or_else(|| {
-                        InvalidArgumentError::new_err(
-                            "density needs a solid: use mass with approximation 'trimesh'",
-                        )
-                    })?;
-                    d * vol
+                if !(d.is_finite() && d > 0.0 && d <= 1e5) {
+                    return Err(InvalidArgumentError::new_err(format!(
+                        "density must be in (0, 1e5] kg/m3, got {d}"
+                    )));
                 }
-                (None, None) => 1.0,
-            };
-            let desc = object_desc(
-                name,
-                shape,
-                pose,
-                mass,
-                friction,
-                restitution,
-                static_,
-                color,
-            )?;
+                let vol = shape.volume().ok_or_else(|| {
+                    InvalidArgumentError::new_err(
+                        "density needs a solid: use mass with approximation 'trimesh'",
+                    )
+                })?;
+                desc.mass = d * vol;
+                if !desc.is_static {
+                    MASS.check(desc.mass).map_err(|e| {
+                        InvalidArgumentError::new_err(format!("mass from density: {}", e.0))
+                    })?;
+                }
+            }
+            desc.shape = shape;
             let inner = self.inner.clone();
             let name = desc.name.clone();
             py.detach(|| -> Result<(), SimError> {

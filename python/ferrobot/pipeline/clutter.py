@@ -333,7 +333,7 @@ def add_bin(world, spec: BinSpec, table_top: float) -> list[str]:
     """Adds the bin's four walls (static boxes) to ``world``; returns their names."""
     names = []
     for name, size, pose in spec.walls(table_top):
-        world.add_box(name, size, pose, static_=True, friction=0.6, color=(0.45, 0.47, 0.52))
+        world.add_box(name, size, pose, fixed=True, friction=0.6, color=(0.45, 0.47, 0.52))
         names.append(name)
     return names
 
