@@ -71,6 +71,16 @@ fn options(opts: Option<&Bound<'_, PyDict>>) -> PyResult<DetectOptions> {
                     InvalidArgumentError::new_err(format!("option {key}: expected a bool"))
                 })?
             }
+            "body_collision" | "single_object" | "occlusion" => {
+                let b = v.extract::<bool>().map_err(|_| {
+                    InvalidArgumentError::new_err(format!("option {key}: expected a bool"))
+                })?;
+                match key.as_str() {
+                    "body_collision" => o.body_collision = b,
+                    "single_object" => o.single_object = b,
+                    _ => o.occlusion = b,
+                }
+            }
             "plane_threshold" => o.plane_threshold = f(&v)?,
             "torque_scale" => o.torque_scale = f(&v)?,
             "max_width" => o.gripper.max_width = f(&v)?,
