@@ -407,6 +407,7 @@ pub fn body_sweep_box(
 /// objects and bin walls included).
 pub fn body_collides(
     cloud: &SurfaceCloud,
+    extra: Option<&Obstacles>,
     g: &Grasp,
     gripper: &GripperGeometry,
     margin: f64,
@@ -416,10 +417,42 @@ pub fn body_collides(
     let radius = ((hi - lo) / 2.0).norm();
     let c = Point3::from(g.translation + g.rotation * centre);
     let rt = g.rotation.transpose();
-    cloud.within(&c, radius).into_iter().any(|i| {
-        let q = rt * (cloud.points[i].coords - g.translation);
+    let inside = |p: &Point3<f64>| {
+        let q = rt * (p.coords - g.translation);
         (0..3).all(|k| q[k] >= lo[k] && q[k] <= hi[k])
-    })
+    };
+    cloud
+        .within(&c, radius)
+        .into_iter()
+        .any(|i| inside(&cloud.points[i]))
+        || extra.is_some_and(|o| o.within(&c, radius).any(inside))
+}
+
+/// Obstacle points beyond the hand search's crop that only the housing
+/// can reach (observed points above the support plane), with a kd-tree.
+#[derive(Debug)]
+pub struct Obstacles {
+    points: Vec<Point3<f64>>,
+    tree: kiddo::KdTree<f64, 3>,
+}
+
+impl Obstacles {
+    /// Indexes `points`.
+    pub fn new(points: Vec<Point3<f64>>) -> Self {
+        let mut tree: kiddo::KdTree<f64, 3> = kiddo::KdTree::with_capacity(points.len().max(1));
+        for (i, p) in points.iter().enumerate() {
+            tree.add(&[p.x, p.y, p.z], i as u64);
+        }
+        Self { points, tree }
+    }
+
+    /// The points within `r` of `p`.
+    pub fn within(&self, p: &Point3<f64>, r: f64) -> impl Iterator<Item = &Point3<f64>> {
+        self.tree
+            .within_unsorted::<kiddo::SquaredEuclidean>(&[p.x, p.y, p.z], r * r)
+            .into_iter()
+            .map(|n| &self.points[n.item as usize])
+    }
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -572,7 +605,20 @@ mod tests {
                 Point3::new(0.0, 0.0, 1.0),
             )
             .unwrap();
-            assert_eq!(body_collides(&cloud, &grasp, &g, m), expect, "{pt:?}");
+            assert_eq!(body_collides(&cloud, None, &grasp, &g, m), expect, "{pt:?}");
+            let far = SurfaceCloud::new(
+                vec![Point3::new(1.0, 1.0, 1.0)],
+                vec![-1],
+                0.01,
+                Point3::new(0.0, 0.0, 1.0),
+            )
+            .unwrap();
+            let extra = Obstacles::new(vec![pt]);
+            assert_eq!(
+                body_collides(&far, Some(&extra), &grasp, &g, m),
+                expect,
+                "{pt:?} (extra)"
+            );
         }
     }
 

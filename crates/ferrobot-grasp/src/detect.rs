@@ -5,7 +5,7 @@ use nalgebra::{Point3, Vector3};
 use rayon::prelude::*;
 
 use crate::backproject::{Intrinsics, Workspace, backproject};
-use crate::candidates::{SearchParams, body_collides, body_sweep_box, hands_at_seed};
+use crate::candidates::{Obstacles, SearchParams, body_collides, body_sweep_box, hands_at_seed};
 use crate::error::{GraspError, Result, positive};
 use crate::grasp::{Grasp, GraspGroup};
 use crate::gripper::{GripperGeometry, body_margin};
@@ -260,18 +260,21 @@ fn detect_with(
     // kd-trees and the hidden volume. Exact: nothing outside is ever read
     // (a point whose hidden column down to the plane crosses the box stays).
     let max_depth = opts.depths.iter().copied().fold(0.0, f64::max);
-    let mut grow = opts.gripper.reach(max_depth).max(opts.normal_radius) + opts.voxel_size;
-    if opts.body_collision {
-        // The body sweep of a hand at the shallowest depth, from its
-        // translation (up to half the widest opening from the seed).
+    let grow = opts.gripper.reach(max_depth).max(opts.normal_radius) + opts.voxel_size;
+    // The housing reaches further: the body sweep of a hand at the
+    // shallowest depth, from its translation (up to half the widest
+    // opening from the seed). Points between the two crops are kept apart
+    // as obstacles for the housing only (observed points above the plane;
+    // the hidden volume is completed inside the hands' crop only).
+    let body_grow = {
         let mut dmin = opts.depths.iter().copied().fold(f64::INFINITY, f64::min);
         if opts.support_plane {
             dmin = dmin.min(crate::candidates::MIN_PLANE_DEPTH);
         }
         let (blo, bhi) = body_sweep_box(&opts.gripper, dmin, body_margin(opts.voxel_size));
         let far = blo.abs().sup(&bhi.abs());
-        grow = grow.max(far.norm() + opts.gripper.max_width / 2.0 + opts.voxel_size);
-    }
+        far.norm() + opts.gripper.max_width / 2.0 + opts.voxel_size
+    };
     let (mut lo, mut hi) = (
         Vector3::repeat(f64::INFINITY),
         Vector3::repeat(f64::NEG_INFINITY),
@@ -282,7 +285,9 @@ fn detect_with(
             hi = hi.sup(&p.coords);
         }
     }
+    let (blo, bhi) = (lo.add_scalar(-body_grow), hi.add_scalar(body_grow));
     let (lo, hi) = (lo.add_scalar(-grow), hi.add_scalar(grow));
+    let mut far_obstacles = Vec::new();
     let keep: Vec<usize> = (0..centroids.len())
         .filter(|&i| {
             let c = centroids[i].coords;
@@ -290,9 +295,20 @@ fn detect_with(
                 Some(pl) => c - pl.normal * pl.distance(&centroids[i]).max(0.0),
                 None => c,
             };
-            segment_meets_box(&c, &foot, &lo, &hi)
+            let near = segment_meets_box(&c, &foot, &lo, &hi);
+            if !near
+                && opts.body_collision
+                && (0..3).all(|k| c[k] >= blo[k] && c[k] <= bhi[k])
+                && plane
+                    .as_ref()
+                    .is_none_or(|pl| pl.distance(&centroids[i]) > opts.plane_threshold)
+            {
+                far_obstacles.push(centroids[i]);
+            }
+            near
         })
         .collect();
+    let far_obstacles = Obstacles::new(far_obstacles);
     let candidates: Vec<usize> = keep
         .iter()
         .enumerate()
@@ -342,7 +358,14 @@ fn detect_with(
         .collect();
     let margin = body_margin(opts.voxel_size);
     let kept = nms_filtered(&grasps, opts.nms_translation, opts.nms_rotation, |i| {
-        (!opts.body_collision || !body_collides(&cloud, &grasps[i], &opts.gripper, margin))
+        (!opts.body_collision
+            || !body_collides(
+                &cloud,
+                Some(&far_obstacles),
+                &grasps[i],
+                &opts.gripper,
+                margin,
+            ))
             && accept(&grasps[i])
     });
     let mut group = GraspGroup {
