@@ -1,12 +1,16 @@
 """Top-1 grasp success in simulation, judged by ferrobot's physics and replayed in PyBullet.
 
-    python benches/grasp_eval.py [--objects PATH] [--n N] [--json FILE] [--seed S] [--no-pybullet]
-                                 [--camera-approach] [--option KEY=JSON ...]
+    python benches/grasp_eval.py [--objects PATH] [--n N] [--split all|dev|heldout] [--json FILE] [--seed S]
+                                 [--no-pybullet] [--camera-approach] [--option KEY=JSON ...]
 
 PATH is a folder searched (recursively) for object URDFs (the first collision mesh of the first link,
 with its scale, origin, mass and lateral friction) or bare meshes (OBJ, STL; 0.1 kg, friction 1).
 Default: PyPI ``pybullet``'s ``pybullet_data/random_urdfs`` (1,000 meshes) and ``objects/``; ``--n``
-objects are drawn from them at random (``--seed``), or all with ``--n 0``.
+objects are drawn from them at random (``--seed``), or all with ``--n 0``. ``--split`` keeps the
+development or the held-out half by a fixed rule (the last number in the file name even or odd),
+before drawing. A URDF with several ``<collision>`` meshes is a multi-part object (each mesh one
+convex part, e.g. ``benches/heldout_objects.py``): ferrobot simulates it with
+``approximation="convex_decomposition"`` of the parts' hulls, PyBullet with the exact parts.
 
 Per object, in a fresh ``ferrobot.World`` (240 Hz):
 
@@ -143,6 +147,8 @@ class ObjectSpec:
     friction: float
     scale_factor: float = 1.0
     extents: list = field(default_factory=list)
+    # convex parts (same frame as ``points``) of a multi-part object; empty: the hull is the object
+    parts: list = field(default_factory=list)
 
 
 def read_obj(path: Path) -> np.ndarray:
@@ -186,29 +192,35 @@ def rpy_matrix(rpy) -> np.ndarray:
     return rz @ ry @ rx
 
 
-def read_urdf(path: Path) -> tuple[np.ndarray, float, float]:
-    """Vertices (m, link frame), mass and lateral friction of a single-object URDF's first collision mesh."""
+def read_urdf(path: Path) -> tuple[list[np.ndarray], float, float]:
+    """Vertices (m, link frame) of each collision mesh of a single-object URDF's first link (one array
+    per ``<collision>``: several make a multi-part object), its mass and lateral friction."""
     root = ET.parse(path).getroot()
     link = root.find("link")
     if link is None:
         raise ValueError(f"{path}: no <link>")
-    mesh = link.find("collision/geometry/mesh")
-    if mesh is None:
+    parts = []
+    for col in link.findall("collision"):
+        mesh = col.find("geometry/mesh")
+        if mesh is None:
+            continue
+        fname = mesh.get("filename", "").replace("package://", "")
+        verts = read_mesh((path.parent / fname).resolve())
+        scale = np.array([float(s) for s in mesh.get("scale", "1 1 1").split()])
+        verts = verts * scale
+        origin = col.find("origin")
+        if origin is not None:
+            xyz = np.array([float(s) for s in origin.get("xyz", "0 0 0").split()])
+            rpy = np.array([float(s) for s in origin.get("rpy", "0 0 0").split()])
+            verts = verts @ rpy_matrix(rpy).T + xyz
+        parts.append(verts)
+    if not parts:
         raise ValueError(f"{path}: the first link has no collision mesh")
-    fname = mesh.get("filename", "").replace("package://", "")
-    verts = read_mesh((path.parent / fname).resolve())
-    scale = np.array([float(s) for s in mesh.get("scale", "1 1 1").split()])
-    verts = verts * scale
-    origin = link.find("collision/origin")
-    if origin is not None:
-        xyz = np.array([float(s) for s in origin.get("xyz", "0 0 0").split()])
-        rpy = np.array([float(s) for s in origin.get("rpy", "0 0 0").split()])
-        verts = verts @ rpy_matrix(rpy).T + xyz
     m = link.find("inertial/mass")
     mass = float(m.get("value")) if m is not None else 0.1
     fr = link.find("contact/lateral_friction")
     friction = float(fr.get("value")) if fr is not None else 1.0
-    return verts, (mass if mass > 0 else 0.1), friction
+    return parts, (mass if mass > 0 else 0.1), friction
 
 
 def hull_centroid(points: np.ndarray, hull: ConvexHull) -> np.ndarray:
@@ -222,9 +234,12 @@ def hull_centroid(points: np.ndarray, hull: ConvexHull) -> np.ndarray:
 
 def make_spec(path: Path) -> ObjectSpec:
     if path.suffix.lower() == ".urdf":
-        verts, mass, friction = read_urdf(path)
+        parts, mass, friction = read_urdf(path)
     else:
-        verts, mass, friction = read_mesh(path), 0.1, 1.0
+        parts, mass, friction = [read_mesh(path)], 0.1, 1.0
+    if len(parts) > 1:
+        return make_parts_spec(path, parts, mass, friction)
+    verts = parts[0]
     verts = verts[np.all(np.isfinite(verts), axis=1)]
     hull = ConvexHull(verts)
     pts = verts[hull.vertices]
@@ -242,6 +257,35 @@ def make_spec(path: Path) -> ObjectSpec:
         friction=friction,
         scale_factor=s,
         extents=(ext * s).round(4).tolist(),
+    )
+
+
+def make_parts_spec(path: Path, parts: list[np.ndarray], mass: float, friction: float) -> ObjectSpec:
+    """A multi-part object (one convex part per OBJ group; parts must not overlap): scaled as a whole
+    like a hull, centred on the union's volume centroid."""
+    allv = np.concatenate(parts)
+    ext = np.sort(allv.max(axis=0) - allv.min(axis=0))
+    s = min(1.0, MAX_MIDDLE_EXTENT / ext[1])
+    hulls = [ConvexHull(p * s) for p in parts]
+    vols = np.array([h.volume for h in hulls])
+    cents = np.array([hull_centroid(p * s, h) for p, h in zip(parts, hulls, strict=True)])
+    com = (cents * vols[:, None]).sum(axis=0) / vols.sum()
+    out_parts = [p[h.vertices] * s - com for p, h in zip(parts, hulls, strict=True)]
+    faces, base = [], 0
+    for h in hulls:
+        remap = {int(v): i for i, v in enumerate(h.vertices)}
+        faces.append(np.vectorize(remap.get)(h.simplices) + base)
+        base += len(h.vertices)
+    return ObjectSpec(
+        name=path.stem,
+        source=str(path),
+        points=np.concatenate(out_parts),
+        faces=np.concatenate(faces).astype(np.int64),
+        mass=mass,
+        friction=friction,
+        scale_factor=s,
+        extents=(ext * s).round(4).tolist(),
+        parts=out_parts,
     )
 
 
@@ -352,7 +396,7 @@ class Scene:
             spec.points,
             spec.faces,
             pose7(drop),
-            approximation="convex_hull",
+            approximation="convex_decomposition" if spec.parts else "convex_hull",
             mass=spec.mass,
             friction=spec.friction,
         )
@@ -421,6 +465,7 @@ class PyBulletJudge:
 
         self.p = pybullet
         self.hand_urdf = hand_urdf
+        self.tmp = str(Path(hand_urdf).parent)
         self.cid = pybullet.connect(pybullet.DIRECT)
 
     def close(self):
@@ -436,7 +481,20 @@ class PyBulletJudge:
         )
         tid = p.createMultiBody(0, table, basePosition=[0, 0, TABLE_TOP / 2], physicsClientId=c)
         p.changeDynamics(tid, -1, lateralFriction=1.0, physicsClientId=c)
-        shape = p.createCollisionShape(p.GEOM_MESH, vertices=spec.points.tolist(), physicsClientId=c)
+        if spec.parts:
+            # the exact convex parts: an OBJ with one object per part loads as a compound of hulls
+            obj = Path(self.tmp) / "parts.obj"
+            lines = []
+            for k, part in enumerate(spec.parts):
+                lines.append(f"o part{k}")
+                lines += [f"v {x:.7f} {y:.7f} {z:.7f}" for x, y, z in part]
+                hull = ConvexHull(part)
+                first = sum(len(q) for q in spec.parts[:k]) + 1
+                lines += ["f " + " ".join(str(first + int(v)) for v in tri) for tri in hull.simplices]
+            obj.write_text("\n".join(lines) + "\n")
+            shape = p.createCollisionShape(p.GEOM_MESH, fileName=str(obj), physicsClientId=c)
+        else:
+            shape = p.createCollisionShape(p.GEOM_MESH, vertices=spec.points.tolist(), physicsClientId=c)
         oid = p.createMultiBody(
             spec.mass, shape, basePosition=list(obj_pose[:3, 3]), baseOrientation=xyzw(obj_pose), physicsClientId=c
         )
@@ -580,10 +638,25 @@ def evaluate(
     return result
 
 
+def split_of(path: Path) -> str:
+    """The fixed dev / held-out rule: the last number in the file's name, even -> dev, odd -> heldout."""
+    import re
+
+    nums = re.findall(r"\d+", path.stem)
+    return "heldout" if nums and int(nums[-1]) % 2 == 1 else "dev"
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--objects", type=Path, default=None, help="folder of URDFs / OBJ / STL meshes")
     ap.add_argument("--n", type=int, default=100, help="number of objects drawn at random (0: all)")
+    ap.add_argument(
+        "--split",
+        choices=("all", "dev", "heldout"),
+        default="all",
+        help="of the objects found, keep those whose name's number is even (dev) or odd (heldout); "
+        "names without a number go to dev",
+    )
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--json", type=Path, default=None)
     ap.add_argument("--no-pybullet", action="store_true")
@@ -599,6 +672,8 @@ def main() -> int:
         key, _, value = kv.partition("=")
         options[key] = json.loads(value)
     paths = find_objects(args.objects) if args.objects else default_object_paths()
+    if args.split != "all":
+        paths = [p for p in paths if split_of(p) == args.split]
     if not paths:
         raise SystemExit("no objects (URDF, OBJ, STL) found")
     if 0 < args.n < len(paths):

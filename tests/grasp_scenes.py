@@ -160,3 +160,31 @@ def hand_boxes(width, depth, height=0.02, finger_depth=0.05, finger_width=0.01, 
 def sample_box(lo, hi, n=6) -> np.ndarray:
     axes = [np.linspace(a, b, n) for a, b in zip(lo, hi, strict=True)]
     return np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
+
+
+def bin_walls(half=0.16, height=0.12, t=0.01, label=9):
+    """Four thin walls of a square bin around the origin (boxes standing on the table)."""
+    return [
+        Box(size=(2 * half, t, height), center_xy=(0.0, half), label=label),
+        Box(size=(2 * half, t, height), center_xy=(0.0, -half), label=label),
+        Box(size=(t, 2 * half, height), center_xy=(half, 0.0), label=label),
+        Box(size=(t, 2 * half, height), center_xy=(-half, 0.0), label=label),
+    ]
+
+
+def clutter_scene(with_bin: bool = False):
+    """Seven boxes and cylinders 1-3 cm apart (labels 1-7; the target 1 in the middle), optionally in a bin
+    (label 9), and a camera 0.7 m away looking down at them."""
+    objects = [
+        Box(size=(0.04, 0.05, 0.06), center_xy=(0.0, 0.0), yaw=0.3, label=1),
+        Cylinder(radius=0.025, height=0.15, center_xy=(0.0, 0.065), label=2),
+        Box(size=(0.03, 0.09, 0.11), center_xy=(0.06, -0.01), yaw=0.1, label=3),
+        Box(size=(0.05, 0.05, 0.04), center_xy=(-0.065, -0.01), yaw=-0.2, label=4),
+        Cylinder(radius=0.02, height=0.08, center_xy=(-0.01, -0.07), label=5),
+        Box(size=(0.06, 0.03, 0.05), center_xy=(0.08, 0.09), yaw=0.5, label=6),
+        Box(size=(0.03, 0.03, 0.09), center_xy=(-0.08, 0.08), label=7),
+    ]
+    if with_bin:
+        objects += bin_walls()
+    cam = look_at(eye=(-0.3, -0.2, 0.55), target=(0.0, 0.0, 0.04))
+    return Scene(objects=objects, table_half=0.4), cam

@@ -125,8 +125,10 @@ def test_box_grasps_close_across_opposite_faces(detected):
     normals = np.array([[np.cos(yaw), np.sin(yaw), 0], [-np.sin(yaw), np.cos(yaw), 0], [0, 0, 1]])
     angle = np.degrees(np.arccos(np.clip(np.max(np.abs(box.rotation_matrices[:, :, 1] @ normals.T), axis=1), 0, 1)))
     # the best grasps are antipodal across a pair of faces, half of all within 25° (lower-ranked ones also
-    # pinch edges, where the contact normal is the finger pad's)
-    assert np.all(angle[:3] < 10.0), angle
+    # pinch edges, where the contact normal is the finger pad's). Two of the best three: since the hand's
+    # housing is checked against the cloud (issue 18), two former top grasps whose housing clipped the
+    # box's top edge by about 2 mm are gone, and a grasp 16° off the faces ranks among the first three.
+    assert np.sum(angle[:3] < 10.0) >= 2, angle
     assert np.mean(angle < 25.0) >= 0.5, angle
 
 
@@ -138,7 +140,9 @@ def test_cylinder_grasps_close_across_the_axis(scene_frame, detected):
     assert len(cyl) >= 3
     y = cyl.rotation_matrices[:, :, 1]
     tilt = np.degrees(np.arcsin(np.clip(np.abs(y[:, 2]), 0, 1)))
-    assert np.all(tilt[:3] < 10.0) and np.all(tilt < 45.0), tilt
+    # two of the best three (the housing check drops top grasps that pass within its 3.75 mm margin of the
+    # cylinder's top; a 15° one then ranks third)
+    assert np.sum(tilt[:3] < 10.0) >= 2 and np.all(tilt < 45.0), tilt
     # the cylinder's axis passes through the closing region for side grasps; top grasps hold the top disc
     assert np.all(cyl.widths >= 2 * cyl_obj.radius - 1e-3) or np.all(cyl.depths > 0)
     axis_pts = np.stack(

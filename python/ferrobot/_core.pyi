@@ -1016,6 +1016,9 @@ class _DetectOverrides(TypedDict, total=False):
     support_plane: bool
     plane_threshold: float
     torque_scale: float
+    body_collision: bool
+    single_object: bool
+    occlusion: bool
     max_width: float
     finger_depth: float
     finger_width: float
@@ -1087,6 +1090,9 @@ class DetectOptions:
     support_plane: bool
     plane_threshold: float
     torque_scale: float
+    body_collision: bool
+    single_object: bool
+    occlusion: bool
     max_width: float
     finger_depth: float
     finger_width: float

@@ -5,12 +5,12 @@ use nalgebra::{Point3, Vector3};
 use rayon::prelude::*;
 
 use crate::backproject::{Intrinsics, Workspace, backproject};
-use crate::candidates::{SearchParams, hands_at_seed};
+use crate::candidates::{Obstacles, SearchParams, body_collides, body_sweep_box, hands_at_seed};
 use crate::error::{GraspError, Result, positive};
-use crate::grasp::GraspGroup;
-use crate::gripper::GripperGeometry;
+use crate::grasp::{Grasp, GraspGroup};
+use crate::gripper::{GripperGeometry, body_margin};
 use crate::mass::mass_centres;
-use crate::nms::nms;
+use crate::nms::nms_filtered;
 use crate::normals::SurfaceCloud;
 use crate::plane::find_support_plane;
 use crate::seeds::spread_seeds;
@@ -69,6 +69,21 @@ pub struct DetectOptions {
     /// multiplied by 1 / (1 + (arm / torque_scale)²) for the lever arm of
     /// the weight about the grasp axis, metres (default 0.01; 0 disables).
     pub torque_scale: f64,
+    /// Check the hand's body (the housing behind the fingers, swept back by
+    /// the approach distance) against every point of the cloud, not only
+    /// against the support plane: in clutter and bins the housing must stay
+    /// out of the neighbours and the walls (default true; see
+    /// [`crate::candidates::body_collides`]).
+    pub body_collision: bool,
+    /// With labels, reject hands whose closing region holds another
+    /// labelled object's points (see [`SearchParams::single_object`];
+    /// default true).
+    pub single_object: bool,
+    /// With an RGB-D frame and a segmentation mask, reject grasps whose
+    /// fingers or palm go into space hidden behind another object (see
+    /// `hidden_by_another_object`; default true). Has no effect on
+    /// [`detect`] (no image) or without a mask.
+    pub occlusion: bool,
 }
 
 impl Default for DetectOptions {
@@ -92,6 +107,9 @@ impl Default for DetectOptions {
             support_plane: true,
             plane_threshold: 0.005,
             torque_scale: 0.01,
+            body_collision: true,
+            single_object: true,
+            occlusion: true,
         }
     }
 }
@@ -167,6 +185,18 @@ pub fn detect(
     seedable: Option<&[bool]>,
     opts: &DetectOptions,
 ) -> Result<GraspGroup> {
+    detect_with(points, labels, seedable, opts, &|_| true)
+}
+
+/// [`detect`] with an extra test each grasp must pass to be kept (run
+/// lazily during non-maximum suppression, like the hand body's check).
+fn detect_with(
+    points: &[Point3<f64>],
+    labels: Option<&[i32]>,
+    seedable: Option<&[bool]>,
+    opts: &DetectOptions,
+    accept: &dyn Fn(&Grasp) -> bool,
+) -> Result<GraspGroup> {
     opts.validate()?;
     for (what, len) in [
         ("labels", labels.map(|l| l.len())),
@@ -231,6 +261,20 @@ pub fn detect(
     // (a point whose hidden column down to the plane crosses the box stays).
     let max_depth = opts.depths.iter().copied().fold(0.0, f64::max);
     let grow = opts.gripper.reach(max_depth).max(opts.normal_radius) + opts.voxel_size;
+    // The housing reaches further: the body sweep of a hand at the
+    // shallowest depth, from its translation (up to half the widest
+    // opening from the seed). Points between the two crops are kept apart
+    // as obstacles for the housing only (observed points above the plane;
+    // the hidden volume is completed inside the hands' crop only).
+    let body_grow = {
+        let mut dmin = opts.depths.iter().copied().fold(f64::INFINITY, f64::min);
+        if opts.support_plane {
+            dmin = dmin.min(crate::candidates::MIN_PLANE_DEPTH);
+        }
+        let (blo, bhi) = body_sweep_box(&opts.gripper, dmin, body_margin(opts.voxel_size));
+        let far = blo.abs().sup(&bhi.abs());
+        far.norm() + opts.gripper.max_width / 2.0 + opts.voxel_size
+    };
     let (mut lo, mut hi) = (
         Vector3::repeat(f64::INFINITY),
         Vector3::repeat(f64::NEG_INFINITY),
@@ -241,7 +285,9 @@ pub fn detect(
             hi = hi.sup(&p.coords);
         }
     }
+    let (blo, bhi) = (lo.add_scalar(-body_grow), hi.add_scalar(body_grow));
     let (lo, hi) = (lo.add_scalar(-grow), hi.add_scalar(grow));
+    let mut far_obstacles = Vec::new();
     let keep: Vec<usize> = (0..centroids.len())
         .filter(|&i| {
             let c = centroids[i].coords;
@@ -249,9 +295,20 @@ pub fn detect(
                 Some(pl) => c - pl.normal * pl.distance(&centroids[i]).max(0.0),
                 None => c,
             };
-            segment_meets_box(&c, &foot, &lo, &hi)
+            let near = segment_meets_box(&c, &foot, &lo, &hi);
+            if !near
+                && opts.body_collision
+                && (0..3).all(|k| c[k] >= blo[k] && c[k] <= bhi[k])
+                && plane
+                    .as_ref()
+                    .is_none_or(|pl| pl.distance(&centroids[i]) > opts.plane_threshold)
+            {
+                far_obstacles.push(centroids[i]);
+            }
+            near
         })
         .collect();
+    let far_obstacles = Obstacles::new(far_obstacles);
     let candidates: Vec<usize> = keep
         .iter()
         .enumerate()
@@ -293,12 +350,24 @@ pub fn detect(
         plane,
         mass_centres,
         torque_scale: opts.torque_scale,
+        single_object: opts.single_object,
     };
     let grasps: Vec<_> = seeds
         .par_iter()
         .flat_map_iter(|&s| hands_at_seed(&cloud, s, &params))
         .collect();
-    let kept = nms(&grasps, opts.nms_translation, opts.nms_rotation);
+    let margin = body_margin(opts.voxel_size);
+    let kept = nms_filtered(&grasps, opts.nms_translation, opts.nms_rotation, |i| {
+        (!opts.body_collision
+            || !body_collides(
+                &cloud,
+                Some(&far_obstacles),
+                &grasps[i],
+                &opts.gripper,
+                margin,
+            ))
+            && accept(&grasps[i])
+    });
     let mut group = GraspGroup {
         grasps: kept.into_iter().map(|i| grasps[i]).collect(),
     };
@@ -373,7 +442,57 @@ pub fn detect_rgbd(
                 .iter()
                 .map(|&l| l != 0 && object_id.is_none_or(|o| o == l))
                 .collect();
-            detect(&bp.points, Some(&labels), Some(&seedable), opts)
+            let margin = body_margin(opts.voxel_size);
+            let hidden = |g: &Grasp| -> bool {
+                !opts.occlusion
+                    || !hidden_by_another_object(g, &opts.gripper, depth, m, intrinsics, margin)
+            };
+            detect_with(&bp.points, Some(&labels), Some(&seedable), opts, &hidden)
         }
     }
+}
+
+/// Samples per hand box edge for [`hidden_by_another_object`].
+const OCCLUSION_SAMPLES: usize = 4;
+
+/// Whether some part of the fingers or the palm of `g` (camera frame) lies
+/// in space the camera cannot see because another object is in front of
+/// it: a sample point of the hand's boxes projects onto a pixel whose
+/// observed depth is more than `margin` nearer the camera and whose label
+/// differs from the grasp's object. Such space may hold that object's
+/// unseen part (or the grasp's own object, cut off by it): the hidden
+/// volume of the grasp's own object is completed from what was seen of it,
+/// but what a neighbour hides is unknown. Pixels without depth and samples
+/// outside the image or behind the camera count as free.
+fn hidden_by_another_object(
+    g: &Grasp,
+    gripper: &GripperGeometry,
+    depth: &[f64],
+    mask: &[i32],
+    k: &Intrinsics,
+    margin: f64,
+) -> bool {
+    let n = OCCLUSION_SAMPLES;
+    let t = |i: usize| i as f64 / (n - 1) as f64;
+    gripper.boxes(g.depth, g.width, 0.0).iter().any(|(lo, hi)| {
+        (0..n * n * n).any(|s| {
+            let local = Vector3::new(
+                lo.x + (hi.x - lo.x) * t(s % n),
+                lo.y + (hi.y - lo.y) * t((s / n) % n),
+                lo.z + (hi.z - lo.z) * t(s / (n * n)),
+            );
+            let p = g.translation + g.rotation * local;
+            if p.z <= 1e-6 {
+                return false;
+            }
+            let u = (k.fx * p.x / p.z + k.cx).round();
+            let v = (k.fy * p.y / p.z + k.cy).round();
+            if u < 0.0 || v < 0.0 || u >= k.width as f64 || v >= k.height as f64 {
+                return false;
+            }
+            let i = v as usize * k.width + u as usize;
+            let z = depth[i] / k.depth_scale;
+            z.is_finite() && z > 0.0 && p.z > z + margin && mask[i] != g.object_id
+        })
+    })
 }

@@ -34,8 +34,9 @@ pub struct GripperGeometry {
     /// Size of the hand's body (the housing the fingers slide in) along the
     /// closing axis (Panda: 0.208). The body is a box centred on the
     /// fingers, from the fingers' base back `palm_depth`; it is checked
-    /// against the support plane only, so a hand whose housing would hit
-    /// the table is rejected.
+    /// against the support plane (a hand whose housing would hit the table
+    /// is rejected) and, with `DetectOptions::body_collision`, against
+    /// every point of the cloud.
     pub palm_width: f64,
     /// Size of the hand's body along z (Panda: 0.063).
     pub palm_height: f64,
@@ -57,6 +58,13 @@ impl Default for GripperGeometry {
             palm_depth: 0.092,
         }
     }
+}
+
+/// How much the hand's solid parts are grown for collision against a cloud
+/// of voxel centroids of size `voxel_size`: a centroid lies up to about half
+/// a voxel and more from the surface it stands for.
+pub fn body_margin(voxel_size: f64) -> f64 {
+    0.75 * voxel_size
 }
 
 /// Where a point lies relative to a placed hand.

@@ -28,6 +28,20 @@ pub fn rotation_distance(a: &Matrix3<f64>, b: &Matrix3<f64>) -> f64 {
 /// first: a grasp is dropped when a better kept grasp is within
 /// `translation` metres and `rotation` radians of it.
 pub fn nms(grasps: &[Grasp], translation: f64, rotation: f64) -> Vec<usize> {
+    nms_filtered(grasps, translation, rotation, |_| true)
+}
+
+/// [`nms`] with a test run lazily, best score first, on each grasp that
+/// is not suppressed: a grasp failing `accept` is dropped and suppresses
+/// nothing (so a better grasp that fails, e.g. a hand body in collision,
+/// does not hide a valid neighbour). `accept` runs only on grasps that
+/// would otherwise be kept, which is what makes an expensive test cheap.
+pub fn nms_filtered(
+    grasps: &[Grasp],
+    translation: f64,
+    rotation: f64,
+    mut accept: impl FnMut(usize) -> bool,
+) -> Vec<usize> {
     let mut order: Vec<usize> = (0..grasps.len()).collect();
     order.sort_by(|&a, &b| grasps[b].score.total_cmp(&grasps[a].score));
     let t2 = translation * translation;
@@ -39,7 +53,7 @@ pub fn nms(grasps: &[Grasp], translation: f64, rotation: f64) -> Vec<usize> {
             (h.translation - g.translation).norm_squared() < t2
                 && rotation_distance(&h.rotation, &g.rotation) < rotation
         });
-        if !suppressed {
+        if !suppressed && accept(i) {
             kept.push(i);
         }
     }

@@ -368,6 +368,15 @@ options_class! {
         /// Lever-arm scale of the centre-of-mass score, metres, >= 0
         /// (0 disables; default 0.01).
         torque_scale / set_torque_scale: f64 ["float"] => torque_scale;
+        /// Check the hand's body against every point of the cloud, not only
+        /// the support plane (default True).
+        body_collision / set_body_collision: bool ["bool"] => body_collision;
+        /// With labels, reject hands closing on another object's points
+        /// (default True).
+        single_object / set_single_object: bool ["bool"] => single_object;
+        /// With an RGB-D frame and a mask, reject fingers or palm in space
+        /// hidden behind another object (default True).
+        occlusion / set_occlusion: bool ["bool"] => occlusion;
         /// Largest opening between the fingers, metres, > 0 (default 0.08).
         max_width / set_max_width: f64 ["float"] => gripper.max_width;
         /// Finger length along the approach, metres, > 0 (default 0.05).

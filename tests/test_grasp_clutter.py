@@ -1,0 +1,153 @@
+"""Grasp detection in clutter and in a bin (issue 18): the whole hand (fingers, palm, approach corridor and
+the housing behind them) stays out of every object and wall, grasps are sought on the target only, and a
+grasp closes on one object. Checked against the analytic scenes' true solids (``grasp_scenes.inside``) and
+against the back-projected cloud with a plain point-in-box test, independently of the detector."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from grasp_scenes import CX, CY, FX, FY, Box, Scene, clutter_scene, hand_boxes, inside, look_at, object_volume, render
+
+import ferrobot.grasp as fg
+
+L_FINGER, HEIGHT, APPROACH = 0.05, 0.02, 0.03
+PALM = (0.092, 0.208, 0.063)  # housing along approach, closing axis, z (OPTIONS palm_*)
+
+
+def body_box(depth):
+    """The housing swept back by the approach distance (gripper frame), as documented in ferrobot.grasp."""
+    base = depth - L_FINGER
+    return np.array([base - PALM[0] - APPROACH, -PALM[1] / 2, -PALM[2] / 2]), np.array([base, PALM[1] / 2, PALM[2] / 2])
+
+
+def grid_box(lo, hi, step=0.004):
+    axes = [np.linspace(a, b, max(2, int(np.ceil((b - a) / step)) + 1)) for a, b in zip(lo, hi, strict=True)]
+    return np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
+
+
+def all_boxes(g):
+    return [*hand_boxes(g.width, g.depth), body_box(g.depth)]
+
+
+def points_in_box(world_pts, g, lo, hi, shrink):
+    q = (world_pts - g.translation) @ g.rotation_matrix
+    return np.all((q > lo + shrink) & (q < hi - shrink), axis=1)
+
+
+def backproject_world(depth, cam):
+    v, u = np.nonzero(depth > 0)
+    z = depth[v, u]
+    pc = np.stack([(u - CX) / FX * z, (v - CY) / FY * z, z], axis=1)
+    return pc @ cam[:3, :3].T + cam[:3, 3]
+
+
+@pytest.fixture(scope="module", params=[False, True], ids=["table", "bin"])
+def cluttered(request):
+    scene, cam = clutter_scene(request.param)
+    depth, labels = render(scene, cam)
+    cloud = backproject_world(depth, cam)
+    return scene, cam, depth, labels, cloud[cloud[:, 2] > 0.003]
+
+
+def test_no_returned_grasp_collides_with_the_objects_the_walls_or_the_cloud(cluttered):
+    scene, cam, depth, labels, cloud = cluttered
+    gw = fg.detect_from_rgbd(depth, FX, FY, CX, CY, 1.0, mask=labels).transform(cam)
+    assert len(gw) >= 5
+    for g in gw:
+        for lo, hi in all_boxes(g):
+            world = grid_box(lo, hi) @ g.rotation_matrix.T + g.translation
+            hits = inside(scene, world, margin=1e-3)
+            assert not hits.any(), f"{g} penetrates the scene at {world[hits][0]}"
+            seen = points_in_box(cloud, g, lo, hi, shrink=1e-3)
+            assert not seen.any(), f"{g}: an observed point lies in the hand at {cloud[seen][0]}"
+
+
+def test_the_body_check_is_what_keeps_the_housing_out(cluttered):
+    scene, cam, depth, labels, cloud = cluttered
+    gw = fg.detect_from_rgbd(depth, FX, FY, CX, CY, 1.0, mask=labels, body_collision=False).transform(cam)
+    hits = 0
+    for g in gw:
+        lo, hi = body_box(g.depth)
+        hits += bool(points_in_box(cloud, g, lo, hi, shrink=1e-3).any())
+    assert hits > 0, "without the body check some housing should meet a neighbour (the scene tests nothing)"
+
+
+def test_a_target_id_restricts_grasps_to_that_object(cluttered):
+    scene, cam, depth, labels, cloud = cluttered
+    for target in (2, 5):  # the middle box (1) is boxed in: no hand housing fits past its tall neighbours
+        gw = fg.detect_from_rgbd(depth, FX, FY, CX, CY, 1.0, mask=labels, object_id=target).transform(cam)
+        assert len(gw) > 0, f"no grasp on object {target}"
+        assert np.all(gw.object_ids == target)
+        vol = object_volume(next(o for o in scene.objects if o.label == target))
+        for g in gw:
+            q = (vol - g.translation) @ g.rotation_matrix
+            between = (np.abs(q[:, 2]) <= HEIGHT / 2) & (q[:, 0] >= g.depth - L_FINGER) & (q[:, 0] <= g.depth)
+            between &= np.abs(q[:, 1]) <= g.width / 2
+            assert between.any(), f"{g}: object {target} is not between the fingers"
+
+
+def _other_between(scene, g):
+    """How many volume points (2 mm grid) of objects other than the grasp's lie between its fingers."""
+    n = 0
+    for obj in scene.objects:
+        if obj.label == g.object_id:
+            continue
+        q = (object_volume(obj) - g.translation) @ g.rotation_matrix
+        between = (np.abs(q[:, 2]) <= HEIGHT / 2) & (q[:, 0] >= g.depth - L_FINGER) & (q[:, 0] <= g.depth)
+        n += int((between & (np.abs(q[:, 1]) <= g.width / 2)).sum())
+    return n
+
+
+def test_grasps_close_on_one_object_only():
+    # Two 3 cm boxes side by side 1 cm apart: 7 cm together, inside the 8 cm opening.
+    scene = Scene(
+        objects=[
+            Box(size=(0.03, 0.06, 0.05), center_xy=(-0.02, 0.0), label=1),
+            Box(size=(0.03, 0.06, 0.05), center_xy=(0.02, 0.0), label=2),
+        ]
+    )
+    cam = look_at(eye=(-0.35, -0.1, 0.5), target=(0.0, 0.0, 0.03))
+    depth, labels = render(scene, cam)
+    loose = fg.detect_from_rgbd(depth, FX, FY, CX, CY, 1.0, mask=labels, single_object=False).transform(cam)
+    assert max(_other_between(scene, g) for g in loose) > 0, "the scene should tempt a two-object grasp"
+    gw = fg.detect_from_rgbd(depth, FX, FY, CX, CY, 1.0, mask=labels).transform(cam)
+    assert len(gw) > 0
+    for g in gw:
+        assert _other_between(scene, g) == 0, f"{g} closes on another object too"
+
+
+def test_new_options_are_validated():
+    from ferrobot.errors import InvalidArgumentError
+
+    depth = np.zeros((4, 4))
+    with pytest.raises(InvalidArgumentError, match="body_collision"):
+        fg.detect_from_rgbd(depth, FX, FY, CX, CY, 1.0, body_collision="yes")
+    with pytest.raises(InvalidArgumentError, match="single_object"):
+        fg.detect_from_rgbd(depth, FX, FY, CX, CY, 1.0, single_object=3)
+
+
+@pytest.mark.parametrize("height", [0.006, 0.01])
+def test_objects_lower_than_the_shallowest_depth_are_grasped_from_above(height):
+    # A flat piece under the shallowest fixed depth (1.5 cm): every fixed depth puts the fingertips
+    # under the table, so the hand reaches as deep as the table allows.
+    scene = Scene(objects=[Box(size=(0.07, 0.03, height), yaw=0.4, label=1)])
+    cam = look_at(eye=(-0.35, -0.2, 0.5), target=(0.0, 0.0, 0.0))
+    depth, labels = render(scene, cam)
+    down = cam[:3, :3].T @ np.array([0.0, 0.0, -1.0])
+    gw = fg.detect_from_rgbd(depth, FX, FY, CX, CY, 1.0, mask=labels, approach_direction=down).transform(cam)
+    assert len(gw) > 0, "no grasp on a flat piece"
+    vol = object_volume(scene.objects[0], step=0.001)
+    for g in gw:
+        for lo, hi in all_boxes(g):
+            world = grid_box(lo, hi, step=0.002) @ g.rotation_matrix.T + g.translation
+            hits = inside(scene, world, margin=1e-3)
+            assert not hits.any(), f"{g} penetrates the piece or the table at {world[hits][0]}"
+        q = (vol - g.translation) @ g.rotation_matrix
+        between = (np.abs(q[:, 2]) <= HEIGHT / 2) & (q[:, 0] >= g.depth - L_FINGER) & (q[:, 0] <= g.depth)
+        assert (between & (np.abs(q[:, 1]) <= g.width / 2)).any(), f"{g}: the piece is not between the fingers"
+    best = gw[0]
+    # the best grasp comes from above and its fingertips reach at least half way down the piece
+    assert best.rotation_matrix[:, 0] @ np.array([0.0, 0.0, -1.0]) > np.cos(np.radians(30))
+    tips = best.translation + best.depth * best.rotation_matrix[:, 0]
+    assert tips[2] <= height / 2 + 1e-3
