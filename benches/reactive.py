@@ -10,11 +10,13 @@ at a random point and time (0.3-2.0 s). The loop is **kinematic**: at 100 Hz eac
 robot follows the commanded position/velocity targets exactly (a perfect position-controlled arm, as a real
 Franka's joint-position interface approximates). Episodes last 6 s.
 
-Methods: ``reactive`` (ferrobot.ReactiveController with global guidance: when a step reports ``stalled``, the
-target's IK solution and a collision-free path to it on the obstacles' current poses, ``Planner``, at most
-``MAX_GUIDANCE_PLANS`` per episode, are followed as waypoints with avoidance on; planning time counts as controller
-time), ``reactive_local`` (the same controller without guidance), ``potential`` (ferrobot.PotentialFieldController),
-``plan_once`` (ferrobot.Planner on the obstacles' poses at t=0, trajectory executed open loop) and ``replan``
+Methods: ``reactive`` (ferrobot.ReactiveController with its default global guidance: when it stalls, the
+controller itself plans a collision-free path to a collision-free IK solution of the target on the obstacles'
+current poses and follows it as waypoints with avoidance on, at most ``guidance_plans`` (3) attempts per target,
+``guidance_retry`` (0.3 s) apart, ``guidance_time_limit`` (0.5 s) each, inside the step (``guidance_blocking``);
+planning time counts as controller time), ``reactive_local`` (the same controller with ``guidance_plans = 0``),
+``potential`` (ferrobot.PotentialFieldController), ``plan_once`` (ferrobot.Planner on the obstacles' poses at t=0,
+trajectory executed open loop) and ``replan``
 (re-planned every 0.1 s from the current state on the obstacles' current poses, the newest trajectory executed;
 a failed re-plan keeps the previous trajectory).
 
@@ -28,10 +30,13 @@ inside every joint limit and free of self-collision (sphere model + SRDF); ``--s
 version (goals clipped into the limits, about one in ten exactly at a hard limit, some in self-collision). Contacts
 are judged twice per control step, independently of the controllers' own distances: robot spheres vs obstacles
 (exact obstacle geometry) and exact link geometry vs obstacles (parry; the bundled Panda's links are primitives);
-self-contact of the robot's sphere model (``CollisionChecker.in_collision``) is reported separately. "Reached":
-position error < 1 cm and rotation error < 0.05 rad at some step. ``--robot ur5`` uses ``../shared/robots/ur5`` with
-its spherized URDF and, unless ``--ur5-velocity 0``, the UR5's data-sheet joint speed (3.15 rad/s) instead of the
-file's 0.5 rad/s, at which the arm cannot outrun 0.5 m/s obstacles.
+self-contact is reported separately, twice: the sphere model confirmed on the links (``CollisionChecker.in_collision``)
+and the exact geometry of every link pair the SRDF's allowed-collision matrix checks (``exact_self_clearance``, parry,
+meshes as convex hulls), independent of the spheres. "Reached": position error < 1 cm and rotation error < 0.05 rad
+at some step. ``--robot ur5`` uses ``../shared/robots/ur5`` with 60 automatic spheres (``--ur5-spheres spherized``:
+its spherized URDF, which leaves parts of base_link and shoulder_link uncovered) and, unless ``--ur5-velocity 0``,
+the UR5's data-sheet joint speed (3.15 rad/s) instead of the file's 0.5 rad/s, at which the arm cannot outrun
+0.5 m/s obstacles.
 """
 
 from __future__ import annotations
@@ -48,13 +53,14 @@ import numpy as np
 
 import ferrobot
 
+# Self-collision pairs of the controllers: samples of the never/always analysis on top of the SRDF's matrix
+# (``--self-collision-samples``; 0 keeps the SRDF's matrix as is).
+SELF_COLLISION_SAMPLES = 2000
+EXACT_SELF = hasattr(ferrobot.ReactiveController, "exact_self_clearance")
 SHARED = Path(__file__).resolve().parent.parent.parent / "shared"
 DT = 0.01
 DURATION = 6.0
 POS_TOL, ROT_TOL = 0.01, 0.05
-MAX_GUIDANCE_PLANS = 3  # per episode, for the reactive controller's global guidance
-GUIDANCE_RETRY_S = 0.3  # s between two guidance attempts
-GUIDANCE_TIME_LIMIT_S = 0.5  # planning time limit of one attempt
 GOAL_LIMIT_MARGIN = 0.05  # rad: "valid" goals keep this far inside every joint limit
 
 
@@ -63,7 +69,7 @@ def rot_err(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.arccos(np.clip((np.trace(r) - 1) / 2, -1, 1)))
 
 
-def load_robot(name: str, ur5_velocity: float | None = None):
+def load_robot(name: str, ur5_velocity: float | None = None, ur5_spheres: str = "automatic"):
     """The robot, its sphere model and its base links. ``ur5_velocity`` (rad/s) replaces the joint velocity limits
     of ``../shared/robots/ur5/ur5.urdf`` (0.5 rad/s there; the UR5's data sheet value, 3.15 rad/s, is commented out
     beside each limit); None keeps the file's."""
@@ -90,10 +96,15 @@ def load_robot(name: str, ur5_velocity: float | None = None):
         )
         text = re.sub(r'<link name="ee_link">\s*</link>', ee, text)
         text = re.sub(r'filename="(package://)?meshes/', f'filename="{SHARED / "robots/ur5/meshes"}/', text)
-        with tempfile.TemporaryDirectory() as d:
-            path = Path(d) / "ur5_spherized.urdf"
-            path.write_text(text)
-            spheres = ferrobot.SphereModel.from_spherized_urdf(model, path)
+        if ur5_spheres == "automatic":
+            # The spherized URDF does not cover the links' geometry (one sphere for base_link and for
+            # shoulder_link): links touch while their spheres are apart. The automatic model covers it.
+            spheres = ferrobot.SphereModel.automatic(model, total_budget=60)
+        else:
+            with tempfile.TemporaryDirectory() as d:
+                path = Path(d) / "ur5_spherized.urdf"
+                path.write_text(text)
+                spheres = ferrobot.SphereModel.from_spherized_urdf(model, path)
         base_links = ["base_link", "shoulder_link"]
     return model, spheres, base_links
 
@@ -183,7 +194,7 @@ def make_episode(rng, model, judge, base_spheres, q_ready, sampling="valid", che
         return q0, qg, sc, rejected
 
 
-def run_episode(method, model, spheres, sc, q0, qg, judge, planner, configs=None, self_checker=None):
+def run_episode(method, model, spheres, sc, q0, qg, judge, planner, configs=None, self_checker=None, self_judge=None):
     target = model.fk(qg)
     n = model.num_dof
     q, qd = q0.copy(), np.zeros(n)
@@ -193,11 +204,13 @@ def run_episode(method, model, spheres, sc, q0, qg, judge, planner, configs=None
     traj, traj_t0 = None, 0.0
     names = planner.joint_names
     idx = [model.dof_names.index(j) for j in names]
-    guided = method == "reactive"
-    guidance_plans, last_guidance = 0, -np.inf
+    guidance_plans = 0
     if method in ("reactive", "reactive_local", "potential"):
         cls = ferrobot.PotentialFieldController if method == "potential" else ferrobot.ReactiveController
-        ctl = cls(model, sc.world(0.0), spheres, config=(configs or {}).get(method.replace("_local", "")))
+        cfg = dict((configs or {}).get(method.replace("_local", "")) or {})
+        if method == "reactive_local":
+            cfg["guidance_plans"] = 0
+        ctl = cls(model, sc.world(0.0), spheres, config=cfg or None, self_collision_samples=SELF_COLLISION_SAMPLES)
         ctl.set_target(target)
     elif method == "plan_once":
         planner.update_world(sc.world(0.0))
@@ -207,7 +220,8 @@ def run_episode(method, model, spheres, sc, q0, qg, judge, planner, configs=None
         traj = res.interpolated(dt=DT).positions if res.success else None
     reached_at = None
     min_sphere = min_exact = np.inf
-    contact_sphere = contact_exact = self_contact = False
+    contact_sphere = contact_exact = self_contact = self_contact_exact = False
+    min_self_exact = np.inf
     for k in range(steps):
         t = k * DT
         if ctl is not None:
@@ -215,24 +229,8 @@ def run_episode(method, model, spheres, sc, q0, qg, judge, planner, configs=None
                 ctl.set_obstacle_pose(f"obs{i}", sc.pose(i, t), sc.vel[i])
             t0 = time.perf_counter()
             q_new, qd, _ = ctl.step(q, qd, DT)
-            if (
-                guided
-                and guidance_plans < MAX_GUIDANCE_PLANS
-                and ctl.last_step["stalled"]
-                and t - last_guidance >= GUIDANCE_RETRY_S
-            ):
-                # Global guidance out of a local minimum: IK for the target pose, then a collision-free
-                # path on the obstacles' current poses, followed as waypoints (avoidance stays on).
-                guidance_plans += 1
-                last_guidance = t
-                planner.update_world(sc.world(t))
-                ik = planner.ik(target, seed=q[idx], collision_free=True, num_seeds=50)
-                if ik.success:
-                    goal_q = q.copy()
-                    goal_q[idx] = ik.q
-                    res = planner.plan(q, goal_q=goal_q, time_limit=GUIDANCE_TIME_LIMIT_S)
-                    if res.success:
-                        ctl.set_waypoints(res.path)
+            if method != "potential":
+                guidance_plans = ctl.last_step["guidance_plans"]
             ctrl_times.append(time.perf_counter() - t0)
             q = q_new
         else:
@@ -258,6 +256,10 @@ def run_episode(method, model, spheres, sc, q0, qg, judge, planner, configs=None
         contact_exact |= de <= 0.0
         if self_checker is not None:
             self_contact |= bool(self_checker.in_collision(q))
+        # Exact self-clearance of the checked link pairs (parry on the links' geometry, not the spheres).
+        dse = float(self_judge.exact_self_clearance(q)["distance"]) if EXACT_SELF else np.inf
+        min_self_exact = min(min_self_exact, dse)
+        self_contact_exact |= dse <= 0.0
         if reached_at is None:
             T = model.fk(q)
             if np.linalg.norm(T[:3, 3] - target[:3, 3]) < POS_TOL and rot_err(T, target) < ROT_TOL:
@@ -273,6 +275,8 @@ def run_episode(method, model, spheres, sc, q0, qg, judge, planner, configs=None
         "contact_spheres": bool(contact_sphere),
         "contact_exact": bool(contact_exact),
         "self_contact_spheres": bool(self_contact),
+        "self_contact_exact": bool(self_contact_exact),
+        "min_exact_self_clearance": min_self_exact,
         "min_sphere_clearance": min_sphere,
         "min_exact_clearance": min_exact,
         "controller_time_per_step_s": per_step,
@@ -290,6 +294,15 @@ def summarise(rows):
         "contact_spheres_pct": 100.0 * sum(r["contact_spheres"] for r in rows) / n,
         "contact_exact_pct": 100.0 * sum(r["contact_exact"] for r in rows) / n,
         "self_contact_spheres_pct": 100.0 * sum(r["self_contact_spheres"] for r in rows) / n,
+        "self_contact_exact_pct": 100.0 * sum(r["self_contact_exact"] for r in rows) / n,
+        "reached_without_any_contact_pct": 100.0
+        * sum(
+            r["reached"]
+            and not (r["contact_spheres"] or r["contact_exact"] or r["self_contact_spheres"] or r["self_contact_exact"])
+            for r in rows
+        )
+        / n,
+        "min_exact_self_clearance_m": float(min(r["min_exact_self_clearance"] for r in rows)),
         "reached_without_contact_pct": 100.0
         * sum(r["reached"] and not (r["contact_spheres"] or r["contact_exact"]) for r in rows)
         / n,
@@ -314,7 +327,8 @@ def time_one_step(model, spheres, q_ready, repeats: int = 5000) -> dict[str, flo
             world.add_box(f"obs{i}", [0.1, 0.08, 0.12], p)
     out = {}
     for name, cls in (("reactive", ferrobot.ReactiveController), ("potential", ferrobot.PotentialFieldController)):
-        ctl = cls(model, world, spheres)
+        # The same state every call is a stalled arm: guidance (planning) is left out of the step's timing.
+        ctl = cls(model, world, spheres, config={"guidance_plans": 0} if name == "reactive" else None)
         target = model.fk(q_ready).copy()
         target[:3, 3] += 0.05  # 5 cm away in x, y and z: the attractor is active too
         ctl.set_target(target)
@@ -344,6 +358,19 @@ def main() -> None:
         help="UR5 joint velocity limit (rad/s): 3.15 is the data sheet's (180 deg/s); 0 keeps the URDF's 0.5",
     )
     ap.add_argument(
+        "--self-collision-samples",
+        type=int,
+        default=2000,
+        help="the controllers' never/always self-collision analysis (ReactiveController's self_collision_samples)",
+    )
+    ap.add_argument(
+        "--ur5-spheres",
+        choices=["automatic", "spherized"],
+        default="automatic",
+        help="UR5 sphere model: 'automatic' (SphereModel.automatic, 60 spheres, covers the links) or 'spherized' "
+        "(../shared/robots/ur5/ur5_spherized.urdf, 41 spheres, does not cover base_link and shoulder_link)",
+    )
+    ap.add_argument(
         "--sampling",
         choices=["valid", "clip"],
         default="valid",
@@ -352,8 +379,13 @@ def main() -> None:
     ap.add_argument("--reactive-config", type=json.loads, default=None, help="gain overrides (JSON dict)")
     ap.add_argument("--potential-config", type=json.loads, default=None, help="gain overrides (JSON dict)")
     args = ap.parse_args()
-    model, spheres, base_links = load_robot(args.robot, None if args.ur5_velocity <= 0 else args.ur5_velocity)
-    judge = ferrobot.ReactiveController(model, None, spheres)
+    global SELF_COLLISION_SAMPLES
+    SELF_COLLISION_SAMPLES = args.self_collision_samples
+    model, spheres, base_links = load_robot(
+        args.robot, None if args.ur5_velocity <= 0 else args.ur5_velocity, args.ur5_spheres
+    )
+    # The judge checks every link pair the allowed-collision matrix (SRDF) enables: no sampled analysis.
+    judge = ferrobot.ReactiveController(model, None, spheres, self_collision_samples=0)
     q_ready = model.named_state("ready") if args.robot == "panda" else model.neutral_configuration()
     base = []
     for link in base_links:
@@ -387,12 +419,14 @@ def main() -> None:
         rows = []
         for q0, qg, sc in episodes:
             p = replanner if m == "replan" else planner
-            rows.append(run_episode(m, model, spheres, sc, q0, qg, judge, p, configs, goal_checker))
+            rows.append(run_episode(m, model, spheres, sc, q0, qg, judge, p, configs, goal_checker, judge))
         results[m] = {"summary": summarise(rows), "episodes": rows}
         s = results[m]["summary"]
         print(
             f"{m:<10} reached {s['reached_pct']:5.1f}%  contact spheres {s['contact_spheres_pct']:5.1f}% "
-            f"exact {s['contact_exact_pct']:5.1f}%  self (spheres) {s['self_contact_spheres_pct']:5.1f}%  "
+            f"exact {s['contact_exact_pct']:5.1f}%  self (spheres) {s['self_contact_spheres_pct']:5.1f}% "
+            f"(exact links) {s['self_contact_exact_pct']:5.1f}%  "
+            f"reached w/o any contact {s['reached_without_any_contact_pct']:5.1f}%  "
             f"reached w/o contact {s['reached_without_contact_pct']:5.1f}%  "
             f"min sphere clearance {s['min_sphere_clearance_m'] * 1e3:7.1f} mm  "
             f"median time {s['median_time_to_target_s'] or float('nan'):.2f} s  "

@@ -217,3 +217,80 @@ def test_closed_loop_with_the_simulator(panda):
         world.step(4)
     T = model.fk(robot.get_joint_positions())
     assert np.linalg.norm(T[:3, 3] - target[:3, 3]) < 0.01
+
+
+def hand_self_clearance(model, spheres, q, pairs):
+    """Smallest sphere-surface distance over the given link pairs, spheres placed by ``RobotModel.fk``."""
+    placed = {}
+    for a, b in pairs:
+        for link in (a, b):
+            if link not in placed:
+                s = spheres.spheres(link)
+                T = model.fk(q, link)
+                placed[link] = np.c_[(T[:3, :3] @ s[:, :3].T).T + T[:3, 3], s[:, 3]]
+    best = np.inf
+    for a, b in pairs:
+        A, B = placed[a], placed[b]
+        d = np.linalg.norm(A[:, None, :3] - B[None, :, :3], axis=2) - A[:, None, 3] - B[None, :, 3]
+        best = min(best, float(d.min()))
+    return best
+
+
+def test_self_collision_filter_keeps_links_apart_when_the_target_presses_them_together(panda):
+    """Targets whose configuration has two links' geometry overlapping: the attractor presses them together. With
+    the self-avoidance policy off (metric 0), the first such target (seeded search) where the arm reaches
+    self-contact without the velocity filter is run again with it (the default): the links' exact geometry (parry
+    on the collision shapes) stays apart and the collision checker never reports a self-collision."""
+    model, spheres = panda
+    checker = ferrobot.CollisionChecker(model, spheres=spheres)
+    probe = ferrobot.ReactiveController(model, None, spheres, self_collision_samples=0)
+    no_policy = {"self_metric": 0.0, "self_gain": 0.0, "guidance_plans": 0}
+
+    def run(goal, cfg):
+        ctl = ferrobot.ReactiveController(model, None, spheres, config={**cfg, **no_policy}, self_collision_samples=0)
+        ctl.set_target(model.fk(goal))
+        q, qd = q0.copy(), np.zeros(model.num_dof)
+        exact, contact = np.inf, False
+        for _ in range(300):
+            q, qd, _ = ctl.step(q, qd, 0.01)
+            exact = min(exact, ctl.exact_self_clearance(q)["distance"])
+            contact |= checker.in_collision(q)
+        return exact, contact
+
+    rng = np.random.default_rng(3)
+    q0 = model.named_state("ready")
+    for _ in range(400):
+        goal = q0.copy()
+        goal[:7] += rng.uniform(-1.2, 1.2, 7)
+        goal = np.clip(goal, model.lower_limits, model.upper_limits)
+        if not (checker.in_collision(goal) and probe.exact_self_clearance(goal)["distance"] <= 0.0):
+            continue
+        off = run(goal, {"self_filter_distance": 0.0})
+        if off[1]:
+            break
+    else:
+        pytest.fail("no target pressed links into contact without the filter")
+    assert off[0] <= 0.0, off  # parry agrees with the checker
+    exact, contact = run(goal, {})
+    assert exact > 0.0 and not contact, (exact, contact, off)
+
+
+def test_guidance_status_and_config_validation(panda):
+    """Guidance reports its status each step; its counts must be whole numbers."""
+    model, spheres = panda
+    q = model.named_state("ready")
+    ctl = ferrobot.ReactiveController(model, None, spheres)
+    ctl.step(q, np.zeros(model.num_dof), 0.01)
+    assert ctl.last_step["guidance"] == "idle" and ctl.last_step["guidance_plans"] == 0
+    assert ctl.guidance_error is None and ctl.guidance_last_plan is None
+    ctl.set_target(model.fk(q))
+    ctl.step(q, np.zeros(model.num_dof), 0.01)
+    assert ctl.last_step["guidance"] == "reached"
+    off = ferrobot.ReactiveController(model, None, spheres, config={"guidance_plans": 0})
+    off.step(q, np.zeros(model.num_dof), 0.01)
+    assert off.last_step["guidance"] == "off"
+    for name, value in (("guidance_plans", 1.5), ("guidance_blocking", 0.5)):
+        with pytest.raises(errors.InvalidArgumentError, match=name):
+            ferrobot.ReactiveController(model, None, spheres, config={name: value})
+        with pytest.raises(errors.InvalidArgumentError, match=name):
+            ctl.set_config({name: value})

@@ -49,14 +49,23 @@ fn control(c: &mut Criterion) {
         Translation3::new(0.4, 0.2, 0.4),
         UnitQuaternion::from_euler_angles(std::f64::consts::PI, 0.0, 0.0),
     );
-    let mut rmp = ReactiveController::new(&checker, None, ReactiveConfig::default()).unwrap();
+    // The same state every call is a stalled arm: with guidance on, the
+    // controller would start planning after 0.4 s of its clock (400 calls).
+    // The step is measured without it (a plan's time is reported by
+    // `guidance_last_plan` and counted in benches/reactive.py).
+    let cfg = ReactiveConfig {
+        guidance_plans: 0.0,
+        ..Default::default()
+    };
+    let mut rmp = ReactiveController::new(&checker, None, cfg).unwrap();
     rmp.core_mut().set_target(target, true).unwrap();
     let out = rmp.step(&q, &qd, 0.001).unwrap();
     println!(
-        "reactive: {} spheres, {} self pairs, 10 obstacles, {} active avoidance terms",
+        "reactive: {} spheres, {} self pairs, 10 obstacles, {} active avoidance terms, {} pairs in the self filter",
         rmp.core().num_spheres(),
         rmp.core().num_self_pairs(),
-        out.info.active_avoidance
+        out.info.active_avoidance,
+        out.info.filtered
     );
     let mut pf =
         PotentialFieldController::new(&checker, None, PotentialFieldConfig::default()).unwrap();

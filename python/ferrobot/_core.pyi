@@ -959,6 +959,10 @@ class _ControllerBase:  # stub-only: the methods both controller classes define
         """Per sphere: ``distance``, ``direction`` (S, 3), ``gradient`` (S, num_dof), ``centers``, ``radii``."""
     def exact_clearance(self, q: _ArrayLike) -> dict[str, Any]:
         """Exact link-to-obstacle clearance (parry): ``distance`` and ``closest`` (link, object)."""
+    def exact_self_clearance(self, q: _ArrayLike) -> dict[str, Any]:
+        """Exact clearance of the checked link pairs (parry): ``distance`` and ``closest`` (link, link)."""
+    @property
+    def self_link_pairs(self) -> list[tuple[str, str]]: ...
 
 @final
 class ReactiveController(_ControllerBase):
@@ -969,6 +973,11 @@ class ReactiveController(_ControllerBase):
     def clear_waypoints(self) -> None: ...
     @property
     def waypoints_remaining(self) -> int: ...
+    @property
+    def guidance_last_plan(self) -> dict[str, Any] | None:
+        """The last guidance plan attempt: ``status``, ``message``, ``waypoints``, ``seconds``."""
+    @property
+    def guidance_error(self) -> str | None: ...
 
 @final
 class PotentialFieldController(_ControllerBase):

@@ -144,6 +144,15 @@ config_struct! {
         /// Safety distance (m) used as the braking floor: the braking term
         /// plans to stop `collision_margin` away from the obstacle, [0, 0.5].
         collision_margin: 0.01, [0.0, 0.5],
+        /// World velocity filter: robot sphere to obstacle pairs closer
+        /// than `collision_filter_distance` join the self-collision
+        /// velocity filter (see `self_hold`) with the bound that their
+        /// distance stays at least `min(d, collision_hold)` after the step,
+        /// the obstacle's velocity included, [0, 0.1].
+        collision_hold: 0.005, [0.0, 0.1],
+        /// Distance (m) within which sphere-obstacle pairs enter the
+        /// velocity filter (0 leaves the world out of it), [0, 1].
+        collision_filter_distance: 0.05, [0.0, 1.0],
         /// Self-collision: distance (m) between robot spheres of checked link
         /// pairs below which the policy acts, [1e-3, 1].
         self_distance: 0.015, [1e-3, 1.0],
@@ -156,6 +165,26 @@ config_struct! {
         /// policies): the policy brakes approaches without holding the arm
         /// off a target next to another link at rest, [0, 1].
         self_rest_weight: 0.02, [0.0, 1.0],
+        /// Self-collision velocity filter: after the policies are combined
+        /// (and the velocity scaled to its limits), the joint velocity is
+        /// changed as little as possible (least squares, joint space) so
+        /// that no checked sphere pair closer than `self_filter_distance`
+        /// comes closer than `self_hold` (m) within the step, to first
+        /// order; a pair already closer than `self_hold` may not approach
+        /// further (it is never pushed apart by the filter), unless the
+        /// exact geometry of its two links (meshes as convex hulls, parry)
+        /// is more than `self_hold` apart: spheres protrude beyond the
+        /// links, and configurations with overlapping spheres but separate
+        /// links stay reachable, as in the collision checker's two-stage
+        /// verdict. The gated self
+        /// policy alone lets a fast arm (a UR5 at 3 rad/s closes 2 cm per
+        /// 10 ms step) or an attractor pressing two links together reach
+        /// contact; the filter is the hard guarantee, [0, 0.1].
+        self_hold: 0.002, [0.0, 0.1],
+        /// Distance (m) between sphere surfaces within which pairs enter the
+        /// self-collision velocity filter: at least the closing distance of
+        /// one control step (0 turns the self filter off), [0, 1].
+        self_filter_distance: 0.05, [0.0, 1.0],
         /// Joint limits: the controller works in limit-aware coordinates
         /// `q = m + h tanh(u / h)` per joint (`m` the middle of the range,
         /// `h` half the range minus this buffer), so its joints stay at least
@@ -187,6 +216,24 @@ config_struct! {
         /// (evading, say) and the stall watch restarts: a local minimum is
         /// a rest away from the target, [1e-4, 10].
         stall_speed: 0.05, [1e-4, 10.0],
+        /// Global guidance (see `crate::guidance`): plan attempts per target
+        /// when a step reports `stalled` (a whole number; 0 disables
+        /// guidance), [0, 100].
+        guidance_plans: 3.0, [0.0, 100.0],
+        /// Seconds (controller clock: the sum of the steps' `dt`) between two
+        /// guidance attempts for one target, [0, 60].
+        guidance_retry: 0.3, [0.0, 60.0],
+        /// Time limit (s) of one guidance plan (IK and path search), [1e-3, 60].
+        guidance_time_limit: 0.5, [1e-3, 60.0],
+        /// 1: plan inside the step that detected the stall (deterministic;
+        /// simulator loops); 0: plan on a background thread while the loop
+        /// keeps running (a real robot's state stream), [0, 1], whole.
+        guidance_blocking: 1.0, [0.0, 1.0],
+        /// Position error (m) under which the guidance status is `reached`, [1e-5, 1].
+        reach_position_tolerance: 0.01, [1e-5, 1.0],
+        /// Rotation error (rad) under which the guidance status is `reached`
+        /// (when the orientation is controlled), [1e-4, 3.2].
+        reach_rotation_tolerance: 0.05, [1e-4, 3.2],
         /// Waypoint (global guidance) attractor in the limit-aware joint
         /// coordinates: acceleration far from the waypoint (rad/s²), [0, 200].
         waypoint_gain: 20.0, [0.0, 200.0],
@@ -257,6 +304,24 @@ config_struct! {
         velocity_scale: 1.0, [0.01, 1.0],
         /// Velocity limit for joints whose URDF states none, [1e-2, 100].
         default_velocity_limit: 2.0, [1e-2, 100.0],
+    }
+}
+
+impl ReactiveConfig {
+    /// Checks the ranges and that the counts and switches are whole numbers.
+    pub fn validate_all(&self) -> Result<()> {
+        self.validate()?;
+        for (name, v) in [
+            ("guidance_plans", self.guidance_plans),
+            ("guidance_blocking", self.guidance_blocking),
+        ] {
+            if v.fract() != 0.0 {
+                return Err(ControlError::InvalidArgument(format!(
+                    "config '{name}': must be a whole number, got {v}"
+                )));
+            }
+        }
+        Ok(())
     }
 }
 

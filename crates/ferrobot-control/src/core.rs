@@ -52,6 +52,15 @@ pub struct StepInfo {
     pub stalled: bool,
     /// Waypoints of the global guidance still to pass (reactive controller).
     pub waypoints_remaining: usize,
+    /// What global guidance is doing (reactive controller; see
+    /// [`crate::guidance`]).
+    pub guidance: crate::guidance::GuidanceStatus,
+    /// Guidance plan attempts made for the current target.
+    pub guidance_plans: usize,
+    /// Sphere pairs (self and world) in the velocity filter this step
+    /// (reactive controller; see `ReactiveConfig::self_hold` and
+    /// `ReactiveConfig::collision_hold`).
+    pub filtered: usize,
 }
 
 /// The result of one controller step, in `dof_names` order.
@@ -88,6 +97,8 @@ pub struct Core {
     pub(crate) spheres: Vec<CtlSphere>,
     /// Sphere index pairs checked for self-collision.
     pub(crate) self_pairs: Vec<(u32, u32)>,
+    /// Link pairs checked for self-collision (robot links only).
+    self_link_pairs: Vec<(usize, usize)>,
     root_in_base: Isometry3<f64>,
     pub(crate) ee_link: usize,
     lower: Vec<f64>,
@@ -156,6 +167,16 @@ impl Core {
             body_range.push(start..spheres.len());
         }
         let mut self_pairs = Vec::new();
+        let mut self_link_pairs: Vec<(usize, usize)> = robot
+            .pairs
+            .iter()
+            .filter(|&&(a, b)| {
+                robot.bodies[a].attached.is_none() && robot.bodies[b].attached.is_none()
+            })
+            .map(|&(a, b)| (robot.bodies[a].link, robot.bodies[b].link))
+            .collect();
+        self_link_pairs.sort_unstable();
+        self_link_pairs.dedup();
         for &(a, b) in &robot.pairs {
             for i in body_range[a].clone() {
                 for j in body_range[b].clone() {
@@ -178,6 +199,7 @@ impl Core {
             link_joints,
             spheres,
             self_pairs,
+            self_link_pairs,
             root_in_base,
             ee_link,
             world: ControlWorld::new(checker.world().clone()),
@@ -226,6 +248,13 @@ impl Core {
     /// Radii of the robot spheres (m), in the controller's sphere order.
     pub fn sphere_radii(&self) -> Vec<f64> {
         self.spheres.iter().map(|s| s.radius).collect()
+    }
+
+    /// Link pairs (link indices) checked for self-collision: those the
+    /// checker's allowed-collision matrix leaves enabled, between links
+    /// that have spheres.
+    pub fn self_link_pairs(&self) -> &[(usize, usize)] {
+        &self.self_link_pairs
     }
 
     /// Number of sphere pairs checked for self-collision.
@@ -408,7 +437,8 @@ impl Core {
     /// Turns the controlled DOFs' acceleration `qdd` into targets: scales
     /// the acceleration uniformly to `max_acc`, integrates the velocity,
     /// scales it uniformly to the velocity limits (`vel_scale` times the
-    /// URDF's, `default_vel` where it states none), cuts any joint velocity
+    /// URDF's, `default_vel` where it states none), applies the velocity
+    /// filter (rows and gaps, see `ReactiveConfig::self_hold`), cuts any joint velocity
     /// that could not stop before its position limit at `max_acc`, then
     /// integrates the position (semi-implicit Euler). Other DOFs are held
     /// at the posture.
@@ -422,6 +452,7 @@ impl Core {
         max_acc: f64,
         vel_scale: f64,
         default_vel: f64,
+        filter: Option<(&[f64], &[f64])>,
         info: &mut StepInfo,
     ) -> StepOutput {
         let posture = self.posture.as_deref().unwrap_or(q);
@@ -442,6 +473,44 @@ impl Core {
             }
         }
         v.iter_mut().for_each(|x| *x *= sv);
+        // Velocity filter: rows `a` (k values each) with lower bounds `b`:
+        // keep `a·v >= b`, changing v least in the Euclidean norm, by
+        // cyclic projections onto the half-spaces. The self-collision
+        // bounds are never positive, so scaling v down afterwards keeps
+        // them; a world bound is positive only while an obstacle closes in
+        // on a sphere already within `collision_hold`.
+        if let Some((rows, bounds)) = filter {
+            let k = v.len();
+            for _ in 0..50 {
+                let mut worst = 0.0f64;
+                for (a, &bound) in rows.chunks_exact(k).zip(bounds) {
+                    let av: f64 = a.iter().zip(v.iter()).map(|(x, y)| x * y).sum();
+                    let miss = bound - av;
+                    if miss > 0.0 {
+                        let aa: f64 = a.iter().map(|x| x * x).sum();
+                        if aa > 1e-18 {
+                            v.iter_mut().zip(a).for_each(|(x, y)| *x += miss / aa * y);
+                            worst = worst.max(miss);
+                        }
+                    }
+                }
+                if worst <= 1e-9 {
+                    break;
+                }
+            }
+            info.filtered = rows.len() / k.max(1);
+            // The projection may have raised a joint's speed: scale to the
+            // limits again (this keeps the constraints, see above).
+            let mut s2 = 1.0f64;
+            for (i, vi) in v.iter().enumerate() {
+                let lim = self.velocity_limit(i, vel_scale, default_vel);
+                if vi.abs() * s2 > lim {
+                    s2 = lim / vi.abs();
+                }
+            }
+            v.iter_mut().for_each(|x| *x *= s2);
+            sv *= s2;
+        }
         let mut braked = false;
         for (i, vi) in v.iter_mut().enumerate() {
             let qi = q[self.active[i]];

@@ -125,4 +125,67 @@ impl LinkClearance {
         }
         Ok(best)
     }
+
+    /// Distance (m) between the geometry of links `a` and `b` at the link
+    /// poses `poses` (base frame, one per link); `None` when either link
+    /// has no geometry or parry cannot measure the pair.
+    pub fn link_pair_distance(&self, poses: &[Isometry3<f64>], a: usize, b: usize) -> Option<f64> {
+        let mut best: Option<f64> = None;
+        for (sa, la) in self.links.get(a)? {
+            let pa = to_pose(&(poses[a] * la));
+            for (sb, lb) in self.links.get(b)? {
+                let pb = to_pose(&(poses[b] * lb));
+                let d = parry3d::query::distance(&pa, sa.as_ref(), &pb, sb.as_ref()).ok()?;
+                let d = d.distance as f64;
+                best = Some(best.map_or(d, |x: f64| x.min(d)));
+            }
+        }
+        best
+    }
+
+    /// Smallest distance at `q` between the geometry of the link pairs
+    /// `pairs` (link indices; typically [`crate::Core::self_link_pairs`],
+    /// the pairs the allowed-collision matrix checks): an exact judge of
+    /// self-contact, independent of the sphere model. `closest` names the
+    /// two links.
+    pub fn self_clearance(&self, q: &[f64], pairs: &[(usize, usize)]) -> Result<Clearance> {
+        let poses = self.model.fk_all(q)?;
+        let n = self.links.len();
+        let mut best = Clearance {
+            distance: f64::INFINITY,
+            closest: None,
+        };
+        for &(a, b) in pairs {
+            if a >= n || b >= n {
+                return Err(ControlError::InvalidArgument(format!(
+                    "link pair ({a}, {b}): the robot has {n} links"
+                )));
+            }
+            for (sa, la) in &self.links[a] {
+                let pa = to_pose(&(poses[a] * la));
+                for (sb, lb) in &self.links[b] {
+                    let pb = to_pose(&(poses[b] * lb));
+                    let d = parry3d::query::distance(&pa, sa.as_ref(), &pb, sb.as_ref())
+                        .map_err(|_| {
+                            ControlError::InvalidArgument(format!(
+                                "parry cannot measure link '{}' against link '{}'",
+                                self.model.links()[a].name,
+                                self.model.links()[b].name
+                            ))
+                        })?
+                        .distance as f64;
+                    if d < best.distance {
+                        best = Clearance {
+                            distance: d,
+                            closest: Some((
+                                self.model.links()[a].name.clone(),
+                                self.model.links()[b].name.clone(),
+                            )),
+                        };
+                    }
+                }
+            }
+        }
+        Ok(best)
+    }
 }

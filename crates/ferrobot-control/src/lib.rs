@@ -15,6 +15,13 @@
 //!
 //! Both take `step(q, qd, dt) -> (q_target, qd_target, qdd)`, so they run in
 //! a closed loop with the simulator or a real robot's state stream.
+//!
+//! The reactive controller also carries its own global guidance
+//! ([`guidance`]): it detects when it has stalled in a local minimum, asks
+//! ferrobot's planner for a path to a collision-free IK solution of the
+//! target and follows it, reporting a [`GuidanceStatus`] every step; and a
+//! self-collision velocity filter (`ReactiveConfig::self_hold`) that keeps
+//! checked sphere pairs apart whatever the policies ask.
 
 pub mod config;
 pub mod core;
@@ -22,6 +29,7 @@ pub mod error;
 pub mod exact;
 pub mod faults;
 pub mod field;
+pub mod guidance;
 pub mod potential;
 pub mod reactive;
 pub mod world;
@@ -32,6 +40,7 @@ pub use error::{ControlError, Result};
 pub use exact::LinkClearance;
 pub use faults::{Arbiter, Conflict, DepthNoise, DepthNoiseParams, EncoderNoise};
 pub use field::VoxelField;
+pub use guidance::{GuidanceStatus, PlanAttempt};
 pub use potential::PotentialFieldController;
 pub use reactive::ReactiveController;
 pub use world::ControlWorld;

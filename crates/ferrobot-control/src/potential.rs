@@ -217,6 +217,7 @@ impl PotentialFieldController {
             cfg.max_acceleration,
             cfg.velocity_scale,
             cfg.default_velocity_limit,
+            None,
             &mut info,
         ))
     }

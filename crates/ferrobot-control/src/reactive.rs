@@ -48,6 +48,8 @@ use nalgebra::{Isometry3, Vector3};
 use crate::config::ReactiveConfig;
 use crate::core::{Core, StepInfo, StepOutput};
 use crate::error::{ControlError, Result};
+use crate::exact::LinkClearance;
+use crate::guidance::{Action, Guidance, PlanAttempt, Update};
 use crate::world::ControlWorld;
 
 /// Acceleration and metric of a 1-D barrier on a distance `d` approached at
@@ -188,6 +190,14 @@ pub struct ReactiveController {
     jp: Vec<f64>,
     jq: Vec<f64>,
     row: Vec<f64>,
+    /// Velocity filter: rows (k each) and lower bounds of `row · v`.
+    filter_rows: Vec<f64>,
+    filter_bounds: Vec<f64>,
+    /// Exact link geometry (meshes as convex hulls) for the filter's
+    /// second stage; None when a link's hull cannot be made.
+    exact: Option<Arc<LinkClearance>>,
+    /// Exact link-pair distances computed this step.
+    exact_cache: Vec<((usize, usize), f64)>,
     warp: Vec<Warp>,
     /// Global guidance: joint-space waypoints (full DOF vectors) still to pass.
     waypoints: std::collections::VecDeque<Vec<f64>>,
@@ -196,6 +206,10 @@ pub struct ReactiveController {
     stall_best: f64,
     stall_since: f64,
     watched: Option<Isometry3<f64>>,
+    /// Time (s) a guided arm has been at rest.
+    guided_rest: f64,
+    /// The planner side of global guidance.
+    guidance: Guidance,
 }
 
 /// One joint's limit-aware coordinate: `dq/du`, the curvature term, `u`,
@@ -233,9 +247,10 @@ impl ReactiveController {
         ee_link: Option<&str>,
         config: ReactiveConfig,
     ) -> Result<Self> {
-        config.validate()?;
+        config.validate_all()?;
         let core = Core::new(checker, ee_link)?;
         let k = core.active.len();
+        let guidance = Guidance::new(checker, core.ee_link);
         Ok(Self {
             core,
             config,
@@ -243,11 +258,19 @@ impl ReactiveController {
             jp: vec![0.0; 3 * k],
             jq: vec![0.0; 3 * k],
             row: vec![0.0; k],
+            filter_rows: Vec::new(),
+            filter_bounds: Vec::new(),
+            exact: LinkClearance::new(checker.model().clone())
+                .ok()
+                .map(Arc::new),
+            exact_cache: Vec::new(),
             warp: vec![Warp::default(); k],
             waypoints: Default::default(),
             stall_best: f64::INFINITY,
             stall_since: 0.0,
             watched: None,
+            guided_rest: 0.0,
+            guidance,
         })
     }
 
@@ -258,7 +281,7 @@ impl ReactiveController {
 
     /// Replaces the gains (validated first).
     pub fn set_config(&mut self, config: ReactiveConfig) -> Result<()> {
-        config.validate()?;
+        config.validate_all()?;
         self.config = config;
         Ok(())
     }
@@ -319,6 +342,17 @@ impl ReactiveController {
     /// Waypoints still to pass.
     pub fn waypoints_remaining(&self) -> usize {
         self.waypoints.len()
+    }
+
+    /// The outcome of the last global-guidance plan attempt, if any.
+    pub fn guidance_last_plan(&self) -> Option<&PlanAttempt> {
+        self.guidance.last.as_ref()
+    }
+
+    /// Why global guidance is unavailable for this robot (no planner could
+    /// be built for its group and end effector), if it is.
+    pub fn guidance_error(&self) -> Option<&str> {
+        self.guidance.error.as_deref()
     }
 
     /// One control step from the measured state `(q, qd)` (full DOF
@@ -384,6 +418,19 @@ impl ReactiveController {
             }
             let e = dp + if dr.is_finite() { 0.1 * dr } else { 0.0 };
             let moving = qda.iter().any(|v| v.abs() > cfg.stall_speed);
+            // A guided arm at rest for `stall_time` cannot follow its path
+            // (the avoidance policies hold it off): the waypoints are
+            // dropped and the end-effector target takes over again, so the
+            // stall watch can ask for another plan.
+            if guided && !moving {
+                self.guided_rest += dt;
+                if self.guided_rest >= cfg.stall_time {
+                    self.waypoints.clear();
+                    self.guided_rest = 0.0;
+                }
+            } else {
+                self.guided_rest = 0.0;
+            }
             if guided || moving {
                 self.stall_since = 0.0;
             } else if e < self.stall_best - cfg.stall_progress {
@@ -409,6 +456,8 @@ impl ReactiveController {
             speed: cfg.collision_speed,
             rest: 1.0,
         };
+        self.filter_rows.clear();
+        self.filter_bounds.clear();
         for si in 0..core.spheres.len() {
             let s = core.spheres[si];
             let c = core.centers[si];
@@ -432,6 +481,13 @@ impl ReactiveController {
                 }
                 let vo = core.world.point_velocity(part.object, &c);
                 let dd = dot(&self.row) - n.dot(&vo);
+                if d < cfg.collision_filter_distance {
+                    // Velocity filter: d stays >= min(d, collision_hold)
+                    // at the next step, the obstacle's motion included.
+                    self.filter_rows.extend_from_slice(&self.row);
+                    self.filter_bounds
+                        .push(n.dot(&vo) - (d - cfg.collision_hold).max(0.0) / dt);
+                }
                 let (acc, m) = world_barrier.eval(d, dd);
                 sys.add_row(&self.row, m, acc);
                 info.active_avoidance += 1;
@@ -445,18 +501,19 @@ impl ReactiveController {
             rest: cfg.self_rest_weight,
             ..world_barrier
         };
+        self.exact_cache.clear();
+        let look = cfg.self_distance.max(cfg.self_filter_distance);
         for &(i, j) in &core.self_pairs {
             let (i, j) = (i as usize, j as usize);
             let (a, b) = (&core.spheres[i], &core.spheres[j]);
             let delta = core.centers[i] - core.centers[j];
-            let reach = cfg.self_distance + a.radius + b.radius;
+            let reach = look + a.radius + b.radius;
             let len2 = delta.norm_squared();
             if len2 >= reach * reach {
                 continue;
             }
             let len = len2.sqrt();
             let d = len - a.radius - b.radius;
-            info.self_clearance = info.self_clearance.min(d);
             let n = if len > 1e-12 {
                 delta / len
             } else {
@@ -469,6 +526,36 @@ impl ReactiveController {
                     .map(|x| n[x] * (self.jp[x * k + col] - self.jq[x * k + col]))
                     .sum();
             }
+            // The velocity filter keeps d >= self_hold at the next step.
+            // Spheres protrude beyond the links: a pair whose spheres are
+            // already closer than that enters the filter only if the links'
+            // exact geometry is within self_hold too (the checker's own
+            // two-stage verdict), so targets with overlapping spheres but
+            // separate links stay reachable.
+            let gap = d - cfg.self_hold;
+            let exact_apart = gap <= 0.0
+                && self.exact.as_ref().is_some_and(|lc| {
+                    let key = (a.link, b.link);
+                    let dist = match self.exact_cache.iter().find(|c| c.0 == key) {
+                        Some(c) => c.1,
+                        None => {
+                            let v = lc
+                                .link_pair_distance(&core.poses, a.link, b.link)
+                                .unwrap_or(0.0);
+                            self.exact_cache.push((key, v));
+                            v
+                        }
+                    };
+                    dist > cfg.self_hold
+                });
+            if d < cfg.self_filter_distance && !exact_apart {
+                self.filter_rows.extend_from_slice(&self.row);
+                self.filter_bounds.push(-gap.max(0.0) / dt);
+            }
+            if d >= cfg.self_distance {
+                continue;
+            }
+            info.self_clearance = info.self_clearance.min(d);
             let dd = dot(&self.row);
             let (acc, m) = self_barrier.eval(d, dd);
             sys.add_row(&self.row, m, acc);
@@ -582,12 +669,37 @@ impl ReactiveController {
                         - cfg.waypoint_damping * w.ud);
             }
         }
-        info.waypoints_remaining = self.waypoints.len();
         let mut qdd = sys.solve(cfg.regularization)?;
         for (a, w) in qdd.iter_mut().zip(warp.iter()) {
             *a = w.s * *a + w.kappa;
         }
-        Ok(core.integrate(
+        // Global guidance: stall -> plan -> waypoints (see crate::guidance).
+        let reached = info.position_error < cfg.reach_position_tolerance
+            && (info.rotation_error.is_nan() || info.rotation_error < cfg.reach_rotation_tolerance);
+        let (status, action) = self.guidance.update(Update {
+            q,
+            active: &core.active,
+            dt,
+            target: core.target.map(|t| (t.pose, t.orientation)),
+            ee_pose: core.poses[core.ee_link],
+            world: core.world.world(),
+            stalled: info.stalled,
+            guided: !self.waypoints.is_empty(),
+            reached,
+            max_plans: cfg.guidance_plans as usize,
+            retry: cfg.guidance_retry,
+            time_limit: cfg.guidance_time_limit,
+            blocking: cfg.guidance_blocking != 0.0,
+        });
+        if let Action::Follow(path) = action {
+            // The path starts at (about) the current state; the waypoint
+            // attractor takes over from the next step.
+            self.set_waypoints(&path)?;
+        }
+        info.guidance = status;
+        info.guidance_plans = self.guidance.plans;
+        info.waypoints_remaining = self.waypoints.len();
+        Ok(self.core.integrate(
             q,
             qd,
             &mut qdd,
@@ -595,6 +707,7 @@ impl ReactiveController {
             cfg.max_acceleration,
             cfg.velocity_scale,
             cfg.default_velocity_limit,
+            Some((&self.filter_rows, &self.filter_bounds)),
             &mut info,
         ))
     }

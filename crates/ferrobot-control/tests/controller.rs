@@ -9,7 +9,7 @@ use ferrobot_collision::spherize::{SpherizeOptions, spherize_robot};
 use ferrobot_collision::{CollisionChecker, CollisionWorld, RobotSpheres, Shape};
 use ferrobot_control::ControllerCore;
 use ferrobot_control::{
-    LinkClearance, PotentialFieldConfig, PotentialFieldController, ReactiveConfig,
+    GuidanceStatus, LinkClearance, PotentialFieldConfig, PotentialFieldController, ReactiveConfig,
     ReactiveController,
 };
 use ferrobot_model::RobotModel;
@@ -442,4 +442,115 @@ fn waypoints_are_followed_then_the_target_and_stalls_are_reported() {
         stalled,
         "no stall reported at rest away from an unreachable target"
     );
+}
+
+/// Global guidance in the library: a plate between the hand and a target
+/// under it is a local minimum. Without guidance the arm stays away from
+/// the target; with it the controller detects the stall and plans on its
+/// own (blocking, and on a background thread), hands the path over as
+/// waypoints, reports its status every step and never touches the plate
+/// (exact link geometry, parry).
+#[test]
+fn guidance_plans_out_of_a_local_minimum() {
+    let (model, ..) = panda();
+    let clear = LinkClearance::new(model.clone()).unwrap();
+    let mut world = CollisionWorld::new();
+    world
+        .add_shape(
+            "plate",
+            Shape::Box {
+                half_extents: Vector3::new(0.08, 0.12, 0.01),
+            },
+            at(0.45, 0.0, 0.42),
+        )
+        .unwrap();
+    let ck = checker(world.clone());
+    let q0 = ready(&model);
+    let target = Isometry3::from_parts(
+        Translation3::new(0.45, 0.0, 0.15),
+        model.fk(&q0, None).unwrap().rotation,
+    );
+    let run_with = |plans: f64, blocking: f64| {
+        let cfg = ReactiveConfig {
+            guidance_plans: plans,
+            guidance_blocking: blocking,
+            ..Default::default()
+        };
+        let mut ctl = ReactiveController::new(&ck, None, cfg).unwrap();
+        assert!(ctl.guidance_error().is_none());
+        let out = ctl.step(&q0, &vec![0.0; q0.len()], 0.01).unwrap();
+        assert_eq!(
+            out.info.guidance,
+            if plans > 0.0 {
+                GuidanceStatus::Idle
+            } else {
+                GuidanceStatus::Off
+            }
+        );
+        ctl.core_mut().set_target(target, true).unwrap();
+        let (mut q, mut qd) = (q0.clone(), vec![0.0; q0.len()]);
+        let mut seen = Vec::new();
+        let mut lowest = f64::INFINITY;
+        for _ in 0..1200 {
+            let out = ctl.step(&q, &qd, 0.01).unwrap();
+            if seen.last() != Some(&out.info.guidance) {
+                seen.push(out.info.guidance);
+            }
+            q = out.q_target;
+            qd = out.qd_target;
+            lowest = lowest.min(clear.clearance(&q, &world).unwrap().distance);
+            if !blocking_is_async(blocking) {
+                continue;
+            }
+            // Background planning takes wall time, not controller time:
+            // give the thread a moment while the loop keeps running.
+            std::thread::sleep(std::time::Duration::from_millis(1));
+        }
+        let ee = model.fk(&q, None).unwrap();
+        let dp = (ee.translation.vector - target.translation.vector).norm();
+        (dp, seen, lowest, ctl.guidance_last_plan().cloned())
+    };
+    fn blocking_is_async(b: f64) -> bool {
+        b == 0.0
+    }
+    let (dp, seen, lowest, last) = run_with(0.0, 1.0);
+    assert!(dp > 0.05, "the plate is not a local minimum here ({dp} m)");
+    assert!(seen.iter().all(|s| *s == GuidanceStatus::Off), "{seen:?}");
+    assert!(last.is_none());
+    assert!(lowest > 0.0, "touched the plate: {lowest}");
+    for blocking in [1.0, 0.0] {
+        let (dp, seen, lowest, last) = run_with(3.0, blocking);
+        let last = last.expect("a plan was attempted");
+        assert_eq!(last.status, "solved", "{last:?}");
+        assert!(last.waypoints >= 2, "{last:?}");
+        assert!(lowest > 0.0, "touched the plate: {lowest}");
+        assert_eq!(seen.first(), Some(&GuidanceStatus::Tracking), "{seen:?}");
+        assert!(seen.contains(&GuidanceStatus::Guided), "{seen:?}");
+        if blocking == 0.0 {
+            assert!(seen.contains(&GuidanceStatus::Planning), "{seen:?}");
+        }
+        // Known limit (see BENCHMARKS.md): the planner's path hugs the plate
+        // (no clearance margin) and the avoidance policies hold the arm off
+        // it, so the arm rests short of a waypoint; the controller then
+        // drops the path, stalls again and re-plans until the budget is
+        // spent. It never hangs in `guided`, and never touches the plate.
+        assert!(
+            matches!(
+                seen.last(),
+                Some(GuidanceStatus::Reached | GuidanceStatus::Exhausted)
+            ),
+            "ends {dp} m from the target in {seen:?}"
+        );
+    }
+}
+
+#[test]
+fn guidance_config_counts_are_whole_numbers() {
+    let ck = checker(CollisionWorld::new());
+    for (name, v) in [("guidance_plans", 2.5), ("guidance_blocking", 0.5)] {
+        let mut cfg = ReactiveConfig::default();
+        cfg.set(name, v).unwrap();
+        let err = ReactiveController::new(&ck, None, cfg).unwrap_err();
+        assert!(err.to_string().contains(name), "{err}");
+    }
 }

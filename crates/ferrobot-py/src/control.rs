@@ -42,6 +42,8 @@ fn info_dict<'py>(py: Python<'py>, info: &StepInfo) -> PyResult<Bound<'py, PyDic
     d.set_item("limit_braked", info.limit_braked)?;
     d.set_item("stalled", info.stalled)?;
     d.set_item("waypoints_remaining", info.waypoints_remaining)?;
+    d.set_item("guidance", info.guidance.name())?;
+    d.set_item("guidance_plans", info.guidance_plans)?;
     Ok(d)
 }
 
@@ -416,6 +418,44 @@ macro_rules! controller_class {
                 })
             }
 
+            /// Exact self-clearance (m) at `q`: the smallest distance
+            /// between the collision geometry (meshes as convex hulls, with
+            /// parry) of the link pairs the controller checks for
+            /// self-collision (`self_link_pairs`): a dict with `distance`
+            /// (0 when touching) and `closest` (link, link) or None.
+            fn exact_self_clearance<'py>(
+                &self,
+                py: Python<'py>,
+                q: &Bound<'py, PyAny>,
+            ) -> PyResult<Bound<'py, PyDict>> {
+                guard(|| {
+                    let q = self.q(q, "q")?;
+                    if self.clearance.get().is_none() {
+                        let c = LinkClearance::new(self.inner.model().clone()).map_err(control_err)?;
+                        let _ = self.clearance.set(c);
+                    }
+                    let lc = self.clearance.get().expect("set above");
+                    let pairs = self.inner.core().self_link_pairs();
+                    let c = py.detach(|| lc.self_clearance(&q, pairs)).map_err(control_err)?;
+                    let out = PyDict::new(py);
+                    out.set_item("distance", c.distance)?;
+                    out.set_item("closest", c.closest)?;
+                    Ok(out)
+                })
+            }
+
+            /// Link pairs checked for self-collision, as (link, link) names.
+            #[getter]
+            fn self_link_pairs(&self) -> Vec<(String, String)> {
+                let links = self.inner.model().links();
+                self.inner
+                    .core()
+                    .self_link_pairs()
+                    .iter()
+                    .map(|&(a, b)| (links[a].name.clone(), links[b].name.clone()))
+                    .collect()
+            }
+
             fn __repr__(&self) -> String {
                 format!(
                     "{}({} spheres, {} self pairs, {} obstacles)",
@@ -466,6 +506,30 @@ controller_class!(
         #[getter]
         fn waypoints_remaining(&self) -> usize {
             self.inner.waypoints_remaining()
+        }
+
+        /// The last global-guidance plan attempt as {"status", "message",
+        /// "waypoints", "seconds"}, or None before the first one.
+        #[getter]
+        fn guidance_last_plan<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+            guard(|| {
+                let Some(a) = self.inner.guidance_last_plan() else {
+                    return Ok(None);
+                };
+                let d = PyDict::new(py);
+                d.set_item("status", &a.status)?;
+                d.set_item("message", &a.message)?;
+                d.set_item("waypoints", a.waypoints)?;
+                d.set_item("seconds", a.seconds)?;
+                Ok(Some(d))
+            })
+        }
+
+        /// Why global guidance is unavailable for this robot (no planner
+        /// for its group and end effector), or None when it is available.
+        #[getter]
+        fn guidance_error(&self) -> Option<String> {
+            self.inner.guidance_error().map(str::to_string)
         }
     }
 );
