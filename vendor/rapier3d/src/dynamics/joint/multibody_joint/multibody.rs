@@ -117,6 +117,10 @@ pub struct Multibody {
     inv_mass_valid: bool,
     // Workspace for the matrix-vector products with `inv_mass_columns`.
     inv_mass_tmp: DVector,
+    // Workspaces of the Cholesky factor `L` of `M` and of `L⁻¹`, kept across
+    // steps (see `inv_mass_from_cholesky`).
+    chol_l: DMatrix<Real>,
+    chol_l_inv: DMatrix<Real>,
 
     ndofs: usize,
     pub(crate) root_is_dynamic: bool,
@@ -167,6 +171,8 @@ impl Multibody {
             inv_mass_columns: DMatrix::zeros(0, 0),
             inv_mass_valid: false,
             inv_mass_tmp: DVector::zeros(0),
+            chol_l: DMatrix::zeros(0, 0),
+            chol_l_inv: DMatrix::zeros(0, 0),
             augmented_mass_indices: IndexSequence::new(),
             ndofs: 0,
             solver_id: 0,
@@ -438,14 +444,24 @@ impl Multibody {
         }
     }
 
-    /// Computes `M⁻¹` (see `inv_mass_columns`) after a factorisation: one
-    /// solve with the identity as right-hand side, through the kinematic-DoF
+    /// Computes `M⁻¹` (see `inv_mass_columns`) after a factorisation: from a
+    /// Cholesky factorisation in kept buffers when no DoF is kinematic and
+    /// `M` is numerically positive definite, otherwise by one LU solve with
+    /// the identity as right-hand side, through the kinematic-DoF
     /// rearrangement.
     fn update_inv_mass_columns(&mut self) {
         let n = self.ndofs;
         if self.inv_mass_columns.nrows() != n {
             self.inv_mass_columns = DMatrix::zeros(n, n);
             self.inv_mass_tmp = DVector::zeros(n);
+            self.chol_l = DMatrix::zeros(n, n);
+            self.chol_l_inv = DMatrix::zeros(n, n);
+        }
+        if self.augmented_mass_indices.first_to_remove == IndexSequence::NONE
+            && self.inv_mass_from_cholesky()
+        {
+            self.inv_mass_valid = true;
+            return;
         }
         self.inv_mass_columns.fill_with_identity();
         let lu = &self.inv_augmented_mass;
@@ -454,6 +470,63 @@ impl Multibody {
                 lu.solve_mut(b);
             });
         self.inv_mass_valid = true;
+    }
+
+    /// `M⁻¹ = L⁻ᵀ·L⁻¹` from the Cholesky factorisation `M = L·Lᵀ` of the
+    /// (symmetric) augmented mass matrix, all DoFs being non-kinematic:
+    /// about `n³/2` multiply-adds in buffers kept across steps, against a
+    /// triangular solve per column through nalgebra's generic LU. Returns
+    /// `false` (leaving `inv_mass_columns` to be recomputed) when a pivot is
+    /// not positive, i.e. `M` is singular or not positive definite to
+    /// working precision.
+    fn inv_mass_from_cholesky(&mut self) -> bool {
+        let n = self.ndofs;
+        let m = &self.augmented_mass;
+        let l = &mut self.chol_l;
+        // L (lower triangle), column by column.
+        for j in 0..n {
+            let mut d = m[(j, j)];
+            for k in 0..j {
+                d -= l[(j, k)] * l[(j, k)];
+            }
+            if d <= 0.0 || !d.is_finite() {
+                return false;
+            }
+            let ljj = d.sqrt();
+            l[(j, j)] = ljj;
+            for i in j + 1..n {
+                let mut v = m[(i, j)];
+                for k in 0..j {
+                    v -= l[(i, k)] * l[(j, k)];
+                }
+                l[(i, j)] = v / ljj;
+            }
+        }
+        // X = L⁻¹ (lower triangle), column by column.
+        let x = &mut self.chol_l_inv;
+        for j in 0..n {
+            x[(j, j)] = 1.0 / l[(j, j)];
+            for i in j + 1..n {
+                let mut v = 0.0;
+                for k in j..i {
+                    v -= l[(i, k)] * x[(k, j)];
+                }
+                x[(i, j)] = v / l[(i, i)];
+            }
+        }
+        // M⁻¹ = Xᵀ·X: (M⁻¹)[i, j] = Σ_{k ≥ max(i, j)} X[k, i]·X[k, j].
+        let inv = &mut self.inv_mass_columns;
+        for j in 0..n {
+            for i in j..n {
+                let mut v = 0.0;
+                for k in i..n {
+                    v += x[(k, i)] * x[(k, j)];
+                }
+                inv[(i, j)] = v;
+                inv[(j, i)] = v;
+            }
+        }
+        true
     }
 
     /// The first link of this multibody.
@@ -1828,8 +1901,8 @@ impl Multibody {
         self.body_jacobians[link.internal_id].tr_mul_to(force.as_vector(), &mut out_j);
 
         {
-            let (j, mut out_invm_j) = jacobians
-                .rows_range_pair_mut(*j_id..*j_id + self.ndofs, wj_id..wj_id + self.ndofs);
+            let (j, mut out_invm_j) =
+                jacobians.rows_range_pair_mut(*j_id..*j_id + self.ndofs, wj_id..wj_id + self.ndofs);
             self.mul_inv_augmented_mass(&j, &mut out_invm_j);
         }
 
@@ -1894,8 +1967,8 @@ impl Multibody {
         }
 
         {
-            let (j, mut out_invm_j) = jacobians
-                .rows_range_pair_mut(*j_id..*j_id + self.ndofs, wj_id..wj_id + self.ndofs);
+            let (j, mut out_invm_j) =
+                jacobians.rows_range_pair_mut(*j_id..*j_id + self.ndofs, wj_id..wj_id + self.ndofs);
             self.mul_inv_augmented_mass(&j, &mut out_invm_j);
         }
 
