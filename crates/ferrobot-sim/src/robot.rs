@@ -561,7 +561,13 @@ impl Robot {
     /// joint. Called before every step.
     pub(crate) fn apply_efforts(&self, state: &mut PhysState) {
         for &h in &self.bodies {
-            if let Some(b) = state.bodies.get_mut(h) {
+            // `get_mut` marks the body as modified, which costs the next step
+            // a pass over it (and a new active set): only for bodies that
+            // carry a force to clear.
+            let pending = state.bodies.get(h).is_some_and(|b| {
+                b.user_force() != Default::default() || b.user_torque() != Default::default()
+            });
+            if pending && let Some(b) = state.bodies.get_mut(h) {
                 b.reset_forces(false);
                 b.reset_torques(false);
             }

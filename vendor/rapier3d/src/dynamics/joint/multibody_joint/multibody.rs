@@ -106,12 +106,21 @@ pub struct Multibody {
     // at the start of the next step).
     pub(crate) fk_reusable: bool,
 
-    // `M⁻¹·eᵢ` (full length, kinematic entries 0) for every DoF `i` with a
-    // motor, limit, dry-friction or coupling row, computed with each
-    // factorisation: these rows are rebuilt at every substep while `M` is
-    // kept for the whole step, so their solves are done once per step.
+    // `M⁻¹` over all the generalized coordinates (rows and columns of
+    // kinematic DoFs 0), computed with each factorisation (once per step,
+    // `M` being kept for the whole step): the motor, limit, dry-friction and
+    // coupling rows copy its columns, and every other solve of the step
+    // (contact and joint jacobians, free accelerations at rest) is a
+    // matrix-vector product with it. Valid while `inv_mass_valid` holds
+    // and its size is `ndofs`.
     inv_mass_columns: DMatrix<Real>,
-    inv_mass_column_valid: Vec<bool>,
+    inv_mass_valid: bool,
+    // Workspace for the matrix-vector products with `inv_mass_columns`.
+    inv_mass_tmp: DVector,
+    // Workspaces of the Cholesky factor `L` of `M` and of `L⁻¹`, kept across
+    // steps (see `inv_mass_from_cholesky`).
+    chol_l: DMatrix<Real>,
+    chol_l_inv: DMatrix<Real>,
 
     ndofs: usize,
     pub(crate) root_is_dynamic: bool,
@@ -160,7 +169,10 @@ impl Multibody {
             acc_mass_is_mass: false,
             fk_reusable: false,
             inv_mass_columns: DMatrix::zeros(0, 0),
-            inv_mass_column_valid: Vec::new(),
+            inv_mass_valid: false,
+            inv_mass_tmp: DVector::zeros(0),
+            chol_l: DMatrix::zeros(0, 0),
+            chol_l_inv: DMatrix::zeros(0, 0),
             augmented_mass_indices: IndexSequence::new(),
             ndofs: 0,
             solver_id: 0,
@@ -391,16 +403,14 @@ impl Multibody {
 
     /// Writes `M⁻¹·eᵢ` (the `dof`-th column of the inverse augmented mass
     /// matrix, over all the generalized coordinates) into `out`: copied from
-    /// the columns computed with the last factorisation for the DoFs that
-    /// carry a motor, limit, dry-friction or coupling row, solved otherwise.
+    /// the inverse computed with the last factorisation, solved when there
+    /// is none (e.g. before the first step).
     pub fn inv_augmented_mass_column<S: StorageMut<Real, Dyn>>(
         &self,
         dof: usize,
         out: &mut na::Matrix<Real, Dyn, na::U1, S>,
     ) {
-        if self.inv_mass_columns.nrows() == out.nrows()
-            && self.inv_mass_column_valid.get(dof).copied().unwrap_or(false)
-        {
+        if self.has_inv_mass() && out.nrows() == self.ndofs {
             out.copy_from(&self.inv_mass_columns.column(dof));
         } else {
             out.fill(0.0);
@@ -409,59 +419,114 @@ impl Multibody {
         }
     }
 
-    /// Computes the cached `M⁻¹·eᵢ` columns (see
-    /// [`Self::inv_augmented_mass_column`]) after a factorisation.
+    /// Whether `inv_mass_columns` holds `M⁻¹` for the current factorisation.
+    #[inline]
+    fn has_inv_mass(&self) -> bool {
+        self.inv_mass_valid && self.inv_mass_columns.nrows() == self.ndofs
+    }
+
+    /// `out = M⁻¹·b` for full-length vectors (`b` and `out` distinct): a
+    /// matrix-vector product with the inverse computed with the last
+    /// factorisation, or a solve when there is none.
+    fn mul_inv_augmented_mass<S1, S2>(
+        &self,
+        b: &na::Matrix<Real, Dyn, na::U1, S1>,
+        out: &mut na::Matrix<Real, Dyn, na::U1, S2>,
+    ) where
+        S1: na::Storage<Real, Dyn>,
+        S2: StorageMut<Real, Dyn>,
+    {
+        if self.has_inv_mass() {
+            out.gemv(1.0, &self.inv_mass_columns, b, 0.0);
+        } else {
+            out.copy_from(b);
+            self.solve_augmented_mass_mut(out);
+        }
+    }
+
+    /// Computes `M⁻¹` (see `inv_mass_columns`) after a factorisation: from a
+    /// Cholesky factorisation in kept buffers when no DoF is kinematic and
+    /// `M` is numerically positive definite, otherwise by one LU solve with
+    /// the identity as right-hand side, through the kinematic-DoF
+    /// rearrangement.
     fn update_inv_mass_columns(&mut self) {
         let n = self.ndofs;
         if self.inv_mass_columns.nrows() != n {
             self.inv_mass_columns = DMatrix::zeros(n, n);
+            self.inv_mass_tmp = DVector::zeros(n);
+            self.chol_l = DMatrix::zeros(n, n);
+            self.chol_l_inv = DMatrix::zeros(n, n);
         }
-        self.inv_mass_column_valid.clear();
-        self.inv_mass_column_valid.resize(n, false);
-        for link in self.links.iter() {
-            let data = &link.joint.data;
-            let (locked, limits, motors) = (
-                data.locked_axes.bits(),
-                data.limit_axes.bits(),
-                data.motor_axes.bits(),
-            );
-            let mut dof = link.assembly_id;
-            for a in 0..SPATIAL_DIM {
-                if (locked >> a) & 1 == 0 {
-                    // A limit row needs `M⁻¹·eᵢ` only once its limit is
-                    // crossed (see `unit_joint_limit_constraint`); one crossed
-                    // later in the step is solved when it happens.
-                    let q = link.joint.coords[a];
-                    let limit_active = (limits >> a) & 1 != 0
-                        && (q < data.limits[a].min || q > data.limits[a].max);
-                    if limit_active || (motors >> a) & 1 != 0 || self.frictions[dof] > 0.0 {
-                        self.inv_mass_column_valid[dof] = true;
-                    }
-                    dof += 1;
+        if self.augmented_mass_indices.first_to_remove == IndexSequence::NONE
+            && self.inv_mass_from_cholesky()
+        {
+            self.inv_mass_valid = true;
+            return;
+        }
+        self.inv_mass_columns.fill_with_identity();
+        let lu = &self.inv_augmented_mass;
+        self.augmented_mass_indices
+            .with_rearranged_rows_mut(&mut self.inv_mass_columns, |b| {
+                lu.solve_mut(b);
+            });
+        self.inv_mass_valid = true;
+    }
+
+    /// `M⁻¹ = L⁻ᵀ·L⁻¹` from the Cholesky factorisation `M = L·Lᵀ` of the
+    /// (symmetric) augmented mass matrix, all DoFs being non-kinematic:
+    /// about `n³/2` multiply-adds in buffers kept across steps, against a
+    /// triangular solve per column through nalgebra's generic LU. Returns
+    /// `false` (leaving `inv_mass_columns` to be recomputed) when a pivot is
+    /// not positive, i.e. `M` is singular or not positive definite to
+    /// working precision.
+    fn inv_mass_from_cholesky(&mut self) -> bool {
+        let n = self.ndofs;
+        let m = &self.augmented_mass;
+        let l = &mut self.chol_l;
+        // L (lower triangle), column by column.
+        for j in 0..n {
+            let mut d = m[(j, j)];
+            for k in 0..j {
+                d -= l[(j, k)] * l[(j, k)];
+            }
+            if d <= 0.0 || !d.is_finite() {
+                return false;
+            }
+            let ljj = d.sqrt();
+            l[(j, j)] = ljj;
+            for i in j + 1..n {
+                let mut v = m[(i, j)];
+                for k in 0..j {
+                    v -= l[(i, k)] * l[(j, k)];
                 }
+                l[(i, j)] = v / ljj;
             }
         }
-        for c in &self.couplings {
-            for g in [
-                self.links[c.link1].assembly_id + c.dof1,
-                self.links[c.link2].assembly_id + c.dof2,
-            ] {
-                if g < n {
-                    self.inv_mass_column_valid[g] = true;
+        // X = L⁻¹ (lower triangle), column by column.
+        let x = &mut self.chol_l_inv;
+        for j in 0..n {
+            x[(j, j)] = 1.0 / l[(j, j)];
+            for i in j + 1..n {
+                let mut v = 0.0;
+                for k in j..i {
+                    v -= l[(i, k)] * x[(k, j)];
                 }
+                x[(i, j)] = v / l[(i, i)];
             }
         }
-        for i in 0..n {
-            if self.inv_mass_column_valid[i] {
-                let mut col = self.inv_mass_columns.column_mut(i);
-                col.fill(0.0);
-                col[i] = 1.0;
-                self.augmented_mass_indices
-                    .with_rearranged_rows_mut(&mut col, |b| {
-                        self.inv_augmented_mass.solve_mut(b);
-                    });
+        // M⁻¹ = Xᵀ·X: (M⁻¹)[i, j] = Σ_{k ≥ max(i, j)} X[k, i]·X[k, j].
+        let inv = &mut self.inv_mass_columns;
+        for j in 0..n {
+            for i in j..n {
+                let mut v = 0.0;
+                for k in i..n {
+                    v += x[(k, i)] * x[(k, j)];
+                }
+                inv[(i, j)] = v;
+                inv[(j, i)] = v;
             }
         }
+        true
     }
 
     /// The first link of this multibody.
@@ -751,14 +816,22 @@ impl Multibody {
             DVector::zeros(0)
         };
 
-        self.augmented_mass_indices
-            .with_rearranged_rows_mut(&mut self.accelerations, |accs| {
-                if self.acc_mass_is_mass {
-                    self.inv_augmented_mass.solve_mut(accs);
-                } else {
-                    self.acc_inv_augmented_mass.solve_mut(accs);
-                }
-            });
+        if self.acc_mass_is_mass && self.has_inv_mass() {
+            // At rest the free-acceleration matrix is `M` itself: a product
+            // with the inverse computed with its factorisation.
+            self.inv_mass_tmp.copy_from(&self.accelerations);
+            self.accelerations
+                .gemv(1.0, &self.inv_mass_columns, &self.inv_mass_tmp, 0.0);
+        } else {
+            self.augmented_mass_indices
+                .with_rearranged_rows_mut(&mut self.accelerations, |accs| {
+                    if self.acc_mass_is_mass {
+                        self.inv_augmented_mass.solve_mut(accs);
+                    } else {
+                        self.acc_inv_augmented_mass.solve_mut(accs);
+                    }
+                });
+        }
 
         if check_implicit_coriolis_divergence {
             self.free_velocity_energy_guard(dt, &gen_forces, &pos_forces);
@@ -1356,11 +1429,7 @@ impl Multibody {
             jacobians.rows_mut(j_id, ndofs).fill(0.0);
             jacobians[j_id + g2] += 1.0;
             jacobians[j_id + g1] -= c.coeff;
-            let cached = |g: usize| {
-                self.inv_mass_columns.nrows() == ndofs
-                    && self.inv_mass_column_valid.get(g).copied().unwrap_or(false)
-            };
-            if cached(g1) && cached(g2) {
+            if self.has_inv_mass() {
                 let (col1, col2) = (
                     self.inv_mass_columns.column(g1),
                     self.inv_mass_columns.column(g2),
@@ -1831,17 +1900,10 @@ impl Multibody {
         let mut out_j = jacobians.rows_mut(*j_id, self.ndofs);
         self.body_jacobians[link.internal_id].tr_mul_to(force.as_vector(), &mut out_j);
 
-        // TODO: Optimize with a copy_nonoverlapping?
-        for i in 0..self.ndofs {
-            jacobians[wj_id + i] = jacobians[*j_id + i];
-        }
-
         {
-            let mut out_invm_j = jacobians.rows_mut(wj_id, self.ndofs);
-            self.augmented_mass_indices
-                .with_rearranged_rows_mut(&mut out_invm_j, |out_invm_j| {
-                    self.inv_augmented_mass.solve_mut(out_invm_j);
-                });
+            let (j, mut out_invm_j) =
+                jacobians.rows_range_pair_mut(*j_id..*j_id + self.ndofs, wj_id..wj_id + self.ndofs);
+            self.mul_inv_augmented_mass(&j, &mut out_invm_j);
         }
 
         let j = jacobians.rows(*j_id, self.ndofs);
@@ -1904,17 +1966,10 @@ impl Multibody {
             }
         }
 
-        // TODO: Optimize with a copy_nonoverlapping?
-        for i in 0..self.ndofs {
-            jacobians[wj_id + i] = jacobians[*j_id + i];
-        }
-
         {
-            let mut out_invm_j = jacobians.rows_mut(wj_id, self.ndofs);
-            self.augmented_mass_indices
-                .with_rearranged_rows_mut(&mut out_invm_j, |out_invm_j| {
-                    self.inv_augmented_mass.solve_mut(out_invm_j);
-                });
+            let (j, mut out_invm_j) =
+                jacobians.rows_range_pair_mut(*j_id..*j_id + self.ndofs, wj_id..wj_id + self.ndofs);
+            self.mul_inv_augmented_mass(&j, &mut out_invm_j);
         }
 
         *j_id += self.ndofs * 2;

@@ -277,6 +277,13 @@ impl GenericJointConstraint {
         solver_vels: &mut SolverBodies,
         generic_solver_vels: &mut DVector,
     ) {
+        // A row that cannot act (impulse bounds `[0, 0]`, e.g. a joint limit
+        // that is not crossed) and holds no impulse leaves every velocity
+        // unchanged: its clamped impulse is 0, so is its delta.
+        if self.impulse_bounds[0] == 0.0 && self.impulse_bounds[1] == 0.0 && self.impulse == 0.0 {
+            return;
+        }
+
         let jacobians = jacobians.as_slice();
 
         let solver_vel1 = self.solver_vel1(solver_vels, generic_solver_vels);
