@@ -22,15 +22,13 @@ use pyo3::prelude::*;
 /// Bundled robot descriptions by name: (URDF text, SRDF text, ee link).
 #[pyfunction]
 fn bundled_robot(name: &str) -> PyResult<(&'static str, &'static str, &'static str)> {
-    errors::guard(|| match name {
-        "panda" => Ok((
-            ferrobot_model::robots::PANDA_URDF,
-            ferrobot_model::robots::PANDA_SRDF,
-            "panda_hand",
-        )),
-        other => Err(errors::UnknownNameError::new_err(format!(
-            "unknown bundled robot '{other}'; known: panda"
-        ))),
+    errors::guard(|| {
+        ferrobot_model::robots::bundled(name).ok_or_else(|| {
+            errors::UnknownNameError::new_err(format!(
+                "unknown bundled robot '{name}'; known: {}",
+                ferrobot_model::robots::BUNDLED.join(", ")
+            ))
+        })
     })
 }
 
