@@ -36,6 +36,7 @@ from ._core import (
     opencv_to_opengl,
     opengl_to_opencv,
 )
+from ._core import Gripper  # the one gripper description (issue 17)
 
 __all__ = [
     "CommandDelay",
@@ -69,6 +70,7 @@ __all__ = [
     "transforms",
     "robots",
     "__version__",
+    "Gripper",
 ]
 
 

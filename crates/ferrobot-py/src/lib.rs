@@ -10,6 +10,7 @@ mod collision;
 mod control;
 mod errors;
 mod faults;
+mod gripper;
 mod grasp;
 mod model;
 mod planning;
@@ -48,6 +49,7 @@ static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<model::PyRobotModel>()?;
+    m.add_class::<gripper::PyGripper>()?;
     m.add_class::<collision::PyCollisionWorld>()?;
     m.add_class::<collision::PySphereModel>()?;
     m.add_class::<collision::PyCollisionChecker>()?;

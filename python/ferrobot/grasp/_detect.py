@@ -96,21 +96,27 @@ def backproject(depth, fx: float, fy: float, cx: float, cy: float, scale: float 
     return _camera.backproject(d, k, workspace=workspace)
 
 
-def _options(options: dict) -> dict:
+def _options(options: dict, gripper=None) -> dict:
+    """``options`` over the gripper's detection geometry (``Gripper.detection_options()``) when one is given."""
+    if gripper is not None:
+        if not hasattr(gripper, "detection_options"):
+            raise InvalidArgumentError(f"gripper: expected a ferrobot.Gripper, got {type(gripper).__name__}")
+        options = {**gripper.detection_options(), **options}
     unknown = set(options) - set(OPTIONS)
     if unknown:
         raise InvalidArgumentError(f"unknown grasp option(s) {sorted(unknown)}; known: {sorted(OPTIONS)}")
     return options
 
 
-def detect(points, *, labels=None, seed_mask=None, workspace=None, **options) -> GraspGroup:
+def detect(points, *, labels=None, seed_mask=None, workspace=None, gripper=None, **options) -> GraspGroup:
     """Detects grasps in a point cloud (N, 3); returns a :class:`GraspGroup` sorted by score, after NMS.
 
     Every point is an obstacle for the gripper. ``seed_mask`` (N,) bool restricts where grasps are sought;
     ``labels`` (N,) int gives object ids copied to the grasps. ``workspace`` crops to
     ``[xmin, xmax, ymin, ymax, zmin, zmax]``. ``viewpoint`` (the camera position, default the origin) and
     ``approach_direction`` (default +z, the camera's view direction) are in the cloud's frame; see
-    ``OPTIONS`` for every option. An empty cloud gives an empty group.
+    ``OPTIONS`` for every option. ``gripper`` (a :class:`ferrobot.Gripper`) sets the hand's opening and finger
+    geometry (explicit options still win). An empty cloud gives an empty group.
     """
     p = np.asarray(points, dtype=np.float64)
     if p.ndim != 2 or p.shape[1] != 3:
@@ -144,7 +150,7 @@ def detect(points, *, labels=None, seed_mask=None, workspace=None, **options) ->
         np.ascontiguousarray(p),
         None if lab is None else np.ascontiguousarray(lab, dtype=np.int32),
         None if seeds is None else np.ascontiguousarray(seeds),
-        _options(options),
+        _options(options, gripper),
     )
     return GraspGroup(arr)
 
@@ -161,6 +167,7 @@ def detect_from_rgbd(
     mask=None,
     object_id: int | None = None,
     workspace=None,
+    gripper=None,
     **options,
 ) -> GraspGroup:
     """Detects grasps in a depth image (H, W) with pinhole intrinsics; grasps are in the camera (OpenCV) frame.
@@ -174,5 +181,5 @@ def detect_from_rgbd(
     d = _depth(depth)
     _check_colors(colors, d.shape)
     m = _mask(mask, d.shape)
-    arr = grasp_detect_rgbd(d, fx, fy, cx, cy, scale, m, object_id, workspace, _options(options))
+    arr = grasp_detect_rgbd(d, fx, fy, cx, cy, scale, m, object_id, workspace, _options(options, gripper))
     return GraspGroup(arr)
