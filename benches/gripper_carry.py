@@ -4,7 +4,8 @@ The robot starts at its home configuration (gripper open, pointing down) with a 
 closing axis, 40 mm, 60 mm tall) between its fingers on a static stand. The gripper closes (40 N per finger)
 and holds 0.5 s, the hand lifts 5 cm (0.5 s), then the hand is carried 0.5 m along the world y in a straight
 line: cosine ramps of 0.2 s to 1 m/s and back, 0.3 s at 1 m/s; then 0.3 s held. The hand's path comes from
-IK every 5 ms, run through the joint drives. Drift = largest distance of the box's centre, in the hand frame,
+IK every 5 ms, run through the joint drives (first, slowly, to 0.25 m on one side, so that the carry spans
+-0.25 to +0.25 m). Drift = largest distance of the box's centre, in the hand frame,
 from where it was at the start of the carry (sampled every 5 ms), and where it is at the end.
 
     python benches/gripper_carry.py            # both bundled robots
@@ -79,6 +80,20 @@ def carry(robot: str = "panda", speed: float = 1.0, distance: float = 0.5, force
     )
     robot_.execute_trajectory(lift, step, joint_indices=arm, settle_time=0.2)
 
+    # Slowly (1 s) to the start of the carry, 0.25 m to the side.
+    up = start_base.copy()
+    up[2, 3] += 0.05
+    t = np.arange(0, 1.0 + 1e-9, step)
+    side = _cartesian(
+        planner,
+        hand_to_ee,
+        up,
+        [np.array([0, -distance / 4 * (1 - math.cos(math.pi * x / 1.0)), 0]) for x in t],
+        lift[-1],
+    )
+    robot_.execute_trajectory(side, step, joint_indices=arm, settle_time=0.3)
+    up[1, 3] -= distance / 2
+
     def rel():
         h = robot_.get_link_pose(gripper.hand_link)
         b = world.get_object_pose("box")
@@ -100,9 +115,7 @@ def carry(robot: str = "panda", speed: float = 1.0, distance: float = 0.5, force
         return ramp_d + speed * cruise + speed * (y / 2 + ramp / (2 * math.pi) * math.sin(math.pi * y / ramp))
 
     t = np.arange(0, total + 1e-9, step)
-    up = start_base.copy()
-    up[2, 3] += 0.05
-    path = _cartesian(planner, hand_to_ee, up, [np.array([0, s_of(x), 0]) for x in t], lift[-1])
+    path = _cartesian(planner, hand_to_ee, up, [np.array([0, s_of(x), 0]) for x in t], side[-1])
     worst = 0.0
     chunk = 4
     for k in range(0, len(path), chunk):

@@ -179,3 +179,17 @@ def test_passive_max_force_zero_is_accepted():
     robot.set_drive_gains(np.zeros(n), np.zeros(n), max_force=np.zeros(n))
     with pytest.raises(InvalidArgumentError):
         robot.set_drive_gains(np.zeros(n), np.zeros(n), max_force=-np.ones(n))
+
+
+def test_grasped_box_carried_at_1_m_s_stays_in_the_hand():
+    """0.5 kg box, 0.5 m at 1 m/s (benches/gripper_carry.py; both robots' figures in BENCHMARKS.md)."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benches"))
+    import gripper_carry
+
+    res = gripper_carry.carry("ur5e")
+    assert abs(res["carried_m"] - 0.5) < 0.01
+    assert 0.045 < res["opening_mm"] / 1e3 < 0.052  # closed on the 50 mm box
+    assert res["max_drift_mm"] < 5.0, res

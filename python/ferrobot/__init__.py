@@ -17,6 +17,7 @@ from ._core import (
     CollisionChecker,
     CollisionWorld,
     CommandDelay,
+    Gripper,  # the one gripper description (issue 17)
     IkResult,
     JointPID,
     JointTrajectory,
@@ -36,7 +37,6 @@ from ._core import (
     opencv_to_opengl,
     opengl_to_opencv,
 )
-from ._core import Gripper  # the one gripper description (issue 17)
 
 __all__ = [
     "CommandDelay",

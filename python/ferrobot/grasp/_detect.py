@@ -101,7 +101,9 @@ def _options(options: dict, gripper=None) -> dict:
     if gripper is not None:
         if not hasattr(gripper, "detection_options"):
             raise InvalidArgumentError(f"gripper: expected a ferrobot.Gripper, got {type(gripper).__name__}")
-        options = {**gripper.detection_options(), **options}
+        # The searched depths scale with the pads' length (the Panda hand's 40/30/20/15 mm of 50 mm).
+        depths = tuple(f * gripper.fingers["depth"] for f in (0.8, 0.6, 0.4, 0.3))
+        options = {**gripper.detection_options(), "depths": depths, **options}
     unknown = set(options) - set(OPTIONS)
     if unknown:
         raise InvalidArgumentError(f"unknown grasp option(s) {sorted(unknown)}; known: {sorted(OPTIONS)}")

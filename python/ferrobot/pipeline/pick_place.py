@@ -28,8 +28,8 @@ from typing import Any
 import numpy as np
 
 from .. import _core, grasp, robots, transforms
-from ..errors import InvalidArgumentError
 from .. import camera as camera_model
+from ..errors import InvalidArgumentError
 from .scene import HOME, ROBOT_MOUNT, TABLE_SIZE, TABLE_TOP, TABLE_XY, SceneSpec, build_world, home_for
 
 __all__ = ["PickPlace", "PickPlaceConfig", "Episode", "EpisodeResult", "StageResult", "StageFailure", "STAGES"]
@@ -368,8 +368,15 @@ class PickPlace:
         self._hand_to_ee = np.linalg.inv(self.model.fk(q0, self.hand_link)) @ self.model.fk(q0, ee)
         self.home = home_for(self.model, self.gripper)
         self.arm = list(self.planner.joint_names)
-        idx = [self.model.dof_names.index(n) for n in self.arm]
+        idx = self._arm_dofs = [self.model.dof_names.index(n) for n in self.arm]
         self.lower, self.upper = self.model.lower_limits[idx], self.model.upper_limits[idx]
+        # Joints whose range spans more than a turn (UR arms: +-2 pi) keep IK goals within half a turn of home:
+        # their far solutions (an arm folded down through its mount) are valid for the planner, whose world
+        # leaves the robot's mount out, but not for the simulated robot standing on it.
+        home_arm = self.home[idx]
+        wide = self._wide = (self.upper - self.lower) > 2 * math.pi + 1e-9
+        self._win_lo = np.where(wide, np.maximum(self.lower, home_arm - math.pi), self.lower)
+        self._win_hi = np.where(wide, np.minimum(self.upper, home_arm + math.pi), self.upper)
 
     # -- helpers ---------------------------------------------------------------------------------------------
 
@@ -388,6 +395,10 @@ class PickPlace:
 
     def _ik(self, poses: np.ndarray, seeds: np.ndarray | None, collision_free: bool):
         return self.planner.ik_batch(poses, seeds, collision_free=collision_free, num_seeds=64)
+
+    def _in_window(self, q: np.ndarray) -> bool:
+        """Whether the arm configuration ``q`` lies within the IK window around home (see ``__init__``)."""
+        return bool(np.all((q >= self._win_lo - 1e-9) & (q <= self._win_hi + 1e-9)))
 
     def _move(self, stage: str, goal_q: np.ndarray, ignore: list[str]) -> dict:
         """Plans from the current state to ``goal_q`` in the synced world and executes it."""
@@ -509,15 +520,17 @@ class PickPlace:
         pre = self._ee(self._back(hands, cfg.pregrasp_distance))
         # Pre-grasp: free of collision with everything, target included.
         self._sync([])
-        ik_pre = self._ik(pre, None, collision_free=True)
+        # Seeded from home when the window matters (joints of more than a turn), else from random seeds only.
+        seeds = np.tile(self.home[self._arm_dofs], (len(pre), 1)) if self._wide.any() else None
+        ik_pre = self._ik(pre, seeds, collision_free=True)
         # Grasp: the fingers touch the target and come close to the table: both ignored.
         self._sync([self.episode.spec.target, "table"])
-        ok = np.asarray(ik_pre.success)
+        ok = np.asarray(ik_pre.success) & np.array([self._in_window(q) for q in ik_pre.q], dtype=bool)
         tried = 0
         for j in np.flatnonzero(ok):
             tried += 1
             ik_g = self.planner.ik(self._ee(hands[j]), ik_pre.q[j], collision_free=True, num_seeds=8)
-            if not ik_g.success or np.max(np.abs(ik_g.q - ik_pre.q[j])) > 1.0:
+            if not ik_g.success or np.max(np.abs(ik_g.q - ik_pre.q[j])) > 1.0 or not self._in_window(ik_g.q):
                 continue
             res = self.planner.plan(ik_pre.q[j], goal_q=ik_g.q, trajectory=False, time_limit=0.2)
             if not res.success:
@@ -598,7 +611,7 @@ class PickPlace:
                 above = _translate(hand, [0.0, 0.0, cfg.lift_height])
                 self._sync([])
                 res = self.planner.ik(self._ee(above), self.episode.q_lift, num_seeds=32, collision_free=True)
-                if not res.success:
+                if not res.success or not self._in_window(res.q):
                     continue
                 self._sync(["table"])
                 low = self.planner.ik(self._ee(hand), res.q, num_seeds=8, collision_free=True)
