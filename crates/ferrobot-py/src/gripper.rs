@@ -31,7 +31,9 @@ fn vec3(v: &[f64], what: &str) -> PyResult<Vector3<f64>> {
 fn unit(v: &[f64], what: &str) -> PyResult<Unit<Vector3<f64>>> {
     let v = vec3(v, what)?;
     if v.norm() < 1e-9 {
-        return Err(InvalidArgumentError::new_err(format!("{what}: must not be zero")));
+        return Err(InvalidArgumentError::new_err(format!(
+            "{what}: must not be zero"
+        )));
     }
     Ok(Unit::new_normalize(v))
 }
@@ -83,10 +85,19 @@ impl PyGripper {
             let get = |k: &str| -> PyResult<f64> {
                 fingers
                     .get_item(k)?
-                    .ok_or_else(|| InvalidArgumentError::new_err(format!("fingers: missing '{k}'")))?
+                    .ok_or_else(|| {
+                        InvalidArgumentError::new_err(format!("fingers: missing '{k}'"))
+                    })?
                     .extract()
             };
-            let known = ["depth", "thickness", "height", "palm_width", "palm_height", "palm_depth"];
+            let known = [
+                "depth",
+                "thickness",
+                "height",
+                "palm_width",
+                "palm_height",
+                "palm_depth",
+            ];
             for k in fingers.keys() {
                 let k: String = k.extract()?;
                 if !known.contains(&k.as_str()) {
@@ -227,7 +238,9 @@ impl PyGripper {
     /// Opening (m) at driver position `q` (rad or m).
     fn opening(&self, q: f64) -> PyResult<f64> {
         if !q.is_finite() {
-            return Err(InvalidArgumentError::new_err(format!("q must be finite, got {q}")));
+            return Err(InvalidArgumentError::new_err(format!(
+                "q must be finite, got {q}"
+            )));
         }
         Ok(self.inner.opening(q))
     }

@@ -104,15 +104,14 @@ impl Robot {
             );
             // Rapier solves a motor with zero gains as a rigid velocity
             // lock; a drive without gains must exert nothing.
-            let max_force = if (drive.stiffness == 0.0 && drive.damping == 0.0)
-                || drive.max_force == 0.0
-            {
-                0.0
-            } else if drive.max_force.is_finite() {
-                drive.max_force as f32
-            } else {
-                f32::MAX
-            };
+            let max_force =
+                if (drive.stiffness == 0.0 && drive.damping == 0.0) || drive.max_force == 0.0 {
+                    0.0
+                } else if drive.max_force.is_finite() {
+                    drive.max_force as f32
+                } else {
+                    f32::MAX
+                };
             data.set_motor_max_force(axis, max_force);
         }
     }

@@ -181,11 +181,7 @@ impl Robot {
     /// Per-DOF force limits for a squeeze of `force` N per finger: the
     /// description's driver effort ([`Gripper::driver_effort`], at the
     /// middle of the driver's range), else `force` itself.
-    fn finger_effort(
-        &self,
-        g: &ParallelGripper,
-        force: Option<f64>,
-    ) -> Result<Option<f64>> {
+    fn finger_effort(&self, g: &ParallelGripper, force: Option<f64>) -> Result<Option<f64>> {
         let Some(f) = force else { return Ok(None) };
         if !(f.is_finite() && f > 0.0) {
             return Err(SimError::InvalidArgument(format!(
