@@ -193,3 +193,17 @@ def test_grasped_box_carried_at_1_m_s_stays_in_the_hand():
     assert abs(res["carried_m"] - 0.5) < 0.01
     assert 0.045 < res["opening_mm"] / 1e3 < 0.052  # closed on the 50 mm box
     assert res["max_drift_mm"] < 5.0, res
+
+
+def test_pick_place_on_the_ur5e_with_its_2f85():
+    """The whole workflow on the second bundled robot (100 episodes: BENCHMARKS.md, `ferrobot demo --robot ur5e`)."""
+    from ferrobot.pipeline import PickPlace, random_scene
+
+    pp = PickPlace(robot="ur5e")
+    assert pp.gripper.name == "robotiq_2f85" and pp.hand_link == "robotiq_85_base_link"
+    result = pp.run(random_scene(3))
+    assert result.success, (result.failed_stage, result.reason)
+    grasp = next(s for s in result.stages if s.name == "grasp")
+    assert 0.005 < grasp.detail["opening_mm"] / 1e3 < 0.085
+    with pytest.raises(InvalidArgumentError, match="gripper"):
+        PickPlace(robot="ur5e", gripper="no_such_gripper")
