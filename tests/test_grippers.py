@@ -163,11 +163,12 @@ def test_add_robot_starts_free_of_self_collision():
     panda = ferrobot.robots.panda()
     checker = ferrobot.CollisionChecker(panda)
     assert checker.in_collision(np.zeros(8)), "the reference: the Panda's zero pose is in self-collision"
-    for model in (panda, ferrobot.robots.ur5e()):
+    ur5e = ferrobot.robots.ur5e()
+    for model, check in ((panda, checker), (ur5e, ferrobot.CollisionChecker(ur5e))):
         world = ferrobot.World()
         robot = world.add_robot(model, [0, 0, 0, 1, 0, 0, 0])
         q = robot.get_joint_positions()
-        assert not ferrobot.CollisionChecker(model).in_collision(q)
+        assert not check.in_collision(q)
         first_group, first = model.named_states[0]
         np.testing.assert_allclose(q, model.named_state(first, group=first_group))
 
