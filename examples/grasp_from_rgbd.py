@@ -32,7 +32,7 @@ for g in grasps[:5]:
 
 # In the world (the camera's pose is saved with the frame) and as Panda hand poses.
 world_grasps = grasps.transform(f["camera_pose"])
-hand = world_grasps[:1].to_panda_hand()[0]
+hand = world_grasps[:1].to_hand(ferrobot.Gripper.panda_hand())[0]
 print(f"best grasp as a panda_hand pose in the world:\n{np.round(hand, 3)}")
 
 # Draw the best 10 on the colour image.

@@ -63,7 +63,8 @@ grasps = ferrobot.grasp.detect(
     approach_tilts=(0.0,),
 )
 print(f"{len(grasps)} grasps on '{spec.target}', best score {grasps.scores[0]:.3f}")
-hands = np.einsum("ij,njk->nik", ferrobot.transforms.world_to_base(np.eye(4), base), grasps.to_panda_hand())
+hand_poses = grasps.to_hand(ferrobot.Gripper.panda_hand())  # panda_hand poses in the world
+hands = np.einsum("ij,njk->nik", ferrobot.transforms.world_to_base(np.eye(4), base), hand_poses)
 pregrasps = hands.copy()
 pregrasps[:, :3, 3] -= 0.08 * hands[:, :3, 2]  # 8 cm back along the approach (the hand's z)
 

@@ -53,6 +53,7 @@ CASES = {
         lambda: ferrobot.robots.panda(),
         {"urdf_text": ferrobot.robots.panda_urdf()},
     ),
+    "bundled_ur5e": (lambda: ferrobot.robots.ur5e(), {"urdf_text": ferrobot.robots.ur5e_urdf()}),
 }
 
 

@@ -535,7 +535,7 @@ def test_robot_invalid_inputs(ur5):
     with pytest.raises(errors.InvalidArgumentError, match="stiffness"):
         r.set_drive_gains([-1.0] * 8, [0.0] * 8)
     with pytest.raises(errors.InvalidArgumentError, match="max_force"):
-        r.set_drive_gains([1.0] * 8, [0.0] * 8, [0.0] * 8)
+        r.set_drive_gains([1.0] * 8, [0.0] * 8, [-1.0] * 8)  # 0 is accepted: a passive joint (issue 17)
     with pytest.raises(errors.NonFiniteError):
         r.set_world_pose([np.nan, 0, 0, 1, 0, 0, 0])
     with pytest.raises(errors.DuplicateNameError):

@@ -19,6 +19,7 @@ from ._core import (
     CommandDelay,
     DetectOptions,
     IkOptions,
+    Gripper,  # the one gripper description (issue 17)
     IkResult,
     JointPID,
     JointTrajectory,
@@ -77,6 +78,7 @@ __all__ = [
     "DetectOptions",
     "IkOptions",
     "PlanOptions",
+    "Gripper",
 ]
 
 

@@ -221,6 +221,9 @@ def cmd_demo(args: argparse.Namespace) -> int:
             config=config,
             num_objects=args.objects,
             progress=not args.quiet,
+            robot=args.robot,
+            srdf=args.srdf,
+            gripper=args.gripper,
         )
         print(
             f"{s['successes']}/{s['episodes']} succeeded ({100 * s['success_rate']:.1f}%), "
@@ -230,11 +233,12 @@ def cmd_demo(args: argparse.Namespace) -> int:
             print("failures by stage: " + ", ".join(f"{k} {v}" for k, v in s["failures_by_stage"].items()))
         print(f"wrote {out / 'episodes.jsonl'} and {out / 'summary.json'}")
         return 0
-    pp = PickPlace(config)
+    pp = PickPlace(config, robot=args.robot, srdf=args.srdf, gripper=args.gripper)
     spec = random_scene(args.seed, args.objects)
     objs = ", ".join(f"{o.name}" for o in spec.objects)
+    who = {"panda": "bundled Panda", "ur5e": "bundled UR5e + 2F-85"}.get(args.robot, args.robot)
     print(
-        f"ferrobot demo: bundled Panda before a table with {len(spec.objects)} objects ({objs}); "
+        f"ferrobot demo: {who} ({pp.gripper.name}) before a table with {len(spec.objects)} objects ({objs}); "
         f"pick '{spec.target}' and place it at ({spec.place_xy[0]:.3f}, {spec.place_xy[1]:.3f})"
     )
     result = pp.run(spec, record_frames=not args.no_animation)
@@ -436,6 +440,9 @@ def main(argv: list[str] | None = None) -> int:
     p_demo.add_argument(
         "--workers", type=int, default=None, help="batch: episodes run in this many processes (default: one per core)"
     )
+    p_demo.add_argument("--robot", default="panda", help="'panda', 'ur5e' (bundled) or a URDF path (issue 17)")
+    p_demo.add_argument("--srdf", default=None, help="SRDF for a URDF --robot (groups, end effector, states)")
+    p_demo.add_argument("--gripper", default=None, help="'panda_hand' or 'robotiq_2f85' (default: the robot's own)")
     p_demo.set_defaults(func=cmd_demo)
     p_check = sub.add_parser("check", help="check a URDF: tree, inertials, limits, meshes, axes, self-collision")
     p_check.add_argument("urdf", help="URDF file ('panda': the bundled Panda)")

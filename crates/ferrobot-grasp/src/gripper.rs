@@ -13,8 +13,9 @@ use nalgebra::Vector3;
 
 use crate::error::{Result, positive};
 
-/// Dimensions of a parallel-jaw gripper, in metres. The defaults describe
-/// the Franka Panda hand.
+/// Dimensions of a parallel-jaw gripper as the detector models it, in
+/// metres. The defaults describe the Franka Panda hand; for any gripper,
+/// derive it from the one gripper description with [`Self::from_gripper`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GripperGeometry {
     /// Largest opening between the fingers' inner faces (Panda: 0.08).
@@ -65,6 +66,25 @@ impl Default for GripperGeometry {
 /// a voxel and more from the surface it stands for.
 pub fn body_margin(voxel_size: f64) -> f64 {
     0.75 * voxel_size
+}
+
+impl GripperGeometry {
+    /// The detector's hand for `gripper` (the one gripper description,
+    /// `ferrobot_model::Gripper`): its largest opening, finger and palm
+    /// dimensions; approach distance and clearance keep their defaults.
+    pub fn from_gripper(gripper: &ferrobot_model::Gripper) -> Self {
+        let f = &gripper.fingers;
+        Self {
+            max_width: gripper.max_opening(),
+            finger_depth: f.depth,
+            finger_width: f.thickness,
+            height: f.height,
+            palm_width: f.palm_width,
+            palm_height: f.palm_height,
+            palm_depth: f.palm_depth,
+            ..Self::default()
+        }
+    }
 }
 
 /// Where a point lies relative to a placed hand.
@@ -238,6 +258,15 @@ impl GripperGeometry {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn derived_from_the_gripper_description() {
+        let panda = GripperGeometry::from_gripper(&ferrobot_model::Gripper::panda_hand());
+        assert_eq!(panda, GripperGeometry::default());
+        let g = GripperGeometry::from_gripper(&ferrobot_model::Gripper::robotiq_2f85());
+        assert!((g.max_width - 0.085).abs() < 2e-4);
+        g.validate().unwrap();
+    }
 
     #[test]
     fn regions() {

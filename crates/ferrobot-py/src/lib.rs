@@ -12,6 +12,7 @@ mod errors;
 mod faults;
 mod grasp;
 mod mesh_objects;
+mod gripper;
 mod model;
 mod options;
 mod planning;
@@ -24,15 +25,13 @@ use pyo3::prelude::*;
 /// Bundled robot descriptions by name: (URDF text, SRDF text, ee link).
 #[pyfunction]
 fn bundled_robot(name: &str) -> PyResult<(&'static str, &'static str, &'static str)> {
-    errors::guard(|| match name {
-        "panda" => Ok((
-            ferrobot_model::robots::PANDA_URDF,
-            ferrobot_model::robots::PANDA_SRDF,
-            "panda_hand",
-        )),
-        other => Err(errors::UnknownNameError::new_err(format!(
-            "unknown bundled robot '{other}'; known: panda"
-        ))),
+    errors::guard(|| {
+        ferrobot_model::robots::bundled(name).ok_or_else(|| {
+            errors::UnknownNameError::new_err(format!(
+                "unknown bundled robot '{name}'; known: {}",
+                ferrobot_model::robots::BUNDLED.join(", ")
+            ))
+        })
     })
 }
 
@@ -52,6 +51,7 @@ static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<model::PyRobotModel>()?;
+    m.add_class::<gripper::PyGripper>()?;
     m.add_class::<collision::PyCollisionWorld>()?;
     m.add_class::<collision::PySphereModel>()?;
     m.add_class::<collision::PyCollisionChecker>()?;

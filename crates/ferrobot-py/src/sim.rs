@@ -1321,6 +1321,66 @@ impl PyRobot {
         Ok(vec1(py, v))
     }
 
+    /// The gripper description the robot's gripper commands use (found in
+    /// the model when added, or given with `use_gripper`), or None.
+    #[getter]
+    fn gripper_description(&self) -> PyResult<Option<crate::gripper::PyGripper>> {
+        guard(|| {
+            let w = lock(&self.world)?;
+            let r = w.robot(self.index).map_err(sim_err)?;
+            Ok(r.gripper()
+                .and_then(|g| g.description.clone())
+                .map(|inner| crate::gripper::PyGripper { inner }))
+        })
+    }
+
+    /// Uses `gripper` (a `ferrobot.Gripper` this robot's model has) for the
+    /// gripper commands: its driver is driven, its followers move through
+    /// their mimic couplings only.
+    fn use_gripper(&self, gripper: &crate::gripper::PyGripper) -> PyResult<()> {
+        guard(|| {
+            let g = ParallelGripper::from_gripper(&self.model, gripper.inner.clone())
+                .map_err(sim_err)?;
+            self.with(|r, _| {
+                r.set_gripper(g);
+                Ok(())
+            })
+        })
+    }
+
+    /// Drives the fingers to `opening` m between the pads (within the
+    /// gripper's range), squeezing with at most `force` N per finger.
+    #[pyo3(signature = (opening, force=None))]
+    fn set_gripper_opening(&self, opening: f64, force: Option<f64>) -> PyResult<()> {
+        guard(|| {
+            if let Some(f) = force {
+                MAX_FORCE.check_as("force", f).map_err(sim_err_range)?;
+            }
+            self.with(|r, s| r.set_gripper_opening(s, opening, force))
+        })
+    }
+
+    /// Drives the gripper's driver joint to `position` (rad or m, between
+    /// its open and closed positions), at most `force` N per finger.
+    #[pyo3(signature = (position, force=None))]
+    fn set_gripper_driver(&self, position: f64, force: Option<f64>) -> PyResult<()> {
+        guard(|| {
+            if let Some(f) = force {
+                MAX_FORCE.check_as("force", f).map_err(sim_err_range)?;
+            }
+            self.with(|r, s| r.set_gripper_driver(s, position, force))
+        })
+    }
+
+    /// Current opening (m) between the pads, from the driver's position.
+    fn get_gripper_opening(&self) -> PyResult<f64> {
+        guard(|| {
+            let w = lock(&self.world)?;
+            let r = w.robot(self.index).map_err(sim_err)?;
+            r.gripper_opening(w.state()).map_err(sim_err)
+        })
+    }
+
     /// Runs a joint trajectory sampled every `dt` s (positions (N, k) for
     /// the k `joint_indices`, all DOFs when None) through the drives, one
     /// target per physics step (linear interpolation, velocity

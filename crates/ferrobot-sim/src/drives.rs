@@ -104,13 +104,14 @@ impl Robot {
             );
             // Rapier solves a motor with zero gains as a rigid velocity
             // lock; a drive without gains must exert nothing.
-            let max_force = if drive.stiffness == 0.0 && drive.damping == 0.0 {
-                0.0
-            } else if drive.max_force.is_finite() {
-                drive.max_force as f32
-            } else {
-                f32::MAX
-            };
+            let max_force =
+                if (drive.stiffness == 0.0 && drive.damping == 0.0) || drive.max_force == 0.0 {
+                    0.0
+                } else if drive.max_force.is_finite() {
+                    drive.max_force as f32
+                } else {
+                    f32::MAX
+                };
             data.set_motor_max_force(axis, max_force);
         }
     }
@@ -211,7 +212,8 @@ impl Robot {
     }
 
     /// Sets drive gains and force limits for the DOFs `indices` (all when
-    /// `None`). Gains must be >= 0, force limits > 0 (inf: unlimited).
+    /// `None`). Gains must be >= 0, force limits >= 0 (0: a passive joint,
+    /// as Isaac Sim's `max_force = 0`; inf: unlimited).
     pub fn set_drive_gains(
         &mut self,
         state: &mut PhysState,
@@ -231,9 +233,9 @@ impl Robot {
                     got: format!("{} values", m.len()),
                 });
             }
-            if let Some(v) = m.iter().find(|v| v.is_nan() || **v <= 0.0) {
+            if let Some(v) = m.iter().find(|v| v.is_nan() || **v < 0.0) {
                 return Err(SimError::InvalidArgument(format!(
-                    "max_force must be > 0 (inf: unlimited), got {v}"
+                    "max_force must be >= 0 (0: passive, the joint moves only when pushed or coupled; inf: unlimited), got {v}"
                 )));
             }
         }

@@ -1,7 +1,10 @@
 //! Parallel grippers: which DOFs close the fingers, their open and closed
-//! positions, and `open` / `close(force)` through the drives.
+//! positions, and `open` / `close(force)` / `set_opening(width)` through the
+//! drives. A gripper found in the model ([`ferrobot_model::Gripper`], the one
+//! gripper description) drives its one driver joint; its mimic followers are
+//! passive and move only through the multibody's DOF couplings.
 
-use ferrobot_model::RobotModel;
+use ferrobot_model::{Gripper, RobotModel};
 
 use crate::error::{Result, SimError};
 use crate::robot::Robot;
@@ -18,6 +21,9 @@ pub struct ParallelGripper {
     pub open: Vec<f64>,
     /// Position of each finger DOF when closed (on nothing).
     pub closed: Vec<f64>,
+    /// The gripper description, when known (openings in metres, forces
+    /// converted to driver efforts through its opening map).
+    pub description: Option<Gripper>,
 }
 
 /// Stiffness used while closing: stiff enough that the finger force
@@ -27,24 +33,23 @@ pub const CLOSE_STIFFNESS: f64 = 1.0e5;
 pub const GRIPPER_DAMPING: f64 = 1.0e2;
 
 impl ParallelGripper {
-    /// The Franka hand (bundled Panda or pybullet's `panda.urdf`): DOFs named
-    /// `panda_finger_joint*`, open at the upper limit, closed at the lower.
+    /// The gripper of `model` ([`Gripper::from_model`]: the Panda hand, the
+    /// Robotiq 2F-85 or one built from the SRDF end effector), driven by its
+    /// driver DOF; `None` when the model has none.
     pub fn detect(model: &RobotModel) -> Option<Self> {
-        let dofs: Vec<usize> = model
-            .dof_names()
-            .iter()
-            .enumerate()
-            .filter(|(_, n)| n.starts_with("panda_finger_joint"))
-            .map(|(i, _)| i)
-            .collect();
-        if dofs.is_empty() {
-            return None;
-        }
-        let (lo, hi) = (model.lower_limits(), model.upper_limits());
-        Some(Self {
-            open: dofs.iter().map(|&d| hi[d]).collect(),
-            closed: dofs.iter().map(|&d| lo[d]).collect(),
-            dofs,
+        let g = Gripper::from_model(model).ok()?;
+        Self::from_gripper(model, g).ok()
+    }
+
+    /// The simulated gripper of description `gripper` on `model`.
+    pub fn from_gripper(model: &RobotModel, gripper: Gripper) -> Result<Self> {
+        gripper.check_model(model)?;
+        let dof = model.dof(&gripper.driver)?;
+        Ok(Self {
+            dofs: vec![dof],
+            open: vec![gripper.open_position],
+            closed: vec![gripper.closed_position],
+            description: Some(gripper),
         })
     }
 
@@ -78,6 +83,7 @@ impl ParallelGripper {
             dofs,
             open: open.to_vec(),
             closed: closed.to_vec(),
+            description: None,
         })
     }
 }
@@ -101,14 +107,94 @@ impl Robot {
     /// default the joints' effort limits).
     pub fn open_gripper(&mut self, state: &mut PhysState, force: Option<f64>) -> Result<()> {
         let g = self.gripper_or_err()?;
-        self.drive_fingers(state, &g.dofs, &g.open, force)
+        let effort = self.finger_effort(&g, force)?;
+        self.drive_fingers(state, &g.dofs, &g.open, effort)
     }
 
     /// Closes the fingers, squeezing with `force` (N per finger; default
     /// the joints' effort limits) once they touch something.
     pub fn close_gripper(&mut self, state: &mut PhysState, force: Option<f64>) -> Result<()> {
         let g = self.gripper_or_err()?;
-        self.drive_fingers(state, &g.dofs, &g.closed, force)
+        let effort = self.finger_effort(&g, force)?;
+        self.drive_fingers(state, &g.dofs, &g.closed, effort)
+    }
+
+    /// Drives the fingers to `opening` (m between the pads' inner faces; the
+    /// gripper's range, see [`Gripper::driver_position`]), squeezing with at
+    /// most `force` N per finger. Needs a gripper description.
+    pub fn set_gripper_opening(
+        &mut self,
+        state: &mut PhysState,
+        opening: f64,
+        force: Option<f64>,
+    ) -> Result<()> {
+        let g = self.gripper_or_err()?;
+        let d = self.description_or_err(&g)?;
+        let target = vec![d.driver_position(opening)?];
+        let effort = self.finger_effort(&g, force)?;
+        self.drive_fingers(state, &g.dofs, &target, effort)
+    }
+
+    /// Drives the gripper's driver joint to `position` (rad or m, within the
+    /// gripper's open and closed positions), force limited by `force` N per
+    /// finger.
+    pub fn set_gripper_driver(
+        &mut self,
+        state: &mut PhysState,
+        position: f64,
+        force: Option<f64>,
+    ) -> Result<()> {
+        let g = self.gripper_or_err()?;
+        if g.dofs.len() != 1 {
+            return Err(SimError::InvalidArgument(format!(
+                "robot '{}''s gripper has {} finger DOFs, not one driver",
+                self.name,
+                g.dofs.len()
+            )));
+        }
+        let (lo, hi) = (g.open[0].min(g.closed[0]), g.open[0].max(g.closed[0]));
+        if !(position >= lo && position <= hi) {
+            return Err(SimError::InvalidArgument(format!(
+                "gripper driver position must be in [{lo}, {hi}], got {position}"
+            )));
+        }
+        let effort = self.finger_effort(&g, force)?;
+        self.drive_fingers(state, &g.dofs, &[position], effort)
+    }
+
+    /// Current opening (m) of a described gripper, from its driver.
+    pub fn gripper_opening(&self, state: &PhysState) -> Result<f64> {
+        let g = self.gripper_or_err()?;
+        let d = self.description_or_err(&g)?;
+        Ok(d.opening(self.joint_positions(state)[g.dofs[0]]))
+    }
+
+    fn description_or_err<'a>(&self, g: &'a ParallelGripper) -> Result<&'a Gripper> {
+        g.description.as_ref().ok_or_else(|| {
+            SimError::InvalidArgument(format!(
+                "robot '{}''s gripper has no description (opening map): it was given by joint positions",
+                self.name
+            ))
+        })
+    }
+
+    /// Per-DOF force limits for a squeeze of `force` N per finger: the
+    /// description's driver effort ([`Gripper::driver_effort`], at the
+    /// middle of the driver's range), else `force` itself.
+    fn finger_effort(&self, g: &ParallelGripper, force: Option<f64>) -> Result<Option<f64>> {
+        let Some(f) = force else { return Ok(None) };
+        if !(f.is_finite() && f > 0.0) {
+            return Err(SimError::InvalidArgument(format!(
+                "gripper force must be finite and > 0, got {f}"
+            )));
+        }
+        Ok(Some(match &g.description {
+            Some(d) => {
+                let q = 0.5 * (d.open_position + d.closed_position);
+                d.driver_effort(f, q)
+            }
+            None => f,
+        }))
     }
 
     fn drive_fingers(

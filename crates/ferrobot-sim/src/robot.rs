@@ -26,7 +26,8 @@ pub struct RobotOptions {
     pub name: String,
     /// Pose of the model's base link in the world.
     pub pose: Isometry3<f64>,
-    /// Initial joint positions (default: the model's neutral configuration).
+    /// Initial joint positions (default: [`default_start`], a configuration
+    /// free of self-collision).
     pub q: Option<Vec<f64>>,
     /// Whether gravity acts on the robot's links (false: perfect gravity
     /// compensation, as Isaac Sim's `disable_gravity` on articulation links).
@@ -132,6 +133,77 @@ fn link_shape(shape: &Shape) -> Option<(SharedShape, Isometry3<f64>)> {
     shape.to_parry(ferrobot_geometry::MeshAs::ConvexHull).ok()
 }
 
+/// The configuration a robot starts at when none is given: the SRDF's first
+/// named state (its group's joints set, the rest at the neutral
+/// configuration), else the neutral configuration (zero clamped into the
+/// limits); the first of these, then of the SRDF's other named states, that
+/// is free of self-collision (links' collision geometry apart by more than
+/// 0.1 mm, the allowed-collision matrix's pairs skipped). When every
+/// candidate collides, the first candidate (the model cannot be started
+/// free of itself without a search; give `q`).
+pub fn default_start(model: &RobotModel) -> Vec<f64> {
+    let mut candidates = Vec::new();
+    if let Some(srdf) = model.srdf() {
+        for s in &srdf.group_states {
+            if let Ok(q) = model.named_state(&s.name, Some(&s.group)) {
+                candidates.push(q);
+            }
+        }
+    }
+    let neutral = model.neutral_configuration();
+    candidates.insert(candidates.len().min(1), neutral);
+    candidates
+        .iter()
+        .find(|q| !self_collides(model, q))
+        .unwrap_or(&candidates[0])
+        .clone()
+}
+
+/// Whether any two links of `model` not allowed to touch overlap by more
+/// than 0.1 mm at `q` (their collision geometry, meshes as convex hulls).
+pub fn self_collides(model: &RobotModel, q: &[f64]) -> bool {
+    let Ok(poses) = model.fk_all(q) else {
+        return false;
+    };
+    let acm = ferrobot_model::AllowedCollisions::from_model(model);
+    let shapes: Vec<Vec<(SharedShape, Isometry3<f64>)>> = model
+        .links()
+        .iter()
+        .enumerate()
+        .map(|(l, link)| {
+            link.collisions
+                .iter()
+                .filter_map(|g| {
+                    let (s, frame) = link_shape(&g.shape)?;
+                    Some((s, poses[l] * g.origin * frame))
+                })
+                .collect()
+        })
+        .collect();
+    for a in 0..shapes.len() {
+        for b in a + 1..shapes.len() {
+            if shapes[a].is_empty() || shapes[b].is_empty() || acm.is_allowed(a, b) {
+                continue;
+            }
+            for (sa, pa) in &shapes[a] {
+                for (sb, pb) in &shapes[b] {
+                    let c = parry3d::query::contact(
+                        &to_pose(pa),
+                        sa.as_ref(),
+                        &to_pose(pb),
+                        sb.as_ref(),
+                        0.0,
+                    );
+                    if matches!(c, Ok(Some(c)) if c.dist < -1e-4) {
+                        return true;
+                    }
+                }
+            }
+        }
+    }
+    false
+}
+
 /// Minimum mass and inertia given to a movable body whose links carry no
 /// inertial (a multibody needs positive inertia on every DOF).
 const MIN_MASS: f32 = 1e-2;
@@ -159,7 +231,7 @@ impl Robot {
                 check_len("q", q, model.num_dof())?;
                 q.clone()
             }
-            None => model.neutral_configuration(),
+            None => default_start(&model),
         };
         let links = model.links();
         let joints = model.joints();

@@ -71,8 +71,29 @@ def backproject(depth, fx: float, fy: float, cx: float, cy: float, scale: float 
     return _camera.backproject(d, k, workspace=workspace)
 
 
+def _with_gripper(options: DetectOptions | None, gripper, overrides: dict) -> DetectOptions | None:
+    """``options`` (default ``DetectOptions()``) with ``gripper``'s hand geometry (``Gripper.detection_options()``)
+    and depths scaled to its pads, when a gripper is given; fields given in ``overrides`` still win."""
+    if gripper is None:
+        return options
+    if not hasattr(gripper, "detection_options"):
+        raise InvalidArgumentError(f"gripper: expected a ferrobot.Gripper, got {type(gripper).__name__}")
+    geometry = dict(gripper.detection_options())
+    # The searched depths scale with the pads' length (the Panda hand's 40/30/20/15 mm of 50 mm).
+    geometry["depths"] = [f * gripper.fingers["depth"] for f in (0.8, 0.6, 0.4, 0.3)]
+    base = options if options is not None else DetectOptions()
+    return base.replace(**{k: v for k, v in geometry.items() if k not in overrides})
+
+
 def detect(
-    points, *, labels=None, seed_mask=None, workspace=None, options: DetectOptions | None = None, **overrides
+    points,
+    *,
+    labels=None,
+    seed_mask=None,
+    workspace=None,
+    options: DetectOptions | None = None,
+    gripper=None,
+    **overrides,
 ) -> GraspGroup:
     """Detects grasps in a point cloud (N, 3); returns a :class:`GraspGroup` sorted by score, after NMS.
 
@@ -82,7 +103,9 @@ def detect(
     ``approach_direction`` (default +z, the camera's view direction) are in the cloud's frame. Options:
     ``options`` (a :class:`ferrobot.DetectOptions`, default ``DetectOptions()``) with ``**overrides``
     (any of its fields, e.g. ``max_grasps=10``; unknown names and values out of range raise
-    ``InvalidArgumentError``). An empty cloud gives an empty group.
+    ``InvalidArgumentError``). ``gripper`` (a :class:`ferrobot.Gripper`) sets the hand's opening, finger and
+    palm geometry and pad-scaled depths over ``options`` (``**overrides`` still win). An empty cloud gives an
+    empty group.
     """
     p = np.asarray(points, dtype=np.float64)
     if p.ndim != 2 or p.shape[1] != 3:
@@ -116,7 +139,7 @@ def detect(
         np.ascontiguousarray(p),
         None if lab is None else np.ascontiguousarray(lab, dtype=np.int32),
         None if seeds is None else np.ascontiguousarray(seeds),
-        options,
+        _with_gripper(options, gripper, overrides),
         **overrides,
     )
     return GraspGroup(arr)
@@ -135,6 +158,7 @@ def detect_from_rgbd(
     object_id: int | None = None,
     workspace=None,
     options: DetectOptions | None = None,
+    gripper=None,
     **overrides,
 ) -> GraspGroup:
     """Detects grasps in a depth image (H, W) with pinhole intrinsics; grasps are in the camera (OpenCV) frame.
@@ -148,5 +172,7 @@ def detect_from_rgbd(
     d = _depth(depth)
     _check_colors(colors, d.shape)
     m = _mask(mask, d.shape)
-    arr = grasp_detect_rgbd(d, fx, fy, cx, cy, scale, m, object_id, workspace, options, **overrides)
+    arr = grasp_detect_rgbd(
+        d, fx, fy, cx, cy, scale, m, object_id, workspace, _with_gripper(options, gripper, overrides), **overrides
+    )
     return GraspGroup(arr)

@@ -49,6 +49,16 @@ def _as_array(a) -> np.ndarray:
     return arr
 
 
+def _warn_panda_hand() -> None:
+    import warnings
+
+    warnings.warn(
+        "to_panda_hand() is deprecated: use to_hand(ferrobot.Gripper.panda_hand()) (any ferrobot.Gripper works)",
+        DeprecationWarning,
+        stacklevel=3,
+    )
+
+
 def _panda_poses(rot: np.ndarray, trans: np.ndarray, depth: np.ndarray, tcp_offset: float) -> np.ndarray:
     out = np.zeros(rot.shape[:-2] + (4, 4))
     out[..., :3, :3] = rot @ GRASP_TO_PANDA_HAND
@@ -56,6 +66,18 @@ def _panda_poses(rot: np.ndarray, trans: np.ndarray, depth: np.ndarray, tcp_offs
     out[..., :3, 3] = trans + (depth[..., None] - tcp_offset) * approach
     out[..., 3, 3] = 1.0
     return out
+
+
+def _hand_poses(rot: np.ndarray, trans: np.ndarray, depth: np.ndarray, gripper) -> np.ndarray:
+    """Poses of ``gripper``'s hand link for grasps: the grasp frame moved to the fingertips, then the gripper's
+    ``grasp_to_hand`` transform (its TCP on the fingertip centre, its approach and closing axes on x and y)."""
+    if not hasattr(gripper, "grasp_to_hand"):
+        raise InvalidArgumentError(f"gripper: expected a ferrobot.Gripper, got {type(gripper).__name__}")
+    tip = np.zeros(rot.shape[:-2] + (4, 4))
+    tip[..., :3, :3] = rot
+    tip[..., :3, 3] = trans + depth[..., None] * rot[..., :, 0]
+    tip[..., 3, 3] = 1.0
+    return tip @ np.asarray(gripper.grasp_to_hand())
 
 
 class Grasp:
@@ -80,8 +102,15 @@ class Grasp:
     object_id = property(lambda self: int(self.grasp_array[16]), doc="Segmentation id, -1 when unknown.")
 
     def to_panda_hand(self, tcp_offset: float = PANDA_TCP_OFFSET) -> np.ndarray:
-        """4x4 pose of the Panda's ``panda_hand`` frame for this grasp (see :meth:`GraspGroup.to_panda_hand`)."""
+        """4x4 pose of the Panda's ``panda_hand`` frame for this grasp (see :meth:`GraspGroup.to_panda_hand`).
+
+        Deprecated: use :meth:`to_hand` with ``ferrobot.Gripper.panda_hand()`` (or any gripper)."""
+        _warn_panda_hand()
         return _panda_poses(self.rotation_matrix, self.translation, np.asarray(self.depth), tcp_offset)
+
+    def to_hand(self, gripper) -> np.ndarray:
+        """4x4 pose of ``gripper``'s hand link for this grasp (see :meth:`GraspGroup.to_hand`)."""
+        return _hand_poses(self.rotation_matrix, self.translation, np.asarray(self.depth), gripper)
 
     def __repr__(self) -> str:
         t = np.array2string(self.translation, precision=4)
@@ -181,13 +210,26 @@ class GraspGroup:
             return GraspGroup()
         return GraspGroup(grasp_transform(self.grasp_group_array, pose))
 
+    def to_hand(self, gripper) -> np.ndarray:
+        """(N, 4, 4) poses of ``gripper``'s hand link (a :class:`ferrobot.Gripper`), in the grasps' frame.
+
+        The hand's approach axis goes along the grasp's x and its closing axis along the grasp's y; its TCP
+        sits at the fingertip centre ``translation + depth * approach``. Open the fingers to ``widths``
+        (``Robot.set_gripper_opening``). ``to_hand(ferrobot.Gripper.panda_hand())`` equals the deprecated
+        ``to_panda_hand()``.
+        """
+        return _hand_poses(self.rotation_matrices, self.translations, self.depths, gripper)
+
     def to_panda_hand(self, tcp_offset: float = PANDA_TCP_OFFSET) -> np.ndarray:
         """(N, 4, 4) poses of the Panda's ``panda_hand`` frame, in the grasps' frame.
+
+        Deprecated: use :meth:`to_hand` with ``ferrobot.Gripper.panda_hand()`` (or any gripper).
 
         The hand approaches along its z and closes along its y: ``R_hand = R @ GRASP_TO_PANDA_HAND``. It is
         placed so that its TCP (``tcp_offset`` along the hand's z; 0.1034 m for Franka's ``panda_hand_tcp``)
         is at the fingertip centre ``translation + depth * approach``. Open the fingers to ``widths``.
         """
+        _warn_panda_hand()
         return _panda_poses(self.rotation_matrices, self.translations, self.depths, tcp_offset)
 
     def gripper_lines(

@@ -77,10 +77,10 @@ def summarize(records: list[dict], wall_time_s: float) -> dict:
 _WORKER: dict = {}
 
 
-def _worker_init(config: PickPlaceConfig | None, threads: int) -> None:
+def _worker_init(config: PickPlaceConfig | None, threads: int, robot: dict | None = None) -> None:
     # Each worker process gets its share of the cores for the Rust thread pools (set before first use).
     os.environ.setdefault("RAYON_NUM_THREADS", str(threads))
-    _WORKER["pp"] = PickPlace(config)
+    _WORKER["pp"] = PickPlace(config, **(robot or {}))
 
 
 def _worker_run(job: tuple[int, int, int | None]) -> dict:
@@ -104,11 +104,17 @@ def run_batch(
     num_objects: int | None = None,
     progress: bool = True,
     workers: int = 1,
+    robot=None,
+    srdf=None,
+    gripper=None,
 ) -> dict:
     """Runs ``episodes`` episodes on random scenes seeded ``seed, seed + 1, ...``; writes
     ``out/episodes.jsonl`` (one JSON object per episode, in episode order, written as they finish) and
     ``out/summary.json`` when ``out`` is given; returns the summary. ``workers`` > 1 runs episodes in that
-    many processes (each episode depends only on its seed, so the records are the same)."""
+    many processes (each episode depends only on its seed, so the records are the same). ``robot``, ``srdf``
+    and ``gripper`` are :class:`PickPlace`'s (names or paths when ``workers`` > 1: they are sent to the
+    worker processes)."""
+    robot_args = {"robot": robot, "srdf": srdf, "gripper": gripper}
     if workers < 1:
         raise InvalidArgumentError(f"workers: expected >= 1, got {workers}")
     bar = Progress(episodes) if progress else None
@@ -123,12 +129,12 @@ def run_batch(
     pool = None
     try:
         if workers == 1:
-            pp = PickPlace(config)
+            pp = PickPlace(config, **robot_args)
             results = (_episode(pp, *job) for job in jobs)
         else:
             threads = max(1, (os.cpu_count() or 1) // workers)
             ctx = multiprocessing.get_context("spawn")  # no fork of a process whose Rust threads run
-            pool = ctx.Pool(workers, initializer=_worker_init, initargs=(config, threads))
+            pool = ctx.Pool(workers, initializer=_worker_init, initargs=(config, threads, robot_args))
             results = pool.imap(_worker_run, jobs)
         for rec in results:
             records.append(rec)
@@ -145,6 +151,7 @@ def run_batch(
     summary = summarize(records, time.perf_counter() - t0)
     summary["seed"] = seed
     summary["workers"] = workers
+    summary["robot"] = str(robot or "panda")
     if out is not None:
         (out / "summary.json").write_text(json.dumps(summary, indent=2))
     return summary

@@ -29,7 +29,8 @@ import numpy as np
 
 from .. import _core, grasp, robots, transforms
 from .. import camera as camera_model
-from .scene import HOME, ROBOT_MOUNT, TABLE_SIZE, TABLE_TOP, TABLE_XY, SceneSpec, build_world
+from ..errors import InvalidArgumentError
+from .scene import HOME, ROBOT_MOUNT, TABLE_SIZE, TABLE_TOP, TABLE_XY, SceneSpec, build_world, home_for
 
 __all__ = ["PickPlace", "PickPlaceConfig", "Episode", "EpisodeResult", "StageResult", "StageFailure", "STAGES"]
 
@@ -306,15 +307,44 @@ def _translate(pose: np.ndarray, offset) -> np.ndarray:
     return out
 
 
-def _along_z(pose: np.ndarray, distance: float) -> np.ndarray:
-    """``pose`` moved ``distance`` along its own z axis (the Panda hand's approach)."""
+def _along(pose: np.ndarray, axis: np.ndarray, distance: float) -> np.ndarray:
+    """``pose`` moved ``distance`` along ``axis`` given in its own frame (a hand's approach)."""
     out = np.array(pose, dtype=float)
-    out[..., :3, 3] += distance * out[..., :3, 2]
+    out[..., :3, 3] += distance * (out[..., :3, :3] @ np.asarray(axis, dtype=float))
     return out
 
 
+def _along_z(pose: np.ndarray, distance: float) -> np.ndarray:
+    """``pose`` moved ``distance`` along its own z axis (the Panda hand's approach)."""
+    return _along(pose, (0.0, 0.0, 1.0), distance)
+
+
+def resolve_robot(robot=None, srdf=None, gripper=None):
+    """(model, gripper) for ``robot``: ``"panda"`` / ``"ur5e"`` (bundled), a URDF path (with ``srdf``), or a
+    :class:`ferrobot.RobotModel`; ``gripper``: a :class:`ferrobot.Gripper`, ``"panda_hand"`` /
+    ``"robotiq_2f85"``, or None to find the model's own (``Gripper.from_model``)."""
+    if robot is None or isinstance(robot, str) and robot in ("panda", "ur5e"):
+        model = robots.bundled(robot or "panda")
+    elif isinstance(robot, (str, bytes)) or hasattr(robot, "__fspath__"):
+        model = _core.RobotModel.from_urdf(str(robot), srdf=None if srdf is None else str(srdf))
+    else:
+        model = robot
+    if gripper is None:
+        g = _core.Gripper.from_model(model)
+    elif isinstance(gripper, str):
+        known = {"panda_hand": _core.Gripper.panda_hand, "robotiq_2f85": _core.Gripper.robotiq_2f85}
+        if gripper not in known:
+            raise InvalidArgumentError(f"gripper: unknown name '{gripper}'; known: {sorted(known)}")
+        g = known[gripper]()
+    else:
+        g = gripper
+    g.check_model(model)
+    return model, g
+
+
 class PickPlace:
-    """Runs pick-and-place episodes of the bundled Panda on table-top scenes.
+    """Runs pick-and-place episodes of any arm with a parallel-jaw gripper (default the bundled Panda) on
+    table-top scenes: ``PickPlace(robot="ur5e")``, ``PickPlace(robot="arm.urdf", srdf="arm.srdf")``.
 
     One instance keeps the robot model and planner across episodes (``run(spec)`` per scene)::
 
@@ -323,13 +353,30 @@ class PickPlace:
         print(result.success, result.failed_stage, result.reason)
     """
 
-    def __init__(self, config: PickPlaceConfig | None = None, model=None):
+    def __init__(self, config: PickPlaceConfig | None = None, model=None, *, robot=None, gripper=None, srdf=None):
+        """``robot``: ``"panda"`` (default), ``"ur5e"``, a URDF path (``srdf`` beside it) or a
+        :class:`ferrobot.RobotModel` (``model`` is the older name); ``gripper``: a :class:`ferrobot.Gripper`
+        or a shipped one's name, default the model's own (``ferrobot.Gripper.from_model``)."""
         self.config = config or PickPlaceConfig()
-        self.model = robots.panda() if model is None else model
+        self.model, self.gripper = resolve_robot(model if robot is None else robot, srdf, gripper)
+        self.hand_link = self.gripper.hand_link
         self.planner = _core.Planner(self.model)
+        # The planner moves the model's end-effector link; hands are placed for the gripper's hand link.
+        # Both are rigidly joined (fixed joints): ee = hand @ hand_to_ee.
+        q0 = self.model.neutral_configuration()
+        ee = self.model.ee_link
+        self._hand_to_ee = np.linalg.inv(self.model.fk(q0, self.hand_link)) @ self.model.fk(q0, ee)
+        self.home = home_for(self.model, self.gripper)
         self.arm = list(self.planner.joint_names)
-        idx = [self.model.dof_names.index(n) for n in self.arm]
+        idx = self._arm_dofs = [self.model.dof_names.index(n) for n in self.arm]
         self.lower, self.upper = self.model.lower_limits[idx], self.model.upper_limits[idx]
+        # Joints whose range spans more than a turn (UR arms: +-2 pi) keep IK goals within half a turn of home:
+        # their far solutions (an arm folded down through its mount) are valid for the planner, whose world
+        # leaves the robot's mount out, but not for the simulated robot standing on it.
+        home_arm = self.home[idx]
+        wide = self._wide = (self.upper - self.lower) > 2 * math.pi + 1e-9
+        self._win_lo = np.where(wide, np.maximum(self.lower, home_arm - math.pi), self.lower)
+        self._win_hi = np.where(wide, np.minimum(self.upper, home_arm + math.pi), self.upper)
 
     # -- helpers ---------------------------------------------------------------------------------------------
 
@@ -348,6 +395,10 @@ class PickPlace:
 
     def _ik(self, poses: np.ndarray, seeds: np.ndarray | None, collision_free: bool):
         return self.planner.ik_batch(poses, seeds, collision_free=collision_free, num_seeds=64)
+
+    def _in_window(self, q: np.ndarray) -> bool:
+        """Whether the arm configuration ``q`` lies within the IK window around home (see ``__init__``)."""
+        return bool(np.all((q >= self._win_lo - 1e-9) & (q <= self._win_hi + 1e-9)))
 
     def _move(self, stage: str, goal_q: np.ndarray, ignore: list[str]) -> dict:
         """Plans from the current state to ``goal_q`` in the synced world and executes it."""
@@ -388,7 +439,15 @@ class PickPlace:
         return getattr(ep, target)
 
     def _hand_world(self) -> np.ndarray:
-        return self.episode.robot.get_link_pose("panda_hand")
+        return self.episode.robot.get_link_pose(self.hand_link)
+
+    def _ee(self, hand: np.ndarray) -> np.ndarray:
+        """Planner end-effector pose(s) for hand-link pose(s) (base frame)."""
+        return hand @ self._hand_to_ee
+
+    def _back(self, hand: np.ndarray, distance: float) -> np.ndarray:
+        """Hand pose(s) moved ``distance`` back along the gripper's approach."""
+        return _along(hand, self.gripper.approach, -distance)
 
     # -- the stages -------------------------------------------------------------------------------------------
 
@@ -420,7 +479,12 @@ class PickPlace:
             **self.config.detect_options,
         }
         gg = grasp.detect(
-            points, labels=labels, seed_mask=labels == self.episode.target_id, workspace=self.episode.workspace, **opts
+            points,
+            labels=labels,
+            seed_mask=labels == self.episode.target_id,
+            workspace=self.episode.workspace,
+            gripper=self.gripper,
+            **opts,
         )
         if len(gg) == 0:
             w = np.asarray(self.episode.workspace)
@@ -450,21 +514,23 @@ class PickPlace:
             raise StageFailure(
                 "select", f"no grasp approaches within {math.degrees(cfg.max_approach_angle):.0f} deg of vertical"
             )
-        hands_world = gw.to_panda_hand()[order]
+        hands_world = gw.to_hand(self.gripper)[order]
         to_base = transforms.world_to_base(np.eye(4), self.episode.base)
         hands = np.einsum("ij,njk->nik", to_base, hands_world)
-        pre = _along_z(hands, -cfg.pregrasp_distance)
+        pre = self._ee(self._back(hands, cfg.pregrasp_distance))
         # Pre-grasp: free of collision with everything, target included.
         self._sync([])
-        ik_pre = self._ik(pre, None, collision_free=True)
+        # Seeded from home when the window matters (joints of more than a turn), else from random seeds only.
+        seeds = np.tile(self.home[self._arm_dofs], (len(pre), 1)) if self._wide.any() else None
+        ik_pre = self._ik(pre, seeds, collision_free=True)
         # Grasp: the fingers touch the target and come close to the table: both ignored.
         self._sync([self.episode.spec.target, "table"])
-        ok = np.asarray(ik_pre.success)
+        ok = np.asarray(ik_pre.success) & np.array([self._in_window(q) for q in ik_pre.q], dtype=bool)
         tried = 0
         for j in np.flatnonzero(ok):
             tried += 1
-            ik_g = self.planner.ik(hands[j], ik_pre.q[j], collision_free=True, num_seeds=8)
-            if not ik_g.success or np.max(np.abs(ik_g.q - ik_pre.q[j])) > 1.0:
+            ik_g = self.planner.ik(self._ee(hands[j]), ik_pre.q[j], collision_free=True, num_seeds=8)
+            if not ik_g.success or np.max(np.abs(ik_g.q - ik_pre.q[j])) > 1.0 or not self._in_window(ik_g.q):
                 continue
             res = self.planner.plan(ik_pre.q[j], goal_q=ik_g.q, trajectory=False, time_limit=0.2)
             if not res.success:
@@ -500,8 +566,8 @@ class PickPlace:
         def close():
             self.episode.recorder.set_gripper(True, cfg.grip_force)
             self.episode.recorder.wait(0.3, "grasp")
-            width = float(np.sum(self.episode.robot.get_gripper_positions()))
-            if width < 0.004:
+            width = float(self.episode.robot.get_gripper_opening())
+            if width < self.gripper.min_opening + 0.008:
                 raise StageFailure("grasp", f"the fingers closed on nothing (opening {1e3 * width:.1f} mm)")
             self._sync([])  # the target must be in the world to be attached
             self.planner.attach_world_object(self.episode.spec.target, self._q())
@@ -511,7 +577,7 @@ class PickPlace:
 
         def lift():
             up = _translate(self.episode.hand_grasp, [0.0, 0.0, cfg.lift_height])
-            self.episode.q_lift = self._ik_near(up, self._q(), "lift")
+            self.episode.q_lift = self._ik_near(self._ee(up), self._q(), "lift")
             out = self._move("lift", self.episode.q_lift, ["table"])
             self._check_held("lift")
             return out
@@ -544,11 +610,11 @@ class PickPlace:
             for k, hand in enumerate(self._place_poses()):
                 above = _translate(hand, [0.0, 0.0, cfg.lift_height])
                 self._sync([])
-                res = self.planner.ik(above, self.episode.q_lift, num_seeds=32, collision_free=True)
-                if not res.success:
+                res = self.planner.ik(self._ee(above), self.episode.q_lift, num_seeds=32, collision_free=True)
+                if not res.success or not self._in_window(res.q):
                     continue
                 self._sync(["table"])
-                low = self.planner.ik(hand, res.q, num_seeds=8, collision_free=True)
+                low = self.planner.ik(self._ee(hand), res.q, num_seeds=8, collision_free=True)
                 if not low.success:
                     continue
                 self.episode.place_hand, self.episode.q_place, self.episode.q_above = hand, low.q, res.q
@@ -574,8 +640,8 @@ class PickPlace:
 
         def retreat():
             hand = transforms.world_to_base(self._hand_world(), self.episode.base)
-            back = _along_z(hand, -cfg.retreat_distance)
-            res = self.planner.ik(back, self._q(), num_seeds=32)
+            back = self._back(hand, cfg.retreat_distance)
+            res = self.planner.ik(self._ee(back), self._q(), num_seeds=32)
             # Back along the approach; where that is out of reach, up to the pose the object was
             # carried in (its IK is known).
             q, how = (
@@ -616,7 +682,7 @@ class PickPlace:
 
     def _check_held(self, stage: str) -> None:
         obj = self.episode.world.get_object_pose(self.episode.spec.target)[:3, 3]
-        tcp = self.episode.robot.get_link_pose("panda_hand_tcp")[:3, 3]
+        tcp = (self._hand_world() @ np.append(self.gripper.tcp, 1.0))[:3]
         d = float(np.linalg.norm(obj - tcp))
         if d > 0.08:
             raise StageFailure(stage, f"the object slipped out of the hand ({1e3 * d:.0f} mm from the fingers)")
@@ -650,7 +716,11 @@ class PickPlace:
         try:
 
             def scene():
-                self.episode.world, self.episode.robot, self.episode.camera = build_world(spec, self.model)
+                name = "panda" if self.hand_link == "panda_hand" else "robot"
+                self.episode.world, self.episode.robot, self.episode.camera = build_world(
+                    spec, self.model, q=self.home, name=name
+                )
+                self.episode.robot.use_gripper(self.gripper)
                 self.episode.base = self.episode.robot.get_world_transform()
                 # Grasp workspace: the table top and 30 cm above it.
                 (tx, ty), (sx, sy, _) = TABLE_XY, TABLE_SIZE

@@ -19,7 +19,7 @@ from .. import _core, robots
 from ..errors import InvalidArgumentError
 from .clutter import BinSpec, add_bin, random_clutter, settle
 
-__all__ = ["ObjectSpec", "SceneSpec", "random_scene", "clutter_scene", "build_world", "TABLE_TOP", "HOME"]
+__all__ = ["ObjectSpec", "SceneSpec", "random_scene", "clutter_scene", "build_world", "home_for", "TABLE_TOP", "HOME"]
 
 #: Height (m) of the table's top face.
 TABLE_TOP = 0.40
@@ -159,10 +159,32 @@ def random_scene(seed: int, num_objects: int | None = None) -> SceneSpec:
     return SceneSpec(seed=seed, objects=objects, target=target.name, place_xy=(float(place[0]), float(place[1])))
 
 
-def build_world(spec: SceneSpec, model=None):
-    """The simulated world of ``spec``: (world, robot, camera). The robot is at ``HOME`` with open fingers;
-    objects settle for 0.25 s before the world's initial state is marked."""
+def home_for(model, gripper=None) -> np.ndarray:
+    """The start configuration of ``model`` in the scenes: ``HOME`` for a Panda-like model (7 arm joints and
+    the finger joint), else the SRDF's first named state (the neutral configuration without one) with the
+    gripper (``ferrobot.Gripper.from_model`` when not given; none when the model has none) open."""
+    names = list(model.dof_names)
+    if len(names) == len(HOME) and names[-1] == "panda_finger_joint1":
+        return HOME.copy()
+    states = model.named_states  # (group, name) pairs, SRDF order
+    q = model.named_state(states[0][1], group=states[0][0]) if states else model.neutral_configuration()
+    q = np.asarray(q, dtype=float).copy()
+    if gripper is None:
+        try:
+            gripper = _core.Gripper.from_model(model)
+        except Exception:  # no gripper: nothing to open
+            gripper = None
+    if gripper is not None:
+        q[names.index(gripper.driver)] = gripper.open_position
+    return q
+
+
+def build_world(spec: SceneSpec, model=None, q=None, name: str = "panda"):
+    """The simulated world of ``spec``: (world, robot, camera). The robot starts at ``q`` (default
+    :func:`home_for`: ``HOME`` for the Panda) with open fingers; objects settle for 0.25 s before the
+    world's initial state is marked."""
     model = robots.panda() if model is None else model
+    home = home_for(model) if q is None else np.asarray(q, dtype=float)
     world = _core.World()
     tx, ty = TABLE_XY
     world.add_box("table", TABLE_SIZE, [tx, ty, TABLE_TOP / 2, 1, 0, 0, 0], fixed=True, color=(0.55, 0.42, 0.30))
@@ -186,8 +208,8 @@ def build_world(spec: SceneSpec, model=None):
         add_bin(world, spec.bin if isinstance(spec.bin, BinSpec) else BinSpec(**spec.bin), TABLE_TOP)
     if any(o.kind == "mesh" for o in spec.objects):
         settle(world, [o.name for o in spec.objects if o.kind == "mesh"])
-    robot = world.add_robot(model, spec.base_pose, name="panda", q=HOME)
-    robot.set_joint_position_targets(HOME)
+    robot = world.add_robot(model, spec.base_pose, name=name, q=home)
+    robot.set_joint_position_targets(home)
     w, h = spec.camera_size
     pose = _core.look_at(spec.camera_eye, spec.camera_target)
     camera = _core.Camera(world, w, h, spec.camera_f, spec.camera_f, (w - 1) / 2, (h - 1) / 2, pose)

@@ -1,0 +1,288 @@
+//! `ferrobot.Gripper`: the one gripper description (`ferrobot_model::Gripper`).
+
+use ferrobot_model::{FingerGeometry, Gripper, OpeningMap, pose_to_matrix};
+use nalgebra::{Unit, Vector3};
+use numpy::ndarray::{Array1, Array2};
+use numpy::{IntoPyArray, PyArray1, PyArray2};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use crate::errors::{InvalidArgumentError, guard, model_err};
+use crate::model::PyRobotModel;
+
+/// A parallel-jaw gripper: hand link, TCP, approach and closing axes (hand
+/// frame), driver joint and mimic followers, the driver-to-opening map and
+/// the finger geometry grasp detection uses.
+#[pyclass(name = "Gripper", module = "ferrobot", frozen)]
+#[derive(Clone)]
+pub struct PyGripper {
+    pub inner: Gripper,
+}
+
+fn vec3(v: &[f64], what: &str) -> PyResult<Vector3<f64>> {
+    if v.len() != 3 || v.iter().any(|x| !x.is_finite()) {
+        return Err(InvalidArgumentError::new_err(format!(
+            "{what}: expected 3 finite numbers, got {v:?}"
+        )));
+    }
+    Ok(Vector3::new(v[0], v[1], v[2]))
+}
+
+fn unit(v: &[f64], what: &str) -> PyResult<Unit<Vector3<f64>>> {
+    let v = vec3(v, what)?;
+    if v.norm() < 1e-9 {
+        return Err(InvalidArgumentError::new_err(format!(
+            "{what}: must not be zero"
+        )));
+    }
+    Ok(Unit::new_normalize(v))
+}
+
+#[pymethods]
+impl PyGripper {
+    /// An explicit gripper. `opening_map` is ("linear", scale, offset),
+    /// ("four_bar", offset, radius, phase) or ("table", q list, opening list);
+    /// `fingers` a dict of depth, thickness, height, palm_width, palm_height,
+    /// palm_depth (m). Validated (see `Gripper.validate`).
+    #[new]
+    #[pyo3(signature = (name, hand_link, tcp, approach, closing, driver, followers, open_position, closed_position, opening_map, fingers))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        name: String,
+        hand_link: String,
+        tcp: Vec<f64>,
+        approach: Vec<f64>,
+        closing: Vec<f64>,
+        driver: String,
+        followers: Vec<String>,
+        open_position: f64,
+        closed_position: f64,
+        opening_map: &Bound<'_, PyAny>,
+        fingers: &Bound<'_, PyDict>,
+    ) -> PyResult<Self> {
+        guard(|| {
+            let kind: String = opening_map.get_item(0)?.extract()?;
+            let map = match kind.as_str() {
+                "linear" => OpeningMap::Linear {
+                    scale: opening_map.get_item(1)?.extract()?,
+                    offset: opening_map.get_item(2)?.extract()?,
+                },
+                "four_bar" => OpeningMap::FourBar {
+                    offset: opening_map.get_item(1)?.extract()?,
+                    radius: opening_map.get_item(2)?.extract()?,
+                    phase: opening_map.get_item(3)?.extract()?,
+                },
+                "table" => OpeningMap::Table {
+                    q: opening_map.get_item(1)?.extract()?,
+                    opening: opening_map.get_item(2)?.extract()?,
+                },
+                other => {
+                    return Err(InvalidArgumentError::new_err(format!(
+                        "opening_map: unknown kind '{other}' (linear, four_bar, table)"
+                    )));
+                }
+            };
+            let get = |k: &str| -> PyResult<f64> {
+                fingers
+                    .get_item(k)?
+                    .ok_or_else(|| {
+                        InvalidArgumentError::new_err(format!("fingers: missing '{k}'"))
+                    })?
+                    .extract()
+            };
+            let known = [
+                "depth",
+                "thickness",
+                "height",
+                "palm_width",
+                "palm_height",
+                "palm_depth",
+            ];
+            for k in fingers.keys() {
+                let k: String = k.extract()?;
+                if !known.contains(&k.as_str()) {
+                    return Err(InvalidArgumentError::new_err(format!(
+                        "fingers: unknown key '{k}'; known: {known:?}"
+                    )));
+                }
+            }
+            let g = Gripper {
+                name,
+                hand_link,
+                tcp: vec3(&tcp, "tcp")?,
+                approach: unit(&approach, "approach")?,
+                closing: unit(&closing, "closing")?,
+                driver,
+                followers,
+                open_position,
+                closed_position,
+                map,
+                fingers: FingerGeometry {
+                    depth: get("depth")?,
+                    thickness: get("thickness")?,
+                    height: get("height")?,
+                    palm_width: get("palm_width")?,
+                    palm_height: get("palm_height")?,
+                    palm_depth: get("palm_depth")?,
+                },
+            };
+            g.validate().map_err(model_err)?;
+            Ok(Self { inner: g })
+        })
+    }
+
+    /// The Franka hand of the bundled Panda.
+    #[staticmethod]
+    fn panda_hand() -> Self {
+        Self {
+            inner: Gripper::panda_hand(),
+        }
+    }
+
+    /// The Robotiq 2F-85 of the bundled UR5e.
+    #[staticmethod]
+    fn robotiq_2f85() -> Self {
+        Self {
+            inner: Gripper::robotiq_2f85(),
+        }
+    }
+
+    /// The gripper of `model`: a shipped one whose links and joints it has,
+    /// else one built from its SRDF end effector and finger geometry.
+    #[staticmethod]
+    fn from_model(model: &PyRobotModel) -> PyResult<Self> {
+        guard(|| {
+            Ok(Self {
+                inner: Gripper::from_model(&model.inner).map_err(model_err)?,
+            })
+        })
+    }
+
+    /// Raises unless `model` has this gripper's hand link, driver and followers.
+    fn check_model(&self, model: &PyRobotModel) -> PyResult<()> {
+        guard(|| self.inner.check_model(&model.inner).map_err(model_err))
+    }
+
+    #[getter]
+    fn name(&self) -> String {
+        self.inner.name.clone()
+    }
+    #[getter]
+    fn hand_link(&self) -> String {
+        self.inner.hand_link.clone()
+    }
+    /// TCP position (3,) in the hand link frame.
+    #[getter]
+    fn tcp<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        Array1::from_vec(self.inner.tcp.as_slice().to_vec()).into_pyarray(py)
+    }
+    /// Approach direction (3,) in the hand link frame.
+    #[getter]
+    fn approach<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        Array1::from_vec(self.inner.approach.as_slice().to_vec()).into_pyarray(py)
+    }
+    /// Closing axis (3,) in the hand link frame.
+    #[getter]
+    fn closing<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        Array1::from_vec(self.inner.closing.as_slice().to_vec()).into_pyarray(py)
+    }
+    #[getter]
+    fn driver(&self) -> String {
+        self.inner.driver.clone()
+    }
+    #[getter]
+    fn followers(&self) -> Vec<String> {
+        self.inner.followers.clone()
+    }
+    #[getter]
+    fn open_position(&self) -> f64 {
+        self.inner.open_position
+    }
+    #[getter]
+    fn closed_position(&self) -> f64 {
+        self.inner.closed_position
+    }
+    /// Largest opening (m).
+    #[getter]
+    fn max_opening(&self) -> f64 {
+        self.inner.max_opening()
+    }
+    /// Opening (m) closed on nothing.
+    #[getter]
+    fn min_opening(&self) -> f64 {
+        self.inner.min_opening()
+    }
+    /// Finger geometry: depth, thickness, height, palm_width, palm_height, palm_depth (m).
+    #[getter]
+    fn fingers<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let f = &self.inner.fingers;
+        let d = PyDict::new(py);
+        d.set_item("depth", f.depth)?;
+        d.set_item("thickness", f.thickness)?;
+        d.set_item("height", f.height)?;
+        d.set_item("palm_width", f.palm_width)?;
+        d.set_item("palm_height", f.palm_height)?;
+        d.set_item("palm_depth", f.palm_depth)?;
+        Ok(d)
+    }
+    /// The opening map's kind: "linear", "four_bar" or "table".
+    #[getter]
+    fn opening_map_kind(&self) -> &'static str {
+        match self.inner.map {
+            OpeningMap::Linear { .. } => "linear",
+            OpeningMap::FourBar { .. } => "four_bar",
+            OpeningMap::Table { .. } => "table",
+        }
+    }
+
+    /// Opening (m) at driver position `q` (rad or m).
+    fn opening(&self, q: f64) -> PyResult<f64> {
+        if !q.is_finite() {
+            return Err(InvalidArgumentError::new_err(format!(
+                "q must be finite, got {q}"
+            )));
+        }
+        Ok(self.inner.opening(q))
+    }
+
+    /// Driver position for `opening` (m, within [min_opening, max_opening]).
+    fn driver_position(&self, opening: f64) -> PyResult<f64> {
+        guard(|| self.inner.driver_position(opening).map_err(model_err))
+    }
+
+    /// 4x4 pose of the hand link in the grasp frame (x approach, y closing,
+    /// origin at the TCP): a grasp at pose G puts the hand at G @ this.
+    fn grasp_to_hand<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        Array2::from_shape_vec((4, 4), pose_to_matrix(&self.inner.grasp_to_hand()).to_vec())
+            .expect("4x4")
+            .into_pyarray(py)
+    }
+
+    /// The grasp detector's gripper options (`ferrobot.grasp.OPTIONS` keys
+    /// max_width, finger_depth, finger_width, height, palm_width,
+    /// palm_height, palm_depth), derived in `ferrobot_grasp::GripperGeometry::from_gripper`.
+    fn detection_options<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let g = ferrobot_grasp::GripperGeometry::from_gripper(&self.inner);
+        let d = PyDict::new(py);
+        d.set_item("max_width", g.max_width)?;
+        d.set_item("finger_depth", g.finger_depth)?;
+        d.set_item("finger_width", g.finger_width)?;
+        d.set_item("height", g.height)?;
+        d.set_item("palm_width", g.palm_width)?;
+        d.set_item("palm_height", g.palm_height)?;
+        d.set_item("palm_depth", g.palm_depth)?;
+        Ok(d)
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Gripper('{}', hand '{}', driver '{}' + {} followers, opening {:.4}-{:.4} m)",
+            self.inner.name,
+            self.inner.hand_link,
+            self.inner.driver,
+            self.inner.followers.len(),
+            self.inner.min_opening(),
+            self.inner.max_opening()
+        )
+    }
+}
