@@ -12,7 +12,8 @@ use ferrobot_collision::acm::{AllowedCollisions, AnalyzeCollisions};
 use ferrobot_collision::spherize::{SpherizeOptions, spherize_robot};
 use ferrobot_collision::{CollisionChecker, CollisionWorld, RobotSpheres, Shape};
 use ferrobot_control::{
-    PotentialFieldConfig, PotentialFieldController, ReactiveConfig, ReactiveController,
+    ControllerCore, PotentialFieldConfig, PotentialFieldController, ReactiveConfig,
+    ReactiveController,
 };
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 

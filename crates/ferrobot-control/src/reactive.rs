@@ -42,6 +42,8 @@
 //!
 //! The acceleration then goes through [`Core`]'s limits and integration.
 
+use std::sync::Arc;
+
 use ferrobot_collision::CollisionChecker;
 use nalgebra::{Isometry3, Vector3};
 
