@@ -314,6 +314,11 @@ pub(crate) fn sphere_hits_prim<L: Lanes>(prim: &Prim, c: &[L; 3], r: L) -> u32 {
     }
 }
 
+/// Obstacles from which the eight-lane kernel uses the world grid (below,
+/// testing every obstacle's bound against the body's sweep costs less than
+/// the grid lookups; both give the same answers).
+const GRID_MIN_OBSTACLES: usize = 16;
+
 /// Checks the lanes of `q` (DOF-major: `q[dof]` holds that DOF for every
 /// lane) against the world and for self-collision. Lanes outside `active`
 /// are ignored. With `skip_static`, bodies fixed to the base (frame 0) are
@@ -351,26 +356,24 @@ pub fn check<L: Lanes>(
         // Lanes tested against every obstacle (all of them without a grid).
         let mut full = active & !hit;
         if let Some(g) = grid
-            && L::WIDTH > 1
+            && L::WIDTH == 8
+            && world.obstacles.len() >= GRID_MIN_OBSTACLES
             && body.bound.1 + margin <= g.list_reach()
         {
-            // Lane by lane: lanes the grid clears skip the world; the others
-            // test only their cell's candidate obstacles, lanes sharing a
-            // cell together.
-            let reach = body.bound.1 + margin + crate::world_grid::SLACK;
+            // Lanes the grid clears skip the world; the others test only
+            // their cell's candidate obstacles, lanes sharing a cell
+            // together.
+            let p8 = [0, 1, 2].map(|a| f32x8::from_fn(|i| bc[a].lane(i)));
+            let reach = f32x8::splat(body.bound.1 + margin + crate::world_grid::SLACK);
+            let mut todo = full & !g.clear_lanes(world, &p8, reach, full);
             let mut cells = [(usize::MAX, 0u32); 8];
             let mut ncells = 0;
-            let mut todo = full;
             full = 0;
             while todo != 0 {
                 let l = todo.trailing_zeros() as usize;
                 todo &= todo - 1;
                 let p = [bc[0].lane(l), bc[1].lane(l), bc[2].lane(l)];
-                let (clear, cell) = g.lookup(world, &p);
-                if clear > reach {
-                    continue;
-                }
-                match cell {
+                match g.list_cell(&p) {
                     None => full |= 1 << l,
                     Some(c) => match cells[..ncells].iter_mut().find(|x| x.0 == c) {
                         Some(x) => x.1 |= 1 << l,

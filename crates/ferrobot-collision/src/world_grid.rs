@@ -174,13 +174,6 @@ impl WorldGrid {
         near.into_iter().map(|(_, oi)| oi).collect()
     }
 
-    /// The stored lower bound on the distance to the world at `p` (m), 0
-    /// outside the grid, and `p`'s candidate-list cell.
-    #[inline(always)]
-    pub fn lookup(&self, world: &CompiledWorld, p: &[f32; 3]) -> (f32, Option<usize>) {
-        (self.clearance(world, p), self.list_cell(p))
-    }
-
     /// A lower bound on the distance from `p` to every obstacle of `world`
     /// (the world the grid was made for); 0 outside the grid.
     pub fn clearance(&self, world: &CompiledWorld, p: &[f32; 3]) -> f32 {
