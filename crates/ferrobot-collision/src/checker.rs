@@ -81,50 +81,32 @@ thread_local! {
     static MOTION_SCRATCH: RefCell<Option<(u64, Scratch<f32x8>)>> = const { RefCell::new(None) };
 }
 
-/// Collision queries for one robot in one world.
-#[derive(Debug, Clone)]
-pub struct CollisionChecker {
+/// The immutable, per-robot part of collision checking (as Pinocchio's
+/// `Model` is to its `Data`): the kinematic model, the sphere model, the
+/// allowed-collision matrix of robot links, the links' exact geometry and
+/// the robot compiled for the kernels (without attached objects, margin 0),
+/// built once. Shared through `Arc` by every [`CollisionChecker`] (scene)
+/// made from it, so several scenes and planners use one copy.
+#[derive(Debug)]
+pub struct RobotCollisionModel {
     pub(crate) model: Arc<RobotModel>,
     pub(crate) spheres: RobotSpheres,
     pub(crate) acm: AllowedCollisions,
-    pub(crate) attached: Vec<Attached>,
-    pub(crate) world: CollisionWorld,
-    pub(crate) margin: f64,
-    pub(crate) robot: CompiledRobot,
-    pub(crate) compiled_world: CompiledWorld,
-    /// Names of world objects the robot ignores (MoveIt's allowed-collision
-    /// entries for world objects): kept in the world, left out of every
-    /// query. Changing it recompiles the world from the shapes it holds.
-    pub(crate) disabled: std::collections::BTreeSet<String>,
-    /// Whether bodies fixed to the base touch the world (true for every q).
-    static_hit: bool,
-    id: u64,
-    exact_self: bool,
-    /// Exact geometry per link (built once; empty when disabled).
+    /// Exact geometry per link.
     exact_links: Arc<Vec<Option<crate::exact::ExactBody>>>,
-    /// Distance bounds to the world for the single-configuration kernel,
-    /// made once [`GRID_AFTER`] single checks have run since the last
-    /// change of robot or world.
-    grid: std::sync::OnceLock<Option<Arc<WorldGrid>>>,
-    /// Single checks since the last change (counted until the grid exists).
-    single_checks: Arc<AtomicU64>,
-    /// Instruction set of the kernels (see [`crate::dispatch`]).
-    simd: SimdLevel,
+    /// The compiled robot without attached objects at margin 0, with exact
+    /// self-collision confirmation (index 1) or without (index 0), made on
+    /// first use.
+    compiled: [std::sync::OnceLock<Arc<CompiledRobot>>; 2],
 }
 
-/// Single checks on an unchanged robot and world before the world grid is
-/// made: the grid costs an allocation and a fill per cell on first use, which
-/// a few checks (a plan's start and goal) never pay back.
-const GRID_AFTER: u64 = 512;
-
-impl CollisionChecker {
-    /// A checker for `model` with sphere model `spheres`, excluded pairs
-    /// `acm` and obstacles `world`.
+impl RobotCollisionModel {
+    /// The collision model of `model` with sphere model `spheres` and
+    /// excluded link pairs `acm`.
     pub fn new(
         model: Arc<RobotModel>,
         spheres: RobotSpheres,
         acm: AllowedCollisions,
-        world: CollisionWorld,
     ) -> Result<Self> {
         if spheres.links.len() != model.links().len() {
             return Err(CollisionError::InvalidArgument(format!(
@@ -133,43 +115,51 @@ impl CollisionChecker {
                 model.links().len()
             )));
         }
-        let compiled_world = CompiledWorld::new(&world);
-        let mut checker = Self {
-            robot: CompiledRobot::new(&model, &[], &[], &[], |_, _| false),
+        Ok(Self {
             exact_links: Arc::new(CompiledRobot::exact_bodies(&model)),
             model,
             spheres,
             acm,
-            attached: Vec::new(),
-            world,
-            margin: 0.0,
-            compiled_world,
-            disabled: Default::default(),
-            static_hit: false,
-            id: 0,
-            exact_self: true,
-            grid: Default::default(),
-            single_checks: Default::default(),
-            simd: crate::dispatch::level(),
-        };
-        checker.recompile_robot();
-        Ok(checker)
+            compiled: Default::default(),
+        })
     }
 
-    fn recompile_robot(&mut self) {
-        let attached: Vec<(usize, String, Vec<Sphere>)> = self
-            .attached
+    /// The kinematic model.
+    pub fn model(&self) -> &Arc<RobotModel> {
+        &self.model
+    }
+
+    /// The sphere model.
+    pub fn spheres(&self) -> &RobotSpheres {
+        &self.spheres
+    }
+
+    /// The allowed-collision matrix of robot links.
+    pub fn allowed_collisions(&self) -> &AllowedCollisions {
+        &self.acm
+    }
+
+    /// The robot compiled with `attached` bodies, exact self-collision
+    /// confirmation or not, and its self pairs' clearance maps for `margin`;
+    /// the shared copy when nothing is attached and the margin is 0.
+    fn compile(&self, attached: &[Attached], exact_self: bool, margin: f64) -> Arc<CompiledRobot> {
+        if attached.is_empty() && margin == 0.0 {
+            return self.compiled[exact_self as usize]
+                .get_or_init(|| Arc::new(self.compile_fresh(attached, exact_self, margin)))
+                .clone();
+        }
+        Arc::new(self.compile_fresh(attached, exact_self, margin))
+    }
+
+    fn compile_fresh(&self, atts: &[Attached], exact_self: bool, margin: f64) -> CompiledRobot {
+        let attached: Vec<(usize, String, Vec<Sphere>)> = atts
             .iter()
             .map(|a| (a.link, a.name.clone(), a.spheres.clone()))
             .collect();
         let acm = &self.acm;
-        let atts = &self.attached;
-        let exact: &[Option<crate::exact::ExactBody>] = if self.exact_self {
-            &self.exact_links
-        } else {
-            &[]
-        };
-        self.robot = CompiledRobot::new(
+        let exact: &[Option<crate::exact::ExactBody>] =
+            if exact_self { &self.exact_links } else { &[] };
+        let mut robot = CompiledRobot::new(
             &self.model,
             &self.spheres.links,
             &attached,
@@ -187,23 +177,101 @@ impl CollisionChecker {
                 }
             },
         );
-        self.id = NEXT_ID.fetch_add(1, Ordering::Relaxed);
-        self.update_pair_maps();
-        self.update_static();
+        set_pair_maps(&self.model, &mut robot, margin);
+        robot
+    }
+}
+
+/// Builds (or takes from the process cache) the joint-space clearance maps
+/// of `robot`'s self pairs for `margin` (see [`crate::pair_map`]).
+fn set_pair_maps(model: &RobotModel, robot: &mut CompiledRobot, margin: f64) {
+    let limits: Vec<(f64, f64)> = model
+        .lower_limits()
+        .into_iter()
+        .zip(model.upper_limits())
+        .collect();
+    robot.pair_maps = crate::pair_map::maps_for(robot, margin as f32, &limits);
+    robot.collide_maps = crate::pair_map::collide_maps(&robot.pair_maps);
+}
+
+/// Collision queries for one robot in one world: the per-scene state (world,
+/// ignored objects, attached objects, margin, compiled world, world grid)
+/// over a shared [`RobotCollisionModel`]. Cloning shares the robot model.
+#[derive(Debug, Clone)]
+pub struct CollisionChecker {
+    /// The shared robot collision model.
+    pub(crate) shared: Arc<RobotCollisionModel>,
+    pub(crate) attached: Vec<Attached>,
+    pub(crate) world: CollisionWorld,
+    pub(crate) margin: f64,
+    /// The robot compiled with the attached objects and the margin (the
+    /// shared model's copy when there are none and the margin is 0).
+    pub(crate) robot: Arc<CompiledRobot>,
+    pub(crate) compiled_world: CompiledWorld,
+    /// Names of world objects the robot ignores (MoveIt's allowed-collision
+    /// entries for world objects): kept in the world, left out of every
+    /// query. Changing it recompiles the world from the shapes it holds.
+    pub(crate) disabled: std::collections::BTreeSet<String>,
+    /// Whether bodies fixed to the base touch the world (true for every q).
+    static_hit: bool,
+    id: u64,
+    exact_self: bool,
+    /// Distance bounds to the world and per-cell candidate obstacles for
+    /// the kernels (see [`crate::world_grid`]), made by the first query
+    /// after a change of robot, margin or world (cells fill on use).
+    grid: std::sync::OnceLock<Option<Arc<WorldGrid>>>,
+    /// Instruction set of the kernels (see [`crate::dispatch`]).
+    simd: SimdLevel,
+}
+
+impl CollisionChecker {
+    /// A checker for `model` with sphere model `spheres`, excluded pairs
+    /// `acm` and obstacles `world` (a new [`RobotCollisionModel`]; use
+    /// [`CollisionChecker::with_model`] to share one).
+    pub fn new(
+        model: Arc<RobotModel>,
+        spheres: RobotSpheres,
+        acm: AllowedCollisions,
+        world: CollisionWorld,
+    ) -> Result<Self> {
+        let shared = Arc::new(RobotCollisionModel::new(model, spheres, acm)?);
+        Ok(Self::with_model(shared, world))
     }
 
-    /// Builds (or takes from the process cache) the joint-space clearance
-    /// maps of the self pairs for the current margin (see
-    /// [`crate::pair_map`]).
-    fn update_pair_maps(&mut self) {
-        let limits: Vec<(f64, f64)> = self
-            .model
-            .lower_limits()
-            .into_iter()
-            .zip(self.model.upper_limits())
-            .collect();
-        self.robot.pair_maps = crate::pair_map::maps_for(&self.robot, self.margin as f32, &limits);
-        self.robot.collide_maps = crate::pair_map::collide_maps(&self.robot.pair_maps);
+    /// A checker (a scene) over the shared robot collision model `shared`
+    /// with obstacles `world`: the robot's compiled data is not copied.
+    pub fn with_model(shared: Arc<RobotCollisionModel>, world: CollisionWorld) -> Self {
+        let compiled_world = CompiledWorld::new(&world);
+        let mut checker = Self {
+            robot: shared.compile(&[], true, 0.0),
+            shared,
+            attached: Vec::new(),
+            world,
+            margin: 0.0,
+            compiled_world,
+            disabled: Default::default(),
+            static_hit: false,
+            id: 0,
+            exact_self: true,
+            grid: Default::default(),
+            simd: crate::dispatch::level(),
+        };
+        checker.id = NEXT_ID.fetch_add(1, Ordering::Relaxed);
+        checker.update_static();
+        checker
+    }
+
+    /// The shared robot collision model.
+    pub fn robot_model(&self) -> &Arc<RobotCollisionModel> {
+        &self.shared
+    }
+
+    fn recompile_robot(&mut self) {
+        self.robot = self
+            .shared
+            .compile(&self.attached, self.exact_self, self.margin);
+        self.id = NEXT_ID.fetch_add(1, Ordering::Relaxed);
+        self.update_static();
     }
 
     /// Whether self-collisions found by spheres are confirmed on the links'
@@ -238,18 +306,18 @@ impl CollisionChecker {
     /// Tests the bodies fixed to the base against the world once.
     fn update_static(&mut self) {
         self.grid = Default::default();
-        self.single_checks = Default::default();
-        let mut only_static = self.robot.clone();
+        let mut only_static = CompiledRobot::clone(&self.robot);
         only_static.bodies.retain(|b| b.frame == 0);
         only_static.pairs.clear();
         only_static.pair_maps.clear();
         only_static.collide_maps.clear();
         only_static.pair_reach.clear();
-        let q = vec![0.0f32; self.model.num_dof()];
+        let q = vec![0.0f32; self.robot.num_dof];
         let mut scratch = Scratch::<f32>::new(&only_static);
         self.static_hit = check(
             &only_static,
             &self.compiled_world,
+            None,
             &q,
             self.margin as f32,
             1,
@@ -260,22 +328,30 @@ impl CollisionChecker {
 
     /// The robot model.
     pub fn model(&self) -> &Arc<RobotModel> {
-        &self.model
+        &self.shared.model
     }
 
     /// The sphere model.
     pub fn spheres(&self) -> &RobotSpheres {
-        &self.spheres
+        &self.shared.spheres
     }
 
     /// The allowed-collision matrix.
     pub fn allowed_collisions(&self) -> &AllowedCollisions {
-        &self.acm
+        &self.shared.acm
     }
 
-    /// Replaces the allowed-collision matrix.
+    /// Replaces the allowed-collision matrix: this checker gets its own
+    /// robot collision model (others sharing the old one keep it).
     pub fn set_allowed_collisions(&mut self, acm: AllowedCollisions) {
-        self.acm = acm;
+        let m = &self.shared;
+        self.shared = Arc::new(RobotCollisionModel {
+            model: m.model.clone(),
+            spheres: m.spheres.clone(),
+            acm,
+            exact_links: m.exact_links.clone(),
+            compiled: Default::default(),
+        });
         self.recompile_robot();
     }
 
@@ -377,16 +453,27 @@ impl CollisionChecker {
     pub fn set_margin(&mut self, margin: f64) -> Result<()> {
         ferrobot_model::ranges::MARGIN.check(margin)?;
         self.margin = margin;
-        self.update_pair_maps();
-        self.update_static();
+        self.recompile_robot();
         Ok(())
     }
 
-    /// Whether the single-configuration path has made its world grid (see
-    /// [`crate::world_grid`]; made after 512 single checks on an
-    /// unchanged robot and world), for diagnostics.
+    /// Whether the kernels have made their world grid (see
+    /// [`crate::world_grid`]; made by the first query after a change of
+    /// robot, margin or world, when the world is not empty), for
+    /// diagnostics.
     pub fn has_world_grid(&self) -> bool {
         self.grid.get().is_some_and(|g| g.is_some())
+    }
+
+    /// The world grid, made on first use.
+    #[inline]
+    fn world_grid(&self) -> Option<&WorldGrid> {
+        self.grid
+            .get_or_init(|| {
+                WorldGrid::for_robot(&self.robot, &self.compiled_world, self.margin as f32)
+                    .map(Arc::new)
+            })
+            .as_deref()
     }
 
     /// Compiled data (for benchmarks and diagnostics).
@@ -416,7 +503,10 @@ impl CollisionChecker {
     }
 
     fn check_q(&self, what: &str, q: &[f64]) -> Result<()> {
-        self.model.check_configuration(what, q).map_err(Into::into)
+        self.shared
+            .model
+            .check_configuration(what, q)
+            .map_err(Into::into)
     }
 
     /// Whether configuration `q` (num_dof values) collides with the world or
@@ -447,16 +537,7 @@ impl CollisionChecker {
                 *slot = Some((self.id, OneScratch::new(&self.robot)));
             }
             let scratch = &mut slot.as_mut().expect("set above").1;
-            let grid = match self.grid.get() {
-                Some(g) => g.as_deref(),
-                None if self.single_checks.fetch_add(1, Ordering::Relaxed) >= GRID_AFTER => self
-                    .grid
-                    .get_or_init(|| {
-                        WorldGrid::for_robot(&self.robot, &self.compiled_world).map(Arc::new)
-                    })
-                    .as_deref(),
-                None => None,
-            };
+            let grid = self.world_grid();
             self.static_hit
                 || crate::dispatch::check_one(
                     self.simd,
@@ -474,7 +555,7 @@ impl CollisionChecker {
     /// Collision flags for `n` configurations stored row-major in `qs`,
     /// eight per SIMD pack, packs spread over the rayon pool.
     pub fn in_collision_batch(&self, qs: &[f64]) -> Result<Vec<bool>> {
-        let dof = self.model.num_dof();
+        let dof = self.shared.model.num_dof();
         if dof == 0 || !qs.len().is_multiple_of(dof) {
             return Err(CollisionError::Model(ferrobot_model::ModelError::Shape {
                 what: "q".into(),
@@ -490,12 +571,13 @@ impl CollisionChecker {
 
     /// [`CollisionChecker::in_collision_batch`] into `out` for checked input.
     pub fn in_collision_batch_into(&self, qs: &[f64], out: &mut [bool]) {
-        let dof = self.model.num_dof();
+        let dof = self.shared.model.num_dof();
         const CHUNK: usize = 8 * 64;
         if self.static_hit {
             out.iter_mut().for_each(|o| *o = true);
             return;
         }
+        let grid = self.world_grid();
         out.par_chunks_mut(CHUNK)
             .zip(qs.par_chunks(CHUNK * dof))
             .for_each(|(o, q)| {
@@ -504,6 +586,7 @@ impl CollisionChecker {
                     self.simd,
                     &self.robot,
                     &self.compiled_world,
+                    grid,
                     q,
                     dof,
                     self.margin as f32,
@@ -581,6 +664,7 @@ impl CollisionChecker {
                 self.simd,
                 &self.robot,
                 &self.compiled_world,
+                self.world_grid(),
                 q0,
                 q1,
                 steps,
@@ -608,10 +692,10 @@ impl CollisionChecker {
                 "an object named '{name}' is attached already"
             )));
         }
-        let l = self.model.link(link)?;
+        let l = self.shared.model.link(link)?;
         let touch = touch_links
             .iter()
-            .map(|t| self.model.link(t))
+            .map(|t| self.shared.model.link(t))
             .collect::<std::result::Result<Vec<_>, _>>()?;
         if parts.is_empty() {
             return Err(CollisionError::InvalidShape(format!(
@@ -642,7 +726,7 @@ impl CollisionChecker {
     /// and every link below it in the tree (a hand's fingers), in link
     /// order.
     pub fn default_touch_links(&self, link: usize) -> Vec<String> {
-        let model = &self.model;
+        let model = &self.shared.model;
         model
             .links()
             .iter()
@@ -668,9 +752,9 @@ impl CollisionChecker {
         touch_links: &[&str],
     ) -> Result<()> {
         self.check_q("q", q)?;
-        let l = self.model.link(link)?;
+        let l = self.shared.model.link(link)?;
         let obj: WorldObject = self.world.get(name)?.clone();
-        let link_pose = self.model.fk(q, Some(l))?;
+        let link_pose = self.shared.model.fk(q, Some(l))?;
         let pose_in_link = link_pose.inverse() * obj.pose;
         self.attach(name, link, pose_in_link, obj.parts.clone(), touch_links)?;
         self.world.remove(name)?;
@@ -691,7 +775,7 @@ impl CollisionChecker {
         if let Some(q) = q {
             self.check_q("q", q)?;
             let a = &self.attached[i];
-            let pose = self.model.fk(q, Some(a.link))? * a.pose_in_link;
+            let pose = self.shared.model.fk(q, Some(a.link))? * a.pose_in_link;
             self.world.add(name, pose, a.parts.clone())?;
             self.recompile_world();
         }

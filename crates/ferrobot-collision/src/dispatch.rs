@@ -195,6 +195,7 @@ dispatched! {
     pub(crate) fn check_packs(
         robot: &CompiledRobot,
         world: &CompiledWorld,
+        grid: Option<&WorldGrid>,
         qs: &[f64],
         dof: usize,
         margin: f32,
@@ -205,7 +206,7 @@ dispatched! {
             let n = po.len();
             let lanes = crate::checker::pack(pq, dof, n);
             let active = (1u32 << n) - 1;
-            let hit = kernel::check(robot, world, &lanes, margin, active, true, scratch);
+            let hit = kernel::check(robot, world, grid, &lanes, margin, active, true, scratch);
             for (i, v) in po.iter_mut().enumerate() {
                 *v = hit & (1 << i) != 0;
             }
@@ -222,6 +223,7 @@ dispatched! {
     pub(crate) fn motion_free(
         robot: &CompiledRobot,
         world: &CompiledWorld,
+        grid: Option<&WorldGrid>,
         q0: &[f64],
         q1: &[f64],
         steps: usize,
@@ -243,7 +245,7 @@ dispatched! {
                     (q0[d] + (q1[d] - q0[d]) * t) as f32
                 });
             }
-            if kernel::check(robot, world, lanes, margin, 0xff, true, scratch) != 0 {
+            if kernel::check(robot, world, grid, lanes, margin, 0xff, true, scratch) != 0 {
                 return Some(false);
             }
         }

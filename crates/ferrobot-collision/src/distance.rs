@@ -42,7 +42,7 @@ impl CollisionChecker {
         let body = &self.robot.bodies[b];
         match &body.attached {
             Some(n) => format!("attached:{n}"),
-            None => self.model.links()[body.link].name.clone(),
+            None => self.shared.model.links()[body.link].name.clone(),
         }
     }
 
@@ -57,12 +57,12 @@ impl CollisionChecker {
                     .expect("attached body")
                     .spheres
             }
-            None => &self.spheres.links[body.link],
+            None => &self.shared.spheres.links[body.link],
         }
     }
 
     fn placed(&self, q: &[f64]) -> Result<Vec<Placed>> {
-        let poses = self.model.fk_all(q)?;
+        let poses = self.shared.model.fk_all(q)?;
         let mut out = Vec::new();
         for (b, body) in self.robot.bodies.iter().enumerate() {
             for s in self.body_spheres(b) {
@@ -79,9 +79,9 @@ impl CollisionChecker {
 
     /// Velocity Jacobian (3 x num_dof, row-major) of a point fixed to `link`.
     fn point_jacobian(&self, q: &[f64], link: usize, p: &Point3<f64>) -> Result<Vec<f64>> {
-        let n = self.model.num_dof();
-        let j = self.model.jacobian(q, Some(link))?;
-        let o = self.model.fk(q, Some(link))?.translation.vector;
+        let n = self.shared.model.num_dof();
+        let j = self.shared.model.jacobian(q, Some(link))?;
+        let o = self.shared.model.fk(q, Some(link))?.translation.vector;
         let r = p.coords - o;
         let mut out = vec![0.0; 3 * n];
         for c in 0..n {
@@ -98,9 +98,9 @@ impl CollisionChecker {
     /// Signed distance of the robot to the world and to itself, with its
     /// gradient with respect to `q` (the gradient of the closest pair).
     pub fn distance(&self, q: &[f64]) -> Result<Distance> {
-        self.model.check_configuration("q", q)?;
+        self.shared.model.check_configuration("q", q)?;
         let placed = self.placed(q)?;
-        let n = self.model.num_dof();
+        let n = self.shared.model.num_dof();
         let mut world = (f64::INFINITY, None::<(usize, Vector3<f64>, usize)>);
         let enabled = self.enabled_mask();
         for (i, s) in placed.iter().enumerate() {
@@ -176,7 +176,7 @@ impl CollisionChecker {
     /// [`CollisionChecker::in_collision`] is false and not empty when it is
     /// true (up to `f32` rounding for contacts that exactly touch).
     pub fn contacts(&self, q: &[f64]) -> Result<Vec<Contact>> {
-        self.model.check_configuration("q", q)?;
+        self.shared.model.check_configuration("q", q)?;
         let placed = self.placed(q)?;
         let mut found: Vec<Contact> = Vec::new();
         let mut record = |body: String, other: String, self_collision: bool, depth: f64| {

@@ -314,6 +314,11 @@ pub(crate) fn sphere_hits_prim<L: Lanes>(prim: &Prim, c: &[L; 3], r: L) -> u32 {
     }
 }
 
+/// Obstacles from which the eight-lane kernel uses the world grid (below,
+/// testing every obstacle's bound against the body's sweep costs less than
+/// the grid lookups; both give the same answers).
+const GRID_MIN_OBSTACLES: usize = 16;
+
 /// Checks the lanes of `q` (DOF-major: `q[dof]` holds that DOF for every
 /// lane) against the world and for self-collision. Lanes outside `active`
 /// are ignored. With `skip_static`, bodies fixed to the base (frame 0) are
@@ -323,9 +328,11 @@ pub(crate) fn sphere_hits_prim<L: Lanes>(prim: &Prim, c: &[L; 3], r: L) -> u32 {
 /// Inlined into its callers, so that a [`crate::dispatch`] entry point
 /// compiles it with its level's instructions.
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 pub fn check<L: Lanes>(
     robot: &CompiledRobot,
     world: &CompiledWorld,
+    grid: Option<&crate::world_grid::WorldGrid>,
     q: &[L],
     margin: f32,
     active: u32,
@@ -344,6 +351,53 @@ pub fn check<L: Lanes>(
         let body = &robot.bodies[bi];
         let bc = scratch.bounds[bi];
         if body.frame == 0 && skip_static {
+            continue;
+        }
+        // Lanes tested against every obstacle (all of them without a grid).
+        let mut full = active & !hit;
+        if let Some(g) = grid
+            && L::WIDTH == 8
+            && world.obstacles.len() >= GRID_MIN_OBSTACLES
+            && body.bound.1 + margin <= g.list_reach()
+        {
+            // Lanes the grid clears skip the world; the others test only
+            // their cell's candidate obstacles, lanes sharing a cell
+            // together.
+            let p8 = [0, 1, 2].map(|a| f32x8::from_fn(|i| bc[a].lane(i)));
+            let reach = f32x8::splat(body.bound.1 + margin + crate::world_grid::SLACK);
+            let mut todo = full & !g.clear_lanes(world, &p8, reach, full);
+            let mut cells = [(usize::MAX, 0u32); 8];
+            let mut ncells = 0;
+            full = 0;
+            while todo != 0 {
+                let l = todo.trailing_zeros() as usize;
+                todo &= todo - 1;
+                let p = [bc[0].lane(l), bc[1].lane(l), bc[2].lane(l)];
+                match g.list_cell(&p) {
+                    None => full |= 1 << l,
+                    Some(c) => match cells[..ncells].iter_mut().find(|x| x.0 == c) {
+                        Some(x) => x.1 |= 1 << l,
+                        None => {
+                            cells[ncells] = (c, 1 << l);
+                            ncells += 1;
+                        }
+                    },
+                }
+            }
+            for &(c, lanes) in &cells[..ncells] {
+                for &oi in g.candidates(world, c) {
+                    let obs = &world.obstacles[oi as usize];
+                    self::world_pair(robot, body, bi, &bc, obs, m, lanes, &mut hit, scratch);
+                    if hit & active == active {
+                        return hit & active;
+                    }
+                    if hit & lanes == lanes {
+                        break;
+                    }
+                }
+            }
+        }
+        if full == 0 {
             continue;
         }
         for (ci, chunk) in world.bound_soa.iter().enumerate() {
@@ -377,7 +431,7 @@ pub fn check<L: Lanes>(
                 let oi = ci * 8 + bits.trailing_zeros() as usize;
                 bits &= bits - 1;
                 let obs = &world.obstacles[oi];
-                self::world_pair(robot, body, bi, &bc, obs, m, active, &mut hit, scratch);
+                self::world_pair(robot, body, bi, &bc, obs, m, full, &mut hit, scratch);
                 if hit & active == active {
                     return hit & active;
                 }

@@ -29,7 +29,7 @@ pub mod world;
 pub mod world_grid;
 
 pub use acm::{AllowedCollisions, AnalysisReport, AnalyzeCollisions};
-pub use checker::{CollisionChecker, Contact};
+pub use checker::{CollisionChecker, Contact, RobotCollisionModel};
 pub use dispatch::SimdLevel;
 pub use error::{CollisionError, Result};
 pub use ferrobot_geometry::{Mesh, PointCloud, Shape};

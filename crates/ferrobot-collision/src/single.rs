@@ -100,6 +100,41 @@ fn ensure_packs(
     done[bi] = true;
 }
 
+/// Whether body `bi` (bounding-sphere centre `bc`, bounding radius plus
+/// margin `reach_body`) touches obstacle `obs`: the body's bounding sphere
+/// against the primitive, then its spheres eight at a time.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn body_hits(
+    robot: &CompiledRobot,
+    bi: usize,
+    obs: &crate::compiled::Obstacle,
+    bc: &[f32; 3],
+    reach_body: f32,
+    m8: f32x8,
+    frames: &[Cols],
+    done: &mut [bool],
+    packs: &mut [[f32x8; 3]],
+) -> bool {
+    if obs.complex.is_none() && sphere_hits_prim(&obs.prim, bc, reach_body) == 0 {
+        return false;
+    }
+    ensure_packs(robot, bi, frames, done, packs);
+    let body = &robot.bodies[bi];
+    let range = body.first_pack..body.first_pack + body.pack_count;
+    for (c, pack) in packs[range.clone()].iter().zip(&robot.packs[range]) {
+        let r = pack.r + m8;
+        let hit = match &obs.complex {
+            Some((shape, pose)) => complex_hits(shape, pose, c, r, 0xff),
+            None => sphere_hits_prim(&obs.prim, c, r),
+        };
+        if hit != 0 {
+            return true;
+        }
+    }
+    false
+}
+
 /// Whether configuration `q` (`f32`, model DOF order) touches the world or
 /// itself. With `skip_static`, bodies fixed to the base are not tested
 /// against the world (the caller knows their answer). `grid`, made for this
@@ -166,6 +201,31 @@ pub fn check_one(
             );
             let rb = f32x8::splat(body.bound.1);
             let reach_body = body.bound.1 + margin;
+            // The obstacles near the body's cell, nearest first, when the
+            // grid's lists cover this body; else every obstacle.
+            let list = grid
+                .filter(|g| reach_body <= g.list_reach())
+                .and_then(|g| g.list_cell(&bc).map(|c| g.candidates(world, c)));
+            if let Some(list) = list {
+                let rb1 = body.bound.1;
+                for &oi in list {
+                    let obs = &world.obstacles[oi as usize];
+                    // The same bound test as the eight-wide one below.
+                    let (dx, dy, dz) = (
+                        bc[0] - obs.bound_c[0],
+                        bc[1] - obs.bound_c[1],
+                        bc[2] - obs.bound_c[2],
+                    );
+                    let reach = (rb1 + obs.bound_r) + margin;
+                    if dx * dx + dy * dy + dz * dz >= reach * reach {
+                        continue;
+                    }
+                    if body_hits(robot, bi, obs, &bc, reach_body, m8, frames, done, packs) {
+                        return true;
+                    }
+                }
+                continue;
+            }
             for (ci, chunk) in world.bound_soa.iter().enumerate() {
                 // The body's bounding sphere against eight obstacle bounds.
                 let (dx, dy, dz) = (x - chunk[0], y - chunk[1], z - chunk[2]);
@@ -176,20 +236,8 @@ pub fn check_one(
                 while bits != 0 {
                     let obs = &world.obstacles[ci * 8 + bits.trailing_zeros() as usize];
                     bits &= bits - 1;
-                    if obs.complex.is_none() && sphere_hits_prim(&obs.prim, &bc, reach_body) == 0 {
-                        continue;
-                    }
-                    ensure_packs(robot, bi, frames, done, packs);
-                    let range = body.first_pack..body.first_pack + body.pack_count;
-                    for (c, pack) in packs[range.clone()].iter().zip(&robot.packs[range]) {
-                        let r = pack.r + m8;
-                        let hit = match &obs.complex {
-                            Some((shape, pose)) => complex_hits(shape, pose, c, r, 0xff),
-                            None => sphere_hits_prim(&obs.prim, c, r),
-                        };
-                        if hit != 0 {
-                            return true;
-                        }
+                    if body_hits(robot, bi, obs, &bc, reach_body, m8, frames, done, packs) {
+                        return true;
                     }
                 }
             }

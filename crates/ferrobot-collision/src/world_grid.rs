@@ -17,7 +17,20 @@
 //! Cells are filled on first use (a few hundred instructions each), so a
 //! new world costs only the allocation; concurrent fills of one cell write
 //! the same value.
+//!
+//! A second, coarser grid (10 cm cells) holds per cell the list of
+//! obstacles a body centred anywhere in the cell could touch, nearest
+//! first: every obstacle whose solid lies within the robot's largest
+//! bounding radius plus the margin, plus the cell's half diagonal and 1 mm
+//! of slack, from the cell centre (the distance to a solid is 1-Lipschitz,
+//! so a body centred at `p` in the cell reaching an obstacle means the
+//! obstacle is within that distance of the centre). A body not cleared by
+//! the first grid tests only these obstacles instead of every obstacle of
+//! the world, so the cost of a check follows the obstacles near the robot,
+//! not their number. Lists are made on first use of a cell, like the
+//! bounds.
 
+use std::sync::OnceLock;
 use std::sync::atomic::{AtomicU8, Ordering};
 
 use wide::{f32x8, i32x8};
@@ -34,6 +47,10 @@ const UNKNOWN: u8 = u8::MAX;
 const MAX_EXTENT: f32 = 3.0;
 /// Slack (m) over the bound for the `f32` arithmetic of the kernel.
 pub const SLACK: f32 = 1e-4;
+/// Edge of a candidate-list cell (m).
+const LIST_CELL: f32 = 0.1;
+/// Slack (m) of the candidate lists' reach for the `f32` arithmetic.
+const LIST_SLACK: f32 = 1e-3;
 
 /// The grid (see the module docs).
 #[derive(Debug)]
@@ -43,14 +60,25 @@ pub struct WorldGrid {
     /// `n` as `f32`.
     n_f32: [f32; 3],
     cells: Box<[AtomicU8]>,
+    /// Cells per axis of the candidate-list grid (same origin).
+    list_n: [usize; 3],
+    /// `list_n` as `f32`.
+    list_n_f32: [f32; 3],
+    /// Candidate obstacles per list cell, nearest first (made on first use).
+    lists: Box<[OnceLock<Box<[u32]>>]>,
+    /// The bounding radius plus margin the lists cover: a body whose
+    /// bounding radius plus margin exceeds it must not use them.
+    list_reach: f32,
 }
 
 impl WorldGrid {
     /// A grid over the region `robot`'s moving bodies can reach (the union
     /// of their sweep spheres, at most 3 m from the base along each axis),
     /// or `None` when the world is empty or nothing moves.
-    pub fn for_robot(robot: &CompiledRobot, world: &CompiledWorld) -> Option<Self> {
-        if world.obstacles.is_empty() {
+    /// The candidate lists cover bodies up to the largest moving bounding
+    /// radius plus `margin`.
+    pub fn for_robot(robot: &CompiledRobot, world: &CompiledWorld, margin: f32) -> Option<Self> {
+        if world.obstacles.is_empty() || !margin.is_finite() {
             return None;
         }
         let mut lo = [f32::INFINITY; 3];
@@ -69,12 +97,81 @@ impl WorldGrid {
         let cells = (0..n[0] * n[1] * n[2])
             .map(|_| AtomicU8::new(UNKNOWN))
             .collect();
+        let list_n = [0, 1, 2].map(|i| ((hi[i] - lo[i]) / LIST_CELL).ceil() as usize + 1);
+        let lists = (0..list_n[0] * list_n[1] * list_n[2])
+            .map(|_| OnceLock::new())
+            .collect();
+        let list_reach = robot
+            .bodies
+            .iter()
+            .filter(|b| b.frame != 0)
+            .map(|b| b.bound.1)
+            .fold(0.0f32, f32::max)
+            + margin;
         Some(Self {
             origin: lo,
             n,
             n_f32: n.map(|x| x as f32),
             cells,
+            list_n,
+            list_n_f32: list_n.map(|x| x as f32),
+            lists,
+            list_reach,
         })
+    }
+
+    /// The bounding radius plus margin the candidate lists cover.
+    #[inline(always)]
+    pub fn list_reach(&self) -> f32 {
+        self.list_reach
+    }
+
+    /// The candidate-list cell holding `p`, or `None` outside the grid.
+    #[inline(always)]
+    pub fn list_cell(&self, p: &[f32; 3]) -> Option<usize> {
+        let mut idx = 0usize;
+        for (a, &x) in p.iter().enumerate() {
+            let f = (x - self.origin[a]) * (1.0 / LIST_CELL);
+            // In [0, n) (NaN fails both tests).
+            if !(f >= 0.0 && f < self.list_n_f32[a]) {
+                return None;
+            }
+            idx = idx * self.list_n[a] + f as usize;
+        }
+        Some(idx)
+    }
+
+    /// The obstacles (indices into `world.obstacles`, nearest first) a body
+    /// centred anywhere in list cell `idx` (from [`WorldGrid::list_cell`])
+    /// with bounding radius plus margin at most
+    /// [`WorldGrid::list_reach`] can touch; every other obstacle is
+    /// farther from it than that.
+    #[inline(always)]
+    pub fn candidates(&self, world: &CompiledWorld, idx: usize) -> &[u32] {
+        self.lists[idx].get_or_init(|| self.fill_list(world, idx))
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn fill_list(&self, world: &CompiledWorld, idx: usize) -> Box<[u32]> {
+        let k = idx % self.list_n[2];
+        let j = (idx / self.list_n[2]) % self.list_n[1];
+        let i = idx / (self.list_n[2] * self.list_n[1]);
+        let c = [i, j, k];
+        let c = [0, 1, 2].map(|a| self.origin[a] + (c[a] as f32 + 0.5) * LIST_CELL);
+        let reach = self.list_reach + 0.5 * LIST_CELL * 3f32.sqrt() + LIST_SLACK;
+        let mut near: Vec<(f32, u32)> = world
+            .obstacles
+            .iter()
+            .enumerate()
+            .filter_map(|(oi, o)| {
+                let d = obstacle_distance(o, &c);
+                // NaN (degenerate data) keeps the obstacle.
+                (d.is_nan() || d <= reach).then_some((if d.is_nan() { 0.0 } else { d }, oi as u32))
+            })
+            .collect();
+        near.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        near.into_iter().map(|(_, oi)| oi).collect()
     }
 
     /// A lower bound on the distance from `p` to every obstacle of `world`
@@ -168,17 +265,7 @@ impl WorldGrid {
         let nearest = world
             .obstacles
             .iter()
-            .map(|o| match o.prim {
-                Prim::Complex => {
-                    let d = [
-                        c[0] - o.bound_c[0],
-                        c[1] - o.bound_c[1],
-                        c[2] - o.bound_c[2],
-                    ];
-                    norm(d) - o.bound_r
-                }
-                ref prim => prim_distance(prim, &c),
-            })
+            .map(|o| obstacle_distance(o, &c))
             .fold(f32::INFINITY, f32::min);
         let half_diagonal = 0.5 * CELL * 3f32.sqrt();
         let bound = (nearest - half_diagonal) / QUANTUM;
@@ -188,6 +275,22 @@ impl WorldGrid {
             // One unit less than the floor: immune to the rounding above.
             (bound.floor() - 1.0).min((UNKNOWN - 1) as f32) as u8
         }
+    }
+}
+
+/// Distance from `p` to obstacle `o`'s solid (to its bounding sphere for
+/// meshes and clouds): a lower bound on the distance to its geometry.
+fn obstacle_distance(o: &crate::compiled::Obstacle, p: &[f32; 3]) -> f32 {
+    match o.prim {
+        Prim::Complex => {
+            let d = [
+                p[0] - o.bound_c[0],
+                p[1] - o.bound_c[1],
+                p[2] - o.bound_c[2],
+            ];
+            norm(d) - o.bound_r
+        }
+        ref prim => prim_distance(prim, p),
     }
 }
 

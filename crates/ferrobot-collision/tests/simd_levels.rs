@@ -135,7 +135,7 @@ fn every_level_gives_the_scalar_answers() {
             .iter()
             .map(|q| {
                 let q32: Vec<f32> = q.iter().map(|&v| v as f32).collect();
-                kernel::check(robot, world, &q32, 0.01, 1, false, &mut scratch) != 0
+                kernel::check(robot, world, None, &q32, 0.01, 1, false, &mut scratch) != 0
             })
             .collect();
         assert!(scalar.iter().any(|&b| b) && scalar.iter().any(|&b| !b));
@@ -179,7 +179,7 @@ fn every_level_gives_the_scalar_answers() {
                 let q32: Vec<f32> = a.iter().map(|&v| v as f32).collect();
                 let (robot, world) = checker.compiled();
                 assert_eq!(
-                    kernel::check(robot, world, &q32, 0.01, 1, false, &mut scratch),
+                    kernel::check(robot, world, None, &q32, 0.01, 1, false, &mut scratch),
                     0
                 );
             }

@@ -64,7 +64,7 @@ fn grid_bounds_never_exceed_exact_distances() {
         let checker =
             CollisionChecker::new(model.clone(), spheres.clone(), acm.clone(), world).unwrap();
         let (robot, compiled) = checker.compiled();
-        let grid = WorldGrid::for_robot(robot, compiled).expect("a grid");
+        let grid = WorldGrid::for_robot(robot, compiled, 0.0).expect("a grid");
         let point = Ball::new(1e-6);
         for _ in 0..20_000 {
             let p = [
@@ -74,14 +74,28 @@ fn grid_bounds_never_exceed_exact_distances() {
             ];
             let bound = grid.clearance(compiled, &p);
             let at = Isometry3::translation(p[0] as f64, p[1] as f64, p[2] as f64);
-            let exact = parts
+            let dists: Vec<f32> = parts
                 .iter()
                 .map(|(s, pose)| {
                     distance(&to_pose(&at), &point, &to_pose(pose), s.as_ref())
                         .unwrap()
                         .distance
                 })
-                .fold(f32::INFINITY, f32::min);
+                .collect();
+            let exact = dists.iter().copied().fold(f32::INFINITY, f32::min);
+            // Every obstacle within the lists' reach of `p` is a candidate
+            // of `p`'s cell (one part per obstacle in these scenes).
+            if let Some(cell) = grid.list_cell(&p) {
+                let list = grid.candidates(compiled, cell);
+                for (oi, &d) in dists.iter().enumerate() {
+                    if d < grid.list_reach() {
+                        assert!(
+                            list.contains(&(oi as u32)),
+                            "{scene} at {p:?}: obstacle {oi} at {d} m missing"
+                        );
+                    }
+                }
+            }
             assert!(
                 bound <= exact + 1e-5,
                 "{scene} at {p:?}: bound {bound} > exact {exact}"
@@ -110,5 +124,140 @@ fn single_path_with_grid_agrees_with_batch_kernel_in_every_dev_scene_kind() {
         let (checker, batch) = assert_single_matches_batch(scene, margin, 12, 4000, 2);
         assert!(checker.has_world_grid(), "{scene}: the grid was never made");
         assert!(batch.iter().filter(|&&b| b).count() > 200);
+    }
+}
+
+/// A cage of many small boxes around the arm's workspace plus clutter inside
+/// it (hundreds of obstacles, many close to the arm).
+fn cage_world(seed: u64, n: usize) -> CollisionWorld {
+    let mut rng = StdRng::seed_from_u64(seed);
+    let mut world = CollisionWorld::new();
+    for i in 0..n {
+        // Clear of the base link (which would make every configuration collide).
+        let p = loop {
+            let p: [f64; 3] = [
+                rng.random_range(-0.9..0.9),
+                rng.random_range(-0.9..0.9),
+                rng.random_range(-0.2..1.2),
+            ];
+            if p[0].hypot(p[1]) > 0.35 {
+                break p;
+            }
+        };
+        let h = nalgebra::Vector3::new(
+            rng.random_range(0.01..0.06),
+            rng.random_range(0.01..0.06),
+            rng.random_range(0.01..0.06),
+        );
+        let rot = nalgebra::UnitQuaternion::from_euler_angles(
+            rng.random_range(-3.0..3.0),
+            rng.random_range(-3.0..3.0),
+            rng.random_range(-3.0..3.0),
+        );
+        let pose = Isometry3::from_parts(nalgebra::Translation3::new(p[0], p[1], p[2]), rot);
+        let shape = match i % 4 {
+            0 => Shape::Box { half_extents: h },
+            1 => Shape::Sphere { radius: h.x },
+            2 => Shape::Cylinder {
+                radius: h.x,
+                half_height: h.y,
+            },
+            _ => Shape::Capsule {
+                radius: h.x,
+                half_height: h.y,
+            },
+        };
+        world
+            .add(&format!("o{i}"), pose, vec![(shape, Isometry3::identity())])
+            .unwrap();
+    }
+    world
+}
+
+#[test]
+fn candidate_lists_never_hide_a_collision_in_crowded_worlds() {
+    use ferrobot_collision::kernel::{self, Scratch};
+    let (model, spheres, acm) = mbm_panda();
+    let mut rng = StdRng::seed_from_u64(23);
+    for (seed, n, margin) in [(1, 300, 0.0), (2, 600, 0.02)] {
+        let world = cage_world(seed, n);
+        let mut checker =
+            CollisionChecker::new(model.clone(), spheres.clone(), acm.clone(), world).unwrap();
+        checker.set_margin(margin).unwrap();
+        let qs: Vec<Vec<f64>> = (0..3000)
+            .map(|_| common::random_q(&model, &mut rng))
+            .collect();
+        // The reference: the scalar lane against every obstacle, no grid.
+        let (robot, compiled) = checker.compiled();
+        let mut scratch = Scratch::<f32>::new(robot);
+        let reference: Vec<bool> = qs
+            .iter()
+            .map(|q| {
+                let q32: Vec<f32> = q.iter().map(|&v| v as f32).collect();
+                kernel::check(
+                    robot,
+                    compiled,
+                    None,
+                    &q32,
+                    margin as f32,
+                    1,
+                    false,
+                    &mut scratch,
+                ) != 0
+            })
+            .collect();
+        let hits = reference.iter().filter(|&&b| b).count();
+        assert!(hits > 300 && hits < 2900, "{n} obstacles: {hits} colliding");
+        let batch = checker.in_collision_batch(&qs.concat()).unwrap();
+        assert!(checker.has_world_grid());
+        assert_eq!(
+            batch, reference,
+            "{n} obstacles: batch with candidate lists"
+        );
+        let single: Vec<bool> = qs
+            .iter()
+            .map(|q| checker.in_collision(q).unwrap())
+            .collect();
+        assert_eq!(
+            single, reference,
+            "{n} obstacles: single with candidate lists"
+        );
+        // Motions: a motion reported free has every checked configuration
+        // free for the reference.
+        for pair in qs.chunks(2).take(300) {
+            let (a, b) = (&pair[0], &pair[1]);
+            let b: Vec<f64> = a.iter().zip(b).map(|(x, y)| x + 0.15 * (y - x)).collect();
+            if checker.motion_valid(a, &b, 0.01).unwrap() {
+                let steps = a
+                    .iter()
+                    .zip(&b)
+                    .map(|(x, y)| (y - x).abs())
+                    .fold(0.0, f64::max)
+                    / 0.01;
+                let steps = (steps.ceil() as usize).max(1);
+                for k in 0..=steps {
+                    let t = k as f64 / steps as f64;
+                    let q32: Vec<f32> = a
+                        .iter()
+                        .zip(&b)
+                        .map(|(x, y)| (x + (y - x) * t) as f32)
+                        .collect();
+                    assert_eq!(
+                        kernel::check(
+                            robot,
+                            compiled,
+                            None,
+                            &q32,
+                            margin as f32,
+                            1,
+                            false,
+                            &mut scratch
+                        ),
+                        0,
+                        "a motion reported free collides at t = {t}"
+                    );
+                }
+            }
+        }
     }
 }

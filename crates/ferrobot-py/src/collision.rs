@@ -6,7 +6,7 @@ use std::sync::Arc;
 use ferrobot_collision::spherize::{SpherizeOptions, spherize_robot};
 use ferrobot_collision::{
     AllowedCollisions, AnalyzeCollisions, CollisionChecker, CollisionWorld, Mesh, PointCloud,
-    RobotSpheres, Shape,
+    RobotCollisionModel, RobotSpheres, Shape,
 };
 use nalgebra::{Isometry3, Point3, Vector3};
 use numpy::ndarray::{Array1, Array2};
@@ -552,16 +552,26 @@ pub(crate) fn build_checker(
             }
             s.inner.clone()
         }
-        None => match model.auto_spheres.get() {
-            Some(s) => s.clone(),
-            None => {
-                let (links, _) = py
-                    .detach(|| spherize_robot(&m, &SpherizeOptions::default()))
-                    .map_err(collision_err)?;
-                let made = RobotSpheres::new(&m, links).map_err(collision_err)?;
-                model.auto_spheres.get_or_init(|| made).clone()
-            }
-        },
+        None => {
+            let shared = match model.auto_collision.get() {
+                Some(s) => s.clone(),
+                None => {
+                    let (links, _) = py
+                        .detach(|| spherize_robot(&m, &SpherizeOptions::default()))
+                        .map_err(collision_err)?;
+                    let made = RobotSpheres::new(&m, links).map_err(collision_err)?;
+                    let acm = AllowedCollisions::from_model(&m);
+                    let shared = Arc::new(
+                        RobotCollisionModel::new(m.clone(), made, acm).map_err(collision_err)?,
+                    );
+                    model.auto_collision.get_or_init(|| shared).clone()
+                }
+            };
+            let w = world.map(|w| w.inner.clone()).unwrap_or_default();
+            let mut inner = CollisionChecker::with_model(shared, w);
+            inner.set_margin(margin).map_err(collision_err)?;
+            return Ok(inner);
+        }
     };
     let acm = AllowedCollisions::from_model(&m);
     let w = world.map(|w| w.inner.clone()).unwrap_or_default();

@@ -21,9 +21,10 @@ use crate::errors::{guard, model_err};
 pub struct PyRobotModel {
     /// The shared model (later crates hold it too).
     pub inner: Arc<RobotModel>,
-    /// The automatic sphere model, made once on first use (checkers and
-    /// planners of this model share it).
-    pub auto_spheres: std::sync::OnceLock<ferrobot_collision::RobotSpheres>,
+    /// The robot collision model with the automatic sphere model and the
+    /// default allowed-collision matrix, made once on first use (checkers
+    /// and planners of this model share it, compiled robot included).
+    pub auto_collision: std::sync::OnceLock<Arc<ferrobot_collision::RobotCollisionModel>>,
 }
 
 fn options(
@@ -136,7 +137,7 @@ impl PyRobotModel {
     pub fn from_arc(inner: Arc<RobotModel>) -> Self {
         Self {
             inner,
-            auto_spheres: std::sync::OnceLock::new(),
+            auto_collision: std::sync::OnceLock::new(),
         }
     }
 
@@ -150,7 +151,7 @@ impl PyRobotModel {
             let model = py.detach(|| loader(opts)).map_err(model_err)?;
             Ok(Self {
                 inner: Arc::new(model),
-                auto_spheres: std::sync::OnceLock::new(),
+                auto_collision: std::sync::OnceLock::new(),
             })
         })
     }
