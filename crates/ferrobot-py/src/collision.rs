@@ -527,6 +527,47 @@ impl PyCollisionChecker {
 /// `spheres` (default: the automatic sphere model), excluded pairs from
 /// adjacency, rigid attachment and the SRDF. Shared by the checker and the
 /// planner bindings.
+/// The model's automatic allowed-collision matrix for `spheres`
+/// ([`ferrobot_collision::acm::automatic_acm`]), cached on the model; the
+/// pairs found always in contact are reported once with a warning.
+fn automatic_acm_cached(
+    py: Python<'_>,
+    model: &PyRobotModel,
+    spheres: &RobotSpheres,
+) -> PyResult<AllowedCollisions> {
+    if let Some((s, acm)) = model.auto_acm.lock().expect("not poisoned").as_ref() {
+        if s == spheres {
+            return Ok(acm.clone());
+        }
+    }
+    let m = model.inner.clone();
+    let sp = spheres.clone();
+    let (acm, always) = py
+        .detach(|| ferrobot_collision::acm::automatic_acm(&m, &sp))
+        .map_err(collision_err)?;
+    if !always.is_empty() {
+        let names: Vec<String> = always
+            .iter()
+            .map(|&(a, b)| format!("{}-{}", m.links()[a].name, m.links()[b].name))
+            .collect();
+        let message = format!(
+            "robot '{}': {} link pair(s) are in contact in every one of {} sampled configurations \
+             (links overlapping by design) and no SRDF disables them; their self-collision checks \
+             are off (reason '{}' in allowed_collision_pairs): {}",
+            m.name(),
+            always.len(),
+            ferrobot_collision::acm::AUTO_ALWAYS_SAMPLES,
+            ferrobot_collision::acm::AUTO_ALWAYS_REASON,
+            names.join(", ")
+        );
+        let category = py.import("builtins")?.getattr("UserWarning")?;
+        let message = std::ffi::CString::new(message.replace('\0', " ")).expect("no interior NUL");
+        PyErr::warn(py, &category, &message, 1)?;
+    }
+    *model.auto_acm.lock().expect("not poisoned") = Some((spheres.clone(), acm.clone()));
+    Ok(acm)
+}
+
 pub(crate) fn build_checker(
     py: Python<'_>,
     model: &PyRobotModel,
@@ -563,7 +604,7 @@ pub(crate) fn build_checker(
             }
         },
     };
-    let acm = AllowedCollisions::from_model(&m);
+    let acm = automatic_acm_cached(py, model, &spheres)?;
     let w = world.map(|w| w.inner.clone()).unwrap_or_default();
     let mut inner = CollisionChecker::new(m, spheres, acm, w).map_err(collision_err)?;
     inner.set_margin(margin).map_err(collision_err)?;
