@@ -344,16 +344,19 @@ pub fn given_spheres(geoms: &[Geometry]) -> Option<Vec<Sphere>> {
     if geoms.is_empty() {
         return None;
     }
-    geoms
+    // Invalid radii fall through to the spherizer, which reports them; a
+    // sphere of radius 0 has no surface and needs no sphere.
+    let spheres: Option<Vec<Sphere>> = geoms
         .iter()
         .map(|g| match g.shape {
-            Shape::Sphere { radius } => Some(Sphere::new(
+            Shape::Sphere { radius } if radius.is_finite() && radius >= 0.0 => Some(Sphere::new(
                 Point3::from(g.origin.translation.vector),
                 radius,
             )),
             _ => None,
         })
-        .collect()
+        .collect();
+    spheres.map(|s| s.into_iter().filter(|s| s.radius > 0.0).collect())
 }
 
 /// The report of spheres taken as given: they are the geometry, so they
