@@ -409,7 +409,7 @@ impl Planner {
         let goal = goal.as_slice();
         let start = match self.check_start(space, start, began) {
             Ok(s) => s,
-            Err(r) => return Ok(r),
+            Err(r) => return Ok(*r),
         };
         let start = start.as_slice();
         if self.in_collision(space, goal) {
@@ -434,7 +434,7 @@ impl Planner {
         let began = Instant::now();
         let start = match self.check_start(space, start, began) {
             Ok(s) => s,
-            Err(r) => return Ok(r),
+            Err(r) => return Ok(*r),
         };
         let start = start.as_slice();
         let solver = IkSolver::new(self.checker.model(), space, self.link, Some(&self.checker))?;
@@ -498,27 +498,27 @@ impl Planner {
         space: &ActiveSpace,
         start: &[f64],
         began: Instant,
-    ) -> std::result::Result<Vec<f64>, PlanResult> {
+    ) -> std::result::Result<Vec<f64>, Box<PlanResult>> {
         let times = StageTimes {
             total: began.elapsed().as_secs_f64(),
             ..StageTimes::default()
         };
         let Some(start) = self.limits.clamp_within(start, LIMIT_TOLERANCE) else {
-            return Err(PlanResult::failed(
+            return Err(Box::new(PlanResult::failed(
                 PlanStatus::StartOutOfLimits,
                 format!(
                     "start {start:?} lies more than {LIMIT_TOLERANCE} outside the joint limits ({})",
                     self.limit_excess(start)
                 ),
                 times,
-            ));
+            )));
         };
         if self.in_collision(space, &start) {
-            return Err(PlanResult::failed(
+            return Err(Box::new(PlanResult::failed(
                 PlanStatus::StartInCollision,
                 format!("start in collision: {}", self.explain(space, &start)),
                 times,
-            ));
+            )));
         }
         Ok(start)
     }
