@@ -535,10 +535,14 @@ fn automatic_acm_cached(
     model: &PyRobotModel,
     spheres: &RobotSpheres,
 ) -> PyResult<AllowedCollisions> {
-    if let Some((s, acm)) = model.auto_acm.lock().expect("not poisoned").as_ref() {
-        if s == spheres {
-            return Ok(acm.clone());
-        }
+    if let Some((_, acm)) = model
+        .auto_acm
+        .lock()
+        .expect("not poisoned")
+        .as_ref()
+        .filter(|(s, _)| s == spheres)
+    {
+        return Ok(acm.clone());
     }
     let m = model.inner.clone();
     let sp = spheres.clone();
