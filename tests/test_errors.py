@@ -132,7 +132,7 @@ def test_srdf_errors(tmp_path):
     bad = tmp_path / "bad.srdf"
     bad.write_text('<robot name="panda">\n<group name="g"><joint name="nope"/></group>\n</robot>')
     with pytest.raises(E.SrdfError, match=r"bad\.srdf:2: group 'g' names joint 'nope'"):
-        RobotModel.from_urdf(PANDA_URDF, srdf=bad)
+        RobotModel.from_urdf(PANDA_URDF, srdf=bad, strict=True)
     with pytest.raises(E.SrdfError, match="malformed XML"):
         RobotModel.from_urdf(PANDA_URDF, srdf="<robot><group></robot>")
     with pytest.raises(E.UnknownNameError, match="unknown group 'arm'"):

@@ -90,6 +90,7 @@ class RobotModel:
         base_link: str | None = None,
         ee_link: str | None = None,
         group: str | None = None,
+        strict: bool = False,
     ) -> RobotModel: ...
     @staticmethod
     def from_urdf_string(
@@ -100,6 +101,7 @@ class RobotModel:
         base_link: str | None = None,
         ee_link: str | None = None,
         group: str | None = None,
+        strict: bool = False,
     ) -> RobotModel: ...
     @staticmethod
     def from_usd(
@@ -114,6 +116,8 @@ class RobotModel:
         """A UsdPhysics articulation (needs usd-core; see ferrobot.usd)."""
     def to_usd(self, path: str | PathLike[str]) -> Any:
         """Writes the model as USD (needs usd-core; see ferrobot.usd.write_usd); returns the path."""
+    @property
+    def srdf_warnings(self) -> list[str]: ...
     @property
     def name(self) -> str: ...
     @property

@@ -23,6 +23,7 @@ __all__ = [
     "SimulationDiverged",
     "ServiceError",
     "RequestRejectedError",
+    "SrdfWarning",
 ]
 
 
@@ -98,3 +99,11 @@ class ServiceError(FerrobotError):
 
 class RequestRejectedError(ServiceError, ValueError):
     """The grasp service rejected the request (4xx); the message carries the server's reason."""
+
+
+class SrdfWarning(UserWarning):
+    """SRDF entries skipped by a lenient load (names the URDF lacks, a ``group_state`` without ``group``).
+
+    MoveIt's srdfdom skips such entries with a warning; so does ``RobotModel.from_urdf`` unless
+    ``strict=True``. ``RobotModel.srdf_warnings`` lists what was skipped.
+    """

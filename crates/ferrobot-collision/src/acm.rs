@@ -3,6 +3,8 @@
 //! assistant does). The matrix itself only reads the model and lives in
 //! `ferrobot_model::acm`; it is re-exported here.
 
+use std::sync::Arc;
+
 use nalgebra::Point3;
 use rand::{Rng, SeedableRng, rngs::StdRng};
 use rayon::prelude::*;
@@ -24,6 +26,104 @@ pub struct AnalysisReport {
     pub never: Vec<(usize, usize)>,
     /// Pairs that are sometimes in contact (kept).
     pub sometimes: Vec<(usize, usize)>,
+}
+
+/// Configurations sampled by [`always_in_contact`] when a checker is made
+/// with the automatic allowed-collision matrix ([`automatic_acm`]).
+pub const AUTO_ALWAYS_SAMPLES: usize = 200;
+
+/// The reason recorded for pairs [`automatic_acm`] disables.
+pub const AUTO_ALWAYS_REASON: &str = "Always (automatic)";
+
+/// Random configurations within the limits (continuous joints in
+/// `[-pi, pi]`), sample `s` of `seed` as in [`AnalyzeCollisions::analyze`].
+fn sample_q(model: &RobotModel, seed: u64, s: usize) -> Vec<f64> {
+    let mut rng = StdRng::seed_from_u64(seed.wrapping_mul(1_000_003).wrapping_add(s as u64));
+    model
+        .lower_limits()
+        .iter()
+        .zip(model.upper_limits())
+        .map(|(&l, h)| {
+            let l = if l.is_finite() {
+                l
+            } else {
+                -std::f64::consts::PI
+            };
+            let h = if h.is_finite() {
+                h
+            } else {
+                std::f64::consts::PI
+            };
+            if h > l { rng.random_range(l..h) } else { l }
+        })
+        .collect()
+}
+
+/// Link pairs that `acm` still checks and that are in contact in every one
+/// of `samples` random configurations (seeded): links overlapping by
+/// design, such as a linkage gripper opened into a mimic tree or a torso
+/// housing a joint. A pair counts when its spheres overlap in every sample
+/// *and* the checker with the links' exact geometry (convex hulls,
+/// primitives) confirms the contact in every sample, so a pair that is
+/// merely close (spheres overlapping, geometry apart) is kept. Statistical
+/// like MoveIt's setup assistant: a pair apart only in rare configurations
+/// may be listed.
+pub fn always_in_contact(
+    model: &Arc<RobotModel>,
+    spheres: &RobotSpheres,
+    acm: &AllowedCollisions,
+    samples: usize,
+    seed: u64,
+) -> Result<Vec<(usize, usize)>> {
+    let mut probe = acm.clone();
+    let report = probe.analyze(model, spheres, samples, seed)?;
+    if report.always.is_empty() {
+        return Ok(Vec::new());
+    }
+    let qs: Vec<f64> = (0..samples)
+        .flat_map(|s| sample_q(model, seed, s))
+        .collect();
+    let n = model.links().len();
+    let mut out = Vec::new();
+    for &(a, b) in &report.always {
+        // A checker that sees only this pair, with exact confirmation.
+        let mut only = AllowedCollisions::default();
+        for x in 0..n {
+            for y in x + 1..n {
+                if (x, y) != (a.min(b), a.max(b)) {
+                    only.allow(x, y, "probe");
+                }
+            }
+        }
+        let checker = crate::CollisionChecker::new(
+            model.clone(),
+            spheres.clone(),
+            only,
+            crate::CollisionWorld::new(),
+        )?;
+        if checker.in_collision_batch(&qs)?.iter().all(|&c| c) {
+            out.push((a, b));
+        }
+    }
+    Ok(out)
+}
+
+/// The allowed-collision matrix a checker gets when none is given:
+/// [`AllowedCollisions::from_model`] (adjacent, rigid and SRDF pairs), plus
+/// the pairs [`always_in_contact`] finds among those still checked
+/// ([`AUTO_ALWAYS_SAMPLES`] samples, seed 0), with reason
+/// [`AUTO_ALWAYS_REASON`]. With an SRDF that disables them already, nothing
+/// is added. Also returns the added pairs.
+pub fn automatic_acm(
+    model: &Arc<RobotModel>,
+    spheres: &RobotSpheres,
+) -> Result<(AllowedCollisions, Vec<(usize, usize)>)> {
+    let mut acm = AllowedCollisions::from_model(model);
+    let always = always_in_contact(model, spheres, &acm, AUTO_ALWAYS_SAMPLES, 0)?;
+    for &(a, b) in &always {
+        acm.allow(a, b, AUTO_ALWAYS_REASON);
+    }
+    Ok((acm, always))
 }
 
 /// The sampling analysis of an [`AllowedCollisions`] (import the trait to

@@ -46,6 +46,9 @@
 //!    protrusion is chosen (leftover spheres go to the links sticking out
 //!    most).
 //!
+//! Links whose collision geometry is already spheres keep them as they are
+//! (see [`given_spheres`]).
+//!
 //! Closed mesh pieces (every edge shared by two consistently wound
 //! triangles) use parry's pseudo-normals for inside tests. Other meshes
 //! (T-junctions, cracks, overlapping pieces) get a voxel flood fill that
@@ -205,6 +208,9 @@ pub fn spherize_link(
             "link '{name}': budget must be at least 1"
         )));
     }
+    if let Some(spheres) = given_spheres(geoms) {
+        return Ok(given_report(name, spheres));
+    }
     let Some(problem) = Problem::new(name, geoms, options)? else {
         return Ok((Vec::new(), empty_report(name)));
     };
@@ -227,16 +233,25 @@ pub fn spherize_link(
 /// protrusion, see the [module documentation](self); `max_per_link` caps
 /// every link. Without it every link gets its automatic count. Links are
 /// processed in parallel; the result depends only on the model and options.
+///
+/// A link whose collision geometry is made only of spheres (a spherized
+/// URDF loaded as the robot, as MotionBenchMaker and VAMP ship) keeps those
+/// spheres exactly ([`given_spheres`]), whatever `max_per_link`; they count
+/// against `total_budget`, the rest of which is split among the other links.
 pub fn spherize_robot(
     model: &RobotModel,
     options: &SpherizeOptions,
 ) -> Result<(Vec<Vec<Sphere>>, Vec<LinkSphereReport>)> {
     options.validate()?;
     let links = model.links();
+    // Links whose collision geometry is already spheres keep them.
+    let given: Vec<Option<Vec<Sphere>>> =
+        links.iter().map(|l| given_spheres(&l.collisions)).collect();
     let problems: Vec<Option<Problem>> = links
         .par_iter()
-        .map(|l| {
-            if l.collisions.is_empty() {
+        .zip(&given)
+        .map(|(l, g)| {
+            if l.collisions.is_empty() || g.is_some() {
                 Ok(None)
             } else {
                 Problem::new(&l.name, &l.collisions, options)
@@ -244,16 +259,23 @@ pub fn spherize_robot(
         })
         .collect::<Result<_>>()?;
     let active: Vec<&Problem> = problems.iter().flatten().collect();
+    let kept: usize = given.iter().flatten().map(Vec::len).sum();
     let solved: Vec<Vec<Sphere>> = match options.total_budget {
         Some(total) => {
-            if total < active.len() {
+            let left = total.saturating_sub(kept);
+            if left < active.len() {
                 return Err(CollisionError::InvalidArgument(format!(
-                    "total_budget ({total}) is smaller than the number of links with collision \
-                     geometry ({}); each needs at least one sphere",
+                    "total_budget ({total}) leaves {left} sphere(s) after the {kept} sphere(s) of \
+                     links whose collision geometry is spheres, fewer than the {} other link(s) \
+                     with collision geometry; each needs at least one sphere",
                     active.len()
                 )));
             }
-            solve_budget(&active, total, options.max_per_link)
+            if active.is_empty() {
+                Vec::new()
+            } else {
+                solve_budget(&active, left, options.max_per_link)
+            }
         }
         None => active
             .par_iter()
@@ -271,8 +293,12 @@ pub fn spherize_robot(
     let mut out = vec![Vec::new(); links.len()];
     let mut reports = Vec::new();
     let mut next = solved.into_iter().zip(solved_reports);
-    for ((l, p), slot) in links.iter().zip(&problems).zip(out.iter_mut()) {
-        if p.is_some() {
+    for (((l, p), g), slot) in links.iter().zip(&problems).zip(given).zip(out.iter_mut()) {
+        if let Some(g) = g {
+            let (s, r) = given_report(&l.name, g);
+            *slot = s;
+            reports.push(r);
+        } else if p.is_some() {
             if let Some((s, r)) = next.next() {
                 *slot = s;
                 reports.push(r);
@@ -308,6 +334,39 @@ pub fn evaluate_link(
             ..empty_report(name)
         }),
     }
+}
+
+/// The spheres of geometry made only of spheres (as in the spherized URDFs
+/// MotionBenchMaker and VAMP ship), in the link frame; `None` when any
+/// element is another shape or there is none. Such links keep their spheres
+/// exactly: re-fitting them could only make the model larger.
+pub fn given_spheres(geoms: &[Geometry]) -> Option<Vec<Sphere>> {
+    if geoms.is_empty() {
+        return None;
+    }
+    // Invalid radii fall through to the spherizer, which reports them; a
+    // sphere of radius 0 has no surface and needs no sphere.
+    let spheres: Option<Vec<Sphere>> = geoms
+        .iter()
+        .map(|g| match g.shape {
+            Shape::Sphere { radius } if radius.is_finite() && radius >= 0.0 => Some(Sphere::new(
+                Point3::from(g.origin.translation.vector),
+                radius,
+            )),
+            _ => None,
+        })
+        .collect();
+    spheres.map(|s| s.into_iter().filter(|s| s.radius > 0.0).collect())
+}
+
+/// The report of spheres taken as given: they are the geometry, so they
+/// cover it exactly and protrude nowhere.
+fn given_report(name: &str, spheres: Vec<Sphere>) -> (Vec<Sphere>, LinkSphereReport) {
+    let report = LinkSphereReport {
+        spheres: spheres.len(),
+        ..empty_report(name)
+    };
+    (spheres, report)
 }
 
 fn empty_report(name: &str) -> LinkSphereReport {

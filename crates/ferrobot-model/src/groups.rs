@@ -7,108 +7,205 @@ use crate::model::RobotModel;
 use crate::srdf::Srdf;
 
 impl RobotModel {
-    /// Checks that every name the SRDF uses exists in the model.
-    pub(crate) fn validate_srdf(&self, srdf: &Srdf) -> Result<()> {
-        let bad = |key: &str, what: String| Err(ModelError::srdf(srdf.location(key), what));
-        for g in &srdf.groups {
+    /// Checks every name the SRDF uses against the model. With `strict`,
+    /// the first unknown name is an error. Otherwise, as MoveIt's srdfdom
+    /// does, what names something the URDF lacks is dropped and listed in
+    /// [`Srdf::skipped`]: a group's unknown joints, links and chains (a
+    /// group left empty goes too), subgroups that are not (or no longer)
+    /// defined, a state's unknown joints (a state of an unknown group goes
+    /// whole), `disable_collisions` pairs naming unknown links, end effectors
+    /// attached to unknown links, unknown passive joints.
+    pub(crate) fn resolve_srdf(&self, srdf: &mut Srdf, strict: bool) -> Result<()> {
+        let mut skipped = Vec::new();
+        let mut issue = |srdf: &Srdf, key: &str, what: String| -> Result<()> {
+            let location = srdf.location(key);
+            if strict {
+                return Err(ModelError::srdf(location, what));
+            }
+            skipped.push(format!("{location}: {what}; skipped"));
+            Ok(())
+        };
+        let mut groups = std::mem::take(&mut srdf.groups);
+        for g in &mut groups {
             let key = format!("group:{}", g.name);
-            for j in &g.joints {
-                if !self.joint_index.contains_key(j) {
-                    return bad(
-                        &key,
-                        format!(
-                            "group '{}' names joint '{j}', which the URDF does not define",
-                            g.name
-                        ),
+            let was_empty = g.joints.is_empty()
+                && g.links.is_empty()
+                && g.chains.is_empty()
+                && g.subgroups.is_empty();
+            let mut joints = Vec::new();
+            for j in std::mem::take(&mut g.joints) {
+                if self.joint_index.contains_key(&j) {
+                    joints.push(j);
+                } else {
+                    let what = format!(
+                        "group '{}' names joint '{j}', which the URDF does not define",
+                        g.name
                     );
+                    issue(srdf, &key, what)?;
                 }
             }
-            for l in g
-                .links
-                .iter()
-                .chain(g.chains.iter().flat_map(|(b, t)| [b, t]))
-            {
-                if !self.link_index.contains_key(l) {
-                    return bad(
-                        &key,
-                        format!(
-                            "group '{}' names link '{l}', which the URDF does not define",
-                            g.name
-                        ),
+            g.joints = joints;
+            let mut links = Vec::new();
+            for l in std::mem::take(&mut g.links) {
+                if self.link_index.contains_key(&l) {
+                    links.push(l);
+                } else {
+                    let what = format!(
+                        "group '{}' names link '{l}', which the URDF does not define",
+                        g.name
                     );
+                    issue(srdf, &key, what)?;
                 }
             }
-            for (base, tip) in &g.chains {
-                let path = self.path_to(self.link_index[tip]);
-                let b = self.link_index[base];
+            g.links = links;
+            let mut chains = Vec::new();
+            for (base, tip) in std::mem::take(&mut g.chains) {
+                if let Some(l) = [&base, &tip]
+                    .into_iter()
+                    .find(|l| !self.link_index.contains_key(l.as_str()))
+                {
+                    let what = format!(
+                        "group '{}' names link '{l}', which the URDF does not define",
+                        g.name
+                    );
+                    issue(srdf, &key, what)?;
+                    continue;
+                }
+                let path = self.path_to(self.link_index[&tip]);
+                let b = self.link_index[&base];
                 if b != 0 && !path.iter().any(|&j| self.joints[j].child == b) {
-                    return bad(
-                        &key,
-                        format!(
-                            "group '{}': chain tip '{tip}' is not below base '{base}'",
-                            g.name
-                        ),
+                    let what = format!(
+                        "group '{}': chain tip '{tip}' is not below base '{base}'",
+                        g.name
                     );
+                    issue(srdf, &key, what)?;
+                    continue;
                 }
+                chains.push((base, tip));
             }
-            for s in &g.subgroups {
-                if srdf.group(s).is_none() {
-                    return bad(
-                        &key,
-                        format!(
+            g.chains = chains;
+            let empty = g.joints.is_empty()
+                && g.links.is_empty()
+                && g.chains.is_empty()
+                && g.subgroups.is_empty();
+            if empty && !was_empty {
+                let what = format!("group '{}' names nothing the URDF defines", g.name);
+                issue(srdf, &key, what)?;
+                g.name.clear();
+            }
+        }
+        groups.retain(|g| !g.name.is_empty());
+        // Subgroups: drop references to undefined groups, and groups left
+        // with nothing, until nothing changes.
+        loop {
+            let names: BTreeSet<String> = groups.iter().map(|g| g.name.clone()).collect();
+            let mut changed = false;
+            for g in &mut groups {
+                let key = format!("group:{}", g.name);
+                let before = g.subgroups.len();
+                let mut kept = Vec::new();
+                for s in std::mem::take(&mut g.subgroups) {
+                    if names.contains(&s) {
+                        kept.push(s);
+                    } else {
+                        let what = format!(
                             "group '{}' names subgroup '{s}', which is not defined",
                             g.name
-                        ),
-                    );
+                        );
+                        issue(srdf, &key, what)?;
+                    }
+                }
+                g.subgroups = kept;
+                if g.subgroups.len() != before
+                    && g.joints.is_empty()
+                    && g.links.is_empty()
+                    && g.chains.is_empty()
+                    && g.subgroups.is_empty()
+                {
+                    let what = format!("group '{}' names nothing the URDF defines", g.name);
+                    issue(srdf, &key, what)?;
+                    g.name.clear();
+                    changed = true;
                 }
             }
+            groups.retain(|g| !g.name.is_empty());
+            if !changed {
+                break;
+            }
         }
-        for s in &srdf.group_states {
+        srdf.groups = groups;
+
+        let mut states = std::mem::take(&mut srdf.group_states);
+        for s in &mut states {
             let key = format!("state:{}:{}", s.group, s.name);
             if srdf.group(&s.group).is_none() {
-                return bad(
-                    &key,
-                    format!(
-                        "state '{}' belongs to group '{}', which is not defined",
-                        s.name, s.group
-                    ),
+                let what = format!(
+                    "state '{}' belongs to group '{}', which is not defined",
+                    s.name, s.group
                 );
+                issue(srdf, &key, what)?;
+                s.name.clear();
+                continue;
             }
-            for j in s.values.keys() {
-                if !self.joint_index.contains_key(j) {
-                    return bad(
-                        &key,
-                        format!(
-                            "state '{}' sets joint '{j}', which the URDF does not define",
-                            s.name
-                        ),
-                    );
-                }
-            }
-        }
-        for p in &srdf.disabled_collisions {
-            for l in [&p.link1, &p.link2] {
-                if !self.link_index.contains_key(l) {
-                    return bad(
-                        &format!("pair:{}:{}", p.link1, p.link2),
-                        format!(
-                            "disable_collisions names link '{l}', which the URDF does not define"
-                        ),
-                    );
-                }
+            let unknown: Vec<String> = s
+                .values
+                .keys()
+                .filter(|j| !self.joint_index.contains_key(*j))
+                .cloned()
+                .collect();
+            for j in unknown {
+                let what = format!(
+                    "state '{}' sets joint '{j}', which the URDF does not define",
+                    s.name
+                );
+                issue(srdf, &key, what)?;
+                s.values.remove(&j);
             }
         }
-        for e in &srdf.end_effectors {
-            if !self.link_index.contains_key(&e.parent_link) {
-                return Err(ModelError::srdf(
-                    srdf.location(""),
-                    format!(
-                        "end effector '{}' names parent link '{}', which the URDF does not define",
-                        e.name, e.parent_link
-                    ),
-                ));
+        states.retain(|s| !s.name.is_empty());
+        srdf.group_states = states;
+
+        let mut pairs = Vec::new();
+        for p in std::mem::take(&mut srdf.disabled_collisions) {
+            let key = format!("pair:{}:{}", p.link1, p.link2);
+            if let Some(l) = [&p.link1, &p.link2]
+                .into_iter()
+                .find(|l| !self.link_index.contains_key(l.as_str()))
+            {
+                let what =
+                    format!("disable_collisions names link '{l}', which the URDF does not define");
+                issue(srdf, &key, what)?;
+            } else {
+                pairs.push(p);
             }
         }
+        srdf.disabled_collisions = pairs;
+
+        let mut ees = Vec::new();
+        for e in std::mem::take(&mut srdf.end_effectors) {
+            if self.link_index.contains_key(&e.parent_link) {
+                ees.push(e);
+            } else {
+                let what = format!(
+                    "end effector '{}' names parent link '{}', which the URDF does not define",
+                    e.name, e.parent_link
+                );
+                issue(srdf, &format!("ee:{}", e.name), what)?;
+            }
+        }
+        srdf.end_effectors = ees;
+
+        let mut passive = Vec::new();
+        for j in std::mem::take(&mut srdf.passive_joints) {
+            if self.joint_index.contains_key(&j) {
+                passive.push(j);
+            } else {
+                let what = format!("passive joint '{j}' is a joint the URDF does not define");
+                issue(srdf, "", what)?;
+            }
+        }
+        srdf.passive_joints = passive;
+        srdf.skipped.extend(skipped);
         Ok(())
     }
 

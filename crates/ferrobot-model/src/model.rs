@@ -38,6 +38,11 @@ pub struct LoadOptions {
     pub ee_link: Option<String>,
     /// An SRDF group to plan for (default: the joints from base to ee).
     pub group: Option<String>,
+    /// SRDF strictness. `false` (the default, as MoveIt's srdfdom): SRDF
+    /// entries that cannot be read or that name links or joints the URDF
+    /// lacks are skipped and listed in [`RobotModel::srdf_warnings`].
+    /// `true`: the first such entry is an error.
+    pub strict: bool,
 }
 
 /// A robot: kinematic tree, limits, geometry and semantics.
@@ -198,7 +203,9 @@ impl RobotModel {
 
         let srdf = match &options.srdf {
             None => None,
-            Some(SrdfSource::Text(text)) => Some(Srdf::parse(text, "<srdf string>")?),
+            Some(SrdfSource::Text(text)) => {
+                Some(Srdf::parse_with(text, "<srdf string>", options.strict)?)
+            }
             Some(SrdfSource::File(path)) => {
                 let text = std::fs::read_to_string(path).map_err(|e| {
                     ModelError::srdf(
@@ -206,7 +213,11 @@ impl RobotModel {
                         format!("cannot read the SRDF file: {e}"),
                     )
                 })?;
-                Some(Srdf::parse(&text, &path.display().to_string())?)
+                Some(Srdf::parse_with(
+                    &text,
+                    &path.display().to_string(),
+                    options.strict,
+                )?)
             }
         };
 
@@ -227,8 +238,9 @@ impl RobotModel {
             group_dofs: Vec::new(),
             srdf: None,
         };
-        if let Some(srdf) = &srdf {
-            model.validate_srdf(srdf)?;
+        let mut srdf = srdf;
+        if let Some(srdf) = &mut srdf {
+            model.resolve_srdf(srdf, options.strict)?;
         }
         model.srdf = srdf;
 
@@ -324,22 +336,70 @@ impl RobotModel {
                 .max()
                 .unwrap_or(0);
         }
-        let mut l = self.base;
-        loop {
-            let kids: Vec<usize> = self.links[l]
-                .child_joints
-                .iter()
-                .map(|&j| self.joints[j].child)
-                .collect();
-            let Some(best) = kids.iter().map(|&c| depth[c]).max() else {
-                return Ok(l);
-            };
-            let deepest: Vec<usize> = kids.into_iter().filter(|&c| depth[c] == best).collect();
-            if deepest.len() != 1 {
-                return Ok(l);
+        let descend = |from: usize| -> (usize, Vec<usize>) {
+            let mut l = from;
+            loop {
+                let kids: Vec<usize> = self.links[l]
+                    .child_joints
+                    .iter()
+                    .map(|&j| self.joints[j].child)
+                    .collect();
+                let Some(best) = kids.iter().map(|&c| depth[c]).max() else {
+                    return (l, Vec::new());
+                };
+                let deepest: Vec<usize> = kids.into_iter().filter(|&c| depth[c] == best).collect();
+                if deepest.len() != 1 {
+                    return (l, deepest);
+                }
+                l = deepest[0];
             }
-            l = deepest[0];
+        };
+        let (l, tied) = descend(self.base);
+        // A branch point before any movable joint (two arms on a torso):
+        // the base-to-ee group would be empty. Name the choices instead.
+        // Whether the subtree hanging from each link (its parent joint
+        // included) has a movable joint.
+        let mut moves = vec![false; self.links.len()];
+        for k in (0..self.links.len()).rev() {
+            let own = self.links[k]
+                .parent_joint
+                .is_some_and(|j| self.joints[j].kind.is_movable());
+            moves[k] = own
+                || self.links[k]
+                    .child_joints
+                    .iter()
+                    .any(|&j| moves[self.joints[j].child]);
         }
+        let moving = |c: usize| moves[c];
+        if self.dofs_between(self.base, l).is_empty()
+            && tied.iter().filter(|&&c| moving(c)).count() >= 2
+        {
+            let tips: Vec<&str> = tied
+                .iter()
+                .filter(|&&c| moving(c))
+                .map(|&c| self.links[descend(c).0].name.as_str())
+                .collect();
+            let groups: Vec<&str> = self
+                .srdf
+                .iter()
+                .flat_map(|s| s.groups.iter().map(|g| g.name.as_str()))
+                .collect();
+            let groups = if groups.is_empty() {
+                "none".to_string()
+            } else {
+                groups.join(", ")
+            };
+            return Err(ModelError::InvalidArgument(format!(
+                "robot '{}' branches at link '{}' into {} chains of equal length before any movable joint, \
+                 so there is no single default arm: choose group= (SRDF groups: {groups}) or ee_link= \
+                 (ends of the branches: {})",
+                self.name,
+                self.links[l].name,
+                tips.len(),
+                tips.join(", ")
+            )));
+        }
+        Ok(l)
     }
 
     /// Index of the link named `name`.
@@ -469,6 +529,13 @@ impl RobotModel {
     /// DOF indices of the planning group, in DOF order.
     pub fn group_dofs(&self) -> &[usize] {
         &self.group_dofs
+    }
+
+    /// What a lenient load skipped from the SRDF (see
+    /// [`LoadOptions::strict`]), one message per entry naming file, line
+    /// and the missing name; empty without an SRDF or after a strict load.
+    pub fn srdf_warnings(&self) -> &[String] {
+        self.srdf.as_ref().map_or(&[], |s| s.skipped.as_slice())
     }
 
     /// The SRDF, if one was loaded.

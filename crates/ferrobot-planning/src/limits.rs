@@ -17,6 +17,14 @@ pub const DEFAULT_ACCELERATION: [f64; 2] = [10.0, 2.0];
 /// Default jerk for joints without a known data sheet (rad/s³, m/s³).
 pub const DEFAULT_JERK: [f64; 2] = [500.0, 100.0];
 
+/// How far (rad, or m for prismatic joints) a start or goal configuration
+/// may lie outside a position limit and still be planned for: such
+/// excesses (benchmark start states a few µrad outside the URDF limits, as
+/// recorded by real controllers) are clamped onto the limit before
+/// planning, and the plan starts (or ends) at the clamped configuration.
+/// Beyond it, the plan fails with `StartOutOfLimits` / `GoalOutOfLimits`.
+pub const LIMIT_TOLERANCE: f64 = 1e-5;
+
 /// Limits of the active DOFs, in active order.
 #[derive(Debug, Clone, PartialEq)]
 pub struct KinematicLimits {
@@ -136,5 +144,16 @@ impl KinematicLimits {
         q.iter()
             .zip(self.lower.iter().zip(&self.upper))
             .all(|(v, (lo, hi))| *v >= lo - tol && *v <= hi + tol)
+    }
+
+    /// `q` clamped into the limits when no value lies more than `tol`
+    /// outside them, else `None`.
+    pub fn clamp_within(&self, q: &[f64], tol: f64) -> Option<Vec<f64>> {
+        self.contains(q, tol).then(|| {
+            q.iter()
+                .zip(self.lower.iter().zip(&self.upper))
+                .map(|(v, (lo, hi))| v.max(*lo).min(*hi))
+                .collect()
+        })
     }
 }

@@ -14,7 +14,7 @@ use rand::rngs::SmallRng;
 
 use crate::error::{Result, check_finite};
 use crate::ik::{IkOptions, IkSolution, IkSolver};
-use crate::limits::KinematicLimits;
+use crate::limits::{KinematicLimits, LIMIT_TOLERANCE};
 use crate::rrt::{Edges, RrtFailure, RrtOptions, rrt_connect_until};
 use crate::simplify::{SimplifyOptions, path_length, simplify};
 
@@ -396,16 +396,22 @@ impl Planner {
         self.check_active("goal", goal)?;
         opts.validate()?;
         let began = Instant::now();
-        if !self.limits.contains(goal, 1e-9) {
+        let Some(goal) = self.limits.clamp_within(goal, LIMIT_TOLERANCE) else {
             return Ok(PlanResult::failed(
                 PlanStatus::GoalOutOfLimits,
-                format!("goal {goal:?} lies outside the joint limits"),
+                format!(
+                    "goal {goal:?} lies more than {LIMIT_TOLERANCE} outside the joint limits ({})",
+                    self.limit_excess(goal)
+                ),
                 StageTimes::default(),
             ));
-        }
-        if let Some(r) = self.check_start(space, start, began) {
-            return Ok(r);
-        }
+        };
+        let goal = goal.as_slice();
+        let start = match self.check_start(space, start, began) {
+            Ok(s) => s,
+            Err(r) => return Ok(*r),
+        };
+        let start = start.as_slice();
         if self.in_collision(space, goal) {
             return Ok(PlanResult::failed(
                 PlanStatus::GoalInCollision,
@@ -426,9 +432,11 @@ impl Planner {
         self.check_active("start", start)?;
         opts.validate()?;
         let began = Instant::now();
-        if let Some(r) = self.check_start(space, start, began) {
-            return Ok(r);
-        }
+        let start = match self.check_start(space, start, began) {
+            Ok(s) => s,
+            Err(r) => return Ok(*r),
+        };
+        let start = start.as_slice();
         let solver = IkSolver::new(self.checker.model(), space, self.link, Some(&self.checker))?;
         let ik_opts = IkOptions {
             collision_free: true,
@@ -483,31 +491,56 @@ impl Planner {
         Ok(self.search(space, start, &goal_qs, opts, began, ik_time))
     }
 
+    /// The start clamped into the limits (within [`LIMIT_TOLERANCE`]) and
+    /// free of collision, else the failed result.
     fn check_start(
         &self,
         space: &ActiveSpace,
         start: &[f64],
         began: Instant,
-    ) -> Option<PlanResult> {
+    ) -> std::result::Result<Vec<f64>, Box<PlanResult>> {
         let times = StageTimes {
             total: began.elapsed().as_secs_f64(),
             ..StageTimes::default()
         };
-        if !self.limits.contains(start, 1e-9) {
-            return Some(PlanResult::failed(
+        let Some(start) = self.limits.clamp_within(start, LIMIT_TOLERANCE) else {
+            return Err(Box::new(PlanResult::failed(
                 PlanStatus::StartOutOfLimits,
-                format!("start {start:?} lies outside the joint limits"),
+                format!(
+                    "start {start:?} lies more than {LIMIT_TOLERANCE} outside the joint limits ({})",
+                    self.limit_excess(start)
+                ),
                 times,
-            ));
-        }
-        if self.in_collision(space, start) {
-            return Some(PlanResult::failed(
+            )));
+        };
+        if self.in_collision(space, &start) {
+            return Err(Box::new(PlanResult::failed(
                 PlanStatus::StartInCollision,
-                format!("start in collision: {}", self.explain(space, start)),
+                format!("start in collision: {}", self.explain(space, &start)),
                 times,
-            ));
+            )));
         }
-        None
+        Ok(start)
+    }
+
+    /// Names the active joints of `q` outside their limits, with by how much.
+    fn limit_excess(&self, q: &[f64]) -> String {
+        let names = &self.space.names;
+        q.iter()
+            .enumerate()
+            .filter_map(|(i, v)| {
+                let (lo, hi) = (self.limits.lower[i], self.limits.upper[i]);
+                let name = names.get(i).map(String::as_str).unwrap_or("?");
+                if *v < lo {
+                    Some(format!("{name} {v} < {lo}"))
+                } else if *v > hi {
+                    Some(format!("{name} {v} > {hi}"))
+                } else {
+                    None
+                }
+            })
+            .collect::<Vec<_>>()
+            .join(", ")
     }
 
     fn search(

@@ -523,10 +523,57 @@ impl PyCollisionChecker {
     }
 }
 
+/// The model's automatic allowed-collision matrix for `spheres`
+/// ([`ferrobot_collision::acm::automatic_acm`]), cached on the model; the
+/// pairs found always in contact are reported once with a warning.
+fn automatic_acm_cached(
+    py: Python<'_>,
+    model: &PyRobotModel,
+    spheres: &RobotSpheres,
+) -> PyResult<AllowedCollisions> {
+    if let Some((_, acm)) = model
+        .auto_acm
+        .lock()
+        .expect("not poisoned")
+        .as_ref()
+        .filter(|(s, _)| s == spheres)
+    {
+        return Ok(acm.clone());
+    }
+    let m = model.inner.clone();
+    let sp = spheres.clone();
+    let (acm, always) = py
+        .detach(|| ferrobot_collision::acm::automatic_acm(&m, &sp))
+        .map_err(collision_err)?;
+    if !always.is_empty() {
+        let names: Vec<String> = always
+            .iter()
+            .map(|&(a, b)| format!("{}-{}", m.links()[a].name, m.links()[b].name))
+            .collect();
+        let message = format!(
+            "robot '{}': {} link pair(s) are in contact in every one of {} sampled configurations \
+             (links overlapping by design) and no SRDF disables them; their self-collision checks \
+             are off (reason '{}' in allowed_collision_pairs): {}",
+            m.name(),
+            always.len(),
+            ferrobot_collision::acm::AUTO_ALWAYS_SAMPLES,
+            ferrobot_collision::acm::AUTO_ALWAYS_REASON,
+            names.join(", ")
+        );
+        let category = py.import("builtins")?.getattr("UserWarning")?;
+        let message = std::ffi::CString::new(message.replace('\0', " ")).expect("no interior NUL");
+        PyErr::warn(py, &category, &message, 1)?;
+    }
+    *model.auto_acm.lock().expect("not poisoned") = Some((spheres.clone(), acm.clone()));
+    Ok(acm)
+}
+
 /// A collision checker for `model` in `world` (default: empty) with
 /// `spheres` (default: the automatic sphere model), excluded pairs from
-/// adjacency, rigid attachment and the SRDF. Shared by the checker and the
-/// planner bindings.
+/// adjacency, rigid attachment, the SRDF and the pairs found always in
+/// contact ([`automatic_acm_cached`]). Checkers and planners made with the
+/// automatic spheres share one [`RobotCollisionModel`]. Shared by the
+/// checker and the planner bindings.
 pub(crate) fn build_checker(
     py: Python<'_>,
     model: &PyRobotModel,
@@ -560,7 +607,7 @@ pub(crate) fn build_checker(
                         .detach(|| spherize_robot(&m, &SpherizeOptions::default()))
                         .map_err(collision_err)?;
                     let made = RobotSpheres::new(&m, links).map_err(collision_err)?;
-                    let acm = AllowedCollisions::from_model(&m);
+                    let acm = automatic_acm_cached(py, model, &made)?;
                     let shared = Arc::new(
                         RobotCollisionModel::new(m.clone(), made, acm).map_err(collision_err)?,
                     );
@@ -573,7 +620,7 @@ pub(crate) fn build_checker(
             return Ok(inner);
         }
     };
-    let acm = AllowedCollisions::from_model(&m);
+    let acm = automatic_acm_cached(py, model, &spheres)?;
     let w = world.map(|w| w.inner.clone()).unwrap_or_default();
     let mut inner = CollisionChecker::new(m, spheres, acm, w).map_err(collision_err)?;
     inner.set_margin(margin).map_err(collision_err)?;

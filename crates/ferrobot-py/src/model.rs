@@ -25,6 +25,15 @@ pub struct PyRobotModel {
     /// default allowed-collision matrix, made once on first use (checkers
     /// and planners of this model share it, compiled robot included).
     pub auto_collision: std::sync::OnceLock<Arc<ferrobot_collision::RobotCollisionModel>>,
+    /// The automatic allowed-collision matrix (adjacent, rigid, SRDF and
+    /// always-in-contact pairs) for the sphere model it was made with, made
+    /// on first use and reused while checkers use the same spheres.
+    pub auto_acm: std::sync::Mutex<
+        Option<(
+            ferrobot_collision::RobotSpheres,
+            ferrobot_collision::AllowedCollisions,
+        )>,
+    >,
 }
 
 fn options(
@@ -33,6 +42,7 @@ fn options(
     base_link: Option<String>,
     ee_link: Option<String>,
     group: Option<String>,
+    strict: bool,
 ) -> PyResult<LoadOptions> {
     let srdf = match srdf {
         None => None,
@@ -54,6 +64,7 @@ fn options(
         base_link,
         ee_link,
         group,
+        strict,
     })
 }
 
@@ -138,6 +149,7 @@ impl PyRobotModel {
         Self {
             inner,
             auto_collision: std::sync::OnceLock::new(),
+            auto_acm: std::sync::Mutex::new(None),
         }
     }
 
@@ -149,9 +161,23 @@ impl PyRobotModel {
     ) -> PyResult<Self> {
         guard(|| {
             let model = py.detach(|| loader(opts)).map_err(model_err)?;
+            let skipped = model.srdf_warnings();
+            if !skipped.is_empty() {
+                let category = py.import("ferrobot.errors")?.getattr("SrdfWarning")?;
+                let message = format!(
+                    "the SRDF has {} entr{} naming what the URDF lacks or missing a required attribute, skipped as MoveIt's srdfdom does (strict=True raises instead; RobotModel.srdf_warnings lists them):\n{}",
+                    skipped.len(),
+                    if skipped.len() == 1 { "y" } else { "ies" },
+                    skipped.join("\n")
+                );
+                let message =
+                    std::ffi::CString::new(message.replace('\0', " ")).expect("no interior NUL");
+                PyErr::warn(py, &category, &message, 1)?;
+            }
             Ok(Self {
                 inner: Arc::new(model),
                 auto_collision: std::sync::OnceLock::new(),
+                auto_acm: std::sync::Mutex::new(None),
             })
         })
     }
@@ -168,7 +194,8 @@ type MimicEntry = (String, (String, f64, f64));
 impl PyRobotModel {
     /// Loads a URDF file. See the class documentation for the options.
     #[staticmethod]
-    #[pyo3(signature = (path, *, srdf=None, package_dirs=None, base_link=None, ee_link=None, group=None))]
+    #[allow(clippy::too_many_arguments)]
+    #[pyo3(signature = (path, *, srdf=None, package_dirs=None, base_link=None, ee_link=None, group=None, strict=false))]
     fn from_urdf(
         py: Python<'_>,
         path: PathBuf,
@@ -177,9 +204,10 @@ impl PyRobotModel {
         base_link: Option<String>,
         ee_link: Option<String>,
         group: Option<String>,
+        strict: bool,
     ) -> PyResult<Self> {
         guard(|| {
-            let opts = options(srdf, package_dirs, base_link, ee_link, group)?;
+            let opts = options(srdf, package_dirs, base_link, ee_link, group, strict)?;
             Self::load(py, |o| RobotModel::from_urdf_file(&path, o), &opts)
         })
     }
@@ -187,7 +215,8 @@ impl PyRobotModel {
     /// Loads URDF text; relative and package:// meshes resolve against
     /// `package_dirs`, then ROS_PACKAGE_PATH, then the working directory.
     #[staticmethod]
-    #[pyo3(signature = (text, *, srdf=None, package_dirs=None, base_link=None, ee_link=None, group=None))]
+    #[allow(clippy::too_many_arguments)]
+    #[pyo3(signature = (text, *, srdf=None, package_dirs=None, base_link=None, ee_link=None, group=None, strict=false))]
     fn from_urdf_string(
         py: Python<'_>,
         text: String,
@@ -196,9 +225,10 @@ impl PyRobotModel {
         base_link: Option<String>,
         ee_link: Option<String>,
         group: Option<String>,
+        strict: bool,
     ) -> PyResult<Self> {
         guard(|| {
-            let opts = options(srdf, package_dirs, base_link, ee_link, group)?;
+            let opts = options(srdf, package_dirs, base_link, ee_link, group, strict)?;
             Self::load(py, |o| RobotModel::from_urdf_str(&text, o), &opts)
         })
     }
@@ -236,6 +266,14 @@ impl PyRobotModel {
             .import("ferrobot.usd")?
             .getattr("write_usd")?
             .call1((slf, path))
+    }
+
+    /// What a lenient load skipped from the SRDF (entries naming links or
+    /// joints the URDF lacks, elements missing a required attribute), one
+    /// message per entry with file and line; empty after `strict=True`.
+    #[getter]
+    fn srdf_warnings(&self) -> PyResult<Vec<String>> {
+        guard(|| Ok(self.inner.srdf_warnings().to_vec()))
     }
 
     /// The robot's name.
