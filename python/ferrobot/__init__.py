@@ -18,8 +18,8 @@ from ._core import (
     CollisionWorld,
     CommandDelay,
     DetectOptions,
-    IkOptions,
     Gripper,  # the one gripper description (issue 17)
+    IkOptions,
     IkResult,
     JointPID,
     JointTrajectory,

@@ -1122,6 +1122,7 @@ class DetectOptions:
     palm_width: float
     palm_height: float
     palm_depth: float
+
 @final
 class Gripper:
     """A parallel-jaw gripper: hand link, TCP, axes, driver and mimic followers, opening map, finger geometry."""
