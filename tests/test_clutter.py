@@ -216,11 +216,6 @@ def _hand_hulls():
     return ge, scipy_spatial.ConvexHull(ge.read_obj(d / "hand.obj")), ge.read_obj(d / "finger.obj")
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="known (detector, branch grasp18): in this bin scene the top grasp puts the Panda hand's palm into "
-    "881 cloud points 8 cm off its centre line; remove this marker when the detector checks the whole cloud",
-)
 def test_no_returned_grasp_collides_with_the_cloud_or_the_bin(objects_dir):
     ge, hand_hull, finger_v = _hand_hulls()
     spec = clutter.random_clutter(3, 8, objects_dir, bin=True, center=(0.0, 0.0))
