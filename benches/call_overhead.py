@@ -11,6 +11,17 @@ time per call (best of 5 batches):
 * ``detect (tiny)``: ``detect`` on a 3-point cloud with 4 keyword options (options and conversion only);
 * ``detect (cloud)``: a 4,800-point box cloud with the same options.
 
+Issue 16 deliverable 5 (joint names, properties, typed results) adds, each spelled as the build's own
+internal callers spell it (the "before" build: ``joint_indices=`` and getters; "after": ``joint_names=`` and
+properties):
+
+* ``robot: 2-joint targets``: ``Robot.set_joint_position_targets`` for 2 DOFs;
+* ``robot: read q``: ``Robot.get_joint_positions()`` / ``Robot.joint_positions``;
+* ``robot: execute 1 step``: ``Robot.execute_trajectory`` of 2 rows one physics step apart (7 arm joints),
+  reading ``max_error`` from its report (a dict / a ``TrackingReport``);
+* ``plan times: read total``: ``PlanResult.times`` and its total (a dict / a ``PlanTimes``);
+* ``stepper: 1 control step``: ``ferrobot.control.ControlStepper.step`` at 60 Hz (4 physics steps).
+
     python benches/call_overhead.py /work/main/python /work/wt/arch16/python [--rounds 6]
 """
 
@@ -60,6 +71,35 @@ out = {
     "detect (cloud)": per_call(lambda s: fg.detect(cloud, **kw), 10),
 }
 assert not p.plan(q0, goal_q=bad).success
+
+from ferrobot.control import ControlStepper
+world = ferrobot.World(dt=1 / 240)
+robot = world.add_robot(m, q=m.named_state("ready"))
+new = hasattr(ferrobot.Robot, "joint_positions")  # the "after" build's spellings
+names2, ix2 = [robot.dof_names[5], robot.dof_names[1]], [5, 1]
+arm_names, arm_ix = robot.dof_names[:7], list(range(7))
+t2 = np.array([0.1, -0.2])
+q_now = m.named_state("ready")[:7]
+rows = np.stack([q_now, q_now])
+r_ok = p.plan(q0, goal_q=goal)
+if new:
+    targets = lambda s: robot.set_joint_position_targets(t2, joint_names=names2)
+    read_q = lambda s: robot.joint_positions
+    execute = lambda s: robot.execute_trajectory(rows, 1 / 240, joint_names=arm_names).max_error
+    times = lambda s: r_ok.times.total
+    stepper = ControlStepper(world, robot, control_hz=60.0, arm_joint_names=arm_names)
+else:
+    targets = lambda s: robot.set_joint_position_targets(t2, joint_indices=ix2)
+    read_q = lambda s: robot.get_joint_positions()
+    execute = lambda s: robot.execute_trajectory(rows, 1 / 240, joint_indices=arm_ix)["max_error"]
+    times = lambda s: r_ok.times["total"]
+    stepper = ControlStepper(world, robot, control_hz=60.0, arm_joint_indices=arm_ix)
+action = np.r_[q_now, 0.0]
+out["robot: 2-joint targets"] = per_call(targets, 2000)
+out["robot: read q"] = per_call(read_q, 2000)
+out["robot: execute 1 step"] = per_call(execute, 300)
+out["plan times: read total"] = per_call(times, 2000)
+out["stepper: 1 control step"] = per_call(lambda s: stepper.step(action), 100)
 print(json.dumps(out))
 """
 

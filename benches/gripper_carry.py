@@ -46,7 +46,7 @@ def carry(robot: str = "panda", speed: float = 1.0, distance: float = 0.5, force
     world = ferrobot.World()
     robot_ = world.add_robot(model, [0, 0, 0, 1, 0, 0, 0])
     robot_.use_gripper(gripper)
-    q = robot_.get_joint_positions()
+    q = robot_.joint_positions
     q[model.dof_names.index(gripper.driver)] = gripper.open_position
     robot_.set_joint_positions(q)
     robot_.set_joint_position_targets(q)
@@ -69,7 +69,7 @@ def carry(robot: str = "panda", speed: float = 1.0, distance: float = 0.5, force
     planner = ferrobot.Planner(model)
     arm = [model.dof_names.index(n) for n in planner.joint_names]
     hand_to_ee = np.linalg.inv(model.fk(q, gripper.hand_link)) @ model.fk(q, model.ee_link)
-    qa = robot_.get_joint_positions()[arm]
+    qa = robot_.joint_positions[arm]
     start = robot_.get_link_pose(gripper.hand_link)
     start_base = start  # base at the world origin
     step = 0.005
@@ -78,7 +78,7 @@ def carry(robot: str = "panda", speed: float = 1.0, distance: float = 0.5, force
     lift = _cartesian(
         planner, hand_to_ee, start_base, [np.array([0, 0, 0.05 * (1 - math.cos(math.pi * x / 0.5)) / 2]) for x in t], qa
     )
-    robot_.execute_trajectory(lift, step, joint_indices=arm, settle_time=0.2)
+    robot_.execute_trajectory(lift, step, joint_names=planner.joint_names, settle_time=0.2)
 
     # Slowly (1 s) to the start of the carry, 0.25 m to the side.
     up = start_base.copy()
@@ -91,7 +91,7 @@ def carry(robot: str = "panda", speed: float = 1.0, distance: float = 0.5, force
         [np.array([0, -distance / 4 * (1 - math.cos(math.pi * x / 1.0)), 0]) for x in t],
         lift[-1],
     )
-    robot_.execute_trajectory(side, step, joint_indices=arm, settle_time=0.3)
+    robot_.execute_trajectory(side, step, joint_names=planner.joint_names, settle_time=0.3)
     up[1, 3] -= distance / 2
 
     def rel():
@@ -119,15 +119,15 @@ def carry(robot: str = "panda", speed: float = 1.0, distance: float = 0.5, force
     worst = 0.0
     chunk = 4
     for k in range(0, len(path), chunk):
-        robot_.execute_trajectory(path[k : k + chunk], step, joint_indices=arm)
+        robot_.execute_trajectory(path[k : k + chunk], step, joint_names=planner.joint_names)
         worst = max(worst, float(np.linalg.norm(rel() - r0)))
-    robot_.execute_trajectory(path[-1:], step, joint_indices=arm, settle_time=0.3)
+    robot_.execute_trajectory(path[-1:], step, joint_names=planner.joint_names, settle_time=0.3)
     final = float(np.linalg.norm(rel() - r0))
     hand_end = robot_.get_link_pose(gripper.hand_link)[:3, 3]
     return {
         "robot": robot,
         "gripper": gripper.name,
-        "opening_mm": 1e3 * robot_.get_gripper_opening(),
+        "opening_mm": 1e3 * robot_.gripper_opening,
         "carried_m": float(hand_end[1] - up[1, 3]),
         "peak_speed_m_s": speed,
         "max_drift_mm": 1e3 * max(worst, final),

@@ -41,6 +41,7 @@ def run(delay: float, mode: str, dt: float = 1 / 240) -> dict:
     robot.set_joint_position_targets(q0)
     positions, velocities, idx = _planned_motion(model, q0, dt)
     k = len(idx)
+    names = [robot.dof_names[i] for i in idx]
     robot.command_latency = delay
     latency = robot.command_latency
     pred = _core.LinearPredictor(latency)
@@ -60,11 +61,11 @@ def run(delay: float, mode: str, dt: float = 1 / 240) -> dict:
                 p = pred.update(t, raw)
                 v = np.zeros(k) if prev_p is None else (raw - prev_p) / dt
                 prev_p = raw
-        robot.set_joint_position_targets(p, joint_indices=idx)
-        robot.set_joint_velocity_targets(v, joint_indices=idx)
+        robot.set_joint_position_targets(p, joint_names=names)
+        robot.set_joint_velocity_targets(v, joint_names=names)
         world.step(1)
         want = _core.trajectory_sample(positions, dt, t + dt)
-        errs.append(np.abs(robot.get_joint_positions()[idx] - want))
+        errs.append(np.abs(robot.joint_positions[idx] - want))
     e = np.array(errs)
     return {
         "delay_ms": delay * 1e3,

@@ -59,7 +59,7 @@ def run(args) -> dict:
     spheres = ferrobot.SphereModel.from_spherized_urdf(model, args.spheres)
     planner = ferrobot.Planner(model, spheres=spheres)
     checker = ferrobot.CollisionChecker(model, spheres=spheres)
-    vmax = planner.limits["velocity"].max()
+    vmax = planner.limits.velocity.max()
     problems = []
     scenes = [s for d in args.dirs for s in sorted(Path(d).glob("scene*.yaml"))]
     for k, scene in enumerate(scenes):
@@ -91,9 +91,9 @@ def run(args) -> dict:
             row.update(
                 solved=bool(ok),
                 status=r.status if ok else "failed_dense_recheck",
-                plan_time_s=r.times["ik"] + r.times["planning"],
-                simplify_time_s=r.times["simplify"],
-                trajectory_time_s=r.times["total"],
+                plan_time_s=r.times.ik + r.times.planning,
+                simplify_time_s=r.times.simplify,
+                trajectory_time_s=r.times.total,
                 path_length=r.path_length,
                 path=r.path.tolist(),
                 trajectory={"dt": 0.01, "positions": r.interpolated(0.01).positions.tolist()},

@@ -230,7 +230,7 @@ def run_episode(method, model, spheres, sc, q0, qg, judge, planner, configs=None
             t0 = time.perf_counter()
             q_new, qd, _ = ctl.step(q, qd, DT)
             if method != "potential":
-                guidance_plans = ctl.last_step["guidance_plans"]
+                guidance_plans = ctl.last_step.guidance_plans
             ctrl_times.append(time.perf_counter() - t0)
             q = q_new
         else:
@@ -340,7 +340,7 @@ def time_one_step(model, spheres, q_ready, repeats: int = 5000) -> dict[str, flo
             ctl.step(q_ready, qd, 0.001)
             ts.append(time.perf_counter() - t)
         out[name] = 1e6 * float(np.median(ts))
-        out[name + "_active_terms"] = ctl.last_step["active_avoidance"]
+        out[name + "_active_terms"] = ctl.last_step.active_avoidance
     return out
 
 

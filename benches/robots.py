@@ -61,7 +61,7 @@ def bench(name: str) -> dict:
     poses = np.array([model.fk(q, link=planner.ee_link) for q in qs])
     ik, t = cpu(lambda: planner.ik_batch(poses, seed=0))
     row.update(ik_per_s=len(poses) / t, ik_success=float(np.mean(ik.success)))
-    plo, phi = planner.limits["lower"], planner.limits["upper"]
+    plo, phi = planner.limits.lower, planner.limits.upper
     plo = np.where(np.isfinite(plo), plo, -np.pi)
     phi = np.where(np.isfinite(phi), phi, np.pi)
 
@@ -89,7 +89,7 @@ def bench(name: str) -> dict:
     )
     world = ferrobot.World(dt=1 / 240)
     robot = world.add_robot(model, name=name)
-    robot.set_joint_position_targets(robot.get_joint_positions())
+    robot.set_joint_position_targets(robot.joint_positions)
     world.step(10)
     _, t = cpu(lambda: world.step(480))
     row["sim_steps_per_s"] = 480 / t

@@ -129,8 +129,8 @@ def run(args) -> dict:
     planner = ferrobot.Planner(model, spheres=spheres)
     checker = ferrobot.CollisionChecker(model, spheres=spheres)
     idx = [planner.dof_names.index(n) for n in planner.joint_names]
-    lo, hi = np.asarray(planner.limits["lower"]), np.asarray(planner.limits["upper"])
-    vmax = planner.limits["velocity"].max()
+    lo, hi = np.asarray(planner.limits.lower), np.asarray(planner.limits.upper)
+    vmax = planner.limits.velocity.max()
     out = {"ferrobot": ferrobot.__file__, "classes": {}}
     for cname in args.classes.split(","):
         rows = {"obstacles": [], "batch_wall": [], "batch_cpu": [], "single_us": [], "plans": []}
@@ -176,7 +176,7 @@ def run(args) -> dict:
                     ok = ok and not checker.in_collision_batch(qs).any()
                     ok = ok and np.abs(np.diff(traj, axis=0)).max() <= RESOLUTION
                     row["clean"] = bool(ok)
-                    row["stages"] = {k: v for k, v in rt.times.items()}
+                    row["stages"] = {k: v for k, v in rt.times.to_dict().items()}
                 rows["plans"].append(row)
         out["classes"][cname] = rows
     return out

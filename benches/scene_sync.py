@@ -53,6 +53,7 @@ def run(episodes: int, seed: int) -> dict:
             }
         )
     stats = getattr(pp.planner, "world_sync_stats", None)
+    stats = stats.to_dict() if hasattr(stats, "to_dict") else stats  # a WorldSyncStats (a dict before issue 16)
     return {"ferrobot": os.path.dirname(ferrobot.__file__), "rows": rows, "world_sync_stats": stats}
 
 

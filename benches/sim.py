@@ -112,7 +112,7 @@ def compare_with_mujoco(model, settings: Settings, q: np.ndarray, steps: int, re
     out["ratio_cpu_mujoco_default"] = out["ferrobot_cpu_steps_per_s"] / out["mujoco_default_cpu_steps_per_s"]
     # What each simulated: joint error to the held pose, object drift since the start.
     qm = np.array([ds.joint(n).qpos[0] for n in model.dof_names])
-    out["ferrobot_joint_error_rad"] = float(np.abs(r.get_joint_positions() - q)[:7].max())
+    out["ferrobot_joint_error_rad"] = float(np.abs(r.joint_positions - q)[:7].max())
     out["mujoco_joint_error_rad"] = float(np.abs(qm - q)[:7].max())
     dyn = [o for o in settings.objects if not o.static]
     if dyn:
@@ -138,14 +138,14 @@ def planned_tracking(model) -> dict:
     w = ferrobot.World()
     r = w.add_robot(model, q=PANDA_Q0)
     r.set_joint_position_targets(PANDA_Q0)
-    rep = r.execute_trajectory(traj.positions, 0.01, velocities=traj.velocities, joint_indices=list(range(7)))
-    err = np.asarray(rep["desired"]) - np.asarray(rep["actual"])
+    rep = r.execute_trajectory(traj.positions, 0.01, velocities=traj.velocities, joint_names=model.dof_names[:7])
+    err = np.asarray(rep.desired) - np.asarray(rep.actual)
     return {
         "duration_s": float(plan.duration),
         "samples": len(traj),
         "max_error_rad": float(np.abs(err).max()),
         "rms_error_rad": float(np.sqrt(np.mean(err**2))),
-        "final_error_rad": float(np.abs(rep["final_error"]).max()),
+        "final_error_rad": float(np.abs(rep.final_error).max()),
         "peak_speed_rad_s": float(np.abs(traj.velocities).max()),
     }
 
@@ -266,16 +266,16 @@ def main() -> None:
 
     def episode():
         w, r = table_scene(model, np.r_[q_above[:7], 0.04])
-        arm = list(range(7))
-        r.execute_trajectory(legs[0], dt, joint_indices=arm, settle_time=0.1)
+        arm = r.dof_names[:7]
+        r.execute_trajectory(legs[0], dt, joint_names=arm, settle_time=0.1)
         r.close_gripper(force=40.0)
         w.step(60)
-        r.execute_trajectory(legs[1], dt, joint_indices=arm)
-        r.execute_trajectory(legs[2], dt, joint_indices=arm)
-        r.execute_trajectory(legs[3], dt, joint_indices=arm, settle_time=0.1)
+        r.execute_trajectory(legs[1], dt, joint_names=arm)
+        r.execute_trajectory(legs[2], dt, joint_names=arm)
+        r.execute_trajectory(legs[3], dt, joint_names=arm, settle_time=0.1)
         r.open_gripper()
         w.step(60)
-        r.execute_trajectory(legs[4], dt, joint_indices=arm)
+        r.execute_trajectory(legs[4], dt, joint_names=arm)
         return w
 
     w = episode()

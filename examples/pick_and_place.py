@@ -21,7 +21,7 @@ args = ap.parse_args()
 
 spec = random_scene(args.seed)
 world, robot, camera = build_world(spec)  # ferrobot.World, its Robot (Isaac-Sim-like API), a Camera
-base = robot.get_world_transform()
+base = robot.world_transform
 planner = ferrobot.Planner(robot.model)
 arm = [robot.dof_names.index(n) for n in planner.joint_names]
 
@@ -33,7 +33,7 @@ def sync(ignore=()):
 
 def move_to(q_goal, ignore=()):
     sync(ignore)
-    result = planner.plan(robot.get_joint_positions()[arm], goal_q=q_goal, velocity_scale=0.5, acceleration_scale=0.5)
+    result = planner.plan(robot.joint_positions[arm], goal_q=q_goal, velocity_scale=0.5, acceleration_scale=0.5)
     assert result.success, result.message
     report = robot.execute(result)  # joints matched by name, sampled at the world's time step
     world.step(24)
@@ -88,7 +88,7 @@ move_to(ik_grasp.q, ignore=[spec.target, "table"])
 robot.close_gripper(force=40.0)
 world.step(72)
 sync()
-planner.attach_world_object(spec.target, robot.get_joint_positions()[arm])
+planner.attach_world_object(spec.target, robot.joint_positions[arm])
 lift = hands[i].copy()
 lift[2, 3] += 0.12
 print("lift")
@@ -102,7 +102,7 @@ place[:3, 3] += shift + [0, 0, 0.008]
 above = place.copy()
 above[2, 3] += 0.12
 sync()
-q_above = planner.ik(above, robot.get_joint_positions()[arm], collision_free=True).q
+q_above = planner.ik(above, robot.joint_positions[arm], collision_free=True).q
 print("transport")
 move_to(q_above)
 print("lower")

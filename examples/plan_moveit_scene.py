@@ -32,7 +32,7 @@ names = planner.joint_names
 result = planner.plan([start[n] for n in names], goal_q=[goal[n] for n in names])
 print(f"{folder.name} #{index}: {len(world.names)} obstacles -> {result.status}")
 print(f"  path: {len(result.path)} waypoints, {result.path_length:.2f} rad; trajectory {result.duration:.2f} s")
-print("  stage times (us): " + ", ".join(f"{k} {v * 1e6:.0f}" for k, v in result.times.items()))
+print("  stage times (us): " + ", ".join(f"{k} {v * 1e6:.0f}" for k, v in result.times.to_dict().items()))
 traj = result.interpolated(0.01)
 print(f"  sampled every 10 ms: positions {traj.positions.shape}, max |qd| {np.abs(traj.velocities).max():.2f} rad/s")
 checker = ferrobot.CollisionChecker(model, world, spheres)

@@ -22,7 +22,7 @@ def ik(model, q0, target, link, iters=400, joints=None):
     ctl = ferrobot.ResolvedRateController(
         model,
         link=link,
-        joint_indices=joints,
+        joint_names=None if joints is None else [model.dof_names[i] for i in joints],
         linear_gain=1.0,
         angular_gain=1.0,
         max_linear_speed=10.0,

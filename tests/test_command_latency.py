@@ -59,9 +59,9 @@ def test_delayed_run_equals_the_shifted_undelayed_run(latency):
         if k == 0:
             assert robot.pending_commands == 2
             # Nothing applied yet: the drives still hold q0.
-            np.testing.assert_array_equal(robot.get_joint_position_targets(), q0)
+            np.testing.assert_array_equal(robot.joint_position_targets, q0)
         world.step(1)
-        delayed.append(robot.get_joint_positions())
+        delayed.append(robot.joint_positions)
     # Reference: no latency, every command issued `shift` steps later.
     world, robot, q0 = _world()
     reference = []
@@ -70,7 +70,7 @@ def test_delayed_run_equals_the_shifted_undelayed_run(latency):
             robot.set_joint_position_targets(cmds[k - shift][0])
             robot.set_joint_velocity_targets(cmds[k - shift][1])
         world.step(1)
-        reference.append(robot.get_joint_positions())
+        reference.append(robot.joint_positions)
     delayed, reference = np.array(delayed), np.array(reference)
     assert np.abs(delayed[shift] - q0).max() > 1e-4  # the robot did move
     np.testing.assert_allclose(delayed, reference, atol=1e-12, rtol=0)
@@ -104,12 +104,12 @@ def test_lookahead_compensates_a_known_trajectory():
         p = ferrobot._core.trajectory_sample(positions, DT, t + robot.command_latency)
         robot.set_joint_position_targets(p)
         world.step(1)
-        err.append(np.abs(robot.get_joint_positions() - positions[k + 1]).max())
+        err.append(np.abs(robot.joint_positions - positions[k + 1]).max())
     world2, robot2, _ = _world()
     robot2.command_latency = 12 * DT
     err_uncomp = []
     for k in range(60):
         robot2.set_joint_position_targets(positions[k])
         world2.step(1)
-        err_uncomp.append(np.abs(robot2.get_joint_positions() - positions[k + 1]).max())
+        err_uncomp.append(np.abs(robot2.joint_positions - positions[k + 1]).max())
     assert max(err[20:]) < 0.25 * max(err_uncomp[20:])

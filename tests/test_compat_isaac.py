@@ -46,7 +46,7 @@ def test_isaac_script_shapes(scene):
     p, q = robot.get_world_pose()
     assert p == pytest.approx([0.3, -0.2, 0.1], abs=1e-12)
     assert wxyz_to_matrix(q) == pytest.approx(Rotation.from_euler("z", yaw).as_matrix(), abs=1e-12)
-    T = robot.get_world_transform()
+    T = robot.world_transform
     assert T[:3, :3] == pytest.approx(Rotation.from_euler("z", yaw).as_matrix(), abs=1e-12)
     assert T[:3, 3] == pytest.approx([0.3, -0.2, 0.1])
     # one part at a time keeps the other
@@ -68,8 +68,8 @@ def test_isaac_script_shapes(scene):
 
     state = robot.get_joints_state()
     assert isinstance(state, JointsState)
-    assert state.positions == pytest.approx(robot.get_joint_positions())
-    assert state.velocities == pytest.approx(robot.get_joint_velocities())
+    assert state.positions == pytest.approx(robot.joint_positions)
+    assert state.velocities == pytest.approx(robot.joint_velocities)
     assert state.efforts == pytest.approx(np.zeros(robot.num_dof))
 
 
@@ -81,14 +81,14 @@ def test_apply_action_drives_the_arm(scene):
     target = q0.copy()
     target[:7] += np.array([0.2, -0.1, 0.1, 0.15, -0.1, 0.1, 0.2])
     robot.apply_action(ArticulationAction(joint_positions=target[:7], joint_indices=np.arange(7)))
-    assert robot.get_joint_position_targets()[:7] == pytest.approx(target[:7])
+    assert robot.joint_position_targets[:7] == pytest.approx(target[:7])
     world.step(480)
-    assert robot.get_joint_positions()[:7] == pytest.approx(target[:7], abs=2e-3)
+    assert robot.joint_positions[:7] == pytest.approx(target[:7], abs=2e-3)
 
     # None entries leave those joints' targets unchanged (Isaac Sim's behaviour)
-    before = robot.get_joint_position_targets()
+    before = robot.joint_position_targets
     robot.apply_action(ArticulationAction(joint_positions=[0.5, None], joint_indices=[0, 3]))
-    after = robot.get_joint_position_targets()
+    after = robot.joint_position_targets
     assert after[0] == 0.5 and after[3] == before[3]
     assert np.delete(after, 0) == pytest.approx(np.delete(before, 0))
 
@@ -97,12 +97,12 @@ def test_apply_action_drives_the_arm(scene):
     efforts[6] = 0.3
     robot.apply_action(ArticulationAction(joint_efforts=efforts, joint_velocities=np.zeros(robot.num_dof)))
     assert robot.get_joints_state().efforts == pytest.approx(efforts)
-    assert robot.get_applied_joint_efforts() == pytest.approx(efforts)
+    assert robot.applied_joint_efforts == pytest.approx(efforts)
 
 
 def test_apply_action_checks_everything_first(scene):
     _, robot = scene
-    before = robot.get_joint_position_targets()
+    before = robot.joint_position_targets
     with pytest.raises(errors.ShapeError, match="joint_positions"):
         robot.apply_action(ArticulationAction(joint_positions=[0.1, 0.2], joint_indices=[0]))
     with pytest.raises(errors.NonFiniteError, match="joint_velocities"):
@@ -111,7 +111,7 @@ def test_apply_action_checks_everything_first(scene):
         robot.apply_action(ArticulationAction(joint_positions=[0.1], joint_indices=[99]))
     with pytest.raises(errors.InvalidArgumentError, match="ArticulationAction"):
         robot.apply_action(object())
-    assert robot.get_joint_position_targets() == pytest.approx(before)
+    assert robot.joint_position_targets == pytest.approx(before)
     with pytest.raises(errors.InvalidArgumentError, match="orientation"):
         robot.set_world_pose(orientation=[2.0, 0, 0, 0])
     with pytest.raises(errors.NonFiniteError, match="position"):

@@ -22,7 +22,7 @@ def _world(seed=1):
 
 def _actions(robot, n=6):
     arm = list(robot.model.group_dof_indices)
-    q0 = robot.get_joint_position_targets()[arm]
+    q0 = robot.joint_position_targets[arm]
     out = []
     for k in range(n):
         a = q0 + 0.05 * np.sin(np.arange(len(arm)) + 0.7 * k)
@@ -36,7 +36,7 @@ def test_step_matches_the_contract_written_by_hand():
     stepper = ControlStepper(w1, r1, control_hz=10.0)
     assert stepper.substeps == 24
     arm = list(r2.model.group_dof_indices)
-    prev = r2.get_joint_position_targets()[arm]
+    prev = r2.joint_position_targets[arm]
     closed = False
     for a in _actions(r1):
         stepper.step(a)
@@ -46,12 +46,14 @@ def test_step_matches_the_contract_written_by_hand():
             r2.close_gripper(force=40.0) if closed else r2.open_gripper()
         slope = (new - prev) / 0.1
         for k in range(1, 25):
-            r2.set_joint_position_targets(prev + (k * (1 / 240) / 0.1) * (new - prev), joint_indices=arm)
-            r2.set_joint_velocity_targets(slope, joint_indices=arm)
+            r2.set_joint_position_targets(
+                prev + (k * (1 / 240) / 0.1) * (new - prev), joint_names=[r2.dof_names[i] for i in arm]
+            )
+            r2.set_joint_velocity_targets(slope, joint_names=[r2.dof_names[i] for i in arm])
             w2.step(1)
         prev = new
-        np.testing.assert_array_equal(r1.get_joint_positions(), r2.get_joint_positions())
-        np.testing.assert_array_equal(r1.get_joint_velocities(), r2.get_joint_velocities())
+        np.testing.assert_array_equal(r1.joint_positions, r2.joint_positions)
+        np.testing.assert_array_equal(r1.joint_velocities, r2.joint_velocities)
     assert w1.time == pytest.approx(0.25 + 0.6)  # build_world settles 60 steps first
 
 
@@ -62,9 +64,7 @@ def test_same_actions_same_state_bit_for_bit():
         s = ControlStepper(world, robot)
         for a in _actions(robot, 5):
             s.step(a)
-        runs.append(
-            (robot.get_joint_positions(), robot.get_joint_velocities(), world.get_object_pose(spec.objects[0].name))
-        )
+        runs.append((robot.joint_positions, robot.joint_velocities, world.get_object_pose(spec.objects[0].name)))
     for x, y in zip(*runs, strict=True):
         np.testing.assert_array_equal(x, y)
 
@@ -114,7 +114,7 @@ def test_observation_contract():
     assert obs["observation.depth.scene"].dtype == np.float32 and obs["observation.depth.scene"].shape == (48, 64)
     assert obs["observation.segmentation.wrist"].dtype == np.int32
     # End-effector pose vs the simulator's own link pose moved to the base frame.
-    hand = world_to_base(robot.get_link_pose(robot.model.ee_link), robot.get_world_transform())
+    hand = world_to_base(robot.get_link_pose(robot.model.ee_link), robot.world_transform)
     ref = matrix_to_pose(hand)
     got = obs["observation.ee_pose"].astype(np.float64)
     np.testing.assert_allclose(got[:3], ref[:3], atol=2e-5)

@@ -44,7 +44,9 @@ def record(pp, spec, cams=CAMS, rand=None):
         apply_lighting(world, rand or {})
         cameras = make_cameras(world, robot, camera.get_world_transform(), specs, scene_fov_deg=scene_fov(spec))
         labels.update(world.segmentation_labels)
-        return ControlRecorder(world, robot, cameras, frames.append, arm_joint_indices=arm, segmentation=True)
+        return ControlRecorder(
+            world, robot, cameras, frames.append, arm_joint_names=[robot.dof_names[i] for i in arm], segmentation=True
+        )
 
     result = pp.run(spec, recorder=factory)
     for f in frames:
@@ -60,11 +62,11 @@ def test_replaying_recorded_actions_reproduces_the_states_bit_for_bit(pp):
     stages = [f["stage"] for f in frames]
     assert stages[0] == "pregrasp" and stages[-1] == "verify" and "grasp" in stages
     world, robot, _ = build_world(spec)
-    stepper = ControlStepper(world, robot, arm_joint_indices=result.episode.arm_idx)
+    stepper = ControlStepper(world, robot, arm_joint_names=[robot.dof_names[i] for i in result.episode.arm_idx])
     for k, f in enumerate(frames):
         # The dataset's float32 action, as a replaying environment would read it.
         assert f["action"].dtype == np.float32
-        np.testing.assert_array_equal(robot.get_joint_positions().astype(np.float32), f["observation.state"])
+        np.testing.assert_array_equal(robot.joint_positions.astype(np.float32), f["observation.state"])
         stepper.step(f["action"].astype(np.float64))
         assert np.array_equal(sim_state(world, robot), f["state"]), f"state differs after action {k}"
     # And the object really ended at the place location (the replay is the episode).
@@ -277,6 +279,6 @@ def test_replaying_a_lerobot_episode_from_its_files(lerobot_dataset, pp):
     stepper = ControlStepper(world, robot)
     for k in range(e["length"]):
         np.testing.assert_array_equal(
-            robot.get_joint_positions().astype(np.float32), np.asarray(rows["observation.state"][k], np.float32)
+            robot.joint_positions.astype(np.float32), np.asarray(rows["observation.state"][k], np.float32)
         )
         stepper.step(np.asarray(rows["action"][k], dtype=np.float32).astype(np.float64))

@@ -131,12 +131,12 @@ def test_ee_delta_moves_the_hand_by_the_commanded_step():
     env = make(control_mode="ee_delta", env_id="ferrobot/Reach-v0")
     obs, _ = env.reset(seed=0)
     u = env.unwrapped
-    before = u.model.fk(u.robot.get_joint_positions())
+    before = u.model.fk(u.robot.joint_positions)
     obs, _, _, _, info = env.step(np.array([0.03, 0, 0, 0, 0, 0, 0], np.float32))
     assert not info["ik_failed"]
     for _ in range(10):  # hold: zero delta from wherever the hand is would drift; hold the joint targets instead
         u.stepper.step(np.concatenate([u._arm_target, [0.0]]))
-    after = u.model.fk(u.robot.get_joint_positions())
+    after = u.model.fk(u.robot.joint_positions)
     np.testing.assert_allclose(after[:3, 3] - before[:3, 3], [0.03, 0, 0], atol=2e-3)
     np.testing.assert_allclose(after[:3, :3], before[:3, :3], atol=5e-3)
     ee = obs["observation.ee_pose"]
@@ -147,11 +147,11 @@ def test_ee_abs_reaches_the_commanded_pose():
     env = make(control_mode="ee_abs", env_id="ferrobot/Reach-v0")
     env.reset(seed=0)
     u = env.unwrapped
-    pose = ferrobot.transforms.matrix_to_pose(u.model.fk(u.robot.get_joint_positions()))
+    pose = ferrobot.transforms.matrix_to_pose(u.model.fk(u.robot.joint_positions))
     pose[:3] += [0.0, 0.05, -0.04]
     for _ in range(8):
         env.step(np.concatenate([pose, [0.0]]).astype(np.float32))
-    got = ferrobot.transforms.matrix_to_pose(u.model.fk(u.robot.get_joint_positions()))
+    got = ferrobot.transforms.matrix_to_pose(u.model.fk(u.robot.joint_positions))
     np.testing.assert_allclose(got[:3], pose[:3], atol=3e-3)
     assert abs(abs(np.dot(got[3:], pose[3:])) - 1) < 1e-4
 
@@ -267,7 +267,7 @@ def test_step_worlds_equals_stepping_each_world():
         e.reset(seed=i)
         e.unwrapped.world.step(30)
     for e, r in zip(envs, refs, strict=True):
-        np.testing.assert_array_equal(e.unwrapped.robot.get_joint_positions(), r.unwrapped.robot.get_joint_positions())
+        np.testing.assert_array_equal(e.unwrapped.robot.joint_positions, r.unwrapped.robot.joint_positions)
         name = e.unwrapped.spec_scene.target
         np.testing.assert_array_equal(e.unwrapped.world.get_object_pose(name), r.unwrapped.world.get_object_pose(name))
     with pytest.raises(InvalidArgumentError, match="same world"):
@@ -296,7 +296,7 @@ def _record_with_expert(seed: int, steps: int = 200):
         if term or trunc:
             break
     u = env.unwrapped
-    return env, np.asarray(actions), info, u.robot.get_joint_positions(), u.world.get_object_pose(u.spec_scene.target)
+    return env, np.asarray(actions), info, u.robot.joint_positions, u.world.get_object_pose(u.spec_scene.target)
 
 
 def test_replay_reproduces_recorded_outcomes():
@@ -314,7 +314,7 @@ def test_replay_reproduces_recorded_outcomes():
     rnd[:, -1] = 0.0
     for a in rnd:
         env.step(a)
-    rnd_q = env.unwrapped.robot.get_joint_positions()
+    rnd_q = env.unwrapped.robot.joint_positions
     episodes = [
         RecordedEpisode(0, random_scene(2).to_dict(), acts, True),
         RecordedEpisode(1, spec, rnd, False),
@@ -330,14 +330,14 @@ def test_replay_reproduces_recorded_outcomes():
         obs, _, term, _, info = env.step(pol.act(obs))
     u = env.unwrapped
     assert term and info["is_success"]
-    np.testing.assert_array_equal(u.robot.get_joint_positions(), q_end)
+    np.testing.assert_array_equal(u.robot.joint_positions, q_end)
     np.testing.assert_array_equal(u.world.get_object_pose(u.spec_scene.target), obj_end)
     pol = ReplayPolicy(episodes, fixed=1)
     env.reset(options=pol.reset_options(0))
     pol.reset(env)
     for _ in range(5):
         env.step(pol.act())
-    np.testing.assert_array_equal(env.unwrapped.robot.get_joint_positions(), rnd_q)
+    np.testing.assert_array_equal(env.unwrapped.robot.joint_positions, rnd_q)
 
 
 def test_replay_of_a_pipeline_recording_is_bit_exact():
@@ -352,7 +352,9 @@ def test_replay_of_a_pipeline_recording_is_bit_exact():
     spec = random_scene(1)
 
     def factory(world, robot, camera, arm_idx):
-        return recording.ControlRecorder(world, robot, {}, frames.append, control_hz=10.0, arm_joint_indices=arm_idx)
+        return recording.ControlRecorder(
+            world, robot, {}, frames.append, control_hz=10.0, arm_joint_names=[robot.dof_names[i] for i in arm_idx]
+        )
 
     result = PickPlace().run(spec, recorder=factory)
     assert result.success and len(frames) > 20

@@ -167,7 +167,7 @@ def test_add_robot_starts_free_of_self_collision():
     for model, check in ((panda, checker), (ur5e, ferrobot.CollisionChecker(ur5e))):
         world = ferrobot.World()
         robot = world.add_robot(model, [0, 0, 0, 1, 0, 0, 0])
-        q = robot.get_joint_positions()
+        q = robot.joint_positions
         assert not check.in_collision(q)
         first_group, first = model.named_states[0]
         np.testing.assert_allclose(q, model.named_state(first, group=first_group))

@@ -393,7 +393,7 @@ def test_sim_setters_refuse_values_outside_float32_ranges(panda, q0):
         ferrobot.World(gravity=[0, 0, 1e39])
     # The world is still usable.
     w.step(2)
-    assert np.all(np.isfinite(robot.get_joint_positions()))
+    assert np.all(np.isfinite(robot.joint_positions))
 
 
 def test_world_stays_usable_after_a_blow_up(panda, q0):
@@ -412,7 +412,7 @@ def test_world_stays_usable_after_a_blow_up(panda, q0):
     except errors.SimulationDiverged:
         pass
     w.reset()
-    np.testing.assert_allclose(robot.get_joint_positions(), q0, atol=1e-3)
+    np.testing.assert_allclose(robot.joint_positions, q0, atol=1e-3)
     w.step(1)
 
 

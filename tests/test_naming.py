@@ -1,6 +1,7 @@
 """One naming scheme across the Python API (issue 16): ``fixed`` instead of the ``static_`` keyword (deprecated,
-with a warning), joint subsets by ``joint_names`` as on the Planner (``joint_indices`` stays, Isaac Sim's
-spelling), the object properties of every ``World.add_*`` read in one place."""
+with a warning), joint subsets by ``joint_names`` everywhere (``joint_indices`` deprecated with a warning; Isaac
+Sim's spelling stays in ``ferrobot.compat.isaac.Articulation``), state read through properties (the ``get_*``
+getters warn), the object properties of every ``World.add_*`` read in one place."""
 
 from __future__ import annotations
 
@@ -50,25 +51,132 @@ def test_fixed_replaces_static_underscore():
     w.add_capsule("c", 0.02, 0.1, [3, 0, 1, 1, 0, 0, 0], fixed=True, mass=0.0, color=(1.0, 0.0, 0.0))
 
 
-def test_robot_joint_subsets_by_name_match_indices():
+def test_robot_joint_subsets_by_name_match_deprecated_indices():
     w = ferrobot.World()
     r = w.add_robot(ferrobot.robots.panda())
     names = r.dof_names
     pick = [names[5], names[1]]
     ix = [5, 1]
     r.set_joint_position_targets([0.3, -0.2], joint_names=pick)
-    by_name = r.get_joint_position_targets()
-    r.set_joint_position_targets([0.0, 0.0], joint_indices=ix)
-    r.set_joint_position_targets([0.3, -0.2], joint_indices=ix)
-    np.testing.assert_array_equal(by_name, r.get_joint_position_targets())
+    by_name = r.joint_position_targets
+    with pytest.warns(DeprecationWarning, match=r"set_joint_position_targets\(joint_indices=...\) is deprecated"):
+        r.set_joint_position_targets([0.0, 0.0], joint_indices=ix)
+        r.set_joint_position_targets([0.3, -0.2], joint_indices=ix)
+    np.testing.assert_array_equal(by_name, r.joint_position_targets)
     assert by_name[5] == 0.3 and by_name[1] == -0.2
     r.set_drive_gains([100.0], [10.0], joint_names=[names[0]])
-    k, d, _ = r.get_drive_gains()
-    assert (k[0], d[0]) == (100.0, 10.0)
+    g = r.drive_gains
+    assert (g.stiffness[0], g.damping[0]) == (100.0, 10.0)
+    for call in (r.set_joint_velocity_targets, r.set_joint_efforts):
+        with pytest.warns(DeprecationWarning, match="joint_indices=...\\) is deprecated: use joint_names="):
+            call([0.0], joint_indices=[0])
+    with pytest.warns(DeprecationWarning, match="set_drive_gains"):
+        r.set_drive_gains([100.0], [10.0], joint_indices=[0])
+    with pytest.warns(DeprecationWarning, match="execute_trajectory"):
+        r.execute_trajectory([[0.0], [0.0]], 1 / 240, joint_indices=[0])
     with pytest.raises(InvalidArgumentError, match="not both"):
         r.set_joint_velocity_targets([0.0], joint_indices=[0], joint_names=[names[0]])
     with pytest.raises(UnknownNameError, match="nope"):
         r.set_joint_efforts([0.0], joint_names=["nope"])
+
+
+def test_new_spellings_do_not_warn():
+    import warnings
+
+    w = ferrobot.World()
+    r = w.add_robot(ferrobot.robots.panda())
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        r.set_joint_position_targets([0.1], joint_names=[r.dof_names[0]])
+        _ = (r.joint_positions, r.joint_velocities, r.joint_position_targets, r.drive_gains, r.world_transform)
+        _ = (r.applied_joint_efforts, r.measured_joint_efforts, r.gripper_positions, r.gripper_opening)
+        rep = r.execute_trajectory([[0.0], [0.1]], 1 / 240, joint_names=[r.dof_names[0]])
+        _ = (rep.max_error, rep.to_dict())
+
+
+def test_getters_are_properties_and_old_getters_warn():
+    w = ferrobot.World(dt=1 / 240)
+    r = w.add_robot(ferrobot.robots.panda())
+    q = np.array([0.1, -0.3, 0.2, -2.0, 0.1, 1.9, 0.7, 0.03])
+    r.set_joint_positions(q)
+    r.set_joint_position_targets(q)
+    r.set_joint_efforts([1.5], joint_names=["panda_joint2"])
+    # Hand values: what was set (the simulator stores float32), and the identity base.
+    np.testing.assert_allclose(r.joint_positions, q, atol=1e-6)
+    np.testing.assert_array_equal(r.joint_velocities, np.zeros(8))
+    np.testing.assert_allclose(r.joint_position_targets, q, atol=1e-6)
+    np.testing.assert_array_equal(r.applied_joint_efforts, [0, 1.5, 0, 0, 0, 0, 0, 0])
+    np.testing.assert_array_equal(r.world_transform, np.eye(4))
+    # The Panda's fingers: each finger at 0.03 m, so 0.06 m between the pads.
+    assert r.gripper_opening == pytest.approx(0.06, abs=1e-6)
+    for old, new in [
+        ("get_joint_positions", "joint_positions"),
+        ("get_joint_velocities", "joint_velocities"),
+        ("get_joint_position_targets", "joint_position_targets"),
+        ("get_applied_joint_efforts", "applied_joint_efforts"),
+        ("get_measured_joint_efforts", "measured_joint_efforts"),
+        ("get_gripper_positions", "gripper_positions"),
+        ("get_world_transform", "world_transform"),
+        ("get_gripper_opening", "gripper_opening"),
+    ]:
+        with pytest.warns(DeprecationWarning, match=rf"Robot.{old}\(\) is deprecated: read the property Robot.{new}"):
+            got = getattr(r, old)()
+        np.testing.assert_array_equal(got, getattr(r, new))
+    with pytest.warns(DeprecationWarning, match="get_drive_gains"):
+        k, d, f = r.get_drive_gains()
+    g = r.drive_gains
+    np.testing.assert_array_equal(k, g.stiffness)
+    np.testing.assert_array_equal(d, g.damping)
+    np.testing.assert_array_equal(f, g.max_force)
+
+
+def test_isaac_articulation_keeps_indices_and_getters_without_warnings():
+    import warnings
+
+    from ferrobot.compat.isaac import Articulation
+
+    w = ferrobot.World()
+    r = w.add_robot(ferrobot.robots.panda())
+    a = Articulation(r)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        a.set_joint_position_targets([0.25, -0.5], joint_indices=[2, 4])
+        a.set_gains(kps=[50.0], kds=[5.0], joint_indices=[6])
+        np.testing.assert_array_equal(a.get_joint_position_targets([2, 4]), [0.25, -0.5])
+        np.testing.assert_array_equal(a.get_gains([6])[0], [50.0])
+        before = a.get_joint_positions()
+        a.set_joint_positions([0.5], joint_indices=[0])  # 0.5: exact in the simulator's float32
+        assert a.get_joint_positions([0]).tolist() == [0.5]
+        np.testing.assert_array_equal(a.get_joint_positions()[1:], before[1:])  # the others stay
+        assert a.dof_names == r.dof_names  # everything else is the robot's
+    assert r.joint_position_targets[2] == 0.25 and r.joint_position_targets[4] == -0.5
+    assert r.drive_gains.stiffness[6] == 50.0 and r.drive_gains.damping[6] == 5.0
+    with pytest.raises(UnknownNameError, match="out of range"):
+        a.set_joint_efforts([0.0], joint_indices=[8])
+
+
+def test_controllers_and_steppers_take_joint_names():
+    from ferrobot.control import ControlStepper
+
+    m = ferrobot.robots.panda()
+    q = m.named_state("ready")
+    target = m.fk(q)
+    target[2, 3] -= 0.05
+    by_name = ferrobot.ResolvedRateController(m, joint_names=m.dof_names[:6])
+    with pytest.warns(DeprecationWarning, match="ResolvedRateController\\(joint_indices=...\\) is deprecated"):
+        by_index = ferrobot.ResolvedRateController(m, joint_indices=list(range(6)))
+    v = by_name.compute(q, target)
+    np.testing.assert_array_equal(v, by_index.compute(q, target))
+    assert v[6] == 0.0 and v[7] == 0.0 and np.abs(v[:6]).max() > 0  # joint 7 and the finger not used
+    w = ferrobot.World()
+    r = w.add_robot(m)
+    s = ControlStepper(w, r, control_hz=60.0, arm_joint_names=m.dof_names[:7])
+    assert s.arm == list(range(7)) and s.arm_names == m.dof_names[:7]
+    with pytest.warns(DeprecationWarning, match="arm_joint_indices"):
+        old = ControlStepper(w, r, control_hz=60.0, arm_joint_indices=list(range(7)))
+    assert old.arm_names == s.arm_names
+    with pytest.raises(UnknownNameError, match="nope"):
+        ControlStepper(w, r, arm_joint_names=["nope"])
 
 
 def test_setters_are_properties_and_old_methods_warn(bundled_panda):

@@ -59,8 +59,8 @@ def test_episode_places_the_target(pp, seed):
     # The planner's world was built once and then kept in sync with the simulation in place (issue 16):
     # every motion, IK goal set and attach re-syncs it.
     after = pp.planner.world_sync_stats
-    assert after["full_builds"] - syncs["full_builds"] == 1
-    assert after["incremental"] - syncs["incremental"] >= 10
+    assert after.full_builds - syncs.full_builds == 1
+    assert after.incremental - syncs.incremental >= 10
     assert [s.name for s in result.stages] == list(STAGES)
     assert all(s.ok for s in result.stages)
 

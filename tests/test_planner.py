@@ -42,7 +42,7 @@ def test_ik_round_trips(robot, request):
     model = request.getfixturevalue(robot)
     planner = Planner(model, spheres=None)
     qs = random_configurations(model, 60, seed=1)
-    lo, hi = planner.limits["lower"], planner.limits["upper"]
+    lo, hi = planner.limits.lower, planner.limits.upper
     for q in qs:
         pose = model.fk(q)
         r = planner.ik(pose)
@@ -115,7 +115,7 @@ def test_mbm_plans_are_collision_free_and_within_limits(scene):
     for a, b in zip(path[:-1], path[1:], strict=True):
         assert checker.motion_valid(to_full(a), to_full(b), 0.005)
     # Trajectory: sampled so that no joint moves more than 5 mrad between samples.
-    vmax = planner.limits["velocity"]
+    vmax = planner.limits.velocity
     t = r.interpolated(dt=0.004 / vmax.max())
     steps = np.abs(np.diff(t.positions, axis=0)).max()
     assert steps <= 0.005
@@ -131,9 +131,9 @@ def check_limits(planner, r, start, goal):
     np.testing.assert_allclose(pos[-1], goal, atol=1e-9)
     np.testing.assert_allclose(vel[[0, -1]], 0.0, atol=1e-9)
     np.testing.assert_allclose(acc[[0, -1]], 0.0, atol=1e-9)
-    assert np.all(pos >= lim["lower"] - 1e-9) and np.all(pos <= lim["upper"] + 1e-9)
-    assert np.all(np.abs(vel) <= lim["velocity"] * (1 + 1e-6))
-    assert np.all(np.abs(acc) <= lim["acceleration"] * (1 + 1e-6))
+    assert np.all(pos >= lim.lower - 1e-9) and np.all(pos <= lim.upper + 1e-9)
+    assert np.all(np.abs(vel) <= lim.velocity * (1 + 1e-6))
+    assert np.all(np.abs(acc) <= lim.acceleration * (1 + 1e-6))
     # Velocities match the positions' finite differences (the samples are consistent).
     dt = np.diff(t.times)
     fd = np.diff(pos, axis=0) / dt[:, None]
@@ -141,7 +141,7 @@ def check_limits(planner, r, start, goal):
     assert np.abs(fd - mid).max() < 1e-3
     # Jerk: finite differences of the (piecewise-linear) acceleration.
     jerk = np.diff(acc, axis=0) / dt[:, None]
-    assert np.all(np.abs(jerk) <= lim["jerk"] * (1 + 1e-6))
+    assert np.all(np.abs(jerk) <= lim.jerk * (1 + 1e-6))
 
 
 def test_scaled_limits_hold_and_slow_down(bundled_panda, panda_planner):
@@ -153,7 +153,7 @@ def test_scaled_limits_hold_and_slow_down(bundled_panda, panda_planner):
     assert slow.duration > 2 * fast.duration
     check_limits(panda_planner, fast, q0, q1)
     v = slow.interpolated(0.002).velocities
-    assert np.all(np.abs(v) <= 0.25 * panda_planner.limits["velocity"] * (1 + 1e-6))
+    assert np.all(np.abs(v) <= 0.25 * panda_planner.limits.velocity * (1 + 1e-6))
 
 
 def test_joint_reordering(bundled_panda, panda_planner):

@@ -261,7 +261,7 @@ def test_sim_setters_under_layouts_and_extreme_values_in_a_subprocess():
             except errors.FerrobotError:
                 pass
             w.reset()
-            assert np.all(np.isfinite(robot.get_joint_positions()))
+            assert np.all(np.isfinite(robot.joint_positions))
 
         run()
         print("ok")

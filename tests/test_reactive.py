@@ -212,10 +212,10 @@ def test_closed_loop_with_the_simulator(panda):
     ctl.set_target(target)
     dt = 4 / 240  # 60 Hz control, 4 physics steps per control step
     for _ in range(240):
-        q_t, _, _ = ctl.step(robot.get_joint_positions(), robot.get_joint_velocities(), dt)
+        q_t, _, _ = ctl.step(robot.joint_positions, robot.joint_velocities, dt)
         robot.set_joint_position_targets(q_t)
         world.step(4)
-    T = model.fk(robot.get_joint_positions())
+    T = model.fk(robot.joint_positions)
     assert np.linalg.norm(T[:3, 3] - target[:3, 3]) < 0.01
 
 
@@ -281,14 +281,14 @@ def test_guidance_status_and_config_validation(panda):
     q = model.named_state("ready")
     ctl = ferrobot.ReactiveController(model, None, spheres)
     ctl.step(q, np.zeros(model.num_dof), 0.01)
-    assert ctl.last_step["guidance"] == "idle" and ctl.last_step["guidance_plans"] == 0
+    assert ctl.last_step.guidance == "idle" and ctl.last_step.guidance_plans == 0
     assert ctl.guidance_error is None and ctl.guidance_last_plan is None
     ctl.set_target(model.fk(q))
     ctl.step(q, np.zeros(model.num_dof), 0.01)
-    assert ctl.last_step["guidance"] == "reached"
+    assert ctl.last_step.guidance == "reached"
     off = ferrobot.ReactiveController(model, None, spheres, config={"guidance_plans": 0})
     off.step(q, np.zeros(model.num_dof), 0.01)
-    assert off.last_step["guidance"] == "off"
+    assert off.last_step.guidance == "off"
     for name, value in (("guidance_plans", 1.5), ("guidance_blocking", 0.5)):
         with pytest.raises(errors.InvalidArgumentError, match=name):
             ferrobot.ReactiveController(model, None, spheres, config={name: value})

@@ -186,7 +186,7 @@ def test_random_plans_are_clean_at_2_mrad(name):
     idx = [model.dof_names.index(n) for n in planner.joint_names]
     rng = np.random.default_rng(3)
     base = model.neutral_configuration()
-    lo, hi = planner.limits["lower"], planner.limits["upper"]
+    lo, hi = planner.limits.lower, planner.limits.upper
     lo = np.where(np.isfinite(lo), lo, -np.pi)
     hi = np.where(np.isfinite(hi), hi, np.pi)
 

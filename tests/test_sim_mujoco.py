@@ -37,7 +37,7 @@ def test_free_fall_of_the_arm_matches_mujoco():
     for _ in range(20):  # 83 ms
         w.step()
         mujoco.mj_step(m, d)
-    qf = r.get_joint_positions()[:7]
+    qf = r.joint_positions[:7]
     qm = np.array([d.joint(n).qpos[0] for n in model.dof_names[:7]])
     assert np.abs(qf - q0[:7]).max() > 0.1  # it moved
     # measured: 4.9 mrad apart (different integrators: Rapier's substeps, MuJoCo's implicitfast)

@@ -17,6 +17,7 @@ from ferrobot import errors
 
 G = 9.81
 ARM = list(range(7))
+ARM_NAMES = [f"panda_joint{i}" for i in range(1, 8)]  # the bundled Panda's first 7 DOFs
 
 
 def pybullet_panda_path():
@@ -48,7 +49,7 @@ def swing(theta0, length=0.5, mass=1.0, radius=0.05, dt=1 / 1000):
     qs = []
     for _ in range(int(4.0 / dt)):
         w.step()
-        qs.append(r.get_joint_positions()[0])
+        qs.append(r.joint_positions[0])
     qs = np.array(qs)
     # period from successive upward zero crossings (linear interpolation)
     s = np.where((qs[:-1] < 0) & (qs[1:] >= 0))[0]
@@ -88,7 +89,7 @@ def test_effort_gives_analytic_acceleration():
     n = 120
     w.step(n)
     alpha = tau / pivot_inertia(0.5, 1.0, 0.05)
-    assert r.get_joint_velocities()[0] == pytest.approx(alpha * n * w.dt, rel=1e-3)
+    assert r.joint_velocities[0] == pytest.approx(alpha * n * w.dt, rel=1e-3)
 
 
 @pytest.fixture(scope="module")
@@ -111,7 +112,7 @@ def test_teleport_link_poses_match_model_fk(which, pb_panda):
     r = w.add_robot(model, pose=base)
     for q in random_configurations(model, 5, seed=3):
         r.set_joint_positions(q)
-        assert r.get_joint_positions() == pytest.approx(q, abs=1e-5)
+        assert r.joint_positions == pytest.approx(q, abs=1e-5)
         for link in model.link_names:
             expected = base @ model.fk(q, link)
             got = r.get_link_pose(link)
@@ -150,7 +151,7 @@ def test_holds_pose_without_gravity_compensation():
     r = w.add_robot(model, gravity_compensation=False, q=PANDA_Q0)
     r.set_joint_position_targets(PANDA_Q0)
     w.step(480)
-    err = np.abs(r.get_joint_positions() - PANDA_Q0)
+    err = np.abs(r.joint_positions - PANDA_Q0)
     assert err[:7].max() < 0.01  # stiff default drives against gravity
 
 
@@ -161,16 +162,16 @@ def test_position_and_velocity_targets():
     target = PANDA_Q0.copy()
     target[[0, 3]] += [0.4, 0.3]
     r.set_joint_position_targets(target[[0, 3]], joint_indices=[0, 3])
-    assert r.get_joint_position_targets() == pytest.approx(target)
+    assert r.joint_position_targets == pytest.approx(target)
     w.step(480)
-    assert r.get_joint_positions() == pytest.approx(target, abs=2e-3)
+    assert r.joint_positions == pytest.approx(target, abs=2e-3)
     # pure velocity drive on joint 1
     r.set_drive_gains([0.0], [200.0], joint_indices=[0])
     r.set_joint_velocity_targets([0.5], joint_indices=[0])
     w.step(240)
-    assert r.get_joint_velocities()[0] == pytest.approx(0.5, abs=0.01)
-    k, d, f = r.get_drive_gains()
-    assert k[0] == 0 and d[0] == 200 and f[0] == 87
+    assert r.joint_velocities[0] == pytest.approx(0.5, abs=0.01)
+    g = r.drive_gains
+    assert g.stiffness[0] == 0 and g.damping[0] == 200 and g.max_force[0] == 87
 
 
 def test_pd_targets_converge_within_one_second():
@@ -186,13 +187,13 @@ def test_pd_targets_converge_within_one_second():
     assert np.all((target >= model.lower_limits) & (target <= model.upper_limits))
     r.set_joint_position_targets(target)
     w.step(1)
-    assert np.abs(r.get_joint_positions() - target).max() > 0.15  # it starts far away
+    assert np.abs(r.joint_positions - target).max() > 0.15  # it starts far away
     w.step(239)
     assert w.time == pytest.approx(1.0)
-    assert np.abs(r.get_joint_positions() - target).max() < 1e-3
-    assert np.abs(r.get_joint_velocities()).max() < 1e-2
+    assert np.abs(r.joint_positions - target).max() < 1e-3
+    assert np.abs(r.joint_velocities).max() < 1e-2
     w.step(240)
-    assert np.abs(r.get_joint_positions() - target).max() < 1e-3
+    assert np.abs(r.joint_positions - target).max() < 1e-3
 
 
 def test_joint_limits_hold_against_drives_and_gravity():
@@ -211,7 +212,7 @@ def test_joint_limits_hold_against_drives_and_gravity():
         worst, settled = 0.0, 0.0
         for k in range(480):
             w.step()
-            q = r.get_joint_positions()
+            q = r.joint_positions
             excess = float(np.max(np.r_[lo - q, q - hi]))
             worst = max(worst, excess)
             if k >= 240:
@@ -225,10 +226,10 @@ def test_joint_limits_hold_against_drives_and_gravity():
     worst = 0.0
     for _ in range(720):
         w.step()
-        q = r.get_joint_positions()
+        q = r.joint_positions
         worst = max(worst, float(np.max(np.r_[lo - q, q - hi])))
     assert worst < 0.05, worst
-    q = r.get_joint_positions()
+    q = r.joint_positions
     assert float(np.max(np.r_[lo - q, q - hi])) < 2e-3
 
 
@@ -286,9 +287,9 @@ def test_mimic_fingers_stay_coupled_under_load():
     lift = qg.copy()
     lift[[1, 3]] += [-0.25, 0.25]
     for leg in np.array_split(np.linspace(qg[:7], lift[:7], 121), 12):
-        r.execute_trajectory(leg, 1 / 240, joint_indices=ARM)
+        r.execute_trajectory(leg, 1 / 240, joint_names=ARM_NAMES)
         worst = max(worst, asymmetry()[0])
-    r.execute_trajectory(lift[None, :7], 1 / 240, joint_indices=ARM, settle_time=0.3)
+    r.execute_trajectory(lift[None, :7], 1 / 240, joint_names=ARM_NAMES, settle_time=0.3)
     assert w.get_object_pose("box")[2, 3] > 0.06  # lifted: the fingers carry its weight
     worst = max(worst, asymmetry()[0])
     assert worst < 1e-4, worst
@@ -301,10 +302,10 @@ def test_set_world_pose_moves_everything():
     new = np.eye(4)
     new[:3, 3] = [1.0, 2.0, 0.5]
     r.set_world_pose(new)
-    assert r.get_world_transform() == pytest.approx(new)
+    assert r.world_transform == pytest.approx(new)
     assert r.get_link_pose("panda_hand") == pytest.approx(new @ model.fk(PANDA_Q0, "panda_hand"), abs=1e-5)
     w.step(10)
-    assert r.get_joint_positions() == pytest.approx(PANDA_Q0, abs=1e-3)
+    assert r.joint_positions == pytest.approx(PANDA_Q0, abs=1e-3)
 
 
 def grasp_and_carry(model, tcp, box_size, force):
@@ -332,9 +333,9 @@ def grasp_and_carry(model, tcp, box_size, force):
     assert 0.9 < speeds.max() <= 1.05
     drift = 0.0
     for k in range(0, len(qs) - 1, 10):
-        r.execute_trajectory(qs[k : k + 11], dt, joint_indices=ARM)
+        r.execute_trajectory(qs[k : k + 11], dt, joint_names=ARM_NAMES)
         drift = max(drift, np.linalg.norm(rel()[:3, 3] - rel0[:3, 3]))
-    r.execute_trajectory(qs[-1:], dt, joint_indices=ARM, settle_time=0.5)
+    r.execute_trajectory(qs[-1:], dt, joint_names=ARM_NAMES, settle_time=0.5)
     drift = max(drift, np.linalg.norm(rel()[:3, 3] - rel0[:3, 3]))
     assert w.get_object_pose("box")[2, 3] > 0.25  # lifted with the hand
     return drift
@@ -354,14 +355,14 @@ def test_gripper_open_close_and_custom_gripper():
     r = w.add_robot(model, q=PANDA_Q0)
     r.close_gripper()
     w.step(240)
-    assert r.get_gripper_positions()[0] == pytest.approx(0.0, abs=1e-3)
+    assert r.gripper_positions[0] == pytest.approx(0.0, abs=1e-3)
     r.open_gripper()
     w.step(240)
-    assert r.get_gripper_positions()[0] == pytest.approx(0.04, abs=1e-3)
+    assert r.gripper_positions[0] == pytest.approx(0.04, abs=1e-3)
     r.set_gripper(["panda_finger_joint1"], [0.03], [0.01])
     r.open_gripper()
     w.step(240)
-    assert r.get_gripper_positions()[0] == pytest.approx(0.03, abs=1e-3)
+    assert r.gripper_positions[0] == pytest.approx(0.03, abs=1e-3)
     with pytest.raises(errors.UnknownNameError):
         r.set_gripper(["nope"], [0.03], [0.0])
     with pytest.raises(errors.InvalidArgumentError):
@@ -374,8 +375,8 @@ def test_ur5_loads_and_holds(ur5):
     r = w.add_robot(ur5, q=q, name="ur5")
     r.set_joint_position_targets(q)
     w.step(240)
-    assert r.get_joint_positions()[:6] == pytest.approx(q[:6], abs=2e-3)
-    assert r.get_link_pose(ur5.ee_link) == pytest.approx(ur5.fk(r.get_joint_positions()), abs=1e-4)
+    assert r.joint_positions[:6] == pytest.approx(q[:6], abs=2e-3)
+    assert r.get_link_pose(ur5.ee_link) == pytest.approx(ur5.fk(r.joint_positions), abs=1e-4)
 
 
 def test_trajectory_executor_reports_tracking():
@@ -385,16 +386,16 @@ def test_trajectory_executor_reports_tracking():
     dt = 0.01
     t = np.arange(0, 1.0 + 1e-9, dt)
     q = PANDA_Q0[None, :7] + 0.15 * (1 - np.cos(2 * np.pi * t))[:, None] * np.ones(7)
-    rep = r.execute_trajectory(q, dt, joint_indices=ARM, settle_time=0.1)
-    n = len(rep["times"])
+    rep = r.execute_trajectory(q, dt, joint_names=ARM_NAMES, settle_time=0.1)
+    n = len(rep.times)
     assert n == int(round(1.1 / w.dt))
-    assert rep["desired"].shape == (n, 7) and rep["actual"].shape == (n, 7)
+    assert rep.desired.shape == (n, 7) and rep.actual.shape == (n, 7)
     # desired follows the samples; the robot tracks within a few mrad
-    assert rep["desired"][-1] == pytest.approx(q[-1], abs=1e-9)
-    assert rep["max_error"].max() < 0.01
-    assert rep["final_error"].max() < 2e-3
-    assert np.all(rep["rms_error"] <= rep["max_error"])
-    assert r.get_joint_positions()[:7] == pytest.approx(q[-1], abs=2e-3)
+    assert rep.desired[-1] == pytest.approx(q[-1], abs=1e-9)
+    assert rep.max_error.max() < 0.01
+    assert rep.final_error.max() < 2e-3
+    assert np.all(rep.rms_error <= rep.max_error)
+    assert r.joint_positions[:7] == pytest.approx(q[-1], abs=2e-3)
 
 
 def test_execute_a_plan_matches_joints_by_name():
@@ -411,18 +412,18 @@ def test_execute_a_plan_matches_joints_by_name():
     assert res.success
     traj = res.interpolated(0.01)
     rep = r.execute(traj, settle_time=0.2)
-    assert rep["desired"].shape[1] == 8  # 7 arm joints + finger_joint1; the mimic finger is skipped
-    assert r.get_joint_positions()[:7] == pytest.approx(goal, abs=2e-3)
-    assert r.get_joint_positions()[7] == pytest.approx(0.04, abs=1e-3)
-    assert rep["max_error"].max() < 0.02
+    assert rep.desired.shape[1] == 8  # 7 arm joints + finger_joint1; the mimic finger is skipped
+    assert r.joint_positions[:7] == pytest.approx(goal, abs=2e-3)
+    assert r.joint_positions[7] == pytest.approx(0.04, abs=1e-3)
+    assert rep.max_error.max() < 0.02
     # A PlanResult directly: sampled at the world's time step.
     back = planner.plan(goal, goal_q=PANDA_Q0[:7])
     rep = r.execute(back, settle_time=0.2)
     assert (
-        len(rep["times"]) == int(round((back.duration + 0.2) / w.dt))
-        or abs(len(rep["times"]) - (back.duration + 0.2) / w.dt) <= 2
+        len(rep.times) == int(round((back.duration + 0.2) / w.dt))
+        or abs(len(rep.times) - (back.duration + 0.2) / w.dt) <= 2
     )
-    assert r.get_joint_positions()[:7] == pytest.approx(PANDA_Q0[:7], abs=2e-3)
+    assert r.joint_positions[:7] == pytest.approx(PANDA_Q0[:7], abs=2e-3)
     with pytest.raises(errors.InvalidArgumentError, match="JointTrajectory"):
         r.execute(np.zeros((3, 7)))
     ur5_like = ferrobot.Planner(ferrobot.RobotModel.from_urdf(UR5_URDF))
@@ -437,9 +438,9 @@ def test_resolved_rate_reaches_pose():
     r = w.add_robot(model, q=PANDA_Q0)
     ctl = ferrobot.ResolvedRateController(model, link="panda_hand_tcp")
     target = pose_at([0.45, 0.15, 0.3])
-    target_q = r.get_joint_positions()
+    target_q = r.joint_positions
     for _ in range(int(3.0 / w.dt)):
-        q = r.get_joint_positions()
+        q = r.joint_positions
         qd = ctl.compute(q, target)
         target_q = target_q + qd * w.dt
         r.set_joint_position_targets(target_q)
@@ -470,10 +471,10 @@ def test_pid_anti_windup_and_tracking():
     r.set_drive_gains([0.0], [0.0])
     pid = ferrobot.JointPID([40.0], 40.0, 4.0, integral_limit=10.0, output_limit=20.0)
     for _ in range(int(6.0 / w.dt)):
-        u = pid.update(r.get_joint_positions(), r.get_joint_velocities(), [0.5], w.dt)
+        u = pid.update(r.joint_positions, r.joint_velocities, [0.5], w.dt)
         r.set_joint_efforts(u)
         w.step()
-    assert r.get_joint_positions()[0] == pytest.approx(0.5, abs=2e-3)
+    assert r.joint_positions[0] == pytest.approx(0.5, abs=2e-3)
     # holding torque equals gravity's m g L sin(theta)
     assert u[0] == pytest.approx(1.0 * G * 0.5 * np.sin(0.5), rel=0.02)
 
@@ -502,15 +503,15 @@ def test_robot_determinism_and_reset():
         target = PANDA_Q0 + 0.2
         r.set_joint_position_targets(target)
         w.step(200)
-        return w, r, np.r_[r.get_joint_positions(), r.get_joint_velocities(), w.get_object_pose("box").ravel()]
+        return w, r, np.r_[r.joint_positions, r.joint_velocities, w.get_object_pose("box").ravel()]
 
     w1, r1, s1 = run()
     _, _, s2 = run()
     assert np.array_equal(s1, s2)
     w1.reset()
-    assert r1.get_joint_positions() == pytest.approx(PANDA_Q0, abs=1e-6)
+    assert r1.joint_positions == pytest.approx(PANDA_Q0, abs=1e-6)
     w1.step(200)
-    s3 = np.r_[r1.get_joint_positions(), r1.get_joint_velocities(), w1.get_object_pose("box").ravel()]
+    s3 = np.r_[r1.joint_positions, r1.joint_velocities, w1.get_object_pose("box").ravel()]
     assert np.array_equal(s1, s3)
 
 
@@ -582,6 +583,6 @@ def test_pendulum_matches_pybullet(tmp_path):
     ours = []
     for _ in range(240):
         w.step()
-        ours.append(r.get_joint_positions()[0])
+        ours.append(r.joint_positions[0])
     # measured: 7.7e-3 rad at most over the second (both integrators are first order)
     assert np.abs(np.array(ours) - np.array(ref)).max() < 0.015

@@ -79,7 +79,7 @@ def test_simulation_of_the_usd_robot_equals_the_urdf_robot(tmp_path):
         target = model.named_state("ready") + np.r_[0.3, -0.2, 0.2, 0.3, -0.2, 0.2, 0.3, 0.0]
         r.set_joint_position_targets(target)
         w.step(240)
-        finals.append(r.get_joint_positions())
+        finals.append(r.joint_positions)
     # the same motion, to the float32 precision of the stored masses and inertias (the SRDF, which USD does
     # not carry, gives both the same allowed finger contacts)
     assert finals[1] == pytest.approx(finals[0], abs=1e-9)

@@ -5,7 +5,7 @@ and the procedures that take those measurements on a simulated robot.
 What is measured. On a real robot: the joint torques logged while it holds
 still at several configurations (drives on, or the brake-release sag times
 the joint stiffness), and the torque along constant-velocity sweeps. In the
-simulator the same numbers come from :meth:`ferrobot.Robot.get_measured_joint_efforts`:
+simulator the same numbers come from :meth:`ferrobot.Robot.measured_joint_efforts`:
 the drive law ``clamp(stiffness (q* - q) + damping (qd* - qd))`` at the
 current state, which equals the force the simulator's implicit motor applies
 once the joint is static (gravity) or at constant velocity (friction).
@@ -77,7 +77,7 @@ def _finite(x, what: str, shape: tuple | None = None) -> np.ndarray:
 def gravity_in_base(robot, gravity=GRAVITY) -> np.ndarray:
     """The world gravity vector (3,) expressed in ``robot``'s base frame."""
     g = _finite(gravity, "gravity", (3,))
-    return robot.get_world_transform()[:3, :3].T @ g
+    return robot.world_transform[:3, :3].T @ g
 
 
 def gravity_torques(model, q, gravity=GRAVITY) -> np.ndarray:
@@ -185,7 +185,8 @@ def measure_static_efforts(
     n_avg = max(1, int(round(average_time / dt)))
     q_out, e_out = [], []
     zero = np.zeros(robot.num_dof)
-    gains = robot.get_drive_gains()
+    g = robot.drive_gains
+    gains = (g.stiffness, g.damping, g.max_force)
     if stiffness is not None or damping is not None:
         k = gains[0] if stiffness is None else np.full(robot.num_dof, _positive_scalar(stiffness, "stiffness"))
         d = gains[1] if damping is None else np.full(robot.num_dof, _positive_scalar(damping, "damping"))
@@ -214,8 +215,8 @@ def _hold_all(world, robot, qs, n_settle, n_avg, zero, q_out, e_out):
         acc_q = np.zeros(robot.num_dof)
         for _ in range(n_avg):
             world.step(1)
-            acc_e += robot.get_measured_joint_efforts()
-            acc_q += robot.get_joint_positions()
+            acc_e += robot.measured_joint_efforts
+            acc_q += robot.joint_positions
         q_out.append(acc_q / n_avg)
         e_out.append(acc_e / n_avg)
 
@@ -254,9 +255,10 @@ def friction_sweep(
     lo, hi = (lo, hi) if np.isfinite(lo) and np.isfinite(hi) else (-np.pi, np.pi)
     travel = 0.9 * (hi - lo)
     dt = world.dt
-    stiff0, damp0, max0 = robot.get_drive_gains()
-    q0 = robot.get_joint_positions()
-    targets0 = robot.get_joint_position_targets()
+    g = robot.drive_gains
+    stiff0, damp0, max0 = g.stiffness, g.damping, g.max_force
+    q0 = robot.joint_positions
+    targets0 = robot.joint_position_targets
     vel_out, eff_out = [], []
     try:
         for v in speeds:
@@ -270,7 +272,7 @@ def friction_sweep(
             q[dof] = lo + 0.05 * (hi - lo) if v > 0 else hi - 0.05 * (hi - lo)
             robot.set_joint_positions(q)
             robot.set_joint_position_targets(q)
-            robot.set_drive_gains([0.0], [damping], joint_indices=[dof])
+            robot.set_drive_gains([0.0], [damping], joint_names=[robot.dof_names[dof]])
             vt = np.zeros(robot.num_dof)
             vt[dof] = v
             robot.set_joint_velocity_targets(vt)
@@ -280,8 +282,8 @@ def friction_sweep(
             acc_v = acc_e = 0.0
             for _ in range(n):
                 world.step(1)
-                acc_v += robot.get_joint_velocities()[dof]
-                acc_e += robot.get_measured_joint_efforts()[dof]
+                acc_v += robot.joint_velocities[dof]
+                acc_e += robot.measured_joint_efforts[dof]
             vel_out.append(acc_v / n)
             eff_out.append(acc_e / n)
     finally:

@@ -36,12 +36,13 @@ hand link, 320x240, looking along the approach at the fingertips), sizes configu
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
 from . import _core
-from .errors import InvalidArgumentError, NonFiniteError, ShapeError
+from .errors import InvalidArgumentError, NonFiniteError, ShapeError, UnknownNameError
 
 __all__ = [
     "ControlStepper",
@@ -62,9 +63,11 @@ class ControlStepper:
 
     ``world``: a :class:`ferrobot.World`; ``robot``: a :class:`ferrobot.Robot` in it. ``control_hz`` in
     (0, physics rate], and the physics rate (``1 / world.dt``) must be an integer multiple of it.
-    ``arm_joint_indices``: the robot DOFs driven by the first ``A`` action entries (default: the model's
-    planning group). ``gripper``: True (the robot's gripper, last action entry) or False (no gripper
-    entry). ``grip_force``: squeezing force per finger (N, > 0) when closed.
+    ``arm_joint_names``: the robot DOFs driven by the first ``A`` action entries, by name (default: the model's
+    planning group; ``arm_joint_indices``, DOF indices, is the deprecated spelling). ``arm`` holds their DOF
+    indices (positions in ``robot.dof_names``), ``arm_names`` their names. ``gripper``: True (the robot's
+    gripper, last action entry) or False (no gripper entry). ``grip_force``: squeezing force per finger
+    (N, > 0) when closed.
 
     The previous targets start as the robot's current drive targets, the gripper state as ``gripper_closed``
     (open by default: the state a freshly built scene has).
@@ -76,6 +79,7 @@ class ControlStepper:
         robot,
         *,
         control_hz: float = 10.0,
+        arm_joint_names=None,
         arm_joint_indices=None,
         gripper: bool = True,
         grip_force: float = 40.0,
@@ -96,18 +100,37 @@ class ControlStepper:
         self.control_hz = float(control_hz)
         self.period = 1.0 / self.control_hz
         self.substeps = int(round(ratio))
-        if arm_joint_indices is None:
-            arm_joint_indices = list(robot.model.group_dof_indices)
-        arm = [int(i) for i in arm_joint_indices]
-        if not arm or any(i < 0 or i >= robot.num_dof for i in arm) or len(set(arm)) != len(arm):
-            raise InvalidArgumentError(
-                f"arm_joint_indices: expected distinct indices in [0, {robot.num_dof}), got {arm_joint_indices!r}"
+        names = list(robot.dof_names)
+        if arm_joint_indices is not None:
+            if arm_joint_names is not None:
+                raise InvalidArgumentError("give arm_joint_names or arm_joint_indices, not both")
+            warnings.warn(
+                "ControlStepper(arm_joint_indices=...) is deprecated: use arm_joint_names=",
+                DeprecationWarning,
+                stacklevel=2,
             )
+            arm = [int(i) for i in arm_joint_indices]
+            if any(i < 0 or i >= robot.num_dof for i in arm):
+                raise InvalidArgumentError(
+                    f"arm_joint_indices: expected distinct indices in [0, {robot.num_dof}), got {arm_joint_indices!r}"
+                )
+        elif arm_joint_names is not None:
+            if isinstance(arm_joint_names, str):
+                raise InvalidArgumentError(f"arm_joint_names: expected a list of joint names, got {arm_joint_names!r}")
+            unknown = [n for n in arm_joint_names if n not in names]
+            if unknown:
+                raise UnknownNameError(f"arm_joint_names: unknown joint {unknown[0]!r}; the robot's DOFs: {names}")
+            arm = [names.index(n) for n in arm_joint_names]
+        else:
+            arm = list(robot.model.group_dof_indices)
+        if not arm or len(set(arm)) != len(arm):
+            raise InvalidArgumentError(f"arm joints: expected distinct joints, got {[names[i] for i in arm]!r}")
         self.arm = arm
+        self.arm_names = [names[i] for i in arm]
         self.gripper = bool(gripper)
         self.grip_force = float(grip_force)
         self.gripper_closed = bool(gripper_closed)
-        self.targets = np.asarray(robot.get_joint_position_targets(), dtype=np.float64)[arm].copy()
+        self.targets = np.asarray(robot.joint_position_targets, dtype=np.float64)[arm].copy()
         self.steps = 0
 
     @property
@@ -138,7 +161,7 @@ class ControlStepper:
                     self.robot.open_gripper()
                 self.gripper_closed = close
         samples = np.stack([self.targets, new])
-        self.robot.execute_trajectory(samples, self.period, joint_indices=self.arm)
+        self.robot.execute_trajectory(samples, self.period, joint_names=self.arm_names)
         self.targets = new
         self.steps += 1
 
@@ -234,10 +257,10 @@ def observe(world, robot, cameras: dict, *, segmentation: bool = False, ee_link:
     ``cameras``: name -> :class:`ferrobot.Camera`; depth 0 where the renderer saw nothing (inf)."""
     del world  # the robot and cameras carry their world; kept in the signature for the contract
     model = robot.model
-    q = robot.get_joint_positions()
+    q = robot.joint_positions
     obs = {
         "observation.state": q.astype(np.float32),
-        "observation.velocity": robot.get_joint_velocities().astype(np.float32),
+        "observation.velocity": robot.joint_velocities.astype(np.float32),
         "observation.ee_pose": model.fk_batch(q[None, :], ee_link)[0].astype(np.float32),
         "observation.gripper_opening": np.array([gripper_opening(model, q)], dtype=np.float32),
     }
@@ -254,7 +277,7 @@ def observe(world, robot, cameras: dict, *, segmentation: bool = False, ee_link:
 def action_features(robot, stepper: ControlStepper, action, ee_link: str | None = None) -> dict:
     """``action`` (float32) and ``action.ee_pose`` (FK of the arm targets, base frame) for a step's action."""
     a = np.asarray(action, dtype=np.float64)
-    q = np.asarray(robot.get_joint_position_targets(), dtype=np.float64).copy()
+    q = np.asarray(robot.joint_position_targets, dtype=np.float64).copy()
     q[stepper.arm] = a[: len(stepper.arm)]
     return {
         "action": a.astype(np.float32),

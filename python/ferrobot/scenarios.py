@@ -278,16 +278,17 @@ def payload_change(
     change = int(at_fraction * len(positions))
     before = robot.get_link_inertial("panda_hand")
     errors, states = [], []
+    names = [robot.dof_names[j] for j in idx]
     for k in range(len(positions) + int(0.5 / dt)):
         if k == change:
             m, c, inertia = add_payload(before["mass"], before["com"], before["inertia"], payload, [0.0, 0.0, 0.1])
             robot.set_link_inertial("panda_hand", m, c, inertia)
         i = min(k, len(positions) - 1)
         v = velocities[i] if k < len(positions) else np.zeros(len(idx))
-        robot.set_joint_position_targets(positions[i], joint_indices=idx)
-        robot.set_joint_velocity_targets(v, joint_indices=idx)
+        robot.set_joint_position_targets(positions[i], joint_names=names)
+        robot.set_joint_velocity_targets(v, joint_names=names)
         world.step(1)
-        q = robot.get_joint_positions()
+        q = robot.joint_positions
         states.append(q)
         errors.append(np.max(np.abs(q[idx] - positions[i])))
     errors = np.array(errors)
@@ -339,11 +340,12 @@ def stream_interruption(
     worst_ratio = 0.0
     n = len(positions) + int((gap + max_recovery_time + 0.5) / dt)
     prev = None
+    names = [robot.dof_names[j] for j in idx]
     for k in range(n):
         t = k * dt
         i = min(k, len(positions) - 1)
         incoming = None if t0 <= t < t1 else positions[i]
-        current = robot.get_joint_positions()[idx]
+        current = robot.joint_positions[idx]
         out = guard.update(t, incoming, current)
         cmd = out["command"]
         if prev is not None:
@@ -351,12 +353,12 @@ def stream_interruption(
         prev = cmd
         steps_max = max(steps_max, out["step"])
         vel = np.zeros(len(idx)) if (out["holding"] or out["catching_up"]) else velocities[i]
-        robot.set_joint_position_targets(cmd, joint_indices=idx)
-        robot.set_joint_velocity_targets(vel, joint_indices=idx)
+        robot.set_joint_position_targets(cmd, joint_names=names)
+        robot.set_joint_velocity_targets(vel, joint_names=names)
         world.step(1)
-        states.append(robot.get_joint_positions())
+        states.append(robot.joint_positions)
         if out["holding"] and t > t0 + timeout + 0.2:
-            hold_speed = max(hold_speed, float(np.max(np.abs(robot.get_joint_velocities()[idx]))))
+            hold_speed = max(hold_speed, float(np.max(np.abs(robot.joint_velocities[idx]))))
         if t >= t1 and resumed_at is None:
             resumed_at = t
         if resumed_at is not None and caught_at is None and not out["catching_up"] and not out["holding"]:
@@ -396,8 +398,8 @@ def sensor_noise(
     from . import Camera, JointPID, look_at
 
     model, world, robot, q0 = _panda_world(True, dt)
-    arm = list(range(7))  # the finger keeps its drive
-    robot.set_drive_gains(np.zeros(7), np.zeros(7), joint_indices=arm)
+    arm = robot.dof_names[:7]  # the finger keeps its drive
+    robot.set_drive_gains(np.zeros(7), np.zeros(7), joint_names=arm)
     enc = EncoderNoise(encoder_sigma, seed=seed)
     kp = np.array([400.0, 400.0, 400.0, 400.0, 100.0, 100.0, 40.0])
     pid = JointPID(kp, kp / 10, kp / 40, integral_limit=5.0, output_limit=87.0)
@@ -405,13 +407,13 @@ def sensor_noise(
     robot.set_joint_positions(q0 + np.r_[np.full(7, 0.05), 0.0])
     max_err = 0.0
     for k in range(int(1.5 / dt)):
-        q = robot.get_joint_positions()[:7]
-        qd = robot.get_joint_velocities()[:7]
+        q = robot.joint_positions[:7]
+        qd = robot.joint_velocities[:7]
         u = pid.update(enc.apply(q), qd, q0[:7], dt)
-        robot.set_joint_efforts(u, joint_indices=arm)
+        robot.set_joint_efforts(u, joint_names=arm)
         world.step(1)
         if k * dt > 0.5:
-            max_err = max(max_err, float(np.max(np.abs(robot.get_joint_positions()[:7] - q0[:7]))))
+            max_err = max(max_err, float(np.max(np.abs(robot.joint_positions[:7] - q0[:7]))))
     # Depth noise on a rendered frame.
     world.add_box("table", [0.8, 1.0, 0.4], [0.6, 0.0, 0.2, 1, 0, 0, 0], fixed=True)
     world.add_box("box", [0.1, 0.1, 0.1], [0.55, 0.0, 0.45, 1, 0, 0, 0], fixed=True)
@@ -483,11 +485,11 @@ def conflicting_targets(dt: float = 1 / 240, tolerance: float = 0.01) -> Scenari
         if 0.3 <= t < 0.8 and winners[:3] != ["teleop"] * 3:
             contested_ok = False
         ix = [j for j in range(robot.num_dof) if winners[j] is not None]
-        robot.set_joint_position_targets(values[ix], joint_indices=ix)
+        robot.set_joint_position_targets(values[ix], joint_names=[robot.dof_names[j] for j in ix])
         if abs(t - 0.75) < dt / 2:
-            q_teleop = robot.get_joint_positions()[:3].copy()
+            q_teleop = robot.joint_positions[:3].copy()
         world.step(1)
-    q_end = robot.get_joint_positions()
+    q_end = robot.joint_positions
     joints = sorted({c["joint"] for c in arb.conflicts})
     metrics = {
         "teleop_error": float(np.max(np.abs(q_teleop - teleop_q))),

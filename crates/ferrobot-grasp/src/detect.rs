@@ -114,7 +114,31 @@ impl Default for DetectOptions {
     }
 }
 
+/// The fingertip depths [`DetectOptions::for_gripper`] searches, as
+/// fractions of the gripper's finger pad length (`Fingers::depth`): the
+/// Panda hand's default depths 40, 30, 20 and 15 mm of its 50 mm pads.
+pub const DEPTH_FRACTIONS: [f64; 4] = [0.8, 0.6, 0.4, 0.3];
+
 impl DetectOptions {
+    /// These options for `gripper`: its hand geometry
+    /// ([`GripperGeometry::from_gripper`]: opening, finger and palm sizes;
+    /// this `approach_distance` and `clearance` kept) and the searched
+    /// `depths` scaled to its pads ([`DEPTH_FRACTIONS`] of the pad length),
+    /// every other option unchanged.
+    pub fn for_gripper(mut self, gripper: &ferrobot_model::Gripper) -> Self {
+        let hand = GripperGeometry::from_gripper(gripper);
+        self.gripper = GripperGeometry {
+            approach_distance: self.gripper.approach_distance,
+            clearance: self.gripper.clearance,
+            ..hand
+        };
+        self.depths = DEPTH_FRACTIONS
+            .iter()
+            .map(|f| f * hand.finger_depth)
+            .collect();
+        self
+    }
+
     /// Checks every option.
     pub fn validate(&self) -> Result<()> {
         self.gripper.validate()?;

@@ -30,23 +30,6 @@ fn control_err(e: ControlError) -> PyErr {
     }
 }
 
-fn info_dict<'py>(py: Python<'py>, info: &StepInfo) -> PyResult<Bound<'py, PyDict>> {
-    let d = PyDict::new(py);
-    d.set_item("world_clearance", info.world_clearance)?;
-    d.set_item("self_clearance", info.self_clearance)?;
-    d.set_item("active_avoidance", info.active_avoidance)?;
-    d.set_item("position_error", info.position_error)?;
-    d.set_item("rotation_error", info.rotation_error)?;
-    d.set_item("acceleration_scale", info.acceleration_scale)?;
-    d.set_item("velocity_scale", info.velocity_scale)?;
-    d.set_item("limit_braked", info.limit_braked)?;
-    d.set_item("stalled", info.stalled)?;
-    d.set_item("waypoints_remaining", info.waypoints_remaining)?;
-    d.set_item("guidance", info.guidance.name())?;
-    d.set_item("guidance_plans", info.guidance_plans)?;
-    Ok(d)
-}
-
 /// Permutation from a caller's joint order to `dof_names` order:
 /// `perm[i]` is the DOF index of the caller's joint `i`.
 fn joint_order(model: &ferrobot_model::RobotModel, names: &[String]) -> PyResult<Vec<usize>> {
@@ -340,11 +323,12 @@ macro_rules! controller_class {
                 })
             }
 
-            /// Diagnostics of the last step (clearances, active avoidance
-            /// terms, target errors, limit scaling), or None before the first.
+            /// Diagnostics of the last step, a `ControlStepInfo`
+            /// (clearances, active avoidance terms, target errors, limit
+            /// scaling), or None before the first.
             #[getter]
-            fn last_step<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
-                self.last.as_ref().map(|i| info_dict(py, i)).transpose()
+            fn last_step(&self) -> Option<crate::results::PyControlStepInfo> {
+                self.last.as_ref().map(crate::results::PyControlStepInfo::new)
             }
 
             /// Per robot sphere at `q`: `distance` (S,) to the nearest world

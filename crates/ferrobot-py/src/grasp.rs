@@ -13,6 +13,7 @@ use pyo3::types::PyDict;
 
 use crate::arrays::{read_array, read_pose};
 use crate::errors::{InvalidArgumentError, NonFiniteError, ShapeError, guard};
+use crate::gripper::PyGripper;
 use crate::options::PyDetectOptions;
 
 /// Converts a grasp error to the matching Python exception.
@@ -24,12 +25,27 @@ pub(crate) fn grasp_err(e: GraspError) -> PyErr {
     }
 }
 
-/// Detection options: `options` (or the defaults) with `overrides`.
+/// Detection options: `options` (or the defaults), made for `gripper`
+/// when given (`DetectOptions::for_gripper`: its hand geometry and
+/// pad-scaled depths), then `overrides`.
 fn options(
     options: Option<&Bound<'_, PyDetectOptions>>,
+    gripper: Option<&Bound<'_, PyGripper>>,
     overrides: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<DetectOptions> {
-    PyDetectOptions::resolve(options, overrides)
+    let Some(g) = gripper else {
+        return PyDetectOptions::resolve(options, overrides);
+    };
+    let base = match options {
+        Some(b) => b.borrow().inner.clone(),
+        None => DetectOptions::default(),
+    };
+    let mut inner = base.for_gripper(&g.get().inner);
+    match overrides {
+        Some(o) => PyDetectOptions::apply(&mut inner, o)?,
+        None => PyDetectOptions::check(&inner)?,
+    }
+    Ok(inner)
 }
 
 pub(crate) fn workspace(obj: Option<&Bound<'_, PyAny>>) -> PyResult<Option<Workspace>> {
@@ -67,17 +83,19 @@ fn group(obj: &Bound<'_, PyAny>) -> PyResult<GraspGroup> {
 
 /// Detects grasps in a point cloud (N, 3); returns an (M, 17) array.
 #[pyfunction]
-#[pyo3(signature = (points, labels=None, seedable=None, options=None, **overrides))]
+#[pyo3(signature = (points, labels=None, seedable=None, options=None, gripper=None, **overrides))]
+#[allow(clippy::too_many_arguments)]
 pub fn grasp_detect<'py>(
     py: Python<'py>,
     points: &Bound<'py, PyAny>,
     labels: Option<PyReadonlyArray1<'py, i32>>,
     seedable: Option<PyReadonlyArray1<'py, bool>>,
     options: Option<&Bound<'py, PyDetectOptions>>,
+    gripper: Option<&Bound<'py, PyGripper>>,
     overrides: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyArray2<f64>>> {
     guard(|| {
-        let opts = self::options(options, overrides)?;
+        let opts = self::options(options, gripper, overrides)?;
         let p = read_array(points, "points", 2, &[Some(3)])?;
         let pts: Vec<Point3<f64>> = p
             .data()
@@ -95,7 +113,7 @@ pub fn grasp_detect<'py>(
 
 /// Detects grasps in a depth image (H, W); returns an (M, 17) array.
 #[pyfunction]
-#[pyo3(signature = (depth, fx, fy, cx, cy, scale, mask=None, object_id=None, workspace=None, options=None, **overrides))]
+#[pyo3(signature = (depth, fx, fy, cx, cy, scale, mask=None, object_id=None, workspace=None, options=None, gripper=None, **overrides))]
 #[allow(clippy::too_many_arguments)]
 pub fn grasp_detect_rgbd<'py>(
     py: Python<'py>,
@@ -109,13 +127,14 @@ pub fn grasp_detect_rgbd<'py>(
     object_id: Option<i32>,
     workspace: Option<&Bound<'py, PyAny>>,
     options: Option<&Bound<'py, PyDetectOptions>>,
+    gripper: Option<&Bound<'py, PyGripper>>,
     overrides: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyArray2<f64>>> {
     guard(|| {
         let d = crate::camera::read_depth(depth, [None, None])?;
         let (h, w) = (d.shape[0], d.shape[1]);
         let k = crate::camera::intrinsics(w, h, fx, fy, cx, cy, scale)?;
-        let opts = self::options(options, overrides)?;
+        let opts = self::options(options, gripper, overrides)?;
         let ws = self::workspace(workspace)?;
         let mask: Option<Vec<i32>> = match mask {
             None => None,

@@ -16,6 +16,7 @@ mod mesh_objects;
 mod model;
 mod options;
 mod planning;
+mod results;
 mod scene;
 mod sim;
 mod sim2real;
@@ -85,6 +86,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     sim2real_register(m)?;
     faults::register(m)?;
     options_register(m)?;
+    results::register(m)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

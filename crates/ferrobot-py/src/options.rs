@@ -176,12 +176,17 @@ macro_rules! options_class {
                     Self::check(&inner)?;
                     return Ok(inner);
                 };
-                for (k, v) in o.iter() {
-                    let key = k.cast::<pyo3::types::PyString>()?.to_cow()?;
-                    Self::set_field(&mut inner, &key, &v)?;
-                }
-                Self::check(&inner)?;
+                Self::apply(&mut inner, o)?;
                 Ok(inner)
+            }
+
+            /// `overrides` applied to `inner`, then checked.
+            pub(crate) fn apply(inner: &mut $rust, overrides: &Bound<'_, PyDict>) -> PyResult<()> {
+                for (k, v) in overrides.iter() {
+                    let key = k.cast::<pyo3::types::PyString>()?.to_cow()?;
+                    Self::set_field(inner, &key, &v)?;
+                }
+                Self::check(inner)
             }
         }
 

@@ -288,23 +288,11 @@ impl PyPlanResult {
         })
     }
 
-    /// Stage wall-clock times (s): ik, planning, simplify, trajectory, total.
+    /// Stage wall-clock times (s): a `PlanTimes` (ik, planning, simplify,
+    /// trajectory, total).
     #[getter]
-    fn times<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        guard(|| {
-            let d = PyDict::new(py);
-            let t = self.inner.times;
-            for (k, v) in [
-                ("ik", t.ik),
-                ("planning", t.planning),
-                ("simplify", t.simplify),
-                ("trajectory", t.trajectory),
-                ("total", t.total),
-            ] {
-                d.set_item(k, v)?;
-            }
-            Ok(d)
-        })
+    fn times(&self) -> crate::results::PyPlanTimes {
+        crate::results::PyPlanTimes::new(&self.inner.times)
     }
 
     /// RRT-Connect samples drawn.
@@ -680,20 +668,21 @@ impl PyPlanner {
         self.set_locked_positions_value(q)
     }
 
-    /// Limits of the planned joints: lower, upper, velocity, acceleration,
-    /// jerk (arrays in `joint_names` order).
+    /// Limits of the planned joints: a `JointLimits` (lower, upper,
+    /// velocity, acceleration, jerk; arrays in `joint_names` order).
     #[getter]
-    fn limits<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+    fn limits(&self, py: Python<'_>) -> PyResult<crate::results::PyJointLimits> {
+        use crate::results::arr1;
         guard(|| {
             let inner = self.snap();
             let l = inner.limits();
-            let d = PyDict::new(py);
-            d.set_item("lower", vec1(py, l.lower.clone()))?;
-            d.set_item("upper", vec1(py, l.upper.clone()))?;
-            d.set_item("velocity", vec1(py, l.velocity.clone()))?;
-            d.set_item("acceleration", vec1(py, l.acceleration.clone()))?;
-            d.set_item("jerk", vec1(py, l.jerk.clone()))?;
-            Ok(d)
+            Ok(crate::results::PyJointLimits {
+                lower: arr1(py, l.lower.clone()),
+                upper: arr1(py, l.upper.clone()),
+                velocity: arr1(py, l.velocity.clone()),
+                acceleration: arr1(py, l.acceleration.clone()),
+                jerk: arr1(py, l.jerk.clone()),
+            })
         })
     }
 
@@ -809,25 +798,18 @@ impl PyPlanner {
     }
 
     /// Counters of the scene sync (`update_world` with a simulated world)
-    /// since the planner was made: `full_builds` (syncs that built the
-    /// world from scratch), `incremental` (syncs that updated it in place),
-    /// `added`, `removed`, `moved`
-    /// (objects).
+    /// since the planner was made: a `WorldSyncStats` (`full_builds`: syncs
+    /// that built the world from scratch, `incremental`: syncs that updated
+    /// it in place, `added`, `removed`, `moved`: objects).
     #[getter]
-    fn world_sync_stats<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+    fn world_sync_stats(&self) -> PyResult<crate::results::PyWorldSyncStats> {
         guard(|| {
             let s = self
                 .sync
                 .lock()
                 .unwrap_or_else(|poisoned| poisoned.into_inner())
                 .stats();
-            let d = PyDict::new(py);
-            d.set_item("full_builds", s.full_builds)?;
-            d.set_item("incremental", s.incremental)?;
-            d.set_item("added", s.added)?;
-            d.set_item("removed", s.removed)?;
-            d.set_item("moved", s.moved)?;
-            Ok(d)
+            Ok(crate::results::PyWorldSyncStats::new(&s))
         })
     }
 

@@ -176,82 +176,124 @@ pub struct PyWorld {
 /// The properties every `World.add_*` takes as keywords: `mass` (kg, in
 /// [1e-6, 1e6]; ignored when fixed), `friction` and `restitution` (in
 /// [0, 1000]), `fixed` (a static body; `static_` is its deprecated name)
-/// and `color` (RGB in [0, 1]). Defaults from `ObjectDesc::new`.
+/// and `color` (RGB in [0, 1]), read once, without a shape; None: not
+/// given (the default of `ObjectDesc::new`). Checked on the finished
+/// object by [`ObjectProps::desc`].
+#[derive(Default)]
+struct ObjectProps {
+    mass: Option<f64>,
+    friction: Option<f64>,
+    restitution: Option<f64>,
+    fixed: Option<bool>,
+    color: Option<[f64; 3]>,
+}
+
+impl ObjectProps {
+    /// Reads and checks the keyword properties.
+    fn read(props: Option<&Bound<'_, PyDict>>) -> PyResult<Self> {
+        let mut p = Self::default();
+        let mut fixed_given = false;
+        for (k, v) in props.into_iter().flat_map(|p| p.iter()) {
+            let key = k.cast::<pyo3::types::PyString>()?.to_cow()?;
+            let number = |what: &str| -> PyResult<f64> {
+                if v.is_instance_of::<pyo3::types::PyBool>() {
+                    return Err(InvalidArgumentError::new_err(format!(
+                        "{what}: expected a number, got a bool"
+                    )));
+                }
+                v.extract::<f64>().map_err(|_| {
+                    InvalidArgumentError::new_err(format!("{what}: expected a number, got {v}"))
+                })
+            };
+            let flag = |what: &str| -> PyResult<bool> {
+                v.extract::<bool>().map_err(|_| {
+                    InvalidArgumentError::new_err(format!("{what}: expected a bool, got {v}"))
+                })
+            };
+            match key.as_ref() {
+                "mass" => p.mass = Some(number("mass")?),
+                "friction" => p.friction = Some(number("friction")?),
+                "restitution" => p.restitution = Some(number("restitution")?),
+                "fixed" | "static_" => {
+                    if key == "static_" {
+                        crate::planning::deprecated(
+                            v.py(),
+                            "World.add_*(static_=...) is deprecated: use fixed=",
+                        )?;
+                    }
+                    if fixed_given {
+                        return Err(InvalidArgumentError::new_err(
+                            "give fixed, not both fixed and the deprecated static_",
+                        ));
+                    }
+                    fixed_given = true;
+                    p.fixed = Some(flag(&key)?);
+                }
+                "color" => {
+                    if !v.is_none() {
+                        let c = vec3_arg(&v, "color")?;
+                        p.color = Some([c.x, c.y, c.z]);
+                    }
+                }
+                other => {
+                    return Err(InvalidArgumentError::new_err(format!(
+                        "unknown object property '{other}'; known: mass, friction, restitution, fixed, color"
+                    )));
+                }
+            }
+        }
+        Ok(p)
+    }
+
+    /// Whether the object is fixed (static).
+    fn fixed(&self) -> bool {
+        self.fixed == Some(true)
+    }
+
+    /// The object `name` of `shape` at `pose` (identity when None) with
+    /// these properties.
+    fn desc(
+        &self,
+        name: String,
+        shape: Shape,
+        pose: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<ObjectDesc> {
+        let pose = crate::arrays::read_pose_or_identity(pose, "pose")?;
+        check_all(
+            &COORDINATE,
+            "pose translation",
+            pose.translation.vector.as_slice(),
+        )
+        .map_err(sim_err)?;
+        let mut d = ObjectDesc::new(name, shape, pose);
+        d.mass = self.mass.unwrap_or(d.mass);
+        d.friction = self.friction.unwrap_or(d.friction);
+        d.restitution = self.restitution.unwrap_or(d.restitution);
+        d.is_static = self.fixed.unwrap_or(d.is_static);
+        d.color = self.color.unwrap_or(d.color);
+        if !d.is_static {
+            MASS.check(d.mass)
+                .map_err(|e| InvalidArgumentError::new_err(e.0))?;
+        }
+        COEFFICIENT
+            .check_as("friction", d.friction)
+            .map_err(|e| InvalidArgumentError::new_err(e.0))?;
+        COEFFICIENT
+            .check_as("restitution", d.restitution)
+            .map_err(|e| InvalidArgumentError::new_err(e.0))?;
+        Ok(d)
+    }
+}
+
+/// An object of `shape` with the keyword properties `props`
+/// ([`ObjectProps`]).
 fn object_desc(
     name: String,
     shape: Shape,
     pose: Option<&Bound<'_, PyAny>>,
     props: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<ObjectDesc> {
-    let pose = crate::arrays::read_pose_or_identity(pose, "pose")?;
-    check_all(
-        &COORDINATE,
-        "pose translation",
-        pose.translation.vector.as_slice(),
-    )
-    .map_err(sim_err)?;
-    let mut d = ObjectDesc::new(name, shape, pose);
-    let mut fixed_given = false;
-    for (k, v) in props.into_iter().flat_map(|p| p.iter()) {
-        let key = k.cast::<pyo3::types::PyString>()?.to_cow()?;
-        let number = |what: &str| -> PyResult<f64> {
-            if v.is_instance_of::<pyo3::types::PyBool>() {
-                return Err(InvalidArgumentError::new_err(format!(
-                    "{what}: expected a number, got a bool"
-                )));
-            }
-            v.extract::<f64>().map_err(|_| {
-                InvalidArgumentError::new_err(format!("{what}: expected a number, got {v}"))
-            })
-        };
-        let flag = |what: &str| -> PyResult<bool> {
-            v.extract::<bool>().map_err(|_| {
-                InvalidArgumentError::new_err(format!("{what}: expected a bool, got {v}"))
-            })
-        };
-        match key.as_ref() {
-            "mass" => d.mass = number("mass")?,
-            "friction" => d.friction = number("friction")?,
-            "restitution" => d.restitution = number("restitution")?,
-            "fixed" | "static_" => {
-                if key == "static_" {
-                    crate::planning::deprecated(
-                        v.py(),
-                        "World.add_*(static_=...) is deprecated: use fixed=",
-                    )?;
-                }
-                if fixed_given {
-                    return Err(InvalidArgumentError::new_err(
-                        "give fixed, not both fixed and the deprecated static_",
-                    ));
-                }
-                fixed_given = true;
-                d.is_static = flag(&key)?;
-            }
-            "color" => {
-                if !v.is_none() {
-                    let c = vec3_arg(&v, "color")?;
-                    d.color = [c.x, c.y, c.z];
-                }
-            }
-            other => {
-                return Err(InvalidArgumentError::new_err(format!(
-                    "unknown object property '{other}'; known: mass, friction, restitution, fixed, color"
-                )));
-            }
-        }
-    }
-    if !d.is_static {
-        MASS.check(d.mass)
-            .map_err(|e| InvalidArgumentError::new_err(e.0))?;
-    }
-    COEFFICIENT
-        .check_as("friction", d.friction)
-        .map_err(|e| InvalidArgumentError::new_err(e.0))?;
-    COEFFICIENT
-        .check_as("restitution", d.restitution)
-        .map_err(|e| InvalidArgumentError::new_err(e.0))?;
-    Ok(d)
+    ObjectProps::read(props)?.desc(name, shape, pose)
 }
 
 impl PyWorld {
@@ -568,15 +610,10 @@ impl PyWorld {
             let scale = scale_arg(scale)?;
             let params = decomposition_params(resolution, concavity, max_convex_hulls)?;
             // The shared properties (mass, friction, restitution, fixed,
-            // color) are read once, by `object_desc`; the shape is set below
-            // because its default approximation depends on `fixed`.
-            let mass_given = match props {
-                Some(p) => p.contains("mass")?,
-                None => false,
-            };
-            let placeholder = Shape::Sphere { radius: 1.0 };
-            let mut desc = object_desc(name, placeholder, pose, props)?;
-            let approximation = approximation.unwrap_or(if desc.is_static {
+            // color) are read once, before the shape: its default
+            // approximation depends on `fixed`.
+            let mut props = ObjectProps::read(props)?;
+            let approximation = approximation.unwrap_or(if props.fixed() {
                 "trimesh"
             } else {
                 "convex_decomposition"
@@ -599,7 +636,7 @@ impl PyWorld {
                 }
             };
             if let Some(d) = density {
-                if mass_given {
+                if props.mass.is_some() {
                     return Err(InvalidArgumentError::new_err(
                         "give mass or density, not both",
                     ));
@@ -614,14 +651,15 @@ impl PyWorld {
                         "density needs a solid: use mass with approximation 'trimesh'",
                     )
                 })?;
-                desc.mass = d * vol;
-                if !desc.is_static {
-                    MASS.check(desc.mass).map_err(|e| {
+                let mass = d * vol;
+                if !props.fixed() {
+                    MASS.check(mass).map_err(|e| {
                         InvalidArgumentError::new_err(format!("mass from density: {}", e.0))
                     })?;
                 }
+                props.mass = Some(mass);
             }
-            desc.shape = shape;
+            let desc = props.desc(name, shape, pose)?;
             let inner = self.inner.clone();
             let name = desc.name.clone();
             py.detach(|| -> Result<(), SimError> {
@@ -821,14 +859,28 @@ impl PyRobot {
         })
     }
 
-    /// The DOFs a call addresses: `joint_names` (the names used across the
-    /// Python API, resolved by the model) or `joint_indices` (DOF indices,
-    /// Isaac Sim's spelling); all DOFs when neither is given.
+    /// The DOFs a call addresses: `joint_names` (the one spelling of a
+    /// joint subset across the Python API, resolved by the model) or the
+    /// deprecated `joint_indices` (DOF indices, Isaac Sim's spelling, kept
+    /// for one release with a warning; `ferrobot.compat.isaac.Articulation`
+    /// keeps it without one); all DOFs when neither is given.
     fn subset(
         &self,
+        what: &str,
         joint_indices: Option<Vec<i64>>,
         joint_names: Option<Vec<String>>,
     ) -> PyResult<Option<Vec<usize>>> {
+        if joint_indices.is_some() && joint_names.is_none() {
+            Python::attach(|py| {
+                crate::planning::deprecated(
+                    py,
+                    &format!(
+                        "Robot.{what}(joint_indices=...) is deprecated: use joint_names= \
+                         (Isaac Sim code: ferrobot.compat.isaac.Articulation keeps joint_indices)"
+                    ),
+                )
+            })?;
+        }
         match (joint_indices, joint_names) {
             (Some(_), Some(_)) => Err(InvalidArgumentError::new_err(
                 "give joint_names or joint_indices, not both",
@@ -873,13 +925,96 @@ impl PyRobot {
         guard(|| Ok(self.model.num_dof()))
     }
 
-    /// Joint positions (num_dof,).
+    /// Deprecated: read the `joint_positions` property instead.
     fn get_joint_positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        crate::planning::deprecated(
+            py,
+            "Robot.get_joint_positions() is deprecated: read the property Robot.joint_positions",
+        )?;
+        self.read_joint_positions(py)
+    }
+
+    /// Deprecated: read the `joint_velocities` property instead.
+    fn get_joint_velocities<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        crate::planning::deprecated(
+            py,
+            "Robot.get_joint_velocities() is deprecated: read the property Robot.joint_velocities",
+        )?;
+        self.read_joint_velocities(py)
+    }
+
+    /// Deprecated: read the `joint_position_targets` property instead.
+    fn get_joint_position_targets<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        crate::planning::deprecated(
+            py,
+            "Robot.get_joint_position_targets() is deprecated: read the property Robot.joint_position_targets",
+        )?;
+        self.read_joint_position_targets(py)
+    }
+
+    /// Deprecated: read the `applied_joint_efforts` property instead.
+    fn get_applied_joint_efforts<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        crate::planning::deprecated(
+            py,
+            "Robot.get_applied_joint_efforts() is deprecated: read the property Robot.applied_joint_efforts",
+        )?;
+        self.read_applied_joint_efforts(py)
+    }
+
+    /// Deprecated: read the `measured_joint_efforts` property instead.
+    fn get_measured_joint_efforts<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        crate::planning::deprecated(
+            py,
+            "Robot.get_measured_joint_efforts() is deprecated: read the property Robot.measured_joint_efforts",
+        )?;
+        self.read_measured_joint_efforts(py)
+    }
+
+    /// Deprecated: read the `gripper_positions` property instead.
+    fn get_gripper_positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        crate::planning::deprecated(
+            py,
+            "Robot.get_gripper_positions() is deprecated: read the property Robot.gripper_positions",
+        )?;
+        self.read_gripper_positions(py)
+    }
+
+    /// Deprecated: read the `world_transform` property instead.
+    fn get_world_transform<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        crate::planning::deprecated(
+            py,
+            "Robot.get_world_transform() is deprecated: read the property Robot.world_transform",
+        )?;
+        self.read_world_transform(py)
+    }
+
+    /// Deprecated: read the `gripper_opening` property instead.
+    fn get_gripper_opening<'py>(&self, py: Python<'py>) -> PyResult<f64> {
+        crate::planning::deprecated(
+            py,
+            "Robot.get_gripper_opening() is deprecated: read the property Robot.gripper_opening",
+        )?;
+        self.read_gripper_opening()
+    }
+
+    /// Joint positions (num_dof,; rad or m), `dof_names` order.
+    #[getter(joint_positions)]
+    fn read_joint_positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
         guard(|| Ok(vec1(py, self.read(|r, w| r.joint_positions(w.state()))?)))
     }
 
-    /// Joint velocities (num_dof,).
-    fn get_joint_velocities<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    /// Joint velocities (num_dof,; rad/s or m/s), `dof_names` order.
+    #[getter(joint_velocities)]
+    fn read_joint_velocities<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
         guard(|| Ok(vec1(py, self.read(|r, w| r.joint_velocities(w.state()))?)))
     }
 
@@ -916,7 +1051,7 @@ impl PyRobot {
         joint_names: Option<Vec<String>>,
     ) -> PyResult<()> {
         guard(|| {
-            let ix = self.subset(joint_indices, joint_names)?;
+            let ix = self.subset("set_joint_position_targets", joint_indices, joint_names)?;
             let t = read_array(targets, "targets", 1, &[self.targets_len(&ix)])?
                 .data()
                 .to_vec();
@@ -935,7 +1070,7 @@ impl PyRobot {
         joint_names: Option<Vec<String>>,
     ) -> PyResult<()> {
         guard(|| {
-            let ix = self.subset(joint_indices, joint_names)?;
+            let ix = self.subset("set_joint_velocity_targets", joint_indices, joint_names)?;
             let t = read_array(targets, "targets", 1, &[self.targets_len(&ix)])?
                 .data()
                 .to_vec();
@@ -983,7 +1118,7 @@ impl PyRobot {
         joint_names: Option<Vec<String>>,
     ) -> PyResult<()> {
         guard(|| {
-            let ix = self.subset(joint_indices, joint_names)?;
+            let ix = self.subset("set_joint_efforts", joint_indices, joint_names)?;
             let e = read_array(efforts, "efforts", 1, &[self.targets_len(&ix)])?
                 .data()
                 .to_vec();
@@ -992,8 +1127,9 @@ impl PyRobot {
         })
     }
 
-    /// Current drive position targets (num_dof,).
-    fn get_joint_position_targets<'py>(
+    /// Current drive position targets (num_dof,; rad or m).
+    #[getter(joint_position_targets)]
+    fn read_joint_position_targets<'py>(
         &self,
         py: Python<'py>,
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
@@ -1005,7 +1141,22 @@ impl PyRobot {
         })
     }
 
-    /// (stiffness, damping, max_force), each (num_dof,).
+    /// The drive gains: a `DriveGains` (stiffness, damping, max_force; each
+    /// (num_dof,)).
+    #[getter(drive_gains)]
+    fn read_drive_gains(&self, py: Python<'_>) -> PyResult<crate::results::PyDriveGains> {
+        use crate::results::arr1;
+        guard(|| {
+            let d = self.read(|r, _| r.drives().to_vec())?;
+            Ok(crate::results::PyDriveGains {
+                stiffness: arr1(py, d.iter().map(|d| d.stiffness).collect()),
+                damping: arr1(py, d.iter().map(|d| d.damping).collect()),
+                max_force: arr1(py, d.iter().map(|d| d.max_force).collect()),
+            })
+        })
+    }
+
+    /// Deprecated: read `drive_gains` (a `DriveGains`) instead.
     #[allow(clippy::type_complexity)]
     fn get_drive_gains<'py>(
         &self,
@@ -1015,6 +1166,10 @@ impl PyRobot {
         Bound<'py, PyArray1<f64>>,
         Bound<'py, PyArray1<f64>>,
     )> {
+        crate::planning::deprecated(
+            py,
+            "Robot.get_drive_gains() is deprecated: read Robot.drive_gains (.stiffness, .damping, .max_force)",
+        )?;
         guard(|| {
             let d = self.read(|r, _| r.drives().to_vec())?;
             Ok((
@@ -1037,7 +1192,7 @@ impl PyRobot {
         joint_names: Option<Vec<String>>,
     ) -> PyResult<()> {
         guard(|| {
-            let ix = self.subset(joint_indices, joint_names)?;
+            let ix = self.subset("set_drive_gains", joint_indices, joint_names)?;
             let n = self.targets_len(&ix);
             let k = read_array(stiffness, "stiffness", 1, &[n])?.data().to_vec();
             let d = read_array(damping, "damping", 1, &[n])?.data().to_vec();
@@ -1075,7 +1230,8 @@ impl PyRobot {
     }
 
     /// World pose (4x4) of the base link.
-    fn get_world_transform<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    #[getter(world_transform)]
+    fn read_world_transform<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
         guard(|| Ok(matrix(py, &self.read(|r, _| r.world_pose())?)))
     }
 
@@ -1118,8 +1274,9 @@ impl PyRobot {
             .call1((vec1(py, q), vec1(py, qd), vec1(py, e)))
     }
 
-    /// Efforts set with `set_joint_efforts` (num_dof,).
-    fn get_applied_joint_efforts<'py>(
+    /// Efforts set with `set_joint_efforts` (num_dof,; N·m or N).
+    #[getter(applied_joint_efforts)]
+    fn read_applied_joint_efforts<'py>(
         &self,
         py: Python<'py>,
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
@@ -1312,7 +1469,8 @@ impl PyRobot {
     }
 
     /// Finger DOF positions of the gripper.
-    fn get_gripper_positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    #[getter(gripper_positions)]
+    fn read_gripper_positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
         let v = guard(|| {
             let w = lock(&self.world)?;
             let r = w.robot(self.index).map_err(sim_err)?;
@@ -1373,7 +1531,8 @@ impl PyRobot {
     }
 
     /// Current opening (m) between the pads, from the driver's position.
-    fn get_gripper_opening(&self) -> PyResult<f64> {
+    #[getter(gripper_opening)]
+    fn read_gripper_opening(&self) -> PyResult<f64> {
         guard(|| {
             let w = lock(&self.world)?;
             let r = w.robot(self.index).map_err(sim_err)?;
@@ -1385,8 +1544,8 @@ impl PyRobot {
     /// the k `joint_indices`, all DOFs when None) through the drives, one
     /// target per physics step (linear interpolation, velocity
     /// feed-forward), then holds the last point for `settle_time` s.
-    /// Returns a dict: times, desired, actual, max_error, rms_error,
-    /// final_error.
+    /// Returns a `TrackingReport` (times, desired, actual, max_error,
+    /// rms_error, final_error).
     #[pyo3(signature = (positions, dt, velocities=None, joint_indices=None, settle_time=0.0, *, joint_names=None))]
     fn execute_trajectory<'py>(
         &self,
@@ -1396,10 +1555,10 @@ impl PyRobot {
         joint_indices: Option<Vec<i64>>,
         settle_time: f64,
         joint_names: Option<Vec<String>>,
-    ) -> PyResult<Bound<'py, PyDict>> {
+    ) -> PyResult<crate::results::PyTrackingReport> {
         guard(|| {
             let py = positions.py();
-            let ix = self.subset(joint_indices, joint_names)?;
+            let ix = self.subset("execute_trajectory", joint_indices, joint_names)?;
             let k = self.targets_len(&ix);
             let p = read_array(positions, "positions", 2, &[k])?.data().to_vec();
             let v = velocities
@@ -1423,7 +1582,7 @@ impl PyRobot {
         py: Python<'py>,
         trajectory: &Bound<'py, PyAny>,
         settle_time: f64,
-    ) -> PyResult<Bound<'py, PyDict>> {
+    ) -> PyResult<crate::results::PyTrackingReport> {
         guard(|| {
             let owned;
             let traj = if let Ok(t) = trajectory.cast::<PyJointTrajectory>() {
@@ -1496,7 +1655,8 @@ impl PyRobot {
     }
 
     /// Efforts the drives apply now (DOF order; plus `set_joint_efforts`).
-    fn get_measured_joint_efforts<'py>(
+    #[getter(measured_joint_efforts)]
+    fn read_measured_joint_efforts<'py>(
         &self,
         py: Python<'py>,
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
@@ -1506,16 +1666,16 @@ impl PyRobot {
 
 impl PyRobot {
     /// Runs positions (rows of the `ix` joints) through the drives and
-    /// returns the tracking report as a dict.
-    fn run_trajectory<'py>(
+    /// returns the tracking report.
+    fn run_trajectory(
         &self,
-        py: Python<'py>,
+        py: Python<'_>,
         p: Vec<f64>,
         v: Option<Vec<f64>>,
         dt: f64,
         ix: Option<Vec<usize>>,
         settle_time: f64,
-    ) -> PyResult<Bound<'py, PyDict>> {
+    ) -> PyResult<crate::results::PyTrackingReport> {
         let world = self.world.clone();
         let index = self.index;
         let rep = guard(|| {
@@ -1545,26 +1705,7 @@ impl PyRobot {
             .map_err(diverged)?
             .map_err(sim_err)
         })?;
-        let d = PyDict::new(py);
-        let m = rep.times.len();
-        let k = rep.num_joints;
-        d.set_item("times", vec1(py, rep.times))?;
-        d.set_item(
-            "desired",
-            Array2::from_shape_vec((m, k), rep.desired)
-                .expect("m x k")
-                .into_pyarray(py),
-        )?;
-        d.set_item(
-            "actual",
-            Array2::from_shape_vec((m, k), rep.actual)
-                .expect("m x k")
-                .into_pyarray(py),
-        )?;
-        d.set_item("max_error", vec1(py, rep.max_error))?;
-        d.set_item("rms_error", vec1(py, rep.rms_error))?;
-        d.set_item("final_error", vec1(py, rep.final_error))?;
-        Ok(d)
+        Ok(crate::results::PyTrackingReport::new(py, rep))
     }
 }
 
@@ -1961,12 +2102,14 @@ pub struct PyResolvedRate {
 
 #[pymethods]
 impl PyResolvedRate {
-    /// Controls `link` (default: the end effector) with the DOFs `joint_indices`
-    /// (default: the planning group).
+    /// Controls `link` (default: the end effector) with the DOFs
+    /// `joint_names` (default: the planning group; `joint_indices` is its
+    /// deprecated spelling).
     #[new]
-    #[pyo3(signature = (model, link=None, joint_indices=None, linear_gain=5.0, angular_gain=5.0, damping=0.05, max_linear_speed=0.5, max_angular_speed=1.5))]
+    #[pyo3(signature = (model, link=None, joint_indices=None, linear_gain=5.0, angular_gain=5.0, damping=0.05, max_linear_speed=0.5, max_angular_speed=1.5, *, joint_names=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
+        py: Python<'_>,
         model: &PyRobotModel,
         link: Option<&str>,
         joint_indices: Option<Vec<i64>>,
@@ -1975,6 +2118,7 @@ impl PyResolvedRate {
         damping: f64,
         max_linear_speed: f64,
         max_angular_speed: f64,
+        joint_names: Option<Vec<String>>,
     ) -> PyResult<Self> {
         guard(|| {
             let m = model.inner.clone();
@@ -1982,8 +2126,28 @@ impl PyResolvedRate {
             if let Some(l) = link {
                 c.link = m.link(l).map_err(model_err)?;
             }
-            if let Some(ix) = indices_arg(joint_indices)? {
-                c.dofs = ix;
+            match (joint_indices, joint_names) {
+                (Some(_), Some(_)) => {
+                    return Err(InvalidArgumentError::new_err(
+                        "give joint_names or joint_indices, not both",
+                    ));
+                }
+                (None, Some(names)) => {
+                    c.dofs = names
+                        .iter()
+                        .map(|n| m.dof(n).map_err(model_err))
+                        .collect::<PyResult<_>>()?;
+                }
+                (Some(ix), None) => {
+                    crate::planning::deprecated(
+                        py,
+                        "ResolvedRateController(joint_indices=...) is deprecated: use joint_names=",
+                    )?;
+                    if let Some(ix) = indices_arg(Some(ix))? {
+                        c.dofs = ix;
+                    }
+                }
+                (None, None) => {}
             }
             c.linear_gain = linear_gain;
             c.angular_gain = angular_gain;

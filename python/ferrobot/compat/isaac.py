@@ -1,6 +1,12 @@
-"""Isaac Sim's small data types, for :meth:`ferrobot.Robot.apply_action` and :meth:`ferrobot.Robot.get_joints_state`.
+"""Isaac Sim's articulation call shapes over ferrobot's own API.
 
-The Isaac Sim methods are on ferrobot's classes directly:
+:class:`Articulation` wraps a :class:`ferrobot.Robot` with Isaac Sim's spellings: joint subsets as
+``joint_indices`` and ``get_*`` getters (``get_joint_positions(joint_indices=None)``, ...). ferrobot's own API
+spells joint subsets ``joint_names=`` and reads state through properties (``Robot.joint_positions``); on
+``Robot`` the Isaac spellings are deprecated (they warn), here they are not. ``ArticulationAction`` and
+``JointsState`` are Isaac Sim's small data types.
+
+These Isaac Sim methods are also on ferrobot's classes directly (they have no ferrobot spelling to clash with):
 
 * ``World.step(render=False)`` (``render`` has no effect: cameras render on ``Camera.render()``;
   ``step_sim=False`` does not step);
@@ -17,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["ArticulationAction", "JointsState"]
+__all__ = ["Articulation", "ArticulationAction", "JointsState"]
 
 
 def _opt(values):
@@ -78,3 +84,115 @@ class JointsState:
 
     def __repr__(self) -> str:
         return f"JointsState(positions={self.positions}, velocities={self.velocities}, efforts={self.efforts})"
+
+
+class Articulation:
+    """Isaac Sim's ``Articulation`` over a :class:`ferrobot.Robot` (``Articulation(world.add_robot(model))``).
+
+    Joint subsets are ``joint_indices`` (DOF indices in ``dof_names`` order; all DOFs when None), passed to the
+    robot as ``joint_names``; getters are ``get_*`` methods reading the robot's properties. Anything else
+    (``dof_names``, ``apply_action``, ``get_world_pose``, ``close_gripper``, ...) is the robot's own attribute.
+    """
+
+    def __init__(self, robot):
+        self.robot = robot
+        self._names = list(robot.dof_names)
+
+    def __getattr__(self, name):
+        return getattr(self.robot, name)
+
+    def _subset(self, joint_indices):
+        if joint_indices is None:
+            return None
+        n = len(self._names)
+        names = []
+        for i in np.asarray(joint_indices).ravel().tolist():
+            if not isinstance(i, int) or not 0 <= i < n:
+                from ..errors import UnknownNameError
+
+                raise UnknownNameError(f"joint index {i} out of range [0, {n})")
+            names.append(self._names[i])
+        return names
+
+    def _pick(self, values, joint_indices):
+        return values if joint_indices is None else values[np.asarray(joint_indices, dtype=np.int64)]
+
+    def get_joint_positions(self, joint_indices=None):
+        """Joint positions (rad or m) of ``joint_indices`` (all DOFs when None)."""
+        return self._pick(self.robot.joint_positions, joint_indices)
+
+    def get_joint_velocities(self, joint_indices=None):
+        """Joint velocities (rad/s or m/s) of ``joint_indices`` (all DOFs when None)."""
+        return self._pick(self.robot.joint_velocities, joint_indices)
+
+    def get_applied_joint_efforts(self, joint_indices=None):
+        """Efforts set with ``set_joint_efforts`` (N·m or N)."""
+        return self._pick(self.robot.applied_joint_efforts, joint_indices)
+
+    def get_measured_joint_efforts(self, joint_indices=None):
+        """Efforts the drives apply now (N·m or N)."""
+        return self._pick(self.robot.measured_joint_efforts, joint_indices)
+
+    def get_joint_position_targets(self, joint_indices=None):
+        """Drive position targets (rad or m)."""
+        return self._pick(self.robot.joint_position_targets, joint_indices)
+
+    def get_world_transform(self):
+        """World pose (4x4) of the base link."""
+        return self.robot.world_transform
+
+    def get_gripper_opening(self):
+        """Opening (m) between the pads."""
+        return self.robot.gripper_opening
+
+    def get_gripper_positions(self):
+        """Finger DOF positions."""
+        return self.robot.gripper_positions
+
+    def get_drive_gains(self):
+        """``(stiffness, damping, max_force)``, each (num_dof,)."""
+        g = self.robot.drive_gains
+        return g.stiffness, g.damping, g.max_force
+
+    def set_joint_positions(self, positions, joint_indices=None):
+        """Teleports ``joint_indices`` (all DOFs when None; the others keep their positions)."""
+        if joint_indices is None:
+            self.robot.set_joint_positions(positions)
+            return
+        q = np.array(self.robot.joint_positions)
+        q[np.asarray(joint_indices, dtype=np.int64)] = np.asarray(positions, dtype=np.float64)
+        self.robot.set_joint_positions(q)
+
+    def set_joint_position_targets(self, positions, joint_indices=None):
+        """Drive position targets (rad or m) for ``joint_indices``."""
+        self.robot.set_joint_position_targets(positions, joint_names=self._subset(joint_indices))
+
+    def set_joint_velocity_targets(self, velocities, joint_indices=None):
+        """Drive velocity targets (rad/s or m/s) for ``joint_indices``."""
+        self.robot.set_joint_velocity_targets(velocities, joint_names=self._subset(joint_indices))
+
+    def set_joint_efforts(self, efforts, joint_indices=None):
+        """Efforts (N·m or N) applied every step on top of the drives, for ``joint_indices``."""
+        self.robot.set_joint_efforts(efforts, joint_names=self._subset(joint_indices))
+
+    def set_gains(self, kps=None, kds=None, joint_indices=None):
+        """Drive stiffness ``kps`` and damping ``kds`` for ``joint_indices`` (None keeps the current values)."""
+        g = self.robot.drive_gains
+        ix = slice(None) if joint_indices is None else np.asarray(joint_indices, dtype=np.int64)
+        k = g.stiffness[ix] if kps is None else kps
+        d = g.damping[ix] if kds is None else kds
+        self.robot.set_drive_gains(k, d, joint_names=self._subset(joint_indices))
+
+    def get_gains(self, joint_indices=None):
+        """``(kps, kds)`` of ``joint_indices``."""
+        g = self.robot.drive_gains
+        return self._pick(g.stiffness, joint_indices), self._pick(g.damping, joint_indices)
+
+    def execute_trajectory(self, positions, dt, velocities=None, joint_indices=None, settle_time=0.0):
+        """``Robot.execute_trajectory`` with the joints as ``joint_indices``; returns its ``TrackingReport``."""
+        return self.robot.execute_trajectory(
+            positions, dt, velocities=velocities, settle_time=settle_time, joint_names=self._subset(joint_indices)
+        )
+
+    def __repr__(self) -> str:
+        return f"Articulation({self.robot!r})"

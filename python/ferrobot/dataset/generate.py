@@ -330,7 +330,7 @@ def run_episode(cfg: dict, index: int, root: str) -> dict:
                 cameras,
                 sink,
                 control_hz=fps,
-                arm_joint_indices=arm_idx,
+                arm_joint_names=[robot.dof_names[i] for i in arm_idx],
                 grip_force=pp.config.grip_force,
                 segmentation=cfg["segmentation"],
             )

@@ -111,7 +111,7 @@ class ExpertPolicy:
         self.env = env
         self.control_hz = env.control_hz
         self.failure = ""
-        self._arm = env.robot.get_joint_positions()[env.arm_idx].copy()
+        self._arm = env.robot.joint_positions[env.arm_idx].copy()
         self._gripper = 0.0
         self._done = False
         self._pending = False
@@ -188,7 +188,7 @@ class ExpertPolicy:
 
     def _reach(self) -> None:
         env, pp = self.env, self.pp
-        q = env.robot.get_joint_positions()
+        q = env.robot.joint_positions
         hand = env.model.fk(q, link=env.ee_link)
         tcp_in_hand = np.linalg.inv(hand) @ env.model.fk(q, link=env.tcp_link)
         goal_tcp = hand @ tcp_in_hand

@@ -339,7 +339,7 @@ class FerrobotEnv(gym.Env):
             spec = self._scene(scene_seed)
         self.spec_scene = spec
         self.world, self.robot, self.scene_camera = build_world(spec, self.model)
-        self.base_pose = self.robot.get_world_transform()
+        self.base_pose = self.robot.world_transform
         self.to_base = transforms.world_to_base(np.eye(4), self.base_pose)
         if self.init_noise > 0.0:
             rng = np.random.default_rng([spec.seed, 7])
@@ -353,9 +353,12 @@ class FerrobotEnv(gym.Env):
         self.cameras = self._build_cameras()
         self._render_camera = None
         self.stepper = ControlStepper(
-            self.world, self.robot, control_hz=self.control_hz, arm_joint_indices=self.arm_idx
+            self.world,
+            self.robot,
+            control_hz=self.control_hz,
+            arm_joint_names=[self.robot.dof_names[i] for i in self.arm_idx],
         )
-        self._arm_target = self.robot.get_joint_positions()[self.arm_idx].copy()
+        self._arm_target = self.robot.joint_positions[self.arm_idx].copy()
         self.elapsed_steps = 0
         self._task_reset()
         obs = self._observe()
@@ -428,7 +431,7 @@ class FerrobotEnv(gym.Env):
         """The stepper's action (arm joint targets + gripper) for a checked action of this mode."""
         if self.control_mode == "joint_pos":
             return a, False
-        q = self.robot.get_joint_positions()
+        q = self.robot.joint_positions
         if self.control_mode == "ee_delta":
             cur = self.model.fk(q, link=self.ee_link)
             goal = np.eye(4)

@@ -64,7 +64,11 @@ class _DeferredRobot:
     def __getattr__(self, name):
         return getattr(self._robot, name)
 
-    def execute_trajectory(self, positions, dt, velocities=None, joint_indices=None, settle_time=0.0):
+    def execute_trajectory(
+        self, positions, dt, velocities=None, joint_indices=None, settle_time=0.0, *, joint_names=None
+    ):
+        if joint_names is not None:
+            joint_indices = [self._robot.dof_names.index(n) for n in joint_names]
         if velocities is not None or settle_time != 0.0 or joint_indices is None:
             raise InvalidArgumentError("batched stepping supports execute_trajectory(positions, dt, joint_indices)")
         self._calls.append((np.asarray(positions, dtype=np.float64), float(dt), [int(i) for i in joint_indices]))

@@ -8,6 +8,7 @@ import numpy as np
 
 from .. import camera as _camera
 from .._core import DetectOptions, grasp_detect, grasp_detect_rgbd
+from .._core import Gripper as _Gripper
 from ..errors import InvalidArgumentError, NonFiniteError, ShapeError
 from ._group import GraspGroup
 
@@ -71,18 +72,12 @@ def backproject(depth, fx: float, fy: float, cx: float, cy: float, scale: float 
     return _camera.backproject(d, k, workspace=workspace)
 
 
-def _with_gripper(options: DetectOptions | None, gripper, overrides: dict) -> DetectOptions | None:
-    """``options`` (default ``DetectOptions()``) with ``gripper``'s hand geometry (``Gripper.detection_options()``)
-    and depths scaled to its pads, when a gripper is given; fields given in ``overrides`` still win."""
-    if gripper is None:
-        return options
-    if not hasattr(gripper, "detection_options"):
+def _gripper(gripper):
+    """``gripper`` checked: None or a :class:`ferrobot.Gripper` (the detector derives its hand geometry and
+    pad-scaled depths from it in the Rust crate, ``DetectOptions::for_gripper``)."""
+    if gripper is not None and not isinstance(gripper, _Gripper):
         raise InvalidArgumentError(f"gripper: expected a ferrobot.Gripper, got {type(gripper).__name__}")
-    geometry = dict(gripper.detection_options())
-    # The searched depths scale with the pads' length (the Panda hand's 40/30/20/15 mm of 50 mm).
-    geometry["depths"] = [f * gripper.fingers["depth"] for f in (0.8, 0.6, 0.4, 0.3)]
-    base = options if options is not None else DetectOptions()
-    return base.replace(**{k: v for k, v in geometry.items() if k not in overrides})
+    return gripper
 
 
 def detect(
@@ -139,7 +134,8 @@ def detect(
         np.ascontiguousarray(p),
         None if lab is None else np.ascontiguousarray(lab, dtype=np.int32),
         None if seeds is None else np.ascontiguousarray(seeds),
-        _with_gripper(options, gripper, overrides),
+        options,
+        _gripper(gripper),
         **overrides,
     )
     return GraspGroup(arr)
@@ -172,7 +168,5 @@ def detect_from_rgbd(
     d = _depth(depth)
     _check_colors(colors, d.shape)
     m = _mask(mask, d.shape)
-    arr = grasp_detect_rgbd(
-        d, fx, fy, cx, cy, scale, m, object_id, workspace, _with_gripper(options, gripper, overrides), **overrides
-    )
+    arr = grasp_detect_rgbd(d, fx, fy, cx, cy, scale, m, object_id, workspace, options, _gripper(gripper), **overrides)
     return GraspGroup(arr)

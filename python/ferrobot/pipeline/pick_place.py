@@ -235,7 +235,7 @@ class Recorder:
                 {
                     "t": self.world.time,
                     "stage": stage,
-                    "q": self.robot.get_joint_positions(),
+                    "q": self.robot.joint_positions,
                     "objects": {n: self.world.get_object_pose(n) for n in self.world.object_names},
                 }
             )
@@ -246,16 +246,18 @@ class Recorder:
         self._frame(stage)
 
     def execute(self, positions: np.ndarray, velocities: np.ndarray, joint_indices: list[int], stage: str):
-        """Runs (N, k) position targets through the drives, one per physics step."""
+        """Runs (N, k) position targets of the DOFs ``joint_indices`` (positions in ``dof_names``) through the
+        drives, one per physics step."""
         dt = self.world.dt
+        names = [self.robot.dof_names[i] for i in joint_indices]
         chunk = self.every if self.camera is not None else len(positions)
         errs = []
         for s in range(0, len(positions), chunk):
             rep = self.robot.execute_trajectory(
-                positions[s : s + chunk], dt, velocities=velocities[s : s + chunk], joint_indices=joint_indices
+                positions[s : s + chunk], dt, velocities=velocities[s : s + chunk], joint_names=names
             )
             self._log(rep, joint_indices, stage)
-            errs.append(rep["max_error"])
+            errs.append(rep.max_error)
             self._since_frame += len(positions[s : s + chunk])
             self._frame(stage)
         return float(np.max(errs)) if errs else 0.0
@@ -270,23 +272,23 @@ class Recorder:
             self.world.step(n)
             done += n
             self.times.append(self.world.time)
-            self.q.append(self.robot.get_joint_positions())
-            self.desired.append(self.robot.get_joint_position_targets())
+            self.q.append(self.robot.joint_positions)
+            self.desired.append(self.robot.joint_position_targets)
             self.stage.append(stage)
             self._since_frame += n
             self._frame(stage)
 
-    def _log(self, rep: dict, joint_indices: list[int], stage: str) -> None:
-        times = rep["times"]
+    def _log(self, rep, joint_indices: list[int], stage: str) -> None:
+        times = rep.times
         if len(times) == 0:
             return
         end = self.world.time
-        full = self.robot.get_joint_positions()
-        target = self.robot.get_joint_position_targets()
+        full = self.robot.joint_positions
+        target = self.robot.joint_position_targets
         for k in range(len(times)):
             row, des = full.copy(), target.copy()
-            row[joint_indices] = rep["actual"][k]
-            des[joint_indices] = rep["desired"][k]
+            row[joint_indices] = rep.actual[k]
+            des[joint_indices] = rep.desired[k]
             self.times.append(end - (times[-1] - times[k]))
             self.q.append(row)
             self.desired.append(des)
@@ -387,7 +389,7 @@ class PickPlace:
     def _q(self) -> np.ndarray:
         """The simulated arm's joint positions in planner order; positions a hair past a joint limit (at most
         ``limit_tolerance``) are put on the limit, larger violations are left for the planner to report."""
-        q = self.episode.robot.get_joint_positions()[self.episode.arm_idx]
+        q = self.episode.robot.joint_positions[self.episode.arm_idx]
         lo, hi = self.lower, self.upper
         tol = self.config.limit_tolerance
         near = ((q < lo) & (q >= lo - tol)) | ((q > hi) & (q <= hi + tol))
@@ -566,7 +568,7 @@ class PickPlace:
         def close():
             self.episode.recorder.set_gripper(True, cfg.grip_force)
             self.episode.recorder.wait(0.3, "grasp")
-            width = float(self.episode.robot.get_gripper_opening())
+            width = float(self.episode.robot.gripper_opening)
             if width < self.gripper.min_opening + 0.008:
                 raise StageFailure("grasp", f"the fingers closed on nothing (opening {1e3 * width:.1f} mm)")
             self._sync([])  # the target must be in the world to be attached
@@ -721,7 +723,7 @@ class PickPlace:
                     spec, self.model, q=self.home, name=name
                 )
                 self.episode.robot.use_gripper(self.gripper)
-                self.episode.base = self.episode.robot.get_world_transform()
+                self.episode.base = self.episode.robot.world_transform
                 # Grasp workspace: the table top and 30 cm above it.
                 (tx, ty), (sx, sy, _) = TABLE_XY, TABLE_SIZE
                 self.episode.workspace = [

@@ -31,7 +31,7 @@ __all__ = ["ControlRecorder", "sim_state"]
 def sim_state(world, robot) -> np.ndarray:
     """The simulator state as one float64 vector: joint positions, joint velocities, then each object's
     pose [x, y, z, qw, qx, qy, qz] and linear and angular velocity, objects in ``world.object_names`` order."""
-    parts = [robot.get_joint_positions(), robot.get_joint_velocities()]
+    parts = [robot.joint_positions, robot.joint_velocities]
     from ..transforms import matrix_to_pose
 
     for name in world.object_names:
@@ -56,6 +56,7 @@ class ControlRecorder:
         sink,
         *,
         control_hz: float = 10.0,
+        arm_joint_names=None,
         arm_joint_indices=None,
         grip_force: float = 40.0,
         segmentation: bool = False,
@@ -63,7 +64,12 @@ class ControlRecorder:
     ):
         self.world, self.robot, self.cameras, self.sink = world, robot, cameras, sink
         self.stepper = ControlStepper(
-            world, robot, control_hz=control_hz, arm_joint_indices=arm_joint_indices, grip_force=grip_force
+            world,
+            robot,
+            control_hz=control_hz,
+            arm_joint_names=arm_joint_names,
+            grip_force=grip_force,
+            **({} if arm_joint_indices is None else {"arm_joint_indices": arm_joint_indices}),
         )
         self.segmentation = segmentation
         self.sample_dt = self.stepper.period
@@ -93,7 +99,7 @@ class ControlRecorder:
         err = 0.0
         for row in np.asarray(positions, dtype=np.float64)[1:]:
             self._step(np.append(row, self.gripper_cmd), stage)
-            q = self.robot.get_joint_positions()[self.stepper.arm]
+            q = self.robot.joint_positions[self.stepper.arm]
             err = max(err, float(np.max(np.abs(q - row))))
         return err
 

@@ -169,7 +169,7 @@ def episode_scene(folder, max_frames: int = 300) -> dict:
             ix = _subsample(len(z["positions"]), max_frames)
             qs, times, stages = z["positions"][ix], z["times"][ix], [str(s) for s in z["stage"][ix]]
     else:
-        qs, times, stages = robot.get_joint_positions()[None], [0.0], ["scene"]
+        qs, times, stages = robot.joint_positions[None], [0.0], ["scene"]
     grasp = None
     if "grasp" in report:
         g = report["grasp"]
@@ -193,7 +193,7 @@ def episode_scene(folder, max_frames: int = 300) -> dict:
     return scene_data(
         model,
         qs,
-        base=robot.get_world_transform(),
+        base=robot.world_transform,
         times=times,
         stages=stages,
         objects=objects,

@@ -1,0 +1,347 @@
+//! Typed result objects (issue 16): what used to be returned as plain dicts
+//! (`PlanResult.times`, `Planner.limits`, `Planner.world_sync_stats`, the
+//! tracking report of `Robot.execute` / `execute_trajectory`, a
+//! controller's `last_step`, `Robot.drive_gains`) is a frozen class built
+//! from the crate's struct, with one attribute per field, `to_dict()`, and,
+//! for one release, dict-style access (`r["key"]`, `keys()`, `items()`,
+//! `values()`, `get()`, `in`, iteration) that still works but emits a
+//! `DeprecationWarning`.
+//!
+//! One macro makes every result class, so they all behave the same; a new
+//! result type is one `result_class!` invocation (and its stub in
+//! `_core.pyi`).
+
+use numpy::ndarray::{Array1, Array2};
+use numpy::{IntoPyArray, PyArray1, PyArray2};
+use pyo3::IntoPyObjectExt;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+/// Warns that dict-style access to a result object is deprecated.
+fn dict_access(py: Python<'_>, class: &str, how: &str) -> PyResult<()> {
+    crate::planning::deprecated(
+        py,
+        &format!(
+            "{class}{how}: dict-style access to results is deprecated: read the attribute \
+             (e.g. result.{{field}}) or call to_dict()"
+        ),
+    )
+}
+
+macro_rules! result_class {
+    (
+        $(#[doc = $cdoc:literal])*
+        $rust:ident, $pyname:literal {
+            $(
+                $(#[doc = $doc:literal])*
+                $field:ident : $ty:ty,
+            )*
+        }
+    ) => {
+        $(#[doc = $cdoc])*
+        #[pyclass(name = $pyname, module = "ferrobot", frozen)]
+        pub struct $rust {
+            $(
+                $(#[doc = $doc])*
+                #[pyo3(get)]
+                pub $field: $ty,
+            )*
+        }
+
+        impl $rust {
+            /// The field names, in declaration order.
+            pub(crate) const FIELDS: &'static [&'static str] = &[$(stringify!($field)),*];
+
+            fn field<'py>(&self, py: Python<'py>, key: &str) -> PyResult<Option<Bound<'py, PyAny>>> {
+                match key {
+                    $(stringify!($field) => Ok(Some((&self.$field).into_bound_py_any(py)?)),)*
+                    _ => Ok(None),
+                }
+            }
+
+            fn key_error(key: &Bound<'_, PyAny>) -> PyErr {
+                pyo3::exceptions::PyKeyError::new_err(format!(
+                    "{}: no field {}; fields: {}",
+                    $pyname,
+                    key.repr().map(|r| r.to_string()).unwrap_or_default(),
+                    Self::FIELDS.join(", ")
+                ))
+            }
+        }
+
+        #[pymethods]
+        impl $rust {
+            /// The fields as a dict (name: value).
+            fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+                crate::errors::guard(|| {
+                    let d = PyDict::new(py);
+                    $(d.set_item(stringify!($field), (&self.$field).into_bound_py_any(py)?)?;)*
+                    Ok(d)
+                })
+            }
+
+            /// Deprecated dict-style access: read the attribute instead.
+            fn __getitem__<'py>(&self, py: Python<'py>, key: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+                dict_access(py, $pyname, "[key]")?;
+                let k: String = key.extract().map_err(|_| Self::key_error(key))?;
+                self.field(py, &k)?.ok_or_else(|| Self::key_error(key))
+            }
+
+            /// Deprecated dict-style access: `key in result`.
+            fn __contains__(&self, py: Python<'_>, key: &Bound<'_, PyAny>) -> PyResult<bool> {
+                dict_access(py, $pyname, ": `in`")?;
+                Ok(key.extract::<String>().is_ok_and(|k| Self::FIELDS.contains(&k.as_str())))
+            }
+
+            /// Deprecated dict-style access: iterates over the field names.
+            fn __iter__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+                dict_access(py, $pyname, ": iteration")?;
+                Self::FIELDS.to_vec().into_bound_py_any(py)?.try_iter().map(|i| i.into_any())
+            }
+
+            /// Deprecated dict-style access: the field names.
+            fn keys(&self, py: Python<'_>) -> PyResult<Vec<&'static str>> {
+                dict_access(py, $pyname, ".keys()")?;
+                Ok(Self::FIELDS.to_vec())
+            }
+
+            /// Deprecated dict-style access: the field values.
+            fn values<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyAny>>> {
+                dict_access(py, $pyname, ".values()")?;
+                Ok(vec![$((&self.$field).into_bound_py_any(py)?),*])
+            }
+
+            /// Deprecated dict-style access: (name, value) pairs.
+            fn items<'py>(&self, py: Python<'py>) -> PyResult<Vec<(&'static str, Bound<'py, PyAny>)>> {
+                dict_access(py, $pyname, ".items()")?;
+                Ok(vec![$((stringify!($field), (&self.$field).into_bound_py_any(py)?)),*])
+            }
+
+            /// Deprecated dict-style access: the field `key`, or `default`.
+            #[pyo3(signature = (key, default=None))]
+            fn get<'py>(
+                &self,
+                py: Python<'py>,
+                key: &Bound<'py, PyAny>,
+                default: Option<Bound<'py, PyAny>>,
+            ) -> PyResult<Option<Bound<'py, PyAny>>> {
+                dict_access(py, $pyname, ".get()")?;
+                match key.extract::<String>() {
+                    Ok(k) => Ok(self.field(py, &k)?.or(default)),
+                    Err(_) => Ok(default),
+                }
+            }
+
+            fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
+                let mut parts = Vec::new();
+                $(parts.push(format!(
+                    "{}={}",
+                    stringify!($field),
+                    (&self.$field).into_bound_py_any(py)?.repr()?
+                ));)*
+                Ok(format!("{}({})", $pyname, parts.join(", ")))
+            }
+        }
+    };
+}
+
+/// A float64 array (n,).
+pub(crate) fn arr1(py: Python<'_>, v: Vec<f64>) -> Py<PyArray1<f64>> {
+    Array1::from_vec(v).into_pyarray(py).unbind()
+}
+
+/// A float64 array (rows, cols) from row-major data.
+pub(crate) fn arr2(py: Python<'_>, rows: usize, cols: usize, v: Vec<f64>) -> Py<PyArray2<f64>> {
+    Array2::from_shape_vec((rows, cols), v)
+        .expect("rows x cols")
+        .into_pyarray(py)
+        .unbind()
+}
+
+result_class! {
+    /// Wall-clock time (s) of each stage of `Planner.plan`
+    /// (`PlanResult.times`).
+    PyPlanTimes, "PlanTimes" {
+        /// IK of pose goals (s).
+        ik: f64,
+        /// RRT-Connect (s).
+        planning: f64,
+        /// Shortcutting (s).
+        simplify: f64,
+        /// Spline fitting and time scaling (s).
+        trajectory: f64,
+        /// The whole call (s).
+        total: f64,
+    }
+}
+
+impl PyPlanTimes {
+    /// From the planner's stage times.
+    pub(crate) fn new(t: &ferrobot_planning::StageTimes) -> Self {
+        Self {
+            ik: t.ik,
+            planning: t.planning,
+            simplify: t.simplify,
+            trajectory: t.trajectory,
+            total: t.total,
+        }
+    }
+}
+
+result_class! {
+    /// Limits of a planner's joints, arrays in `Planner.joint_names` order
+    /// (`Planner.limits`).
+    PyJointLimits, "JointLimits" {
+        /// Lower position limits (rad or m).
+        lower: Py<PyArray1<f64>>,
+        /// Upper position limits (rad or m).
+        upper: Py<PyArray1<f64>>,
+        /// Velocity limits (rad/s or m/s).
+        velocity: Py<PyArray1<f64>>,
+        /// Acceleration limits (rad/s² or m/s²).
+        acceleration: Py<PyArray1<f64>>,
+        /// Jerk limits (rad/s³ or m/s³).
+        jerk: Py<PyArray1<f64>>,
+    }
+}
+
+result_class! {
+    /// Counters of a planner's scene sync (`Planner.world_sync_stats`)
+    /// since the planner was made.
+    PyWorldSyncStats, "WorldSyncStats" {
+        /// Syncs that built the world from scratch (the first of an episode).
+        full_builds: u64,
+        /// Syncs that updated the world in place.
+        incremental: u64,
+        /// Objects added to the planner's world.
+        added: u64,
+        /// Objects removed from the planner's world.
+        removed: u64,
+        /// Objects moved in place.
+        moved: u64,
+    }
+}
+
+impl PyWorldSyncStats {
+    /// From the scene sync's counters.
+    pub(crate) fn new(s: &ferrobot_pipeline::SyncStats) -> Self {
+        Self {
+            full_builds: s.full_builds,
+            incremental: s.incremental,
+            added: s.added,
+            removed: s.removed,
+            moved: s.moved,
+        }
+    }
+}
+
+result_class! {
+    /// How the simulated robot tracked a trajectory (`Robot.execute`,
+    /// `Robot.execute_trajectory`): M physics steps, k joints (the joints
+    /// executed, in the order given).
+    PyTrackingReport, "TrackingReport" {
+        /// World time (s) after each physics step (M,).
+        times: Py<PyArray1<f64>>,
+        /// Commanded positions (rad or m) at each step (M, k).
+        desired: Py<PyArray2<f64>>,
+        /// Measured positions (rad or m) after each step (M, k).
+        actual: Py<PyArray2<f64>>,
+        /// Largest absolute tracking error per joint (k,).
+        max_error: Py<PyArray1<f64>>,
+        /// Root-mean-square tracking error per joint (k,).
+        rms_error: Py<PyArray1<f64>>,
+        /// Absolute error per joint after the last step (k,).
+        final_error: Py<PyArray1<f64>>,
+    }
+}
+
+impl PyTrackingReport {
+    /// From the simulator's report.
+    pub(crate) fn new(py: Python<'_>, rep: ferrobot_sim::TrackingReport) -> Self {
+        let m = rep.times.len();
+        let k = rep.num_joints;
+        Self {
+            times: arr1(py, rep.times),
+            desired: arr2(py, m, k, rep.desired),
+            actual: arr2(py, m, k, rep.actual),
+            max_error: arr1(py, rep.max_error),
+            rms_error: arr1(py, rep.rms_error),
+            final_error: arr1(py, rep.final_error),
+        }
+    }
+}
+
+result_class! {
+    /// Diagnostics of a controller's last step (`last_step` of
+    /// `ReactiveController` / `PotentialFieldController`).
+    PyControlStepInfo, "ControlStepInfo" {
+        /// Smallest robot-sphere to world distance (m) within reach (inf beyond).
+        world_clearance: f64,
+        /// Smallest distance (m) between spheres of checked link pairs (inf beyond reach).
+        self_clearance: f64,
+        /// Avoidance terms active this step.
+        active_avoidance: usize,
+        /// End-effector distance to the target position (m; nan without a target).
+        position_error: f64,
+        /// End-effector angle to the target orientation (rad; nan without a target).
+        rotation_error: f64,
+        /// Factor (<= 1) the acceleration was scaled by.
+        acceleration_scale: f64,
+        /// Factor (<= 1) the velocity was scaled by.
+        velocity_scale: f64,
+        /// Whether a joint's velocity was cut so it can stop before its limit.
+        limit_braked: bool,
+        /// Whether the end effector made no progress for `stall_time`.
+        stalled: bool,
+        /// Waypoints of the global guidance still to pass.
+        waypoints_remaining: usize,
+        /// What global guidance is doing (its status name).
+        guidance: String,
+        /// Guidance plan attempts for the current target.
+        guidance_plans: usize,
+    }
+}
+
+impl PyControlStepInfo {
+    /// From the controller's step info.
+    pub(crate) fn new(info: &ferrobot_control::StepInfo) -> Self {
+        Self {
+            world_clearance: info.world_clearance,
+            self_clearance: info.self_clearance,
+            active_avoidance: info.active_avoidance,
+            position_error: info.position_error,
+            rotation_error: info.rotation_error,
+            acceleration_scale: info.acceleration_scale,
+            velocity_scale: info.velocity_scale,
+            limit_braked: info.limit_braked,
+            stalled: info.stalled,
+            waypoints_remaining: info.waypoints_remaining,
+            guidance: info.guidance.name().to_string(),
+            guidance_plans: info.guidance_plans,
+        }
+    }
+}
+
+result_class! {
+    /// Drive gains of a simulated robot, arrays (num_dof,) in `dof_names`
+    /// order (`Robot.drive_gains`).
+    PyDriveGains, "DriveGains" {
+        /// Position gains (N·m/rad or N/m).
+        stiffness: Py<PyArray1<f64>>,
+        /// Velocity gains (N·m·s/rad or N·s/m).
+        damping: Py<PyArray1<f64>>,
+        /// Force limits (N·m or N; inf: unlimited).
+        max_force: Py<PyArray1<f64>>,
+    }
+}
+
+/// Registers the result classes.
+pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<PyPlanTimes>()?;
+    m.add_class::<PyJointLimits>()?;
+    m.add_class::<PyWorldSyncStats>()?;
+    m.add_class::<PyTrackingReport>()?;
+    m.add_class::<PyControlStepInfo>()?;
+    m.add_class::<PyDriveGains>()?;
+    Ok(())
+}
