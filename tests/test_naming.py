@@ -196,3 +196,36 @@ def test_setters_are_properties_and_old_methods_warn(bundled_panda):
     with pytest.warns(DeprecationWarning, match="assign Robot.command_latency"):
         r.set_command_latency(0.02)
     assert r.command_latency == 0.02
+
+
+def test_mesh_file_reads_the_shared_properties_before_its_shape(tmp_path):
+    # A 0.1 m cube as an OBJ file (8 vertices, 12 triangles), written here.
+    v = np.array([[x, y, z] for x in (-0.05, 0.05) for y in (-0.05, 0.05) for z in (-0.05, 0.05)])
+    faces = [(0, 1, 3), (0, 3, 2), (4, 6, 7), (4, 7, 5), (0, 4, 5), (0, 5, 1)]
+    faces += [(2, 3, 7), (2, 7, 6), (0, 2, 6), (0, 6, 4), (1, 5, 7), (1, 7, 3)]
+    path = tmp_path / "cube.obj"
+    path.write_text(
+        "".join(f"v {a} {b} {c}\n" for a, b, c in v) + "".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in faces)
+    )
+    w = ferrobot.World()
+    # `fixed` (read first) picks the default approximation: a static triangle mesh, which has no volume.
+    with pytest.raises(InvalidArgumentError, match="density needs a solid"):
+        w.add_mesh_file("a", path, fixed=True, density=500.0)
+    with (
+        pytest.warns(DeprecationWarning, match="static_"),
+        pytest.raises(InvalidArgumentError, match="density needs a solid"),
+    ):
+        w.add_mesh_file("b", path, static_=True, density=500.0)
+    # Dynamic: a convex decomposition; 1e-4 kg/m3 x 1e-3 m3 = 1e-7 kg is below the 1e-6 kg minimum.
+    with pytest.raises(InvalidArgumentError, match="mass from density"):
+        w.add_mesh_file("c", path, density=1e-4)
+    with pytest.raises(InvalidArgumentError, match="mass or density"):
+        w.add_mesh_file("d", path, mass=1.0, density=500.0)
+    with pytest.raises(InvalidArgumentError, match="unknown object property 'colour'"):
+        w.add_mesh_file("e", path, colour=(1, 0, 0))
+    with pytest.raises(InvalidArgumentError, match="friction"):
+        w.add_mesh_file("f", path, friction=-1.0)
+    assert w.object_names == []
+    w.add_mesh_file("g", path, [0, 0, 1, 1, 0, 0, 0], density=1000.0, friction=0.9, color=(0.0, 1.0, 0.0))
+    w.add_mesh_file("h", path, [1, 0, 0.05, 1, 0, 0, 0], fixed=True)
+    assert w.object_names == ["g", "h"]

@@ -17,13 +17,17 @@ use pyo3::IntoPyObjectExt;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-/// Warns that dict-style access to a result object is deprecated.
-fn dict_access(py: Python<'_>, class: &str, how: &str) -> PyResult<()> {
+/// Warns that dict-style access to a result object is deprecated;
+/// `field`: the field asked for, when there is one.
+fn dict_access(py: Python<'_>, class: &str, how: &str, field: Option<&str>) -> PyResult<()> {
+    let instead = match field {
+        Some(f) => format!("read the attribute {class}.{f}"),
+        None => "read the attributes".to_string(),
+    };
     crate::planning::deprecated(
         py,
         &format!(
-            "{class}{how}: dict-style access to results is deprecated: read the attribute \
-             (e.g. result.{{field}}) or call to_dict()"
+            "{class}{how}: dict-style access to results is deprecated: {instead} or call to_dict()"
         ),
     )
 }
@@ -82,38 +86,38 @@ macro_rules! result_class {
 
             /// Deprecated dict-style access: read the attribute instead.
             fn __getitem__<'py>(&self, py: Python<'py>, key: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
-                dict_access(py, $pyname, "[key]")?;
                 let k: String = key.extract().map_err(|_| Self::key_error(key))?;
+                dict_access(py, $pyname, &format!("[{k:?}]"), Some(&k))?;
                 self.field(py, &k)?.ok_or_else(|| Self::key_error(key))
             }
 
             /// Deprecated dict-style access: `key in result`.
             fn __contains__(&self, py: Python<'_>, key: &Bound<'_, PyAny>) -> PyResult<bool> {
-                dict_access(py, $pyname, ": `in`")?;
+                dict_access(py, $pyname, ": `in`", None)?;
                 Ok(key.extract::<String>().is_ok_and(|k| Self::FIELDS.contains(&k.as_str())))
             }
 
             /// Deprecated dict-style access: iterates over the field names.
             fn __iter__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-                dict_access(py, $pyname, ": iteration")?;
+                dict_access(py, $pyname, ": iteration", None)?;
                 Self::FIELDS.to_vec().into_bound_py_any(py)?.try_iter().map(|i| i.into_any())
             }
 
             /// Deprecated dict-style access: the field names.
             fn keys(&self, py: Python<'_>) -> PyResult<Vec<&'static str>> {
-                dict_access(py, $pyname, ".keys()")?;
+                dict_access(py, $pyname, ".keys()", None)?;
                 Ok(Self::FIELDS.to_vec())
             }
 
             /// Deprecated dict-style access: the field values.
             fn values<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyAny>>> {
-                dict_access(py, $pyname, ".values()")?;
+                dict_access(py, $pyname, ".values()", None)?;
                 Ok(vec![$((&self.$field).into_bound_py_any(py)?),*])
             }
 
             /// Deprecated dict-style access: (name, value) pairs.
             fn items<'py>(&self, py: Python<'py>) -> PyResult<Vec<(&'static str, Bound<'py, PyAny>)>> {
-                dict_access(py, $pyname, ".items()")?;
+                dict_access(py, $pyname, ".items()", None)?;
                 Ok(vec![$((stringify!($field), (&self.$field).into_bound_py_any(py)?)),*])
             }
 
@@ -125,10 +129,15 @@ macro_rules! result_class {
                 key: &Bound<'py, PyAny>,
                 default: Option<Bound<'py, PyAny>>,
             ) -> PyResult<Option<Bound<'py, PyAny>>> {
-                dict_access(py, $pyname, ".get()")?;
                 match key.extract::<String>() {
-                    Ok(k) => Ok(self.field(py, &k)?.or(default)),
-                    Err(_) => Ok(default),
+                    Ok(k) => {
+                        dict_access(py, $pyname, ".get()", Some(&k))?;
+                        Ok(self.field(py, &k)?.or(default))
+                    }
+                    Err(_) => {
+                        dict_access(py, $pyname, ".get()", None)?;
+                        Ok(default)
+                    }
                 }
             }
 
