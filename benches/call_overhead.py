@@ -125,11 +125,16 @@ def main() -> None:
             res[label].append(run(path))
     print(f"load average: {os.getloadavg()}")
     keys = list(res["before"][0])
-    print(f"{'us per call (CPU), median of rounds':40s} {'before':>10s} {'after':>10s} {'after/before':>13s}")
+    print(
+        f"{'us per call (CPU), median of rounds':40s} {'before':>10s} {'after':>10s} {'after/before':>13s}"
+        f"  {'before min-max':>16s} {'after min-max':>16s}"
+    )
     for k in keys:
-        b = statistics.median(x[k] for x in res["before"])
-        f = statistics.median(x[k] for x in res["after"])
-        print(f"{k:40s} {b:10.1f} {f:10.1f} {f / b:13.3f}")
+        bs, fs = [x[k] for x in res["before"]], [x[k] for x in res["after"]]
+        b, f = statistics.median(bs), statistics.median(fs)
+        print(
+            f"{k:40s} {b:10.2f} {f:10.2f} {f / b:13.3f}  {min(bs):7.2f}-{max(bs):<8.2f} {min(fs):7.2f}-{max(fs):<8.2f}"
+        )
 
 
 if __name__ == "__main__":
