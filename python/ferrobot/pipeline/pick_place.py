@@ -152,6 +152,8 @@ class Episode:
     #: The robot model and the planner's sphere model (for viewers).
     model: Any = None
     spheres: Any = None
+    #: The :class:`ferrobot.Gripper` (its finger geometry draws the grasps).
+    gripper: Any = None
     #: The simulated world, its robot and the perception camera (``scene``).
     world: Any = None
     robot: Any = None
@@ -710,7 +712,9 @@ class PickPlace:
         step (dataset generation). Never raises for a failed stage: see the result."""
         # A new record per episode: nothing of the previous episode can leak into this one's report.
         result = EpisodeResult(seed=spec.seed, target=spec.target)
-        self.episode = Episode(spec=spec, result=result, model=self.model, spheres=self.planner.sphere_model)
+        self.episode = Episode(
+            spec=spec, result=result, model=self.model, spheres=self.planner.sphere_model, gripper=self.gripper
+        )
         result.episode = self.episode
         t0 = time.perf_counter()
         try:
