@@ -256,3 +256,25 @@ def test_a_urdf_path_robot_and_early_errors(tmp_path):
         with pytest.raises(FerrobotError):
             generate(bad, GenerateConfig(episodes=1, cameras=parse_cameras("scene:32x24"), **kw), ray="off")
         assert not bad.exists()
+
+
+def test_viewer_draws_the_grippers_own_fingers(tmp_path):
+    """A UR5e demo folder: report.json names the 2F-85's finger geometry, and both the in-page viewer data and
+    ``ferrobot view``'s reading of the folder draw the grasp with its 37.5 mm fingers (the Panda's are 50 mm)."""
+    from ferrobot.pipeline import PickPlace, random_scene
+    from ferrobot.pipeline.report import write_episode
+    from ferrobot.pipeline.viewer import viewer_data
+    from ferrobot.pipeline.viewer_live import episode_scene
+
+    result = PickPlace(robot="ur5e").run(random_scene(3), record_frames=True, frame_every=240)
+    assert result.episode.choice is not None
+    write_episode(tmp_path, result)
+    report = json.loads((tmp_path / "report.json").read_text())
+    depth = ferrobot.Gripper.robotiq_2f85().detection_options()["finger_depth"]
+    assert report["gripper"]["name"] == "robotiq_2f85" and report["gripper"]["finger_depth"] == depth == 0.0375
+    for data in (viewer_data(result.episode), episode_scene(tmp_path)):
+        seg = np.asarray(data["grasp"], dtype=float).reshape(-1, 2, 3)
+        lengths = np.linalg.norm(seg[:, 1] - seg[:, 0], axis=1)
+        assert np.any(np.isclose(lengths, depth, atol=1e-9)) and not np.any(np.isclose(lengths, 0.05, atol=1e-9))
+    # `ferrobot view` rebuilt the UR5e (the robot the trajectory names), not the Panda.
+    assert episode_scene(tmp_path)["robot"] == viewer_data(result.episode)["robot"]
