@@ -533,7 +533,11 @@ class _ObjectTask(FerrobotEnv):
     def _task_reset(self) -> None:
         self.target = self.spec_scene.target
         self.target_spec = self.spec_scene.object(self.target)
-        self.rest_z = TABLE_TOP + self.target_spec.height / 2
+        if self.target_spec.kind == "mesh":
+            # A mesh object rests in a pile on some face: its resting height is where it settled.
+            self.rest_z = float(self._object_pos(self.target)[2])
+        else:
+            self.rest_z = TABLE_TOP + self.target_spec.height / 2
         self.max_rise = 0.0
 
     def _rise(self) -> float:
@@ -546,7 +550,8 @@ class PickPlaceEnv(_ObjectTask):
     """Pick the scene's target object and put it down on the place location.
 
     Success: the target's centre within 3 cm of the place location in x, y; resting upright (centre within
-    1 cm of its resting height, spheres excepted; speed under 5 cm/s); the gripper open (the last command at most 0.5).
+    1 cm of its resting height, spheres and mesh objects excepted; speed under 5 cm/s); the gripper open (the
+    last command at most 0.5).
     ``observation.environment_state`` (10,): the target's pose [x, y, z, qw, qx, qy, qz] and the place
     location [x, y, z] (on the table top), both in the robot base frame."""
 
@@ -563,7 +568,8 @@ class PickPlaceEnv(_ObjectTask):
         rise = self._rise()
         err = float(np.hypot(p[0] - self.spec_scene.place_xy[0], p[1] - self.spec_scene.place_xy[1]))
         speed = float(np.linalg.norm(self.world.get_object_velocity(self.target)[0]))
-        upright = abs(rise) <= 0.01 or self.target_spec.kind == "sphere"
+        # Spheres and mesh objects (placed on whatever face they land on) have no upright pose to check.
+        upright = abs(rise) <= 0.01 or self.target_spec.kind in ("sphere", "mesh")
         if err > self.place_tolerance:
             cause = "not_lifted" if self.max_rise < 0.02 else "not_at_place"
         elif not upright or speed > 0.05:
