@@ -320,8 +320,8 @@ def episode_cameras(cfg: dict, rand: dict, gripper=None) -> list:
         w = rand.get("wrist_camera")
         if s.name == "wrist" and w is not None:
             if gripper is None:
-                gripper = resolve_robot(cfg)[1] if "robot" in cfg else None
-            s.link = "panda_hand" if gripper is None else gripper.hand_link
+                gripper = resolve_robot(cfg)[1]
+            s.link = gripper.hand_link
             # Recorded before the mount had an up vector: the Panda mount's (1, 0, 0).
             s.pose = _core.look_at(w["eye"], w["target"], tuple(w.get("up", (1.0, 0.0, 0.0))))
         specs.append(s)
