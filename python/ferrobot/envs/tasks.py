@@ -58,7 +58,16 @@ from .. import _core, robots, transforms
 from ..control import DEFAULT_CAMERAS, CameraSpec, ControlStepper, make_cameras, observe, tcp_pose
 from ..dataset.generate import apply_lighting, scene_fov, scene_from_dict
 from ..errors import FerrobotError, InvalidArgumentError, NonFiniteError, ShapeError
-from ..pipeline.scene import TABLE_TOP, SceneSpec, build_world, home_for, place_camera, random_scene
+from ..pipeline.scene import (
+    BASE_POSE,
+    TABLE_TOP,
+    SceneSpec,
+    build_world,
+    clear_of_reach,
+    home_for,
+    place_camera,
+    random_scene,
+)
 
 __all__ = ["OBS_MODES", "ACTION_MODES", "FerrobotEnv", "PickPlaceEnv", "LiftEnv", "ReachEnv", "EXTRA_CAMERAS"]
 
@@ -249,7 +258,7 @@ class FerrobotEnv(gym.Env):
                     spec = CameraSpec(name, w, h)
                 elif name in EXTRA_CAMERAS:
                     eye, target, (w, h) = EXTRA_CAMERAS[name]
-                    spec = CameraSpec(name, w, h, pose=_core.look_at(eye, target))
+                    spec = CameraSpec(name, w, h, pose=_core.look_at(self._clear(eye, target), target))
                 else:
                     raise InvalidArgumentError(
                         f"cameras: unknown camera {name!r}; known: {[*DEFAULT_CAMERAS, *EXTRA_CAMERAS]} "
@@ -273,6 +282,12 @@ class FerrobotEnv(gym.Env):
         if self.obs_mode != "state" and not specs:
             raise InvalidArgumentError(f"cameras: obs_mode {self.obs_mode!r} needs at least one camera")
         return specs
+
+    def _clear(self, eye, target, base=None) -> tuple:
+        """A fixed view's eye, moved back along its ray when the robot could reach it
+        (:func:`~ferrobot.pipeline.scene.clear_of_reach`; unchanged for the bundled robots)."""
+        base = BASE_POSE[:3] if base is None else base
+        return clear_of_reach(eye, target, base, self.model, self.gripper) or tuple(eye)
 
     def _make_action_space(self) -> spaces.Box:
         g = ([0.0], [1.0])
@@ -423,9 +438,8 @@ class FerrobotEnv(gym.Env):
             return None
         if self._render_camera is None:
             eye, target, (w, h) = RENDER_VIEW
-            self._render_camera = _core.Camera(
-                self.world, w, h, 0.82 * w, 0.82 * w, (w - 1) / 2, (h - 1) / 2, _core.look_at(eye, target)
-            )
+            pose = _core.look_at(self._clear(eye, target, self.base_pose[:3, 3]), target)
+            self._render_camera = _core.Camera(self.world, w, h, 0.82 * w, 0.82 * w, (w - 1) / 2, (h - 1) / 2, pose)
         return self._render_camera.render(rgb=True)["rgb"]
 
     # -- actions ----------------------------------------------------------------------------------------------

@@ -232,21 +232,30 @@ def place_camera(spec: SceneSpec, model, gripper=None, clearance: float = CAMERA
     so the arm can neither hit nor fill the view. The default eye (1.15, 0, 1.15) clears arms of up to 1.32 m
     reach from their base origin (the bundled Panda with its hand: 1.27 m, UR5e + 2F-85: 1.22 m) and is kept
     for them; a longer arm gets the eye moved back."""
+    eye = clear_of_reach(spec.camera_eye, spec.camera_target, spec.base_pose[:3], model, gripper, clearance)
+    if eye is not None:
+        spec.camera_eye = eye
+    return spec
+
+
+def clear_of_reach(eye, target, base, model, gripper=None, clearance: float = CAMERA_CLEARANCE):
+    """The camera eye looking at ``target`` moved back along its ray until it is ``clearance`` beyond the
+    reach (:func:`robot_reach`) of ``model`` standing at ``base`` (world x, y, z); None when ``eye`` already
+    is (so a camera the arm cannot reach is left exactly where it is)."""
     if not (math.isfinite(clearance) and clearance >= 0):
         raise InvalidArgumentError(f"clearance: expected a finite distance >= 0 (m), got {clearance}")
     need = robot_reach(model, gripper) + clearance
-    base = np.asarray(spec.base_pose[:3], dtype=float)
-    eye, target = np.asarray(spec.camera_eye, dtype=float), np.asarray(spec.camera_target, dtype=float)
+    base = np.asarray(base, dtype=float)
+    eye, target = np.asarray(eye, dtype=float), np.asarray(target, dtype=float)
     if np.linalg.norm(eye - base) >= need:
-        return spec
+        return None
     ray = eye - target
     ray /= np.linalg.norm(ray)
     # |target + d ray - base| = need: the larger root of d^2 + 2 d ray.(target - base) + |target - base|^2 - need^2.
     b = float(ray @ (target - base))
     c = float((target - base) @ (target - base)) - need * need
     d = -b + math.sqrt(max(b * b - c, 0.0))
-    spec.camera_eye = tuple((target + d * ray).tolist())
-    return spec
+    return tuple((target + d * ray).tolist())
 
 
 def build_world(spec: SceneSpec, model=None, q=None, name: str = "panda"):
