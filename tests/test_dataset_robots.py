@@ -276,5 +276,8 @@ def test_viewer_draws_the_grippers_own_fingers(tmp_path):
         seg = np.asarray(data["grasp"], dtype=float).reshape(-1, 2, 3)
         lengths = np.linalg.norm(seg[:, 1] - seg[:, 0], axis=1)
         assert np.any(np.isclose(lengths, depth, atol=1e-9)) and not np.any(np.isclose(lengths, 0.05, atol=1e-9))
-    # `ferrobot view` rebuilt the UR5e (the robot the trajectory names), not the Panda.
-    assert episode_scene(tmp_path)["robot"] == viewer_data(result.episode)["robot"]
+    # `ferrobot view` rebuilt the UR5e (the robot the trajectory names), not the Panda, and draws the same grasp
+    # outline (finger depth, width and height from the report) as the page written with the episode.
+    live, page = episode_scene(tmp_path), viewer_data(result.episode)
+    assert live["robot"] == page["robot"]
+    np.testing.assert_allclose(np.asarray(live["grasp"], float), np.asarray(page["grasp"], float), atol=1e-6)

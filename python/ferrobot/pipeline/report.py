@@ -100,6 +100,7 @@ def write_episode(out: Path, result: EpisodeResult, *deprecated) -> dict[str, Pa
         report["grasp"] = {
             "score": g.score,
             "width": g.width,
+            "height": g.height,
             "depth": g.depth,
             "translation_world": g.translation.tolist(),
             "rotation_world": g.rotation_matrix.tolist(),

@@ -187,7 +187,8 @@ def episode_scene(folder, max_frames: int = 300) -> dict:
     if "grasp" in report:
         g = report["grasp"]
         row = np.zeros(17)
-        row[:4] = [g["score"], g["width"], 0.02, g["depth"]]
+        # The finger height the grasp was detected with (reports before it was stored: the Panda's 2 cm).
+        row[:4] = [g["score"], g["width"], g.get("height", 0.02), g["depth"]]
         row[4:13] = np.asarray(g["rotation_world"]).ravel()
         row[13:16] = g["translation_world"]
         geo = report.get("gripper", {})  # the demo's gripper (older reports: the Panda hand's defaults)
