@@ -2,6 +2,7 @@
 
     python benches/generate.py [--episodes 8] [--seed 0] [--format lerobot] [--cameras scene:640x480,wrist:320x240]
                                [--ray] [--keep] [--json FILE] [--no-segmentation]
+                               [--robots panda,ur5e] [--objects DIR|pybullet|none] [--clutter K] [--workers 1,2]
 
 Generates the same episodes with 1 local worker, then with 2 (all cores of this machine), then with a local
 Ray instance when ``--ray`` is given, each into a fresh directory, and reports episodes per hour, recorded
@@ -9,6 +10,9 @@ frames (control steps) per second, CPU seconds per episode (and the episodes per
 imply, the load-independent figure on a shared machine) and the scaling. A breakdown of one frame's cost
 (render per camera, video encoding, physics per control step) says what bounds the rate. ``--keep`` keeps
 the datasets (their paths are in the JSON); ``benches/lerobot_load.py DIR`` loads one with LeRobot.
+``--robots`` and ``--objects`` run every robot with the procedural objects and (unless ``--objects none``) with
+mesh objects from DIR (``pybullet``: pybullet_data's ``random_urdfs``, 1,000 objects, the default), ``--clutter``
+of them (default 5) per scene, in one run, interleaved robot by robot so that the machine's drift hits all alike.
 Target (2 cores, issue 19): >= 2,000 episodes/hour with a 640x480 RGB-D scene camera and a 320x240 wrist
 camera at 10 Hz, LeRobot format.
 """
@@ -79,7 +83,7 @@ def breakdown(cameras: list[dict]) -> dict:
     return out
 
 
-def run(label: str, args, workers: int | None, ray: str) -> dict:
+def run(label: str, args, workers: int | None, ray: str, robot: str = "panda", objects: str | None = None) -> dict:
     out = Path(tempfile.mkdtemp(prefix="ferrobot-bench-")) / "ds"
     cfg = GenerateConfig(
         episodes=args.episodes,
@@ -87,6 +91,9 @@ def run(label: str, args, workers: int | None, ray: str) -> dict:
         format=args.format,
         cameras=parse_cameras(args.cameras),
         segmentation=args.segmentation,
+        robot=robot,
+        objects=objects,
+        clutter=args.clutter if objects else None,
     )
     c0, t0 = cpu_seconds(), time.perf_counter()
     s = generate(out, cfg, workers=workers, ray=ray, progress=False)
@@ -94,6 +101,8 @@ def run(label: str, args, workers: int | None, ray: str) -> dict:
     size = sum(p.stat().st_size for p in out.rglob("*") if p.is_file())
     r = {
         "label": label,
+        "robot": robot,
+        "objects": objects,
         "workers": workers,
         "episodes": s["episodes"],
         "success_rate": s["success_rate"],
@@ -111,7 +120,7 @@ def run(label: str, args, workers: int | None, ray: str) -> dict:
         "load_after": os.getloadavg(),
     }
     print(
-        f"{label:<22} {r['episodes']} episodes ({100 * r['success_rate']:.0f}% ok), {r['frames']} frames, "
+        f"{label:<40} {r['episodes']} episodes ({100 * r['success_rate']:.0f}% ok), {r['frames']} frames, "
         f"{wall:.1f} s: {r['episodes_per_hour']:.0f} episodes/h, {r['frames_per_s']:.1f} frames/s, "
         f"{r['mb_per_episode']:.2f} MB/episode, median episode {r['median_episode_wall_s']:.1f} s"
         + (
@@ -142,20 +151,41 @@ def main() -> None:
         default=True,
         help="record segmentation (the default of `ferrobot generate`)",
     )
+    ap.add_argument("--robots", default="panda", help="comma-separated: panda, ur5e (bundled) or URDF paths")
+    ap.add_argument(
+        "--objects", default="none", help="mesh objects: a folder, 'pybullet' (pybullet_data/random_urdfs) or none"
+    )
+    ap.add_argument("--clutter", type=int, default=5, help="mesh objects per scene with --objects")
+    ap.add_argument("--workers", default=None, help="comma-separated worker counts (default: 1 and all cores)")
     args = ap.parse_args()
     cores = os.cpu_count() or 1
+    if args.objects == "pybullet":
+        import pybullet_data
+
+        args.objects = str(Path(pybullet_data.getDataPath()) / "random_urdfs")
+    objects = [None] if args.objects == "none" else [None, args.objects]
+    workers = [int(w) for w in args.workers.split(",")] if args.workers else [1, cores]
     print(
         f"ferrobot {ferrobot.__version__}, {cores} cores, load {os.getloadavg()}, cameras {args.cameras}, "
         f"segmentation {args.segmentation}"
     )
     bd = breakdown(parse_cameras(args.cameras))
     print("per-frame costs (ms): " + ", ".join(f"{k} {v:.1f}" for k, v in bd.items()), flush=True)
-    runs = [run("local, 1 worker", args, 1, "off"), run(f"local, {cores} workers", args, cores, "off")]
-    if args.ray:
-        runs.append(run(f"ray, {cores} CPUs", args, cores, "auto"))
-    base = runs[0]["episodes_per_hour"]
-    for r in runs[1:]:
-        print(f"scaling {r['label']}: x{r['episodes_per_hour'] / base:.2f} over 1 worker")
+    runs = []
+    for obj in objects:
+        for w in workers:
+            for robot in args.robots.split(","):  # interleaved: robots side by side at each setting
+                what = f"{robot}{' + mesh objects' if obj else ''}"
+                runs.append(run(f"{what}, local, {w} worker(s)", args, w, "off", robot, obj))
+        if args.ray:
+            for robot in args.robots.split(","):
+                what = f"{robot}{' + mesh objects' if obj else ''}"
+                runs.append(run(f"{what}, ray, {cores} CPUs", args, cores, "auto", robot, obj))
+    for r in runs:
+        base = next((b for b in runs if b["robot"] == r["robot"] and b["objects"] == r["objects"]), r)
+        if r is not base:
+            x = r["episodes_per_hour"] / base["episodes_per_hour"]
+            print(f"scaling {r['label']}: x{x:.2f} over {base['label']}")
     result = {
         "breakdown_ms": bd,
         "runs": runs,

@@ -49,7 +49,7 @@ def episodes(k: int, cameras: str) -> dict:
 
     g = importlib.import_module("ferrobot.dataset.generate")  # the module (the package exports a function)
 
-    g._PP["pp"] = PickPlace(PickPlaceConfig())
+    g._PP[("panda", None, None)] = PickPlace(PickPlaceConfig())
     cfg = g.GenerateConfig(episodes=k, seed=0, cameras=g.parse_cameras(cameras)).to_dict()
     cpu, frames = [], []
     with tempfile.TemporaryDirectory() as d:

@@ -30,7 +30,7 @@ def pp():
     from ferrobot.dataset.generate import _PP
 
     p = PickPlace()
-    _PP["pp"] = p  # in-process generation (workers=1) reuses it: a planner takes seconds to build
+    _PP[("panda", None, None)] = p  # in-process generation (workers=1) reuses it: a planner takes seconds to build
     return p
 
 
@@ -45,7 +45,13 @@ def record(pp, spec, cams=CAMS, rand=None):
         cameras = make_cameras(world, robot, camera.get_world_transform(), specs, scene_fov_deg=scene_fov(spec))
         labels.update(world.segmentation_labels)
         return ControlRecorder(
-            world, robot, cameras, frames.append, arm_joint_names=[robot.dof_names[i] for i in arm], segmentation=True
+            world,
+            robot,
+            cameras,
+            frames.append,
+            arm_joint_names=[robot.dof_names[i] for i in arm],
+            segmentation=True,
+            gripper=pp.gripper,
         )
 
     result = pp.run(spec, recorder=factory)
@@ -82,11 +88,17 @@ def test_recording_keeps_the_gripper_command_and_ee_target(pp):
     first_grasp = stages.index("grasp")
     assert np.all(grip[:first_grasp] == 0.0) and grip[first_grasp] == 1.0
     assert grip[stages.index("release")] == 0.0
-    # action.ee_pose is FK of the commanded arm targets (checked with the model directly).
+    # action.ee_pose is the TCP (Franka: 103.4 mm along the hand's z) at the commanded arm targets, checked
+    # with the model's hand FK directly.
     f = frames[first_grasp - 1]
     q = np.append(f["action"][:7].astype(np.float64), f["observation.state"][7])
     ref = pp.model.fk_batch(q[None])[0]
+    hand = pp.model.fk(q)
+    ref[:3] = hand[:3, 3] + 0.1034 * hand[:3, 2]
     np.testing.assert_allclose(f["action.ee_pose"], ref, atol=1e-6)
+    # observation.gripper_opening: the distance between the fingers, 2 x the finger joint.
+    for f in frames[::10]:
+        assert f["observation.gripper_opening"][0] == pytest.approx(2 * f["observation.state"][7], abs=1e-6)
 
 
 def psnr(a, b) -> float:

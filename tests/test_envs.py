@@ -143,15 +143,25 @@ def test_ee_delta_moves_the_hand_by_the_commanded_step():
     assert ee.shape == (7,) and abs(np.linalg.norm(ee[3:]) - 1) < 1e-5
 
 
+def _panda_tcp(u) -> np.ndarray:
+    """The Panda hand's TCP (Franka: 103.4 mm along the hand's z) from the hand's FK, [x, y, z, qw, qx, qy, qz]."""
+    hand = u.model.fk(u.robot.joint_positions)
+    tcp = hand.copy()
+    tcp[:3, 3] = hand[:3, 3] + 0.1034 * hand[:3, 2]
+    return ferrobot.transforms.matrix_to_pose(tcp)
+
+
 def test_ee_abs_reaches_the_commanded_pose():
+    """``ee_abs`` commands the gripper's TCP (the frame of ``observation.ee_pose``)."""
     env = make(control_mode="ee_abs", env_id="ferrobot/Reach-v0")
-    env.reset(seed=0)
+    obs, _ = env.reset(seed=0)
     u = env.unwrapped
-    pose = ferrobot.transforms.matrix_to_pose(u.model.fk(u.robot.joint_positions))
+    pose = _panda_tcp(u)
+    np.testing.assert_allclose(obs["observation.ee_pose"], pose, atol=1e-6)
     pose[:3] += [0.0, 0.05, -0.04]
     for _ in range(8):
         env.step(np.concatenate([pose, [0.0]]).astype(np.float32))
-    got = ferrobot.transforms.matrix_to_pose(u.model.fk(u.robot.joint_positions))
+    got = _panda_tcp(u)
     np.testing.assert_allclose(got[:3], pose[:3], atol=3e-3)
     assert abs(abs(np.dot(got[3:], pose[3:])) - 1) < 1e-4
 
@@ -470,3 +480,23 @@ def test_spaces_match_the_dataset_features_name_for_name():
     for k, f in obs_feats.items():
         assert space[k].shape == tuple(f["shape"]) and space[k].dtype == dtypes[f["dtype"]], k
     assert env.action_space.shape == tuple(feats["action"]["shape"]) and env.action_space.dtype == np.float32
+
+
+def test_ur5e_with_its_2f85_as_an_environment():
+    """``robot="ur5e"``: Gymnasium's checker passes, the state is the UR5e's 6 joints + the 2F-85's driver, the
+    opening starts at the 2F-85's 85 mm stroke, the wrist camera rides on the gripper, ee_pose is its TCP (hand
+    FK + the TCP offset, computed here), and the scripted expert reaches a goal."""
+    g = ferrobot.Gripper.robotiq_2f85()
+    env = make("ferrobot/Reach-v0", robot="ur5e", obs_mode="rgb", cameras=["scene:32x24", "wrist:16x12"])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        check_env(env.unwrapped)
+    obs, _ = env.reset(seed=0)
+    u = env.unwrapped
+    assert obs["observation.state"].shape == (7,) and u.model.dof_names[-1] == "finger_joint"
+    assert obs["observation.gripper_opening"][0] == pytest.approx(0.085, abs=1e-3)
+    assert u.gripper.hand_link == g.hand_link
+    hand = u.model.fk(u.robot.joint_positions, link=g.hand_link)
+    np.testing.assert_allclose(obs["observation.ee_pose"][:3], hand[:3, 3] + hand[:3, :3] @ g.tcp, atol=1e-6)
+    s = evaluate("ferrobot/Reach-v0", ExpertPolicy, 1, seed=0, progress=False, env_kwargs={"robot": "ur5e"})
+    assert s["successes"] == 1, s

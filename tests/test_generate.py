@@ -195,7 +195,9 @@ def test_bad_arguments_leave_existing_data_untouched(tmp_path, capsys):
     for argv, what in [
         (["--format", "zarr"], "format"),
         (["--robot", "ur5"], "robot"),
-        (["--objects", str(tmp_path)], "objects"),
+        (["--objects", str(tmp_path / "no-such-folder")], "objects"),
+        (["--gripper", "claw"], "gripper"),
+        (["--robot", "panda", "--srdf", str(tmp_path / "x.srdf")], "srdf"),
         (["--clutter", "9"], "clutter"),
         (["--cameras", "top:10x10"], "cameras"),
         (["--fps", "7"], "control_hz"),

@@ -136,8 +136,11 @@ def _demo_clutter(args: argparse.Namespace) -> int:
     except FerrobotError as e:
         print(f"ferrobot: error: {e}", file=sys.stderr)
         return 2
+    from .pipeline.scene import place_camera
+
     out = Path(args.out)
-    pp = PickPlace(PickPlaceConfig())
+    pp = PickPlace(PickPlaceConfig(), robot=args.robot, srdf=args.srdf, gripper=args.gripper)
+    place_camera(spec, pp.model, pp.gripper)
     where = "in a bin" if args.bin else "in a pile"
     print(f"ferrobot demo: {len(spec.objects)} mesh objects {where} ({', '.join(o.name for o in spec.objects)})")
     if not args.clear:
@@ -158,6 +161,7 @@ def _demo_clutter(args: argparse.Namespace) -> int:
             target=target,
             place_xy=spec.place_xy,
             bin=spec.bin,
+            camera_eye=spec.camera_eye,
             camera_target=spec.camera_target,
         )
         result = pp.run(scene, record_frames=not args.no_animation and k == 0)
@@ -233,8 +237,10 @@ def cmd_demo(args: argparse.Namespace) -> int:
             print("failures by stage: " + ", ".join(f"{k} {v}" for k, v in s["failures_by_stage"].items()))
         print(f"wrote {out / 'episodes.jsonl'} and {out / 'summary.json'}")
         return 0
+    from .pipeline.scene import place_camera
+
     pp = PickPlace(config, robot=args.robot, srdf=args.srdf, gripper=args.gripper)
-    spec = random_scene(args.seed, args.objects)
+    spec = place_camera(random_scene(args.seed, args.objects), pp.model, pp.gripper)
     objs = ", ".join(f"{o.name}" for o in spec.objects)
     who = {"panda": "bundled Panda", "ur5e": "bundled UR5e + 2F-85"}.get(args.robot, args.robot)
     print(
@@ -347,18 +353,16 @@ def cmd_generate(args: argparse.Namespace) -> int:
     import json
 
     from .dataset import GenerateConfig, generate, parse_cameras
-    from .errors import InvalidArgumentError
 
-    if args.objects is not None:
-        raise InvalidArgumentError(
-            "objects: mesh object sets are not supported by dataset generation yet "
-            "(scenes use procedural boxes, cylinders and spheres; use --clutter for their number)"
-        )
+    # Bad values raise from GenerateConfig.validate, naming the option.
     config = GenerateConfig(
         episodes=args.episodes,
         seed=args.seed,
         format=args.format,
         robot=args.robot,
+        srdf=args.srdf,
+        gripper=args.gripper,
+        objects=args.objects,
         clutter=args.clutter,
         cameras=parse_cameras(args.cameras),
         control_hz=args.fps,
@@ -500,9 +504,18 @@ def main(argv: list[str] | None = None) -> int:
     p_gen.add_argument("--seed", type=int, default=0, help="run seed; episode i's seed derives from (seed, i)")
     p_gen.add_argument("--out", required=True, help="dataset folder (new, empty, or a run of the same command)")
     p_gen.add_argument("--format", default="lerobot", help="lerobot (v3.0) or hdf5 (robomimic layout)")
-    p_gen.add_argument("--robot", default="panda", help="robot (only the bundled panda is supported)")
-    p_gen.add_argument("--objects", default=None, help="folder of mesh objects (not supported yet: raises)")
-    p_gen.add_argument("--clutter", type=int, default=None, help="objects on the table, 1 to 6 (default 3-5)")
+    p_gen.add_argument("--robot", default="panda", help="'panda', 'ur5e' (bundled) or a URDF path")
+    p_gen.add_argument("--srdf", default=None, help="SRDF for a URDF --robot (groups, end effector, states)")
+    p_gen.add_argument("--gripper", default=None, help="'panda_hand' or 'robotiq_2f85' (default: the robot's own)")
+    p_gen.add_argument(
+        "--objects", default=None, help="folder of URDF / OBJ / STL / DAE objects: scenes are piles of them"
+    )
+    p_gen.add_argument(
+        "--clutter",
+        type=int,
+        default=None,
+        help="objects on the table, 1 to 6 (default 3-5); with --objects: mesh objects, 1 to 15 (default 5)",
+    )
     p_gen.add_argument("--cameras", default="scene:640x480,wrist:320x240", help="NAME:WxH,... of scene and/or wrist")
     p_gen.add_argument("--fps", type=int, default=10, help="control and recording rate (Hz), divides 240")
     p_gen.add_argument(

@@ -19,18 +19,20 @@ key                                 dtype, shape meaning
 =================================== ============ ===========================================================
 ``observation.state``               f32 (N,)     joint positions (rad, m), ``robot.dof_names`` order
 ``observation.velocity``            f32 (N,)     joint velocities (rad/s, m/s)
-``observation.ee_pose``             f32 (7,)     end-effector link pose [x, y, z, qw, qx, qy, qz], base frame
-``observation.gripper_opening``     f32 (1,)     distance between the fingers (m): finger DOFs + their mimics
+``observation.ee_pose``             f32 (7,)     the gripper's TCP pose [x, y, z, qw, qx, qy, qz], base frame
+                                                 (the end-effector link's when no gripper is given)
+``observation.gripper_opening``     f32 (1,)     distance between the fingers (m): the gripper's
+                                                 joint-to-opening map at its driver joint
 ``observation.images.<camera>``     u8 (H, W, 3) RGB
 ``observation.depth.<camera>``      f32 (H, W)   depth along the optical axis (m); **0 where nothing was hit**
                                                  (the renderer's ``inf``), the common depth-sensor convention
 ``observation.segmentation.<cam>``  i32 (H, W)   ids of ``World.segmentation_labels`` (only if requested)
 ``action``                          f32 (A + 1,) arm joint position targets + gripper command in [0, 1]
-``action.ee_pose``                  f32 (7,)     end-effector pose (base frame) at the arm targets (FK)
+``action.ee_pose``                  f32 (7,)     TCP pose (base frame) at the arm targets (FK)
 =================================== ============ ===========================================================
 
-Default cameras: ``scene`` (fixed, 640x480, the scene's perception camera) and ``wrist`` (on the Panda's
-hand link, 320x240, looking along the approach at the fingertips), sizes configurable.
+Default cameras: ``scene`` (fixed, 640x480, the scene's perception camera) and ``wrist`` (on the gripper's
+hand link, 320x240, looking along the approach at the fingertips, :func:`wrist_mount`), sizes configurable.
 """
 
 from __future__ import annotations
@@ -204,21 +206,46 @@ class CameraSpec:
 #: back from the flange, looking at the point between the fingertips (10.3 cm along the approach axis z).
 WRIST_EYE = (0.06, 0.0, 0.03)
 WRIST_TARGET = (0.0, 0.0, 0.14)
+#: The wrist mount relative to any gripper's TCP (:func:`wrist_mount`): the eye this far to the side of the
+#: hand (along closing x approach, away from the fingers' sweep) and back from the TCP along the approach;
+#: the look-at point this far beyond the TCP. For the Panda hand they give WRIST_EYE / WRIST_TARGET.
+WRIST_SIDE = 0.06
+WRIST_BACK = 0.0734
+WRIST_AHEAD = 0.0366
 
 
-def wrist_pose() -> np.ndarray:
-    return _core.look_at(WRIST_EYE, WRIST_TARGET, (1.0, 0.0, 0.0))
+def wrist_mount(gripper=None) -> tuple[tuple, tuple, tuple]:
+    """(eye, target, up) of the wrist camera in ``gripper``'s hand-link frame (a :class:`ferrobot.Gripper`;
+    None: the Panda hand, :data:`WRIST_EYE` / :data:`WRIST_TARGET`): the eye :data:`WRIST_SIDE` to the side
+    of the hand along ``closing x approach`` and :data:`WRIST_BACK` behind the TCP, looking at the point
+    :data:`WRIST_AHEAD` beyond the TCP along the approach (between the fingertips), ``up`` the side axis."""
+    if gripper is None or gripper.hand_link == "panda_hand" and np.allclose(gripper.tcp, (0, 0, 0.1034), atol=1e-9):
+        return WRIST_EYE, WRIST_TARGET, (1.0, 0.0, 0.0)
+    a = np.asarray(gripper.approach, dtype=float)
+    a = a / np.linalg.norm(a)
+    side = np.cross(np.asarray(gripper.closing, dtype=float), a)
+    side = side / np.linalg.norm(side)
+    tcp = np.asarray(gripper.tcp, dtype=float)
+    eye = tcp - WRIST_BACK * a + WRIST_SIDE * side
+    target = tcp + WRIST_AHEAD * a
+    return tuple(eye.tolist()), tuple(target.tolist()), tuple(side.tolist())
+
+
+def wrist_pose(gripper=None) -> np.ndarray:
+    """The wrist camera's 4x4 pose (OpenCV axes) in ``gripper``'s hand-link frame (:func:`wrist_mount`)."""
+    eye, target, up = wrist_mount(gripper)
+    return _core.look_at(eye, target, up)
 
 
 #: Default cameras: name -> (width, height). ``scene`` is the scene's fixed perception camera.
 DEFAULT_CAMERAS = {"scene": (640, 480), "wrist": (320, 240)}
 
 
-def make_cameras(world, robot, scene_camera_pose, specs: list[CameraSpec], scene_fov_deg=None) -> dict:
+def make_cameras(world, robot, scene_camera_pose, specs: list[CameraSpec], scene_fov_deg=None, gripper=None) -> dict:
     """Creates the cameras of ``specs`` in ``world``: name -> :class:`ferrobot.Camera`. A spec named
     ``scene`` without a pose uses ``scene_camera_pose`` (the perception camera's pose) and, when given,
-    ``scene_fov_deg`` (its horizontal field of view); ``wrist`` without a link is on ``panda_hand`` at
-    :func:`wrist_pose`."""
+    ``scene_fov_deg`` (its horizontal field of view); ``wrist`` without a link is on ``gripper``'s hand link
+    (a :class:`ferrobot.Gripper`; None: ``panda_hand``) at :func:`wrist_pose`."""
     cams = {}
     for s in specs:
         if s.name == "scene" and scene_fov_deg is not None:
@@ -229,7 +256,7 @@ def make_cameras(world, robot, scene_camera_pose, specs: list[CameraSpec], scene
         f = s.focal
         cx, cy = (s.width - 1) / 2, (s.height - 1) / 2
         if s.link is None and s.name == "wrist":
-            s.link, s.pose = "panda_hand", wrist_pose()
+            s.link, s.pose = ("panda_hand" if gripper is None else gripper.hand_link), wrist_pose(gripper)
         if s.link is None:
             pose = scene_camera_pose if s.pose is None else s.pose
             cams[s.name] = _core.Camera(world, s.width, s.height, f, f, cx, cy, pose)
@@ -239,9 +266,13 @@ def make_cameras(world, robot, scene_camera_pose, specs: list[CameraSpec], scene
     return cams
 
 
-def gripper_opening(model, q: np.ndarray) -> float:
-    """Distance between the fingers (m): the finger DOFs (those outside the planning group) plus the mimic
-    joints driven by them (for the Panda, ``2 * panda_finger_joint1``)."""
+def gripper_opening(model, q: np.ndarray, gripper=None) -> float:
+    """Distance between the fingers (m). With ``gripper`` (a :class:`ferrobot.Gripper`): its joint-to-opening
+    map at the driver joint's position (linear for prismatic fingers, the linkage's map for a 2F-85). Without:
+    the finger DOFs (those outside the planning group) plus the mimic joints driven by them (for the Panda,
+    ``2 * panda_finger_joint1``)."""
+    if gripper is not None:
+        return float(gripper.opening(float(q[list(model.dof_names).index(gripper.driver)])))
     group = set(model.group_dof_indices)
     names = list(model.dof_names)
     fingers = {names[i]: float(q[i]) for i in range(len(names)) if i not in group}
@@ -252,17 +283,39 @@ def gripper_opening(model, q: np.ndarray) -> float:
     return total
 
 
-def observe(world, robot, cameras: dict, *, segmentation: bool = False, ee_link: str | None = None) -> dict:
+def tcp_pose(model, q: np.ndarray, gripper=None, ee_link: str | None = None) -> np.ndarray:
+    """[x, y, z, qw, qx, qy, qz] (base frame, w >= 0) of ``gripper``'s TCP at ``q``: its hand link's pose moved
+    by the TCP offset (hand frame). Without a gripper: the pose of ``ee_link`` (default the model's)."""
+    if gripper is None:
+        return model.fk_batch(np.asarray(q, dtype=np.float64)[None, :], ee_link)[0]
+    pose = model.fk_batch(np.asarray(q, dtype=np.float64)[None, :], gripper.hand_link)[0].copy()
+    w, x, y, z = pose[3:]
+    rot = np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+    pose[:3] += rot @ np.asarray(gripper.tcp, dtype=np.float64)
+    return pose
+
+
+def observe(
+    world, robot, cameras: dict, *, segmentation: bool = False, ee_link: str | None = None, gripper=None
+) -> dict:
     """The observation of the current state: the keys in this module's docstring, batch-free arrays.
-    ``cameras``: name -> :class:`ferrobot.Camera`; depth 0 where the renderer saw nothing (inf)."""
+    ``cameras``: name -> :class:`ferrobot.Camera`; depth 0 where the renderer saw nothing (inf). ``gripper``
+    (a :class:`ferrobot.Gripper`): ``observation.ee_pose`` is its TCP's pose and ``observation.gripper_opening``
+    its joint-to-opening map at the driver (without: the ``ee_link`` pose and the finger joints' sum)."""
     del world  # the robot and cameras carry their world; kept in the signature for the contract
     model = robot.model
     q = robot.joint_positions
     obs = {
         "observation.state": q.astype(np.float32),
         "observation.velocity": robot.joint_velocities.astype(np.float32),
-        "observation.ee_pose": model.fk_batch(q[None, :], ee_link)[0].astype(np.float32),
-        "observation.gripper_opening": np.array([gripper_opening(model, q)], dtype=np.float32),
+        "observation.ee_pose": tcp_pose(model, q, gripper, ee_link).astype(np.float32),
+        "observation.gripper_opening": np.array([gripper_opening(model, q, gripper)], dtype=np.float32),
     }
     for name, cam in cameras.items():
         frame = cam.render(rgb=True)
@@ -274,14 +327,15 @@ def observe(world, robot, cameras: dict, *, segmentation: bool = False, ee_link:
     return obs
 
 
-def action_features(robot, stepper: ControlStepper, action, ee_link: str | None = None) -> dict:
-    """``action`` (float32) and ``action.ee_pose`` (FK of the arm targets, base frame) for a step's action."""
+def action_features(robot, stepper: ControlStepper, action, ee_link: str | None = None, gripper=None) -> dict:
+    """``action`` (float32) and ``action.ee_pose`` (FK of the arm targets, base frame: ``gripper``'s TCP, or
+    ``ee_link`` without one) for a step's action."""
     a = np.asarray(action, dtype=np.float64)
     q = np.asarray(robot.joint_position_targets, dtype=np.float64).copy()
     q[stepper.arm] = a[: len(stepper.arm)]
     return {
         "action": a.astype(np.float32),
-        "action.ee_pose": robot.model.fk_batch(q[None, :], ee_link)[0].astype(np.float32),
+        "action.ee_pose": tcp_pose(robot.model, q, gripper, ee_link).astype(np.float32),
     }
 
 
@@ -289,7 +343,9 @@ def features(robot, stepper: ControlStepper | None, cameras: dict, *, segmentati
     """The dataset features: name -> {"dtype", "shape", "names"} (LeRobot's ``info.json`` style; images as
     dtype "video", depth "depth"). ``robot``: a Robot or RobotModel; ``stepper``: the ControlStepper (None:
     the model's planning group as the arm, with a gripper entry); ``cameras``: name -> Camera or
-    (width, height)."""
+    (width, height). Joint names are the model's ``dof_names`` (arm joints and the gripper's driver; mimic
+    followers are not degrees of freedom, their positions follow from the driver's); the ``action``'s last
+    entry is ``"gripper"`` (the command in [0, 1])."""
     dof = list(robot.dof_names)
     model = robot.model if hasattr(robot, "model") else robot
     arm_idx = stepper.arm if stepper is not None else list(model.group_dof_indices)

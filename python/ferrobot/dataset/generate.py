@@ -38,7 +38,13 @@ from ..errors import FerrobotError, InvalidArgumentError
 __all__ = ["GenerateConfig", "generate", "episode_seed", "run_episode", "FORMATS", "parse_cameras", "scene_from_dict"]
 
 FORMATS = ("lerobot", "hdf5")
-ROBOTS = ("panda",)
+#: Bundled robots by name (``--robot`` also takes a URDF path, with ``--srdf``).
+ROBOTS = ("panda", "ur5e")
+#: Shipped grippers by name (``--gripper``; default: the robot's own, ``ferrobot.Gripper.from_model``).
+GRIPPERS = ("panda_hand", "robotiq_2f85")
+#: Mesh objects per scene with ``--objects``: default and range (``--clutter``).
+DEFAULT_MESH_OBJECTS = 5
+MAX_MESH_OBJECTS = 15
 STATE_DIR = ".ferrobot"
 _KILL_ENV = "FERROBOT_GENERATE_FAULT"  # test hook: "worker:<episode>:<marker file>" or "finalize"
 
@@ -78,12 +84,35 @@ def scene_from_dict(d: dict):
     )
 
 
-def episode_spec(cfg: dict, seed: int):
-    """The scene of an episode seeded ``seed`` under the generation config ``cfg``, and its randomisation."""
-    from ..pipeline import random_scene
+_ROBOT_CACHE: dict = {}
 
-    spec = random_scene(seed, cfg["clutter"])
-    rand = randomize_scene(spec, seed) if cfg["randomize"] else {}
+
+def resolve_robot(cfg: dict):
+    """(model, gripper) of a generation config (``robot``, ``srdf``, ``gripper``), built once per process."""
+    from ..pipeline.pick_place import resolve_robot as _resolve
+
+    key = (cfg.get("robot", "panda"), cfg.get("srdf"), cfg.get("gripper"))
+    if key not in _ROBOT_CACHE:
+        _ROBOT_CACHE[key] = _resolve(key[0], key[1], key[2])
+    return _ROBOT_CACHE[key]
+
+
+def episode_spec(cfg: dict, seed: int):
+    """The scene of an episode seeded ``seed`` under the generation config ``cfg``, and its randomisation.
+    Procedural objects (:func:`~ferrobot.pipeline.random_scene`, ``clutter`` of them) or, with ``objects``
+    (a folder of mesh / URDF object files), a pile of ``clutter`` mesh objects
+    (:func:`~ferrobot.pipeline.clutter_scene`, default :data:`DEFAULT_MESH_OBJECTS`); the scene camera placed
+    for the robot's reach (:func:`~ferrobot.pipeline.scene.place_camera`)."""
+    from ..pipeline import random_scene
+    from ..pipeline.scene import clutter_scene, place_camera
+
+    if cfg.get("objects"):
+        spec = clutter_scene(seed, cfg["clutter"] or DEFAULT_MESH_OBJECTS, cfg["objects"])
+    else:
+        spec = random_scene(seed, cfg["clutter"])
+    model, gripper = resolve_robot(cfg)
+    place_camera(spec, model, gripper)
+    rand = randomize_scene(spec, seed, gripper) if cfg["randomize"] else {}
     return spec, rand
 
 
@@ -120,8 +149,14 @@ class GenerateConfig:
     episodes: int
     seed: int = 0
     format: str = "lerobot"
+    #: "panda", "ur5e" (bundled) or a URDF path (stored absolute); ``srdf`` beside a URDF path.
     robot: str = "panda"
     clutter: int | None = None
+    srdf: str | None = None
+    #: "panda_hand", "robotiq_2f85", or None (the robot's own gripper).
+    gripper: str | None = None
+    #: A folder of mesh / URDF objects (stored absolute): scenes are piles of ``clutter`` of them.
+    objects: str | None = None
     cameras: list = field(default_factory=lambda: parse_cameras("scene:640x480,wrist:320x240"))
     control_hz: int = 10
     randomize: bool = True
@@ -135,16 +170,34 @@ class GenerateConfig:
         if not (isinstance(self.seed, int) and 0 <= self.seed < 2**63):
             raise InvalidArgumentError(f"seed: expected an integer in [0, 2^63), got {self.seed!r}")
         if self.robot not in ROBOTS:
-            raise InvalidArgumentError(
-                f"robot: '{self.robot}' is not supported by dataset generation yet (supported: {', '.join(ROBOTS)})"
-            )
-        if self.clutter is not None and not 1 <= self.clutter <= 6:
+            if not (self.robot.endswith(".urdf") and os.path.isfile(self.robot)):
+                raise InvalidArgumentError(
+                    f"robot: expected one of {', '.join(ROBOTS)} or a URDF file path, got '{self.robot}'"
+                )
+            self.robot = os.path.abspath(self.robot)
+        elif self.srdf is not None:
+            raise InvalidArgumentError(f"srdf: only for a URDF path robot; '{self.robot}' is bundled with its own")
+        if self.srdf is not None:
+            if not os.path.isfile(self.srdf):
+                raise InvalidArgumentError(f"srdf: no such file '{self.srdf}'")
+            self.srdf = os.path.abspath(self.srdf)
+        if self.gripper is not None and self.gripper not in GRIPPERS:
+            raise InvalidArgumentError(f"gripper: expected one of {', '.join(GRIPPERS)}, got '{self.gripper}'")
+        if self.objects is not None:
+            if not os.path.isdir(self.objects):
+                raise InvalidArgumentError(f"objects: '{self.objects}' is not a folder of object files")
+            self.objects = os.path.abspath(self.objects)
+            if self.clutter is not None and not 1 <= self.clutter <= MAX_MESH_OBJECTS:
+                raise InvalidArgumentError(
+                    f"clutter: expected 1 to {MAX_MESH_OBJECTS} mesh objects in the pile, got {self.clutter}"
+                )
+        elif self.clutter is not None and not 1 <= self.clutter <= 6:
             raise InvalidArgumentError(f"clutter: expected 1 to 6 objects on the table, got {self.clutter}")
         if self.control_hz not in (1, 2, 3, 4, 5, 6, 8, 10, 12, 15, 16, 20, 24, 30, 40, 48, 60, 80, 120, 240):
             raise InvalidArgumentError(f"control_hz: must divide the 240 Hz physics rate, got {self.control_hz}")
 
     def to_dict(self) -> dict:
-        return {
+        out = {
             "episodes": self.episodes,
             "seed": self.seed,
             "format": self.format,
@@ -155,6 +208,11 @@ class GenerateConfig:
             "randomize": self.randomize,
             "segmentation": self.segmentation,
         }
+        # Only when set: configurations of datasets written before these options existed stay equal.
+        for key in ("srdf", "gripper", "objects"):
+            if getattr(self, key) is not None:
+                out[key] = getattr(self, key)
+        return out
 
 
 # -- domain randomisation -----------------------------------------------------------------------------------
@@ -175,13 +233,14 @@ def color_name(rgb) -> str:
     return min(COLOR_NAMES, key=lambda n: sum((a - b) ** 2 for a, b in zip(COLOR_NAMES[n], rgb, strict=True)))
 
 
-def randomize_scene(spec, seed: int) -> dict:
+def randomize_scene(spec, seed: int, gripper=None) -> dict:
     """Applies seeded domain randomisation to ``spec`` in place; returns what was drawn (for the episode's
     metadata). Object colours: one of the named colours with +-0.05 jitter per channel; mass x U(0.7, 1.3);
     friction U(0.7, 1.0); scene camera eye jitter U(-0.03, 0.03) m per axis, look-at point U(-0.02, 0.02) m.
     Rendering (applied by :func:`episode_cameras` / :func:`apply_lighting`, not part of the scene): the
     lighting (:func:`random_lighting`) and the wrist camera's mount pose (:func:`random_wrist_camera`), drawn
-    from a second stream of the same seed so that the scene draws above do not depend on them."""
+    from a second stream of the same seed so that the scene draws above do not depend on them. ``gripper``:
+    the :class:`ferrobot.Gripper` the wrist camera is mounted on (default the Panda hand)."""
     rng = np.random.default_rng([seed, 0xD0])
     names = list(COLOR_NAMES)
     objects = {}
@@ -200,7 +259,7 @@ def randomize_scene(spec, seed: int) -> dict:
         "camera_eye": list(spec.camera_eye),
         "camera_target": list(spec.camera_target),
         "lighting": random_lighting(render_rng),
-        "wrist_camera": random_wrist_camera(render_rng),
+        "wrist_camera": random_wrist_camera(render_rng, gripper),
     }
 
 
@@ -220,14 +279,20 @@ def random_lighting(rng) -> dict:
     return {"ambient": ambient, "headlight": headlight, "lights": [[direction, color, intensity]]}
 
 
-def random_wrist_camera(rng) -> dict:
-    """Wrist camera mount jitter (hand frame): the eye moved U(-5, 5) mm and the look-at point U(-10, 10) mm
-    per axis from :data:`ferrobot.control.WRIST_EYE` / ``WRIST_TARGET`` (a few degrees of rotation)."""
-    from ..control import WRIST_EYE, WRIST_TARGET
+def random_wrist_camera(rng, gripper=None) -> dict:
+    """Wrist camera mount jitter (hand frame of ``gripper``, default the Panda hand): the eye moved U(-5, 5) mm
+    and the look-at point U(-10, 10) mm per axis from :func:`ferrobot.control.wrist_mount` (a few degrees of
+    rotation); ``up`` is the mount's up vector (left out when it is the Panda mount's (1, 0, 0), as in the
+    records written before other grippers were supported)."""
+    from ..control import wrist_mount
 
-    eye = np.asarray(WRIST_EYE) + rng.uniform(-0.005, 0.005, 3)
-    target = np.asarray(WRIST_TARGET) + rng.uniform(-0.01, 0.01, 3)
-    return {"eye": eye.tolist(), "target": target.tolist()}
+    eye0, target0, up = wrist_mount(gripper)
+    eye = np.asarray(eye0) + rng.uniform(-0.005, 0.005, 3)
+    target = np.asarray(target0) + rng.uniform(-0.01, 0.01, 3)
+    out = {"eye": eye.tolist(), "target": target.tolist()}
+    if tuple(up) != (1.0, 0.0, 0.0):
+        out["up"] = list(up)
+    return out
 
 
 def apply_lighting(world, rand: dict) -> None:
@@ -241,9 +306,11 @@ def apply_lighting(world, rand: dict) -> None:
         )
 
 
-def episode_cameras(cfg: dict, rand: dict) -> list:
+def episode_cameras(cfg: dict, rand: dict, gripper=None) -> list:
     """The :class:`~ferrobot.control.CameraSpec` list of an episode: the configured cameras, the wrist camera
-    at the episode's jittered mount pose when randomised."""
+    on ``gripper``'s hand link (default the config's robot's gripper) at the episode's jittered mount pose
+    when randomised (else without a link: :func:`ferrobot.control.make_cameras` mounts it at
+    :func:`ferrobot.control.wrist_mount` of the gripper it is given)."""
     from .. import _core
     from ..control import CameraSpec
 
@@ -252,7 +319,11 @@ def episode_cameras(cfg: dict, rand: dict) -> list:
         s = CameraSpec(c["name"], c["width"], c["height"])
         w = rand.get("wrist_camera")
         if s.name == "wrist" and w is not None:
-            s.link, s.pose = "panda_hand", _core.look_at(w["eye"], w["target"], (1.0, 0.0, 0.0))
+            if gripper is None:
+                gripper = resolve_robot(cfg)[1]
+            s.link = gripper.hand_link
+            # Recorded before the mount had an up vector: the Panda mount's (1, 0, 0).
+            s.pose = _core.look_at(w["eye"], w["target"], tuple(w.get("up", (1.0, 0.0, 0.0))))
         specs.append(s)
     return specs
 
@@ -260,7 +331,8 @@ def episode_cameras(cfg: dict, rand: dict) -> list:
 def task_text(spec) -> str:
     o = spec.object(spec.target)
     x, y = spec.place_xy
-    return f"pick up the {color_name(o.color)} {o.kind} and place it at x={x:.2f} m, y={y:.2f} m"
+    what = "object" if o.kind == "mesh" else o.kind  # mesh objects: their names are indices ("obj_2")
+    return f"pick up the {color_name(o.color)} {what} and place it at x={x:.2f} m, y={y:.2f} m"
 
 
 # -- one episode (runs in a worker) -------------------------------------------------------------------------
@@ -301,15 +373,17 @@ def run_episode(cfg: dict, index: int, root: str) -> dict:
         meta = json.loads((published / "episode.json").read_text())
         return {"index": index, "success": meta["success"], "length": meta["length"], "cached": True}
     t0 = time.perf_counter()
-    if "pp" not in _PP:
-        _PP["pp"] = PickPlace(PickPlaceConfig())
-    pp = _PP["pp"]
+    key = (cfg.get("robot", "panda"), cfg.get("srdf"), cfg.get("gripper"))
+    if key not in _PP:
+        model, gripper = resolve_robot(cfg)
+        _PP[key] = PickPlace(PickPlaceConfig(), robot=model, gripper=gripper)
+    pp = _PP[key]
     fps = int(cfg["control_hz"])
     writer_cls = LeRobotEpisodeWriter if cfg["format"] == "lerobot" else Hdf5EpisodeWriter
     for attempt in range(MAX_ATTEMPTS):
         seed = episode_seed(cfg["seed"], index, attempt)
         spec, rand = episode_spec(cfg, seed)
-        specs = episode_cameras(cfg, rand)
+        specs = episode_cameras(cfg, rand, pp.gripper)
         writer = writer_cls(staging, name, fps)
         frames = [0]
         labels: dict = {}
@@ -323,7 +397,9 @@ def run_episode(cfg: dict, index: int, root: str) -> dict:
         def factory(world, robot, camera, arm_idx, spec=spec, sink=sink, specs=specs, rand=rand, labels=labels):
             apply_lighting(world, rand)
             labels.update({str(k): v for k, v in world.segmentation_labels.items()})
-            cameras = make_cameras(world, robot, camera.get_world_transform(), specs, scene_fov_deg=scene_fov(spec))
+            cameras = make_cameras(
+                world, robot, camera.get_world_transform(), specs, scene_fov_deg=scene_fov(spec), gripper=pp.gripper
+            )
             return ControlRecorder(
                 world,
                 robot,
@@ -333,6 +409,7 @@ def run_episode(cfg: dict, index: int, root: str) -> dict:
                 arm_joint_names=[robot.dof_names[i] for i in arm_idx],
                 grip_force=pp.config.grip_force,
                 segmentation=cfg["segmentation"],
+                gripper=pp.gripper,
             )
 
         try:
@@ -519,6 +596,9 @@ def generate(
     core); with Ray, the number of CPUs of a local Ray instance.
     """
     config.validate()
+    # The robot and its gripper load here, before anything is written: a URDF without a gripper the
+    # workflow can use, or a gripper that does not fit the robot, fails now with the library's error.
+    resolve_robot(config.to_dict())
     if workers is not None and not (isinstance(workers, int) and 1 <= workers <= 4096):
         raise InvalidArgumentError(f"workers: expected an integer in [1, 4096], got {workers!r}")
     if not (isinstance(max_retries, int) and 0 <= max_retries <= 100):
@@ -643,7 +723,7 @@ def finalize(out: Path, config: GenerateConfig) -> dict:
     features = _features(config)
     info = {
         "fps": config.control_hz,
-        "robot_type": config.robot,
+        "robot_type": robot_type(config.robot),
         "features": features,
         "ferrobot": config.to_dict(),
     }
@@ -667,10 +747,15 @@ def finalize(out: Path, config: GenerateConfig) -> dict:
     }
 
 
+def robot_type(robot: str) -> str:
+    """LeRobot's ``robot_type`` of a ``--robot`` value: the bundled name, or the URDF file's stem."""
+    return robot if robot in ROBOTS else Path(robot).stem
+
+
 def _features(config: GenerateConfig) -> dict:
     """The dataset features of ``config`` (:func:`ferrobot.control.features`, the shared contract)."""
-    from .. import robots
     from ..control import features
 
+    model, _ = resolve_robot(config.to_dict())
     cams = {c["name"]: (c["width"], c["height"]) for c in config.cameras}
-    return features(robots.panda(), None, cams, segmentation=config.segmentation)
+    return features(model, None, cams, segmentation=config.segmentation)

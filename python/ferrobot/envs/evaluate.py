@@ -167,9 +167,14 @@ def evaluate(
         kwargs["max_episode_steps"] = int(max_episode_steps)
     import ferrobot.envs  # noqa: F401  (registers the ids)
 
+    policies = _instances(policy, num_envs)
+    # A policy may say which environment it needs (a replay: the dataset's robot and gripper); given
+    # env_kwargs win.
+    hook = getattr(policies[0], "env_kwargs", None)
+    if callable(hook):
+        kwargs = {**hook(), **kwargs}
     envs = [gym.make(env_id, **kwargs) for _ in range(num_envs)]
     stepper = ThreadedVectorStepper(envs)
-    policies = _instances(policy, num_envs)
     out_dir = Path(out) if out is not None else None
     if out_dir is not None:
         out_dir.mkdir(parents=True, exist_ok=True)

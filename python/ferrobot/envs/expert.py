@@ -84,8 +84,8 @@ class ExpertPolicy:
         env = env.unwrapped
         if env.control_mode != "joint_pos":
             raise InvalidArgumentError(f"ExpertPolicy: needs control_mode 'joint_pos', got {env.control_mode!r}")
-        if self.pp is None or self.pp.model is not env.model:
-            self.pp = PickPlace(self.config, model=env.model)
+        if self.pp is None or self.pp.model is not env.model or self.pp.gripper is not env.gripper:
+            self.pp = PickPlace(self.config, robot=env.model, gripper=env.gripper)
         pp = self.pp
         (tx, ty), (sx, sy, _) = TABLE_XY, TABLE_SIZE
         arm_idx = [env.robot.dof_names.index(n) for n in pp.arm]
@@ -190,7 +190,7 @@ class ExpertPolicy:
         env, pp = self.env, self.pp
         q = env.robot.joint_positions
         hand = env.model.fk(q, link=env.ee_link)
-        tcp_in_hand = np.linalg.inv(hand) @ env.model.fk(q, link=env.tcp_link)
+        tcp_in_hand = env.ee_to_tcp
         goal_tcp = hand @ tcp_in_hand
         goal_tcp[:3, 3] = (
             transforms.world_to_base(np.eye(4), env.base_pose)[:3, :3] @ env.goal

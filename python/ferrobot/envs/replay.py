@@ -9,6 +9,12 @@ are stored as float32 while the recorder stepped float64 values; Rapier's drives
 ``tests/test_envs.py`` replays a pipeline recording to the recorded simulator state after every action bit
 for bit.
 
+The episode's domain randomisation is replayed too: the scene (object colours, masses, frictions, the scene
+camera's pose) is in the stored scene, and the rendering draws (the lighting, the wrist camera's mount pose) are
+passed as ``options["randomization"]``, so the replayed cameras see what was recorded (``tests/test_dataset.py``
+compares the replayed images with the recorded ones). :meth:`ReplayPolicy.env_kwargs` gives the dataset's robot
+and gripper, which ``ferrobot evaluate`` uses to make the environment.
+
 ``ferrobot evaluate --policy replay:DATASET_DIR`` replays the dataset's episodes in order (evaluation episode
 ``i`` plays dataset episode ``i``); ``replay:DATASET_DIR:K`` plays episode ``K`` every time.
 """
@@ -16,7 +22,7 @@ for bit.
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -35,6 +41,10 @@ class RecordedEpisode:
     actions: np.ndarray
     success: bool
     control_hz: float = 10.0
+    #: The episode's domain randomisation (lighting, wrist camera mount, ...): re-applied on replay.
+    randomization: dict = field(default_factory=dict)
+    #: The generation config's robot: {"robot", "srdf", "gripper"} (None values: defaults).
+    robot: dict = field(default_factory=dict)
 
 
 def _lerobot(root: Path) -> list[RecordedEpisode]:
@@ -60,22 +70,28 @@ def _lerobot(root: Path) -> list[RecordedEpisode]:
     )
     ep_col = data.column("episode_index").to_numpy()
     actions = np.asarray(data.column("action").to_pylist(), dtype=np.float32)
+    robot = _robot_of(cfg)
     out = []
     for row in sorted(eps, key=lambda r: r["episode_index"]):
         i = int(row["episode_index"])
         stored = json.loads(row.get("scene") or "{}")
+        recorded = json.loads(row.get("randomization") or "{}")
         if stored:  # datasets that store the scene (the episodes table's ``scene`` column)
-            out.append(RecordedEpisode(i, stored, actions[ep_col == i], bool(row["success"]), fps))
+            out.append(RecordedEpisode(i, stored, actions[ep_col == i], bool(row["success"]), fps, recorded, robot))
             continue
         spec, rand = episode_spec(cfg, int(row["seed"]))
-        recorded = json.loads(row.get("randomization") or "{}")
         if json.loads(json.dumps(rand)) != recorded:
             raise FileFormatError(
                 f"{root}: episode {i}: the scene rebuilt from seed {row['seed']} does not match the recorded "
                 "randomisation (dataset written by another ferrobot version?)"
             )
-        out.append(RecordedEpisode(i, spec.to_dict(), actions[ep_col == i], bool(row["success"]), fps))
+        out.append(RecordedEpisode(i, spec.to_dict(), actions[ep_col == i], bool(row["success"]), fps, rand, robot))
     return out
+
+
+def _robot_of(cfg: dict) -> dict:
+    """The robot part of a generation config (``ferrobot generate``'s --robot, --srdf, --gripper)."""
+    return {"robot": cfg.get("robot", "panda"), "srdf": cfg.get("srdf"), "gripper": cfg.get("gripper")}
 
 
 def _hdf5(path: Path) -> list[RecordedEpisode]:
@@ -89,6 +105,7 @@ def _hdf5(path: Path) -> list[RecordedEpisode]:
             raise FileFormatError(f"{path}: no 'data' group (not a robomimic-layout file)")
         data = f["data"]
         fps = float(data.attrs.get("fps", 10))
+        robot = _robot_of(json.loads(data.attrs.get("ferrobot", "{}")))
         names = sorted((n for n in data.keys() if n.startswith("demo_")), key=lambda n: int(n.split("_")[-1]))
         for n in names:
             g = data[n]
@@ -96,7 +113,10 @@ def _hdf5(path: Path) -> list[RecordedEpisode]:
                 raise FileFormatError(f"{path}: {n} has no 'model_file' (the scene) attribute")
             scene = json.loads(g.attrs["model_file"])
             success = bool(g.attrs.get("success", False))
-            out.append(RecordedEpisode(int(n.split("_")[-1]), scene, np.asarray(g["actions"]), success, fps))
+            rand = json.loads(g.attrs.get("randomization", "{}"))
+            out.append(
+                RecordedEpisode(int(n.split("_")[-1]), scene, np.asarray(g["actions"]), success, fps, rand, robot)
+            )
     return out
 
 
@@ -146,8 +166,20 @@ class ReplayPolicy:
         return self.episodes[i]
 
     def reset_options(self, episode: int) -> dict:
+        """The ``env.reset`` options of evaluation episode ``episode``: the recorded scene and randomisation."""
         self.current = self._episode(episode)
-        return {"scene": self.current.scene}
+        return {"scene": self.current.scene, "randomization": self.current.randomization}
+
+    def env_kwargs(self) -> dict:
+        """``gym.make`` keyword arguments for the recorded robot and gripper (empty: the defaults)."""
+        r = self.episodes[0].robot
+        out = {}
+        if r.get("robot") not in (None, "panda"):
+            out["robot"] = r["robot"]
+        for k in ("srdf", "gripper"):
+            if r.get(k) is not None:
+                out[k] = r[k]
+        return out
 
     def reset(self, env=None, **_) -> None:
         if self.current is None:
@@ -160,6 +192,12 @@ class ReplayPolicy:
                 raise InvalidArgumentError(
                     f"replay: the dataset was recorded at {self.current.control_hz} Hz, the environment runs at "
                     f"{u.control_hz} Hz"
+                )
+            n = u.action_space.shape[0]
+            if len(self.current.actions) and self.current.actions.shape[1] != n:
+                raise InvalidArgumentError(
+                    f"replay: the dataset's actions have {self.current.actions.shape[1]} entries, the environment's "
+                    f"{n} (another robot? make it with {self.env_kwargs() or 'the default robot'})"
                 )
         self.t = 0
         self._hold = None if env is None else env.unwrapped.stepper.hold_action().astype(np.float32)

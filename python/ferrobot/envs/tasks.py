@@ -10,8 +10,9 @@ replay exactly.
   task's ``observation.environment_state``), ``"rgb"`` (+ ``observation.images.<camera>``) or ``"rgbd"``
   (+ ``observation.depth.<camera>``). ``segmentation=True`` adds ``observation.segmentation.<camera>``.
 - ``control_mode``: ``"joint_pos"`` (arm joint position targets + gripper), ``"ee_delta"`` (end-effector
-  translation (m) and rotation vector (rad) in the robot base frame, applied to the measured hand pose,
-  + gripper) or ``"ee_abs"`` (end-effector pose [x, y, z, qw, qx, qy, qz] in the base frame + gripper).
+  translation (m) and rotation vector (rad) in the robot base frame, applied to the measured TCP pose,
+  + gripper) or ``"ee_abs"`` (end-effector pose [x, y, z, qw, qx, qy, qz] in the base frame + gripper). The
+  end effector is the gripper's TCP, as in ``observation.ee_pose``.
   The gripper command is in [0, 1] (0 open, 1 closed). Actions outside the declared bounds, of the wrong
   shape or not finite raise (``ShapeError``, ``NonFiniteError``, ``InvalidArgumentError``); nothing is
   clipped. In ``ee_abs`` the quaternion is normalised (any norm above 1e-6; each component in [-1, 1]).
@@ -19,13 +20,17 @@ replay exactly.
   IK finds no solution the previous joint targets are held and ``info["ik_failed"]`` is True.
 - ``reward_type``: ``"sparse"`` (1 on success, else 0) or ``"dense"`` (shaped, in [0, 1], 1 on success).
 - ``control_hz`` (default 10, in (0, 240]): control rate over the 240 Hz physics.
-- ``robot``: ``"panda"`` (bundled) or a :class:`ferrobot.RobotModel` the pick-and-place scenes support
-  (a Panda-like arm: 7 arm joints, a finger joint, ``HOME`` as its start).
+- ``robot``: ``"panda"``, ``"ur5e"`` (bundled), a URDF path (``srdf`` beside it) or a
+  :class:`ferrobot.RobotModel`: any arm with a parallel-jaw gripper. ``gripper``: a :class:`ferrobot.Gripper`,
+  ``"panda_hand"`` / ``"robotiq_2f85"``, or None (the model's own, ``ferrobot.Gripper.from_model``). The arm
+  starts at :func:`ferrobot.pipeline.scene.home_for` (the Panda's ``HOME``; else the SRDF's first named
+  state), gripper open; the scene camera is placed for the robot's reach
+  (:func:`~ferrobot.pipeline.scene.place_camera`).
 - ``num_objects`` (1-6, default: 3-5 drawn per scene), ``scene_fn`` (a callable ``seed -> SceneSpec`` that
   replaces :func:`ferrobot.pipeline.random_scene`), ``randomize`` (False: every reset uses
   ``scene_seed``), ``init_noise`` (rad, >= 0: uniform noise on the arm's start configuration).
 - ``cameras``: the recorded datasets' cameras by name (``"scene"``: the scene's perception camera, 640 x 480;
-  ``"wrist"``: on the Panda hand, 320 x 240; see :mod:`ferrobot.control`), ``"side"`` (a fixed side view,
+  ``"wrist"``: on the gripper's hand link, 320 x 240; see :mod:`ferrobot.control`), ``"side"`` (a fixed side view,
   320 x 240), ``"name:WxH"`` strings, or :class:`ferrobot.control.CameraSpec` objects; default
   ``["scene", "wrist"]`` (the datasets' default) in the image modes, none in ``"state"``. ``image_size``
   (width, height) replaces the size of every named camera (default: their own sizes).
@@ -33,8 +38,10 @@ replay exactly.
 
 ``reset(seed=s)`` builds the scene ``random_scene(s)`` (the same scene as ``ferrobot demo --seed s``); without a
 seed, the next scene seed is drawn from the environment's generator. ``reset(options={"scene": spec})`` uses a
-given :class:`SceneSpec` (or its dict). ``info`` has ``is_success``, ``failure_cause`` (what is wrong if the
-episode ended now, "" on success), ``scene_seed`` and ``ik_failed``.
+given :class:`SceneSpec` (or its dict), as is; ``options["randomization"]`` (a recorded episode's domain
+randomisation, :func:`ferrobot.dataset.generate.randomize_scene`) applies its rendering draws too: the lighting
+(``World.set_lighting``) and the wrist camera's mount pose. ``info`` has ``is_success``, ``failure_cause`` (what
+is wrong if the episode ended now, "" on success), ``scene_seed`` and ``ik_failed``.
 """
 
 from __future__ import annotations
@@ -48,10 +55,19 @@ import numpy as np
 from gymnasium import spaces
 
 from .. import _core, robots, transforms
-from ..control import DEFAULT_CAMERAS, CameraSpec, ControlStepper, make_cameras, observe
-from ..dataset.generate import scene_fov, scene_from_dict
+from ..control import DEFAULT_CAMERAS, CameraSpec, ControlStepper, make_cameras, observe, tcp_pose
+from ..dataset.generate import apply_lighting, scene_fov, scene_from_dict
 from ..errors import FerrobotError, InvalidArgumentError, NonFiniteError, ShapeError
-from ..pipeline.scene import HOME, TABLE_TOP, SceneSpec, build_world, random_scene
+from ..pipeline.scene import (
+    BASE_POSE,
+    TABLE_TOP,
+    SceneSpec,
+    build_world,
+    clear_of_reach,
+    home_for,
+    place_camera,
+    random_scene,
+)
 
 __all__ = ["OBS_MODES", "ACTION_MODES", "FerrobotEnv", "PickPlaceEnv", "LiftEnv", "ReachEnv", "EXTRA_CAMERAS"]
 
@@ -100,15 +116,15 @@ def _after_fork_in_child() -> None:
 if hasattr(os, "register_at_fork"):
     os.register_at_fork(after_in_child=_after_fork_in_child)
 
-_PANDA: list = []
+_BUNDLED: dict[str, Any] = {}
 _PLANNERS: dict[int, tuple[Any, Any]] = {}
 
 
-def _bundled_panda():
-    """One bundled Panda model per process: planners built for it share their sphere model."""
-    if not _PANDA:
-        _PANDA.append(robots.panda())
-    return _PANDA[0]
+def _bundled(name: str):
+    """One model per bundled robot per process: planners built for it share their sphere model."""
+    if name not in _BUNDLED:
+        _BUNDLED[name] = robots.bundled(name)
+    return _BUNDLED[name]
 
 
 def _planner(model):
@@ -143,6 +159,8 @@ class FerrobotEnv(gym.Env):
         reward_type: str = "sparse",
         control_hz: float = 10.0,
         robot: Any = "panda",
+        gripper: Any = None,
+        srdf: str | None = None,
         num_objects: int | None = None,
         scene_fn=None,
         randomize: bool = True,
@@ -192,20 +210,29 @@ class FerrobotEnv(gym.Env):
         self.terminate_on_success = bool(terminate_on_success)
         self.render_mode = render_mode
 
-        if isinstance(robot, str):
-            if robot != "panda":
-                raise InvalidArgumentError(f"robot: expected 'panda' or a ferrobot.RobotModel, got {robot!r}")
-            self.model = _bundled_panda()
-        elif isinstance(robot, _core.RobotModel):
-            self.model = robot
-        else:
-            raise InvalidArgumentError(f"robot: expected 'panda' or a ferrobot.RobotModel, got {type(robot).__name__}")
+        from ..pipeline.pick_place import resolve_robot
+
+        what = "'panda', 'ur5e', a URDF path or a ferrobot.RobotModel"
+        if isinstance(robot, str) and robot in ("panda", "ur5e"):
+            robot = _bundled(robot)
+        elif isinstance(robot, str):
+            if not (robot.endswith(".urdf") and os.path.isfile(robot)):
+                raise InvalidArgumentError(f"robot: expected {what}, got {robot!r}")
+        elif not isinstance(robot, _core.RobotModel):
+            raise InvalidArgumentError(f"robot: expected {what}, got {type(robot).__name__}")
+        self.model, self.gripper = resolve_robot(robot, srdf, gripper)
         self.planner = _planner(self.model)
         self.arm_names = list(self.planner.joint_names)
         dof = list(self.model.dof_names)
         self.arm_idx = [dof.index(n) for n in self.arm_names]
         self.ee_link = self.model.ee_link
-        self.tcp_link = "panda_hand_tcp" if "panda_hand_tcp" in self.model.link_names else self.ee_link
+        self.home = home_for(self.model, self.gripper)
+        # The end-effector frame of observations and ee actions is the gripper's TCP; IK moves the model's
+        # end-effector link, rigidly joined to the hand: tcp = ee @ ee_to_tcp.
+        q0 = self.model.neutral_configuration()
+        tcp0 = transforms.pose_to_matrix(tcp_pose(self.model, q0, self.gripper))
+        self.ee_to_tcp = np.linalg.inv(self.model.fk(q0, link=self.ee_link)) @ tcp0
+        self._robot_name = "panda" if self.gripper.hand_link == "panda_hand" else "robot"
         self.camera_specs = self._camera_specs(cameras, image_size)
 
         self.action_space = self._make_action_space()
@@ -231,7 +258,7 @@ class FerrobotEnv(gym.Env):
                     spec = CameraSpec(name, w, h)
                 elif name in EXTRA_CAMERAS:
                     eye, target, (w, h) = EXTRA_CAMERAS[name]
-                    spec = CameraSpec(name, w, h, pose=_core.look_at(eye, target))
+                    spec = CameraSpec(name, w, h, pose=_core.look_at(self._clear(eye, target), target))
                 else:
                     raise InvalidArgumentError(
                         f"cameras: unknown camera {name!r}; known: {[*DEFAULT_CAMERAS, *EXTRA_CAMERAS]} "
@@ -255,6 +282,12 @@ class FerrobotEnv(gym.Env):
         if self.obs_mode != "state" and not specs:
             raise InvalidArgumentError(f"cameras: obs_mode {self.obs_mode!r} needs at least one camera")
         return specs
+
+    def _clear(self, eye, target, base=None) -> tuple:
+        """A fixed view's eye, moved back along its ray when the robot could reach it
+        (:func:`~ferrobot.pipeline.scene.clear_of_reach`; unchanged for the bundled robots)."""
+        base = BASE_POSE[:3] if base is None else base
+        return clear_of_reach(eye, target, base, self.model, self.gripper) or tuple(eye)
 
     def _make_action_space(self) -> spaces.Box:
         g = ([0.0], [1.0])
@@ -314,12 +347,18 @@ class FerrobotEnv(gym.Env):
 
     def _build_cameras(self) -> dict[str, Any]:
         specs = [CameraSpec(c.name, c.width, c.height, c.fov_deg, c.link, c.pose) for c in self.camera_specs]
+        wrist = self.randomization.get("wrist_camera")
+        for c in specs:
+            if c.name == "wrist" and c.link is None and wrist is not None:  # the recorded mount pose
+                c.link = self.gripper.hand_link
+                c.pose = _core.look_at(wrist["eye"], wrist["target"], tuple(wrist.get("up", (1.0, 0.0, 0.0))))
         return make_cameras(
             self.world,
             self.robot,
             self.scene_camera.get_world_transform(),
             specs,
             scene_fov_deg=scene_fov(self.spec_scene),
+            gripper=self.gripper,
         )
 
     # -- gymnasium API ----------------------------------------------------------------------------------------
@@ -327,6 +366,9 @@ class FerrobotEnv(gym.Env):
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
         options = options or {}
+        rand = options.get("randomization") or {}
+        if not isinstance(rand, dict):
+            raise InvalidArgumentError(f"options['randomization']: expected a dict, got {type(rand).__name__}")
         if "scene" in options:
             spec = self._scene_from(options["scene"])
         else:
@@ -336,14 +378,18 @@ class FerrobotEnv(gym.Env):
                 scene_seed = int(seed)
             else:
                 scene_seed = int(self.np_random.integers(0, 2**31 - 1))
-            spec = self._scene(scene_seed)
+            spec = place_camera(self._scene(scene_seed), self.model, self.gripper)
         self.spec_scene = spec
-        self.world, self.robot, self.scene_camera = build_world(spec, self.model)
+        # As the pick-and-place pipeline builds it (PickPlace.run): recorded episodes replay bit for bit.
+        self.world, self.robot, self.scene_camera = build_world(spec, self.model, q=self.home, name=self._robot_name)
+        self.robot.use_gripper(self.gripper)
+        apply_lighting(self.world, rand)
+        self.randomization = rand
         self.base_pose = self.robot.world_transform
         self.to_base = transforms.world_to_base(np.eye(4), self.base_pose)
         if self.init_noise > 0.0:
             rng = np.random.default_rng([spec.seed, 7])
-            q = HOME.copy()
+            q = self.home.copy()
             q[self.arm_idx] += rng.uniform(-self.init_noise, self.init_noise, len(self.arm_idx))
             lo, hi = self.model.lower_limits, self.model.upper_limits
             q = np.clip(q, lo, hi)  # documented: the noisy start stays inside the joint limits
@@ -395,9 +441,8 @@ class FerrobotEnv(gym.Env):
             return None
         if self._render_camera is None:
             eye, target, (w, h) = RENDER_VIEW
-            self._render_camera = _core.Camera(
-                self.world, w, h, 0.82 * w, 0.82 * w, (w - 1) / 2, (h - 1) / 2, _core.look_at(eye, target)
-            )
+            pose = _core.look_at(self._clear(eye, target, self.base_pose[:3, 3]), target)
+            self._render_camera = _core.Camera(self.world, w, h, 0.82 * w, 0.82 * w, (w - 1) / 2, (h - 1) / 2, pose)
         return self._render_camera.render(rgb=True)["rgb"]
 
     # -- actions ----------------------------------------------------------------------------------------------
@@ -433,12 +478,13 @@ class FerrobotEnv(gym.Env):
             return a, False
         q = self.robot.joint_positions
         if self.control_mode == "ee_delta":
-            cur = self.model.fk(q, link=self.ee_link)
+            cur = self.model.fk(q, link=self.ee_link) @ self.ee_to_tcp
             goal = np.eye(4)
             goal[:3, :3] = _rotvec_to_matrix(a[3:6]) @ cur[:3, :3]
             goal[:3, 3] = cur[:3, 3] + a[:3]
         else:
             goal = transforms.pose_to_matrix(np.concatenate([a[:3], a[3:7] / np.linalg.norm(a[3:7])]))
+        goal = goal @ np.linalg.inv(self.ee_to_tcp)  # TCP goal -> the planner's end-effector link
         seed = q[self.arm_idx]
         lo, hi = self.model.lower_limits[self.arm_idx], self.model.upper_limits[self.arm_idx]
         res = self.planner.ik(goal, np.clip(seed, lo, hi), num_seeds=8, seed=0)
@@ -450,7 +496,7 @@ class FerrobotEnv(gym.Env):
     # -- observations -----------------------------------------------------------------------------------------
 
     def _observe(self) -> dict[str, np.ndarray]:
-        obs = observe(self.world, self.robot, self.cameras, segmentation=self.segmentation)
+        obs = observe(self.world, self.robot, self.cameras, segmentation=self.segmentation, gripper=self.gripper)
         if self.obs_mode != "rgbd":
             obs = {k: v for k, v in obs.items() if not k.startswith("observation.depth.")}
         if self.task_state_dim:
@@ -475,7 +521,9 @@ class FerrobotEnv(gym.Env):
     # -- task helpers -----------------------------------------------------------------------------------------
 
     def _tcp(self) -> np.ndarray:
-        return self.robot.get_link_pose(self.tcp_link)[:3, 3]
+        """The gripper's TCP in the world."""
+        hand = self.robot.get_link_pose(self.gripper.hand_link)
+        return (hand @ np.append(self.gripper.tcp, 1.0))[:3]
 
     def _object_pos(self, name: str) -> np.ndarray:
         return self.world.get_object_pose(name)[:3, 3]
@@ -502,7 +550,11 @@ class _ObjectTask(FerrobotEnv):
     def _task_reset(self) -> None:
         self.target = self.spec_scene.target
         self.target_spec = self.spec_scene.object(self.target)
-        self.rest_z = TABLE_TOP + self.target_spec.height / 2
+        if self.target_spec.kind == "mesh":
+            # A mesh object rests in a pile on some face: its resting height is where it settled.
+            self.rest_z = float(self._object_pos(self.target)[2])
+        else:
+            self.rest_z = TABLE_TOP + self.target_spec.height / 2
         self.max_rise = 0.0
 
     def _rise(self) -> float:
@@ -515,7 +567,8 @@ class PickPlaceEnv(_ObjectTask):
     """Pick the scene's target object and put it down on the place location.
 
     Success: the target's centre within 3 cm of the place location in x, y; resting upright (centre within
-    1 cm of its resting height, spheres excepted; speed under 5 cm/s); the gripper open (the last command at most 0.5).
+    1 cm of its resting height, spheres and mesh objects excepted; speed under 5 cm/s); the gripper open (the
+    last command at most 0.5).
     ``observation.environment_state`` (10,): the target's pose [x, y, z, qw, qx, qy, qz] and the place
     location [x, y, z] (on the table top), both in the robot base frame."""
 
@@ -532,7 +585,8 @@ class PickPlaceEnv(_ObjectTask):
         rise = self._rise()
         err = float(np.hypot(p[0] - self.spec_scene.place_xy[0], p[1] - self.spec_scene.place_xy[1]))
         speed = float(np.linalg.norm(self.world.get_object_velocity(self.target)[0]))
-        upright = abs(rise) <= 0.01 or self.target_spec.kind == "sphere"
+        # Spheres and mesh objects (placed on whatever face they land on) have no upright pose to check.
+        upright = abs(rise) <= 0.01 or self.target_spec.kind in ("sphere", "mesh")
         if err > self.place_tolerance:
             cause = "not_lifted" if self.max_rise < 0.02 else "not_at_place"
         elif not upright or speed > 0.05:

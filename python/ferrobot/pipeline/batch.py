@@ -15,7 +15,7 @@ from pathlib import Path
 
 from ..errors import InvalidArgumentError
 from .pick_place import STAGES, PickPlace, PickPlaceConfig
-from .scene import random_scene
+from .scene import place_camera, random_scene
 
 __all__ = ["run_batch", "Progress", "summarize"]
 
@@ -89,7 +89,7 @@ def _worker_run(job: tuple[int, int, int | None]) -> dict:
 
 
 def _episode(pp: PickPlace, i: int, seed: int, num_objects: int | None) -> dict:
-    spec = random_scene(seed, num_objects)
+    spec = place_camera(random_scene(seed, num_objects), pp.model, pp.gripper)
     rec = pp.run(spec).to_dict()
     rec["episode"] = i
     rec["objects"] = [o.kind for o in spec.objects]

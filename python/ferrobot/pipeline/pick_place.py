@@ -30,7 +30,17 @@ import numpy as np
 from .. import _core, grasp, robots, transforms
 from .. import camera as camera_model
 from ..errors import InvalidArgumentError
-from .scene import HOME, ROBOT_MOUNT, TABLE_SIZE, TABLE_TOP, TABLE_XY, SceneSpec, build_world, home_for
+from .scene import (
+    HOME,
+    ROBOT_MOUNT,
+    TABLE_SIZE,
+    TABLE_TOP,
+    TABLE_XY,
+    SceneSpec,
+    build_world,
+    clear_of_reach,
+    home_for,
+)
 
 __all__ = ["PickPlace", "PickPlaceConfig", "Episode", "EpisodeResult", "StageResult", "StageFailure", "STAGES"]
 
@@ -152,6 +162,8 @@ class Episode:
     #: The robot model and the planner's sphere model (for viewers).
     model: Any = None
     spheres: Any = None
+    #: The :class:`ferrobot.Gripper` (its finger geometry draws the grasps).
+    gripper: Any = None
     #: The simulated world, its robot and the perception camera (``scene``).
     world: Any = None
     robot: Any = None
@@ -712,7 +724,9 @@ class PickPlace:
         step (dataset generation). Never raises for a failed stage: see the result."""
         # A new record per episode: nothing of the previous episode can leak into this one's report.
         result = EpisodeResult(seed=spec.seed, target=spec.target)
-        self.episode = Episode(spec=spec, result=result, model=self.model, spheres=self.planner.sphere_model)
+        self.episode = Episode(
+            spec=spec, result=result, model=self.model, spheres=self.planner.sphere_model, gripper=self.gripper
+        )
         result.episode = self.episode
         t0 = time.perf_counter()
         try:
@@ -740,7 +754,10 @@ class PickPlace:
                     self.planner.detach(name)
                 cam = None
                 if record_frames:
-                    view = _core.look_at([1.05, -0.85, 1.05], [0.42, 0.0, TABLE_TOP + 0.08])
+                    eye, at = (1.05, -0.85, 1.05), (0.42, 0.0, TABLE_TOP + 0.08)  # a side view, kept clear of
+                    base = self.episode.base[:3, 3]  # the arm's reach (robots longer than the bundled ones)
+                    eye = clear_of_reach(eye, at, base, self.model, self.gripper) or eye
+                    view = _core.look_at(eye, at)
                     cam = _core.Camera(self.episode.world, 400, 300, 330.0, 330.0, 199.5, 149.5, view)
                 if recorder is not None:
                     self.episode.recorder = recorder(

@@ -45,7 +45,9 @@ class ControlRecorder:
 
     ``sink(frame: dict)`` receives the observation keys of :func:`ferrobot.control.observe`, ``action``,
     ``action.ee_pose``, plus ``stage`` (str) and ``state`` (float64, :func:`sim_state` after the action).
-    ``cameras``: name -> :class:`ferrobot.Camera` (made for the episode's world).
+    ``cameras``: name -> :class:`ferrobot.Camera` (made for the episode's world). ``gripper``: the
+    :class:`ferrobot.Gripper` whose TCP pose and opening are recorded (None: the model's end-effector link and
+    finger joints, :func:`ferrobot.control.observe`).
     """
 
     def __init__(
@@ -61,6 +63,7 @@ class ControlRecorder:
         grip_force: float = 40.0,
         segmentation: bool = False,
         max_steps: int = 100_000,
+        gripper=None,
     ):
         self.world, self.robot, self.cameras, self.sink = world, robot, cameras, sink
         self.stepper = ControlStepper(
@@ -72,6 +75,7 @@ class ControlRecorder:
             **({} if arm_joint_indices is None else {"arm_joint_indices": arm_joint_indices}),
         )
         self.segmentation = segmentation
+        self.gripper = gripper
         self.sample_dt = self.stepper.period
         self.gripper_cmd = 0.0
         self.steps = 0
@@ -115,8 +119,8 @@ class ControlRecorder:
         # Datasets store actions as float32: the simulator gets exactly the stored values, so replaying a
         # dataset's actions reproduces its states bit for bit.
         action = np.asarray(action, dtype=np.float32).astype(np.float64)
-        frame = observe(self.world, self.robot, self.cameras, segmentation=self.segmentation)
-        frame.update(action_features(self.robot, self.stepper, action))
+        frame = observe(self.world, self.robot, self.cameras, segmentation=self.segmentation, gripper=self.gripper)
+        frame.update(action_features(self.robot, self.stepper, action, gripper=self.gripper))
         self.stepper.step(action)
         frame["stage"] = stage
         frame["state"] = sim_state(self.world, self.robot)

@@ -12,7 +12,7 @@ import numpy as np
 
 from .images import draw_segments, project, write_flipbook, write_png
 from .pick_place import Episode, EpisodeResult, PickPlace
-from .viewer import viewer_data, write_viewer
+from .viewer import gripper_lines, viewer_data, write_viewer
 
 __all__ = ["format_report", "write_episode", "grasp_image"]
 
@@ -50,7 +50,7 @@ def grasp_image(episode: Episode | PickPlace, top: int = 8) -> np.ndarray | None
     img = ep.frame["rgb"].copy()
     cam, k = ep.camera.get_world_transform(), ep.camera.intrinsic_matrix
     gw = ep.grasps_world
-    lines = gw.gripper_lines()
+    lines = gripper_lines(gw, getattr(ep, "gripper", None))
     chosen = ep.choice
     for i in range(min(top, len(gw))):
         if i == chosen:
@@ -93,11 +93,14 @@ def write_episode(out: Path, result: EpisodeResult, *deprecated) -> dict[str, Pa
     out.mkdir(parents=True, exist_ok=True)
     paths = {}
     report = {"result": result.to_dict(), "scene": ep.spec.to_dict()}
+    if ep.gripper is not None:  # what `ferrobot view` needs to draw this robot's grasp
+        report["gripper"] = {"name": ep.gripper.name, **ep.gripper.detection_options()}
     if ep.choice is not None:
         g = ep.grasps_world[ep.choice]
         report["grasp"] = {
             "score": g.score,
             "width": g.width,
+            "height": g.height,
             "depth": g.depth,
             "translation_world": g.translation.tolist(),
             "rotation_world": g.rotation_matrix.tolist(),

@@ -19,7 +19,18 @@ from .. import _core, robots
 from ..errors import InvalidArgumentError
 from .clutter import BinSpec, add_bin, random_clutter, settle
 
-__all__ = ["ObjectSpec", "SceneSpec", "random_scene", "clutter_scene", "build_world", "home_for", "TABLE_TOP", "HOME"]
+__all__ = [
+    "ObjectSpec",
+    "SceneSpec",
+    "random_scene",
+    "clutter_scene",
+    "build_world",
+    "home_for",
+    "robot_reach",
+    "place_camera",
+    "TABLE_TOP",
+    "HOME",
+]
 
 #: Height (m) of the table's top face.
 TABLE_TOP = 0.40
@@ -177,6 +188,74 @@ def home_for(model, gripper=None) -> np.ndarray:
     if gripper is not None:
         q[names.index(gripper.driver)] = gripper.open_position
     return q
+
+
+#: Smallest clearance (m) between the scene camera and the sphere the robot's TCP can reach (:func:`place_camera`).
+CAMERA_CLEARANCE = 0.05
+_REACH: dict = {}
+
+
+def robot_reach(model, gripper=None, samples: int = 4096) -> float:
+    """The robot's reach (m): the largest distance from its base frame's origin to its TCP (``gripper``'s, or
+    the end-effector link's origin without one) over ``samples`` configurations drawn uniformly within the
+    joint limits (unbounded joints: +-pi) from a fixed seed. Cached per model and gripper."""
+    key = (id(model), None if gripper is None else (gripper.hand_link, tuple(np.round(gripper.tcp, 9))), samples)
+    hit = _REACH.get(key)
+    if hit is not None and hit[0] is model:
+        return hit[1]
+    lo = np.where(np.isfinite(model.lower_limits), model.lower_limits, -math.pi)
+    hi = np.where(np.isfinite(model.upper_limits), model.upper_limits, math.pi)
+    q = np.random.default_rng(0).uniform(lo, hi, (samples, len(lo)))
+    if gripper is None:
+        p = model.fk_batch(q)[:, :3]
+    else:
+        poses = model.fk_batch(q, gripper.hand_link)
+        w, x, y, z = poses[:, 3], poses[:, 4], poses[:, 5], poses[:, 6]
+        rot = np.stack(
+            [
+                np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
+                np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
+                np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1),
+            ],
+            1,
+        )
+        p = poses[:, :3] + rot @ np.asarray(gripper.tcp, dtype=np.float64)
+    reach = float(np.linalg.norm(p, axis=1).max())
+    _REACH[key] = (model, reach)
+    return reach
+
+
+def place_camera(spec: SceneSpec, model, gripper=None, clearance: float = CAMERA_CLEARANCE) -> SceneSpec:
+    """Places ``spec``'s scene camera for ``model`` (in place; returns ``spec``): it keeps looking at the
+    workspace (``camera_target``) along the same ray, and is moved back along that ray until it lies at least
+    ``clearance`` beyond the robot's reach (:func:`robot_reach`) from the robot's base (``spec.base_pose``),
+    so the arm can neither hit nor fill the view. The default eye (1.15, 0, 1.15) clears arms of up to 1.32 m
+    reach from their base origin (the bundled Panda with its hand: 1.27 m, UR5e + 2F-85: 1.22 m) and is kept
+    for them; a longer arm gets the eye moved back."""
+    eye = clear_of_reach(spec.camera_eye, spec.camera_target, spec.base_pose[:3], model, gripper, clearance)
+    if eye is not None:
+        spec.camera_eye = eye
+    return spec
+
+
+def clear_of_reach(eye, target, base, model, gripper=None, clearance: float = CAMERA_CLEARANCE):
+    """The camera eye looking at ``target`` moved back along its ray until it is ``clearance`` beyond the
+    reach (:func:`robot_reach`) of ``model`` standing at ``base`` (world x, y, z); None when ``eye`` already
+    is (so a camera the arm cannot reach is left exactly where it is)."""
+    if not (math.isfinite(clearance) and clearance >= 0):
+        raise InvalidArgumentError(f"clearance: expected a finite distance >= 0 (m), got {clearance}")
+    need = robot_reach(model, gripper) + clearance
+    base = np.asarray(base, dtype=float)
+    eye, target = np.asarray(eye, dtype=float), np.asarray(target, dtype=float)
+    if np.linalg.norm(eye - base) >= need:
+        return None
+    ray = eye - target
+    ray /= np.linalg.norm(ray)
+    # |target + d ray - base| = need: the larger root of d^2 + 2 d ray.(target - base) + |target - base|^2 - need^2.
+    b = float(ray @ (target - base))
+    c = float((target - base) @ (target - base)) - need * need
+    d = -b + math.sqrt(max(b * b - c, 0.0))
+    return tuple((target + d * ray).tolist())
 
 
 def build_world(spec: SceneSpec, model=None, q=None, name: str = "panda"):

@@ -294,7 +294,7 @@ def viewer_data(episode) -> dict:
             objects.append({"name": name, "kind": "box", "size": size, "color": (0.45, 0.47, 0.52), "base": True})
     grasp = None
     if ep.choice is not None:
-        grasp = ep.grasps_world[ep.choice : ep.choice + 1].gripper_lines()[0]
+        grasp = gripper_lines(ep.grasps_world[ep.choice : ep.choice + 1], getattr(ep, "gripper", None))[0]
     cameras = []
     if ep.camera is not None:
         k = ep.camera.intrinsic_matrix
@@ -322,6 +322,16 @@ def viewer_data(episode) -> dict:
         spheres=ep.spheres,
         place=ep.spec.place_xy,
     )
+
+
+def gripper_lines(grasps, gripper=None) -> np.ndarray:
+    """(N, 36, 2, 3) outline segments of ``grasps`` (a :class:`~ferrobot.grasp.GraspGroup`) drawn with
+    ``gripper``'s finger geometry (a :class:`ferrobot.Gripper`: its detector finger depth and width, e.g. the
+    2F-85's longer, wider pads); None: ``GraspGroup.gripper_lines``' defaults (the Panda hand's)."""
+    if gripper is None:
+        return grasps.gripper_lines()
+    o = gripper.detection_options()
+    return grasps.gripper_lines(finger_depth=o["finger_depth"], finger_width=o["finger_width"])
 
 
 #: The page: HTML, CSS and the canvas renderer, with __TITLE__ and __DATA__ to fill in.

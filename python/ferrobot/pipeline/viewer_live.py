@@ -132,7 +132,20 @@ def episode_scene(folder, max_frames: int = 300) -> dict:
     sd["objects"] = [ObjectSpec(**o) for o in sd["objects"]]
     spec = SceneSpec(**sd)
     model = robots.panda()
-    world, robot, camera = build_world(spec, model)
+    traj = folder / "trajectory.npz"
+    if traj.is_file():  # the bundled robot whose joints the trajectory names (the Panda for older folders)
+        with np.load(traj) as z:
+            names = [str(n) for n in z["joint_names"]] if "joint_names" in z else None
+        if names is not None and names != list(model.dof_names):
+            other = robots.ur5e()
+            if names != list(other.dof_names):
+                raise InvalidArgumentError(
+                    f"path: {folder} was recorded with a robot that is not bundled (joints {names}); "
+                    "view its viewer.html instead"
+                )
+            model = other
+    name = "panda" if model.dof_names[-1].startswith("panda") else "robot"
+    world, robot, camera = build_world(spec, model, name=name)
     shapes = [("table", "box", None), (ROBOT_MOUNT, "box", None)] + [(o.name, o.kind, o) for o in spec.objects]
     objects, poses = [], {}
 
@@ -174,10 +187,13 @@ def episode_scene(folder, max_frames: int = 300) -> dict:
     if "grasp" in report:
         g = report["grasp"]
         row = np.zeros(17)
-        row[:4] = [g["score"], g["width"], 0.02, g["depth"]]
+        # The finger height the grasp was detected with (reports before it was stored: the Panda's 2 cm).
+        row[:4] = [g["score"], g["width"], g.get("height", 0.02), g["depth"]]
         row[4:13] = np.asarray(g["rotation_world"]).ravel()
         row[13:16] = g["translation_world"]
-        grasp = GraspGroup(row[None]).gripper_lines()[0]
+        geo = report.get("gripper", {})  # the demo's gripper (older reports: the Panda hand's defaults)
+        kw = {k: geo[k] for k in ("finger_depth", "finger_width") if k in geo}
+        grasp = GraspGroup(row[None]).gripper_lines(**kw)[0]
     k = camera.intrinsic_matrix
     cams = [
         {
