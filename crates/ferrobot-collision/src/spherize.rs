@@ -49,6 +49,10 @@
 //! Links whose collision geometry is already spheres keep them as they are
 //! (see [`given_spheres`]).
 //!
+//! [`spherize_robot`] caches its results ([`crate::spherize_cache`]): a change
+//! to the output for the same input must bump
+//! [`crate::spherize_cache::CACHE_VERSION`].
+//!
 //! Closed mesh pieces (every edge shared by two consistently wound
 //! triangles) use parry's pseudo-normals for inside tests. Other meshes
 //! (T-junctions, cracks, overlapping pieces) get a voxel flood fill that
