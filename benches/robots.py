@@ -5,7 +5,9 @@ batches use every core, so their CPU time is the sum over cores).
 
 - load: `RobotModel.from_urdf` (URDF, meshes, SRDF), median of 3.
 - spheres: `SphereModel.automatic(model)` (the default every checker and planner uses): count,
-  worst measured protrusion over the links, build time (one run: it is seconds).
+  worst measured protrusion over the links, build time (one run: it is seconds) with an empty
+  sphere cache (the bench points `FERROBOT_CACHE_DIR` at a new temporary directory unless it is
+  set), and the time of a second build of a freshly loaded model (`cached`: the disk cache).
 - IK: `Planner.ik_batch` on 200 poses from FK of random configurations (reachable), solves per
   CPU second and the success rate.
 - plan: 20 random collision-free start/goal pairs, `Planner.plan` (RRT-Connect, shortcutting,
@@ -20,8 +22,10 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import statistics
 import sys
+import tempfile
 import time
 import warnings
 from pathlib import Path
@@ -46,6 +50,9 @@ def bench(name: str) -> dict:
     model = env.load(name)
     row.update(dof=model.num_dof, links=len(model.link_names), load_ms=1e3 * statistics.median(loads))
     spheres, t = cpu(lambda: ferrobot.SphereModel.automatic(model))
+    again = env.load(name)
+    _, t_cached = cpu(lambda: ferrobot.SphereModel.automatic(again))
+    row["spheres_cached_s"] = t_cached
     row.update(
         spheres=spheres.count,
         max_protrusion_mm=1e3 * max((r["max_protrusion"] for r in spheres.report), default=0.0),
@@ -101,6 +108,7 @@ def main() -> None:
     ap.add_argument("--robots", nargs="*", default=None, help=f"default: all available ({', '.join(env.available())})")
     ap.add_argument("--json", type=Path, default=None)
     args = ap.parse_args()
+    os.environ.setdefault("FERROBOT_CACHE_DIR", tempfile.mkdtemp(prefix="ferrobot-bench-cache-"))
     names = args.robots or env.available()
     cols = [
         ("robot", "{:<16}"),
@@ -109,13 +117,14 @@ def main() -> None:
         ("spheres", "{:>7}"),
         ("max_protrusion_mm", "{:>8.1f}"),
         ("spheres_s", "{:>9.2f}"),
+        ("spheres_cached_s", "{:>9.3f}"),
         ("ik_per_s", "{:>8.0f}"),
         ("ik_success", "{:>6.2f}"),
         ("plan_median_ms", "{:>9.2f}"),
         ("plan_success", "{:>6.2f}"),
         ("sim_steps_per_s", "{:>9.0f}"),
     ]
-    heads = ["robot", "dof", "load ms", "spheres", "protr mm", "build s"]
+    heads = ["robot", "dof", "load ms", "spheres", "protr mm", "build s", "cached s"]
     heads += ["IK/s", "IK ok", "plan ms", "plan ok", "sim st/s"]
     print(" ".join(f"{h:>9}" if i else f"{h:<16}" for i, h in enumerate(heads)))
     rows = []

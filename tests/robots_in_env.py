@@ -4,6 +4,7 @@ benches/robots.py."""
 
 from __future__ import annotations
 
+import sys
 import sysconfig
 import warnings
 from pathlib import Path
@@ -20,8 +21,14 @@ def _pybullet_data() -> Path | None:
 
 
 def _erd() -> Path | None:
-    p = Path(sysconfig.get_paths()["purelib"]) / "cmeel.prefix/share/example-robot-data/robots"
-    return p if p.is_dir() else None
+    # cmeel installs into site-packages' `cmeel.prefix`; a venv made with
+    # --system-site-packages may hold it in the base interpreter's site-packages.
+    roots = [sysconfig.get_paths()["purelib"], *sys.path]
+    for root in roots:
+        p = Path(root) / "cmeel.prefix/share/example-robot-data/robots"
+        if p.is_dir():
+            return p
+    return None
 
 
 PB = _pybullet_data()

@@ -5,6 +5,7 @@ without a group name the choices."""
 
 from __future__ import annotations
 
+import sys
 import sysconfig
 import warnings
 import xml.etree.ElementTree as ET
@@ -18,7 +19,14 @@ from conftest import PANDA_URDF
 from ferrobot import errors as E
 
 SHARED_ROBOTS = PANDA_URDF.parent.parent
-ERD = Path(sysconfig.get_paths()["purelib"]) / "cmeel.prefix/share/example-robot-data/robots"
+ERD = next(
+    (
+        Path(root) / "cmeel.prefix/share/example-robot-data/robots"
+        for root in [sysconfig.get_paths()["purelib"], *sys.path]
+        if (Path(root) / "cmeel.prefix/share/example-robot-data/robots").is_dir()
+    ),
+    Path(sysconfig.get_paths()["purelib"]) / "cmeel.prefix/share/example-robot-data/robots",
+)
 needs_erd = pytest.mark.skipif(not ERD.is_dir(), reason="pip install example-robot-data (in the test extra)")
 
 
@@ -166,6 +174,69 @@ def test_pairs_in_contact_everywhere_are_disabled_and_reported():
         covered = ferrobot.RobotModel.from_urdf_string(_overlap_urdf(), srdf=srdf, ee_link="c")
         reasons = {(a, b): r for a, b, r in ferrobot.CollisionChecker(covered).allowed_collision_pairs}
     assert reasons[("a", "c")] == "Default"
+
+
+def _gripper_urdf(finger_y: float) -> str:
+    """A palm turning about z (the planning group, ee_link `palm`), two fingers on prismatic y
+    joints (`jr` mimics `jl`, range 0-4 cm): 1 cm thick boxes centred at y = +-finger_y plus the
+    opening, so closed they overlap by 2 (0.005 - finger_y). A two-segment finger on the palm: `s2`
+    rides on two prismatic z joints (`jv`, `js`, 0-5 cm) over `s1`, overlapping it by 4 mm when
+    both are at 0 (its bottom at z = 0.026 below the 0.03 top of `s1`)."""
+    lim = '<limit lower="0" upper="0.04" effort="1" velocity="1"/>'
+    zlim = '<limit lower="0" upper="0.05" effort="1" velocity="1"/>'
+
+    def box(size, xyz):
+        return f'<collision><origin xyz="{xyz}"/><geometry><box size="{size}"/></geometry></collision>'
+
+    return f"""<robot name="gripper">
+  <link name="base"/>
+  <link name="palm">{box("0.1 0.1 0.02", "0 0 0")}</link>
+  <link name="left">{box("0.01 0.01 0.05", f"0 {finger_y} 0.035")}</link>
+  <link name="right">{box("0.01 0.01 0.05", f"0 {-finger_y} 0.035")}</link>
+  <link name="s1">{box("0.01 0.01 0.03", "0 0 0.015")}</link>
+  <link name="v"/>
+  <link name="s2">{box("0.01 0.01 0.03", "0 0 0.015")}</link>
+  <joint name="jarm" type="revolute"><parent link="base"/><child link="palm"/><axis xyz="0 0 1"/>
+    <limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
+  <joint name="jl" type="prismatic"><parent link="palm"/><child link="left"/><axis xyz="0 1 0"/>{lim}</joint>
+  <joint name="jr" type="prismatic"><parent link="palm"/><child link="right"/><axis xyz="0 -1 0"/>{lim}
+    <mimic joint="jl"/></joint>
+  <joint name="js1" type="fixed"><parent link="palm"/><child link="s1"/><origin xyz="0.03 0.03 0.01"/></joint>
+  <joint name="jv" type="prismatic"><parent link="s1"/><child link="v"/><origin xyz="0 0 0.026"/>
+    <axis xyz="0 0 1"/>{zlim}</joint>
+  <joint name="js" type="prismatic"><parent link="v"/><child link="s2"/><axis xyz="0 0 1"/>{zlim}</joint>
+</robot>"""
+
+
+def test_pairs_touching_at_a_stop_or_at_rest_are_disabled_and_reported():
+    # Fingers overlapping by 0.2 mm when closed (finger_y 0.0049), apart from the next tried
+    # opening (4 cm / 63 = 0.63 mm): touching at the stop only, like pybullet's Panda fingers.
+    model = ferrobot.RobotModel.from_urdf_string(_gripper_urdf(0.0049), ee_link="palm")
+    assert model.dof_names == ["jarm", "jl", "jv", "js"]
+    with pytest.warns(UserWarning, match=r"left-right \(Stop \(automatic\)\).*s1-s2 \(Default \(automatic\)\)"):
+        checker = ferrobot.CollisionChecker(model)
+    reasons = {(a, b): r for a, b, r in checker.allowed_collision_pairs}
+    assert reasons[("left", "right")] == "Stop (automatic)"
+    # s1-s2: two DOFs between them, neither in the planning group, 4 mm deep at rest.
+    assert reasons[("s1", "s2")] == "Default (automatic)"
+    assert not checker.in_collision(np.zeros(4))
+    # Fingers overlapping by 10 mm when closed (finger_y 0): in contact over the first 5 mm of
+    # the opening, a real collision, not a stop. With the finger in the planning group (ee_link
+    # `left`: jarm, jl) the pair stays checked; with the palm as ee_link no planned joint moves
+    # the fingers and the pair, in contact at rest, is disabled as MoveIt's `Default`.
+    at_rest = ferrobot.RobotModel.from_urdf_string(_gripper_urdf(0.0), ee_link="palm")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        reasons = {(a, b): r for a, b, r in ferrobot.CollisionChecker(at_rest).allowed_collision_pairs}
+    assert reasons[("left", "right")] == "Default (automatic)"
+    deep = ferrobot.RobotModel.from_urdf_string(_gripper_urdf(0.0), ee_link="left")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        checker = ferrobot.CollisionChecker(deep)
+    reasons = {(a, b): r for a, b, r in checker.allowed_collision_pairs}
+    assert ("left", "right") not in reasons
+    assert checker.in_collision(np.array([0.0, 0.004, 0.01, 0.0]))  # 2 mm deep
+    assert not checker.in_collision(np.array([0.0, 0.006, 0.01, 0.0]))  # 2 mm apart
 
 
 # --- Limits: clamp within 1e-5, reject beyond --------------------------------------------------

@@ -21,9 +21,16 @@ import trimesh
 import ferrobot
 
 ROBOTS = env.available()
-# The automatic sphere model takes seconds of CPU per robot (the bench times it: BENCHMARKS.md);
-# the checks that need it run on a few robots here and on every robot in benches/robots.py.
-SPHERED = [r for r in ["erd_ur5", "pb_xarm6", "erd_kinova"] if r in ROBOTS]
+# The automatic sphere model takes seconds of CPU per robot the first time (the bench times it:
+# BENCHMARKS.md); it is cached in memory and on disk (README, collision section), so each robot
+# is spherized once per run (and not at all on a machine that keeps ~/.cache).
+SPHERED = ROBOTS
+# UR3: the convex hulls of base_link and upper_arm_link touch with the upper arm pointing down
+# (shoulder_lift = pi/2 and -3 pi/2) while the meshes are 22.7 mm apart, so the exact stage bans
+# two bands of shoulder_lift and splits its [-2 pi, 2 pi] range into three components: random
+# start/goal pairs in different components have no path (BENCHMARKS.md, robots section). Needs
+# an exact stage tighter than hulls (issue 17 item 6); not done.
+PLAN_XFAIL = {"erd_ur3": "hull-only exact stage splits the UR3's C-space (see above)"}
 pytestmark = pytest.mark.skipif(not ROBOTS, reason="pybullet / example-robot-data not installed")
 TOL = 1e-9
 
@@ -180,7 +187,13 @@ def test_ik_solves_every_reachable_pose(name):
         assert rot <= 0.01 + 1e-9
 
 
-@pytest.mark.parametrize("name", SPHERED)
+@pytest.mark.parametrize(
+    "name",
+    [
+        pytest.param(r, marks=pytest.mark.xfail(reason=PLAN_XFAIL[r], strict=True)) if r in PLAN_XFAIL else r
+        for r in SPHERED
+    ],
+)
 def test_random_plans_are_clean_at_2_mrad(name):
     model, planner, checker = setup(name)
     idx = [model.dof_names.index(n) for n in planner.joint_names]
@@ -191,10 +204,11 @@ def test_random_plans_are_clean_at_2_mrad(name):
     hi = np.where(np.isfinite(hi), hi, np.pi)
 
     def free_q():
-        while True:
+        for _ in range(2000):
             q = rng.uniform(lo, hi)
             if not planner.in_collision(q):
                 return q
+        raise AssertionError(f"{name}: no free configuration in 2000 uniform samples")
 
     solved = 0
     for _ in range(20):
@@ -207,3 +221,55 @@ def test_random_plans_are_clean_at_2_mrad(name):
         full[:, idx] = path
         for a, b in zip(full[:-1], full[1:], strict=True):
             assert checker.motion_valid(a, b, resolution=0.002), f"{name}: {checker.explain(b)}"
+
+
+def test_pybullet_panda_self_collision_matches_pybullet():
+    """pybullet's Panda has no SRDF: closed fingers touch (0.26 mm by their meshes' hulls) and
+    were reported in every configuration. Now the pair is disabled as touching at its stop and
+    the arm's verdicts agree with PyBullet's own `getClosestPoints` on the same URDF (meshes as
+    convex hulls): every configuration PyBullet finds a checked pair more than 1 mm deep in is
+    reported, and most of the rest are free."""
+    pybullet = pytest.importorskip("pybullet")
+    name = "pb_franka_panda"
+    if name not in ROBOTS:
+        pytest.skip("pybullet_data not installed")
+    model, planner, checker = setup(name)
+    reasons = {frozenset((a, b)): r for a, b, r in checker.allowed_collision_pairs}
+    assert reasons[frozenset(("panda_leftfinger", "panda_rightfinger"))] == "Stop (automatic)"
+    assert frozenset(("panda_link5", "panda_hand")) not in reasons  # an arm folding is kept
+    cid = pybullet.connect(pybullet.DIRECT)
+    try:
+        body = pybullet.loadURDF(str(env.urdf_path(name)), useFixedBase=True, physicsClientId=cid)
+        info = [
+            pybullet.getJointInfo(body, j, physicsClientId=cid)
+            for j in range(pybullet.getNumJoints(body, physicsClientId=cid))
+        ]
+        joint = {i[1].decode(): i[0] for i in info}
+        link = {i[12].decode(): i[0] for i in info}
+        link[pybullet.getBodyInfo(body, physicsClientId=cid)[0].decode()] = -1
+        names = [n for n in model.link_names if n in link and model.collision_geometry(n)]
+        pairs = [(a, b) for i, a in enumerate(names) for b in names[i + 1 :] if frozenset((a, b)) not in reasons]
+        base = model.neutral_configuration()
+        idx = [model.dof_names.index(n) for n in planner.joint_names]
+        qs = random_q(model, 150, seed=5)
+        free = 0
+        for q in qs:
+            full = base.copy()
+            full[idx] = q[idx]
+            for n, v in zip(model.dof_names, full, strict=True):
+                pybullet.resetJointState(body, joint[n], v, physicsClientId=cid)
+            deepest = min(
+                (
+                    c[8]
+                    for a, b in pairs
+                    for c in pybullet.getClosestPoints(body, body, 0.0, link[a], link[b], physicsClientId=cid)
+                ),
+                default=1.0,
+            )
+            ours = checker.in_collision(full)
+            if deepest < -1e-3:
+                assert ours, f"PyBullet: {-deepest * 1e3:.1f} mm deep at {full}, ferrobot: free"
+            free += not ours
+    finally:
+        pybullet.disconnect(cid)
+    assert free >= 0.4 * len(qs), f"{free}/{len(qs)} free"

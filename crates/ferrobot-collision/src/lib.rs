@@ -24,6 +24,7 @@ pub mod robot_spheres;
 pub mod single;
 pub mod sphere;
 pub mod spherize;
+pub mod spherize_cache;
 pub mod urdf_check;
 pub mod world;
 pub mod world_grid;

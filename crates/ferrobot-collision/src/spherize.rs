@@ -49,6 +49,10 @@
 //! Links whose collision geometry is already spheres keep them as they are
 //! (see [`given_spheres`]).
 //!
+//! [`spherize_robot`] caches its results ([`crate::spherize_cache`]): a change
+//! to the output for the same input must bump
+//! [`crate::spherize_cache::CACHE_VERSION`].
+//!
 //! Closed mesh pieces (every edge shared by two consistently wound
 //! triangles) use parry's pseudo-normals for inside tests. Other meshes
 //! (T-junctions, cracks, overlapping pieces) get a voxel flood fill that
@@ -238,11 +242,36 @@ pub fn spherize_link(
 /// URDF loaded as the robot, as MotionBenchMaker and VAMP ship) keeps those
 /// spheres exactly ([`given_spheres`]), whatever `max_per_link`; they count
 /// against `total_budget`, the rest of which is split among the other links.
+///
+/// Results are cached in memory and on disk, keyed by the links' geometry
+/// and the options ([`crate::spherize_cache`]): the same robot is spherized
+/// once.
 pub fn spherize_robot(
     model: &RobotModel,
     options: &SpherizeOptions,
 ) -> Result<(Vec<Vec<Sphere>>, Vec<LinkSphereReport>)> {
     options.validate()?;
+    let links = model.links();
+    let key = crate::spherize_cache::key(
+        &links
+            .iter()
+            .map(|l| (l.name.as_str(), l.collisions.as_slice()))
+            .collect::<Vec<_>>(),
+        options,
+    );
+    if let Some(hit) = crate::spherize_cache::get(key, links.len()) {
+        return Ok(hit);
+    }
+    let out = spherize_robot_uncached(model, options)?;
+    crate::spherize_cache::put(key, &out);
+    Ok(out)
+}
+
+/// [`spherize_robot`] without the cache.
+fn spherize_robot_uncached(
+    model: &RobotModel,
+    options: &SpherizeOptions,
+) -> Result<(Vec<Vec<Sphere>>, Vec<LinkSphereReport>)> {
     let links = model.links();
     // Links whose collision geometry is already spheres keep them.
     let given: Vec<Option<Vec<Sphere>>> =

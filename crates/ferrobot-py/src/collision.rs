@@ -546,18 +546,35 @@ fn automatic_acm_cached(
         .detach(|| ferrobot_collision::acm::automatic_acm(&m, &sp))
         .map_err(collision_err)?;
     if !always.is_empty() {
+        let reason = |a: usize, b: usize| {
+            acm.pairs()
+                .find(|&(x, y, _)| (x.min(y), x.max(y)) == (a.min(b), a.max(b)))
+                .map_or("", |(_, _, r)| r)
+        };
         let names: Vec<String> = always
             .iter()
-            .map(|&(a, b)| format!("{}-{}", m.links()[a].name, m.links()[b].name))
+            .map(|&(a, b)| {
+                format!(
+                    "{}-{} ({})",
+                    m.links()[a].name,
+                    m.links()[b].name,
+                    reason(a, b)
+                )
+            })
             .collect();
         let message = format!(
-            "robot '{}': {} link pair(s) are in contact in every one of {} sampled configurations \
-             (links overlapping by design) and no SRDF disables them; their self-collision checks \
-             are off (reason '{}' in allowed_collision_pairs): {}",
+            "robot '{}': {} link pair(s) are in contact by design and no SRDF disables them: \
+             in every one of {} sampled configurations (reason '{}': links overlapping by design) \
+             or only at an end of the range of the one joint between them (reason '{}': fingers \
+             closed on nothing, a linkage on its stop), or at the neutral configuration while no \
+             planning-group joint moves them (reason '{}': a hand at rest); their self-collision \
+             checks are off (see allowed_collision_pairs): {}",
             m.name(),
             always.len(),
             ferrobot_collision::acm::AUTO_ALWAYS_SAMPLES,
             ferrobot_collision::acm::AUTO_ALWAYS_REASON,
+            ferrobot_collision::acm::AUTO_STOP_REASON,
+            ferrobot_collision::acm::AUTO_DEFAULT_REASON,
             names.join(", ")
         );
         let category = py.import("builtins")?.getattr("UserWarning")?;

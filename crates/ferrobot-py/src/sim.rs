@@ -753,6 +753,12 @@ impl PyWorld {
         opts.gravity_compensation = gravity_compensation;
         opts.solver_iterations = solver_iterations;
         opts.friction = friction;
+        // Without an SRDF, the planner's automatic matrix (pairs overlapping
+        // by design, cached on the model) filters the robot's self-contacts.
+        if model.inner.srdf().is_none() {
+            let checker = guard(|| crate::collision::build_checker(py, model, None, None, 0.0))?;
+            opts.allowed_collisions = Some(checker.allowed_collisions().clone());
+        }
         let inner = self.inner.clone();
         let m = model.inner.clone();
         guard(|| {

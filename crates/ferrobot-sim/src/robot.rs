@@ -37,6 +37,13 @@ pub struct RobotOptions {
     pub solver_iterations: usize,
     /// Friction coefficient of the robot's link surfaces.
     pub friction: f64,
+    /// Link pairs whose contacts are ignored, and skipped when the start
+    /// configuration is chosen (default `None`:
+    /// [`ferrobot_model::AllowedCollisions::from_model`], adjacent, rigidly
+    /// attached and SRDF pairs). Give the planner's automatic matrix
+    /// (`ferrobot_collision::acm::automatic_acm`) so that a robot without an
+    /// SRDF does not push apart links that overlap by design.
+    pub allowed_collisions: Option<ferrobot_model::AllowedCollisions>,
 }
 
 impl RobotOptions {
@@ -50,6 +57,7 @@ impl RobotOptions {
             gravity_compensation: true,
             solver_iterations: 4,
             friction: 1.0,
+            allowed_collisions: None,
         }
     }
 }
@@ -142,6 +150,11 @@ fn link_shape(shape: &Shape) -> Option<(SharedShape, Isometry3<f64>)> {
 /// candidate collides, the first candidate (the model cannot be started
 /// free of itself without a search; give `q`).
 pub fn default_start(model: &RobotModel) -> Vec<f64> {
+    default_start_with(model, &ferrobot_model::AllowedCollisions::from_model(model))
+}
+
+/// [`default_start`] with the allowed-collision matrix `acm`.
+pub fn default_start_with(model: &RobotModel, acm: &ferrobot_model::AllowedCollisions) -> Vec<f64> {
     let mut candidates = Vec::new();
     if let Some(srdf) = model.srdf() {
         for s in &srdf.group_states {
@@ -154,7 +167,7 @@ pub fn default_start(model: &RobotModel) -> Vec<f64> {
     candidates.insert(candidates.len().min(1), neutral);
     candidates
         .iter()
-        .find(|q| !self_collides(model, q))
+        .find(|q| !self_collides_with(model, q, acm))
         .unwrap_or(&candidates[0])
         .clone()
 }
@@ -162,10 +175,22 @@ pub fn default_start(model: &RobotModel) -> Vec<f64> {
 /// Whether any two links of `model` not allowed to touch overlap by more
 /// than 0.1 mm at `q` (their collision geometry, meshes as convex hulls).
 pub fn self_collides(model: &RobotModel, q: &[f64]) -> bool {
+    self_collides_with(
+        model,
+        q,
+        &ferrobot_model::AllowedCollisions::from_model(model),
+    )
+}
+
+/// [`self_collides`] with the allowed-collision matrix `acm`.
+pub fn self_collides_with(
+    model: &RobotModel,
+    q: &[f64],
+    acm: &ferrobot_model::AllowedCollisions,
+) -> bool {
     let Ok(poses) = model.fk_all(q) else {
         return false;
     };
-    let acm = ferrobot_model::AllowedCollisions::from_model(model);
     let shapes: Vec<Vec<(SharedShape, Isometry3<f64>)>> = model
         .links()
         .iter()
@@ -231,7 +256,10 @@ impl Robot {
                 check_len("q", q, model.num_dof())?;
                 q.clone()
             }
-            None => default_start(&model),
+            None => match &options.allowed_collisions {
+                Some(acm) => default_start_with(&model, acm),
+                None => default_start(&model),
+            },
         };
         let links = model.links();
         let joints = model.joints();

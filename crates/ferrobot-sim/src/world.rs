@@ -366,7 +366,10 @@ impl World {
                 color: default_color(seg_base + l as u32),
             });
         }
-        let acm = AllowedCollisions::from_model(&model);
+        let acm = options
+            .allowed_collisions
+            .clone()
+            .unwrap_or_else(|| AllowedCollisions::from_model(&model));
         for (a, b, _) in acm.pairs() {
             self.filter.allowed.insert((index, a.min(b), a.max(b)));
         }
