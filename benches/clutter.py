@@ -347,7 +347,7 @@ def attempt(
     rec["ferrobot"]["stage"] = failure_stage(rec["ferrobot"], diag, rec.get("target"), after, z0)
     rec["ferrobot"].update(diag)
     if pb:
-        rec["pybullet"] = pb.run_pile(state, settled, base, steps)
+        rec["pybullet"] = pb.run_pile(state, {n: settled[n] for n in names}, base, steps)
     removed = lifted if success else []
     for n in names:
         if n in removed:
