@@ -173,37 +173,17 @@ pub fn hands_at_seed(cloud: &SurfaceCloud, seed: usize, sp: &SearchParams) -> Ve
     let mut local: Vec<Vector3<f64>> = Vec::with_capacity(n);
     let mut foreign: Vec<bool> = Vec::with_capacity(n);
     let mut slot: Vec<(f64, f64)> = Vec::with_capacity(n);
-    // Per rotation, the points that some tilt can keep: |y| <= y_max does
-    // not depend on the tilt, and |z| <= half_h after a tilt t needs
-    // |kz| <= (half_h + |sin t|·|x|) / cos t <= kz_max. Dropping the others
-    // once per rotation (instead of once per tilt) keeps `local` the same,
-    // in the same order.
-    let (mut fx, mut ky, mut kz, mut ff) = (
-        Vec::with_capacity(n),
-        Vec::with_capacity(n),
-        Vec::with_capacity(n),
-        Vec::with_capacity(n),
-    );
+    let (mut ky, mut kz) = (vec![0.0; n], vec![0.0; n]);
     for k in 0..sp.num_rotations {
         // Closing axis y = t0 turned by phi about a0; z = a0 × y.
         let phi = k as f64 * std::f64::consts::PI / sp.num_rotations as f64;
         let (s, c) = phi.sin_cos();
         let y = t0 * c + b0 * s;
         let z0 = b0 * c - t0 * s;
-        fx.clear();
-        ky.clear();
-        kz.clear();
-        ff.clear();
         for i in 0..n {
-            let (yy, zz) = (c * sy[i] + s * sz[i], -s * sy[i] + c * sz[i]);
-            if yy.abs() <= y_max && zz.abs() <= kz_max {
-                fx.push(sx[i]);
-                ky.push(yy);
-                kz.push(zz);
-                ff.push(sf[i]);
-            }
+            ky[i] = c * sy[i] + s * sz[i];
+            kz[i] = -s * sy[i] + c * sz[i];
         }
-        let n = fx.len();
         for &tilt in &sp.approach_tilts {
             // Approach a0 turned by tilt about y: a = cos·a0 - sin·z0, z = sin·a0 + cos·z0.
             let (st, ct) = tilt.sin_cos();
@@ -215,11 +195,12 @@ pub fn hands_at_seed(cloud: &SurfaceCloud, seed: usize, sp: &SearchParams) -> Ve
             foreign.resize(n, false);
             let mut kept = 0;
             for i in 0..n {
-                let lz = st * fx[i] + ct * kz[i];
-                let lx = ct * fx[i] - st * kz[i];
+                let lz = st * sx[i] + ct * kz[i];
+                let lx = ct * sx[i] - st * kz[i];
                 local[kept] = Vector3::new(lx, ky[i], lz);
-                foreign[kept] = ff[i];
-                let inside = (lz.abs() <= half_h) & (lx >= x_lo) & (lx <= x_hi);
+                foreign[kept] = sf[i];
+                let inside =
+                    (lz.abs() <= half_h) & (lx >= x_lo) & (lx <= x_hi) & (ky[i].abs() <= y_max);
                 kept += usize::from(inside);
             }
             local.truncate(kept);
