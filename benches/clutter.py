@@ -31,6 +31,11 @@ at the poses they settled to in ferrobot, the same hand URDF, base pose and join
 same success test. The sequence of the scene follows ferrobot's outcome; PyBullet's success rate is per
 attempt.
 
+Each attempt is printed with its stage (``ok``, ``no grasp`` with the number of grasps the detector returns
+with each of its clutter checks off (four more detections, counted in the attempt's CPU time), ``blocked on
+approach``, ``closed on nothing``, ``slipped out``, ``held, not lifted``, ``lifted a neighbour``; see
+``failure_stage``) and its grasp; ``--pictures DIR`` saves a picture of each attempt.
+
 Reported: completion rate (objects removed / objects), grasp success per attempt under each judge, clean
 lifts, attempts per removed object, detection time per frame, and time per pick (CPU seconds of this
 process per attempt: rebuilding, rendering, detection, simulating the 4 s hand sequence; plus the
