@@ -31,6 +31,11 @@ at the poses they settled to in ferrobot, the same hand URDF, base pose and join
 same success test. The sequence of the scene follows ferrobot's outcome; PyBullet's success rate is per
 attempt.
 
+Each attempt is printed with its stage (``ok``, ``no grasp`` with the number of grasps the detector returns
+with each of its clutter checks off (four more detections, counted in the attempt's CPU time), ``blocked on
+approach``, ``closed on nothing``, ``slipped out``, ``held, not lifted``, ``lifted a neighbour``; see
+``failure_stage``) and its grasp; ``--pictures DIR`` saves a picture of each attempt.
+
 Reported: completion rate (objects removed / objects), grasp success per attempt under each judge, clean
 lifts, attempts per removed object, detection time per frame, and time per pick (CPU seconds of this
 process per attempt: rebuilding, rendering, detection, simulating the 4 s hand sequence; plus the
@@ -222,7 +227,37 @@ def bin_schedule(base: np.ndarray) -> list[tuple[np.ndarray, float]]:
     return steps
 
 
-def attempt(state: State, hand_model, pb, options: dict) -> dict:
+def save_picture(w: ferrobot.World, path: Path) -> None:
+    """An RGB picture of the scene (the hand at its grasp pose) from the detection camera."""
+    from PIL import Image
+
+    cam = ferrobot.Camera(w, ge.WIDTH, ge.HEIGHT, fx=ge.F, cx=ge.CX, cy=ge.CY, pose=camera_pose())
+    rgb = np.asarray(cam.render()["rgb"])
+    if rgb.dtype != np.uint8:
+        rgb = np.clip(rgb * 255.0, 0, 255).astype(np.uint8)
+    Image.fromarray(rgb).save(path)
+
+
+def failure_stage(res: dict, diag: dict, target: str | None, after: dict, z0: dict) -> str:
+    """What an attempt ended with: ``ok``, ``ok (two objects)``, ``blocked on approach`` (the hand stopped
+    >= 1 cm short of its grasp pose: a wall or a neighbour), ``closed on nothing``, ``held, not lifted``
+    (the fingers stayed apart but nothing rose 8 cm: slipped or stuck), ``lifted a neighbour``."""
+    if res["success"]:
+        if target is not None and target not in res["lifted"]:
+            return "lifted a neighbour"
+        return "ok" if len(res["lifted"]) == 1 else "ok (two objects)"
+    if diag.get("approach_error", 0.0) >= 0.01:
+        return "blocked on approach"
+    if diag.get("closed_opening", 1.0) <= ge.MIN_OPENING:
+        return "closed on nothing"
+    if res["opening"] <= ge.MIN_OPENING:
+        return "slipped out"
+    return "held, not lifted"
+
+
+def attempt(
+    state: State, hand_model, pb, options: dict, picture_dir: Path | None = None, picture_tag: str = ""
+) -> dict:
     """One perceive-grasp-lift attempt; updates ``state`` (removes lifted and lost objects)."""
     t_cpu = time.process_time()
     w = state.build()
@@ -254,6 +289,13 @@ def attempt(state: State, hand_model, pb, options: dict) -> dict:
     rec["num_grasps"] = len(gg)
     if len(gg) == 0:
         rec["ferrobot"] = {"success": False, "reason": "no grasp"}
+        # Which of the detector's clutter checks left nothing: re-run with each one off.
+        rec["ferrobot"]["grasps_without"] = {
+            k: len(fg.detect_from_rgbd(depth, ge.F, ge.F, ge.CX, ge.CY, scale=1.0, mask=seg, **{**opts, k: False}))
+            for k in ("body_collision", "single_object", "occlusion", "support_plane")
+        }
+        if picture_dir is not None:
+            save_picture(w, picture_dir / f"{picture_tag}_nograsp.png")
         if pb:
             rec["pybullet"] = {"success": False, "reason": "no grasp"}
         for n in names:
@@ -266,28 +308,51 @@ def attempt(state: State, hand_model, pb, options: dict) -> dict:
     base = hand.copy()
     base[:3, 3] -= ge.PREGRASP * hand[:3, 2]
     steps = bin_schedule(base) if state.spec.bin is not None else ge.hand_schedule(base)
+    rec["hand_base"] = base.tolist()
+    rec["settled"] = {n: ge.pose7(settled[n]) for n in names}
     robot = w.add_robot(hand_model, ge.pose7(base), name="hand", q=np.array([0, 0, 0, ge.OPEN, ge.OPEN]))
     robot.set_drive_gains(stiffness=[2.0e4] * 3, damping=[1.0e3] * 3, joint_indices=[0, 1, 2])
     robot.set_gripper(["panda_finger_joint1", "panda_finger_joint2"], [ge.OPEN, ge.OPEN], [0.0, 0.0])
     robot.set_joint_position_targets(np.array([0, 0, 0, ge.OPEN, ge.OPEN]))
     z0 = {n: settled[n][2, 3] for n in names}
+    rec["grasp"] = {
+        "position": hand[:3, 3].tolist(),
+        "approach": hand[:3, 2].tolist(),
+        "width": float(top.widths[0]),
+        "depth": float(top.depths[0]),
+        "score": float(top.scores[0]),
+    }
     closing = False
-    for target, force in steps:
+    diag: dict = {}
+    k_close = -1
+    n_close = int(round(ge.CLOSE_S / DT))
+    for k, (target, force) in enumerate(steps):
         robot.set_joint_position_targets(target[:3], joint_indices=[0, 1, 2])
         if force > 0 and not closing:
+            q = robot.get_joint_positions()
+            diag["approach_error"] = float(ge.PREGRASP - q[2])
+            diag["pushed"] = {n: float(np.linalg.norm(w.get_object_pose(n)[:3, 3] - settled[n][:3, 3])) for n in names}
+            if picture_dir is not None:
+                save_picture(w, picture_dir / f"{picture_tag}_grasp.png")
             robot.close_gripper(force=force)
             closing = True
+            k_close = k
         elif force == 0:
             robot.set_joint_position_targets(target[3:], joint_indices=[3, 4])
         w.step(1)
+        if closing and k == k_close + n_close - 1:
+            q = robot.get_joint_positions()
+            diag["closed_opening"] = float(q[3] + q[4])
     q = robot.get_joint_positions()
     opening = float(q[3] + q[4])
     after = {n: w.get_object_pose(n) for n in names}
     lifted = [n for n in names if after[n][2, 3] - z0[n] >= ge.MIN_RISE]
     success = bool(lifted) and opening > ge.MIN_OPENING
     rec["ferrobot"] = {"success": success, "lifted": lifted, "opening": opening, "clean": success and len(lifted) == 1}
+    rec["ferrobot"]["stage"] = failure_stage(rec["ferrobot"], diag, rec.get("target"), after, z0)
+    rec["ferrobot"].update(diag)
     if pb:
-        rec["pybullet"] = pb.run_pile(state, settled, base, steps)
+        rec["pybullet"] = pb.run_pile(state, {n: settled[n] for n in names}, base, steps)
     removed = lifted if success else []
     for n in names:
         if n in removed:
@@ -296,12 +361,15 @@ def attempt(state: State, hand_model, pb, options: dict) -> dict:
         else:
             state.poses[n] = after[n]
     rec["removed"] = removed
+    # Where the simulator has each removed object and the hand at the end of the hold (for checks).
+    rec["removed_poses"] = {n: ge.pose7(after[n]) for n in removed}
+    rec["hand_final"] = {"pose": ge.pose7(robot.get_link_pose("panda_hand")), "opening": opening}
     rec["cpu_s"] = time.process_time() - t_cpu
     rec["sim_s"] = len(steps) * DT
     return rec
 
 
-def run_scene(spec: clutter.ClutterSpec, hand_model, pb, options: dict) -> dict:
+def run_scene(spec: clutter.ClutterSpec, hand_model, pb, options: dict, picture_dir: Path | None = None) -> dict:
     """Clears one scene; returns its record (counts are read from the simulator's state)."""
     # Settle the drop once in its own world: the first state.
     w = ferrobot.World(dt=DT)
@@ -318,7 +386,8 @@ def run_scene(spec: clutter.ClutterSpec, hand_model, pb, options: dict) -> dict:
     total = len(names)
     attempts, fails = [], 0
     while state.objects and fails < 2 and len(attempts) < 2 * total:
-        rec = attempt(state, hand_model, pb, options)
+        tag = f"s{spec.seed}_a{len(attempts)}"
+        rec = attempt(state, hand_model, pb, options, picture_dir, tag)
         if "ferrobot" not in rec:
             break
         attempts.append(rec)
@@ -369,6 +438,7 @@ def main() -> int:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--json", type=Path, default=None)
     ap.add_argument("--no-pybullet", action="store_true")
+    ap.add_argument("--pictures", type=Path, default=None, help="save a picture of each grasp (hand in place)")
     ap.add_argument("--option", action="append", default=[], metavar="KEY=VALUE", help="a detection option (JSON)")
     args = ap.parse_args()
     if not 1 <= args.objects_per_scene <= 30:
@@ -378,6 +448,8 @@ def main() -> int:
         key, _, value = kv.partition("=")
         options[key] = json.loads(value)
     files = clutter.find_object_files(args.objects) if args.objects else None
+    if args.pictures:
+        args.pictures.mkdir(parents=True, exist_ok=True)
     print(f"cores {os.cpu_count()}, load {ge.load_avg()}", flush=True)
     t0 = time.perf_counter()
     scenes = []
@@ -389,7 +461,20 @@ def main() -> int:
                 spec = clutter.random_clutter(
                     args.seed + k, args.objects_per_scene, files, bin=args.bin, table_top=TABLE_TOP, center=CENTER
                 )
-                s = run_scene(spec, hand_model, pb, options)
+                s = run_scene(spec, hand_model, pb, options, args.pictures)
+                for i, a in enumerate(s["attempts"]):
+                    f = a.get("ferrobot", {})
+                    g = a.get("grasp", {})
+                    print(
+                        f"  attempt {i}: {f.get('stage', f.get('reason'))} {f.get('grasps_without', '')}, "
+                        f"target {a.get('target')}, "
+                        f"lifted {f.get('lifted')}, approach {np.round(g.get('approach', []), 2).tolist()}, "
+                        f"width {g.get('width', float('nan')):.3f}, depth {g.get('depth', float('nan')):.3f}, "
+                        f"approach error {f.get('approach_error', float('nan')):.3f}, "
+                        f"closed {f.get('closed_opening', float('nan')):.4f}"
+                        + (f", pybullet {a['pybullet'].get('success')}" if "pybullet" in a else ""),
+                        flush=True,
+                    )
                 scenes.append(s)
                 sm = summarise(scenes, pb is not None)
                 print(

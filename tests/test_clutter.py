@@ -14,6 +14,7 @@ import pytest
 import ferrobot
 from ferrobot.errors import InvalidArgumentError, MeshError
 from ferrobot.pipeline import clutter
+from ferrobot.transforms import pose_to_matrix
 
 scipy_spatial = pytest.importorskip("scipy.spatial")
 
@@ -326,3 +327,46 @@ def test_planner_world_gets_mesh_file_objects(tmp_path):
         planner = ferrobot.Planner(model)
         planner.update_world(w, base_pose=[0, 0, 0, 1, 0, 0, 0])
         assert planner.in_collision(HOME) is expected
+
+
+@pytest.mark.parametrize("in_bin", [False, True], ids=["table", "bin"])
+def test_clearing_episode_removes_objects_in_the_simulator(objects_dir, tmp_path, in_bin):
+    """A whole clearing episode (3 objects): every object counted as removed was, in the simulator, held
+    between the fingers at least 8 cm above where it rested, and every object left rests on the table (in the
+    bin) when its final state is simulated again in a fresh world with the bin."""
+    pytest.importorskip("pybullet_data")
+    import clutter as bench  # benches/clutter.py
+
+    _, hand_model = bench.ge.hand_files(tmp_path)
+    spec = clutter.random_clutter(5, 3, objects_dir, bin=in_bin, table_top=bench.TABLE_TOP, center=bench.CENTER)
+    rec = bench.run_scene(spec, hand_model, None, {})
+    assert rec["objects"] == 3 and rec["attempts"]
+    assert rec["removed"] >= 1, [a["ferrobot"] for a in rec["attempts"]]
+    assert rec["removed"] + len(rec["final_state"]) + rec["lost"] == 3
+    for a in rec["attempts"]:
+        for n, pose in a.get("removed_poses", {}).items():
+            z0 = a["settled"][n][2]
+            assert pose[2] - z0 >= bench.ge.MIN_RISE
+            # In the hand: the object's origin near the fingers (the fingertips' centre is TCP_OFFSET = 11.2 cm
+            # along the hand's z axis; objects are at most 6.5 cm across their middle extent).
+            hand = pose_to_matrix(a["hand_final"]["pose"])
+            local = hand[:3, :3].T @ (np.asarray(pose[:3]) - hand[:3, 3])
+            assert np.linalg.norm(local[:2]) < 0.1 and 0.03 < local[2] < 0.2, local
+            assert a["hand_final"]["opening"] > bench.ge.MIN_OPENING
+    # The objects left rest on the table, inside the bin's walls if there is one.
+    w = ferrobot.World(dt=bench.DT)
+    w.add_box("table", [2, 2, bench.TABLE_TOP], [0, 0, bench.TABLE_TOP / 2, 1, 0, 0, 0], fixed=True)
+    if spec.bin is not None:
+        clutter.add_bin(w, spec.bin, bench.TABLE_TOP)
+    removed = {n for a in rec["attempts"] for n in a.get("removed", [])}
+    assert not removed & set(rec["final_state"])
+    for o in spec.objects:
+        if o.name in rec["final_state"]:
+            w.add_mesh_file(o.name, o.mesh, rec["final_state"][o.name], scale=o.scale, mass=o.mass)
+    w.step(240)
+    for n in rec["final_state"]:
+        p = w.get_object_pose(n)[:3, 3]
+        assert p[2] > bench.TABLE_TOP - 0.01
+        if spec.bin is not None:
+            assert abs(p[0] - spec.bin.center[0]) < spec.bin.inner[0] / 2
+            assert abs(p[1] - spec.bin.center[1]) < spec.bin.inner[1] / 2
