@@ -9,7 +9,10 @@ The steps people write around Isaac Sim + cuRobo + AnyGrasp, each a method of :c
    for the grasp pose, where the fingers must touch them).
 4. ``plan/execute`` pre-grasp, approach, close the gripper, lift (the target attached to the planner's robot),
    move above the place location, lower, open, retreat, each a time-parametrised trajectory executed by the
-   simulated robot's joint drives.
+   simulated robot's joint drives. The lift and the retreat start with a straight Cartesian part on which only
+   the contacts present when the gripper closes (opens) are allowed (a neighbour in a pile, the table, the
+   released object), until the hand and what it holds are clear of everything; the rest is planned with
+   nothing ignored (MoveIt's post-grasp retreat).
 5. ``verify``: the object rests at the place location.
 
 Every stage's outcome and time land in an :class:`EpisodeResult`; a failure names its stage and reason
