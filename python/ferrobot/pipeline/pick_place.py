@@ -9,7 +9,10 @@ The steps people write around Isaac Sim + cuRobo + AnyGrasp, each a method of :c
    for the grasp pose, where the fingers must touch them).
 4. ``plan/execute`` pre-grasp, approach, close the gripper, lift (the target attached to the planner's robot),
    move above the place location, lower, open, retreat, each a time-parametrised trajectory executed by the
-   simulated robot's joint drives.
+   simulated robot's joint drives. The lift and the retreat start with a straight Cartesian part on which only
+   the contacts present when the gripper closes (opens) are allowed (a neighbour in a pile, the table, the
+   released object), until the hand and what it holds are clear of everything; the rest is planned with
+   nothing ignored (MoveIt's post-grasp retreat).
 5. ``verify``: the object rests at the place location.
 
 Every stage's outcome and time land in an :class:`EpisodeResult`; a failure names its stage and reason
@@ -105,6 +108,14 @@ class PickPlaceConfig:
     #: Measured joint positions beyond a joint limit by at most this much (rad) are moved onto the limit
     #: before planning (drives settle a hair past a limit); larger violations fail the stage.
     limit_tolerance: float = 1e-3
+    #: Step (m, in [0.001, 0.05]) of the straight first part of the lift and of the retreat. Contacts of the
+    #: hand and the held object with what they touch when the gripper closes (or opens) are allowed on that
+    #: part only (MoveIt's post-grasp retreat): the hand moves straight up (back along the approach) until
+    #: it and the object are clear of everything, then the rest of the motion is planned with nothing ignored.
+    escape_step: float = 0.005
+    #: Distance (m, in [0, 0.05]) the straight part continues past the first configuration clear of
+    #: everything (the simulated contact surfaces sit a hair beyond the planner's).
+    escape_clearance: float = 0.01
 
 
 @dataclass
@@ -372,6 +383,10 @@ class PickPlace:
         :class:`ferrobot.RobotModel` (``model`` is the older name); ``gripper``: a :class:`ferrobot.Gripper`
         or a shipped one's name, default the model's own (``ferrobot.Gripper.from_model``)."""
         self.config = config or PickPlaceConfig()
+        for name, lo, hi in (("escape_step", 0.001, 0.05), ("escape_clearance", 0.0, 0.05)):
+            v = getattr(self.config, name)
+            if not (isinstance(v, (int, float)) and lo <= v <= hi):
+                raise InvalidArgumentError(f"config.{name}: {v!r} m is outside [{lo}, {hi}]")
         self.model, self.gripper = resolve_robot(model if robot is None else robot, srdf, gripper)
         self.hand_link = self.gripper.hand_link
         self.planner = _core.Planner(self.model)
@@ -590,11 +605,20 @@ class PickPlace:
         self._stage("grasp", close)
 
         def lift():
-            up = _translate(self.episode.hand_grasp, [0.0, 0.0, cfg.lift_height])
-            self.episode.q_lift = self._ik_near(self._ee(up), self._q(), "lift")
-            out = self._move("lift", self.episode.q_lift, ["table"])
+            # Straight up, the contacts at grasp time (a neighbour in a pile, the table under the fingers)
+            # allowed, until clear of everything; then planned to the lift pose with nothing ignored.
+            up_base = transforms.world_to_base(np.eye(4), self.episode.base)[:3, :3] @ np.array([0.0, 0.0, 1.0])
+            hand0 = self._hand_base()
+            esc = self._escape("lift", up_base, cfg.lift_height)
+            up = _translate(hand0, cfg.lift_height * up_base)
+            if esc["escape_distance_mm"] >= 1e3 * cfg.lift_height - 1e-6:
+                self.episode.q_lift = self._q()
+                out = {}
+            else:
+                self.episode.q_lift = self._ik_near(self._ee(up), self._q(), "lift")
+                out = self._move("lift", self.episode.q_lift, [])
             self._check_held("lift")
-            return out
+            return {**out, **esc}
 
         self._stage("lift", lift)
 
@@ -653,15 +677,20 @@ class PickPlace:
         self._stage("release", release)
 
         def retreat():
-            hand = transforms.world_to_base(self._hand_world(), self.episode.base)
+            # Straight back along the approach, the contacts at release (the placed object, the table)
+            # allowed, until clear of everything; then planned with nothing ignored to the retreat pose, or
+            # where that is out of reach, up to the pose the object was carried in (its IK is known).
+            hand = self._hand_base()
+            back_dir = -(hand[:3, :3] @ np.asarray(self.gripper.approach, dtype=float))
+            esc = self._escape("retreat", back_dir, cfg.retreat_distance)
+            if esc["escape_distance_mm"] >= 1e3 * cfg.retreat_distance - 1e-6:
+                return {**esc, "retreat": "back along the approach"}
             back = self._back(hand, cfg.retreat_distance)
             res = self.planner.ik(self._ee(back), self._q(), num_seeds=32)
-            # Back along the approach; where that is out of reach, up to the pose the object was
-            # carried in (its IK is known).
             q, how = (
                 (res.q, "back along the approach") if res.success else (self.episode.q_above, "up to the carry pose")
             )
-            return {**self._move("retreat", q, [self.episode.spec.target, "table"]), "retreat": how}
+            return {**self._move("retreat", q, []), **esc, "retreat": how}
 
         self._stage("retreat", retreat)
 
@@ -685,6 +714,133 @@ class PickPlace:
         return detail
 
     # -- helpers used by stages -----------------------------------------------------------------------------
+
+    def _hand_base(self) -> np.ndarray:
+        """The hand link's pose (base frame) at the simulated arm's configuration."""
+        return transforms.world_to_base(self._hand_world(), self.episode.base)
+
+    def _hand_fk(self, q_arm: np.ndarray) -> np.ndarray:
+        """The hand link's pose (base frame) of the planner at arm configuration ``q_arm``."""
+        full = self.home.copy()
+        full[self._arm_dofs] = q_arm
+        return self.model.fk(full, self.hand_link)
+
+    def _touching(self, stage: str, q: np.ndarray) -> list[str]:
+        """World objects the robot or what it holds collides with at ``q`` (planner world, synced from the
+        simulation): each enabled alone among the others, which are ignored meanwhile. Raises
+        :class:`StageFailure` when ``q`` collides with no world object enabled (self-collision)."""
+        self._sync([])
+        if not self.planner.in_collision(q):
+            return []
+        names = [n for n in self.planner.world.names if n != ROBOT_MOUNT]
+        for n in names:
+            self.planner.set_object_enabled(n, False)
+        try:
+            if self.planner.in_collision(q):
+                raise StageFailure(stage, "the robot (or what it holds) is in self-collision")
+            out = []
+            for n in names:
+                self.planner.set_object_enabled(n, True)
+                if self.planner.in_collision(q):
+                    out.append(n)
+                self.planner.set_object_enabled(n, False)
+            return out
+        finally:
+            for n in names:
+                self.planner.set_object_enabled(n, True)
+
+    def _escape(self, stage: str, direction: np.ndarray, max_distance: float) -> dict:
+        """The straight first part of a lift or retreat: the hand moves along ``direction`` (unit, base frame)
+        from where it is, the objects it (or what it holds) touches now allowed, every other object checked,
+        until it is clear of everything by ``escape_clearance`` (at most ``max_distance``), and the motion is
+        executed. Raises :class:`StageFailure` when the straight path is out of reach or hits another object."""
+        cfg = self.config
+        q0 = self._q()
+        touching = self._touching(stage, q0)
+        if not touching:
+            return {"escape_distance_mm": 0.0, "allowed_contacts": []}
+        hand0 = self._hand_base()
+        path, dists = [q0], [0.0]
+        d, free_at, q = 0.0, None, q0
+        while d < max_distance - 1e-9 and (free_at is None or d < free_at + cfg.escape_clearance - 1e-9):
+            d = min(d + cfg.escape_step, max_distance)
+            res = self.planner.ik(self._ee(_translate(hand0, d * direction)), q, num_seeds=4)
+            if not res.success or np.max(np.abs(res.q - q)) > 0.25:
+                raise StageFailure(
+                    stage, f"the straight path out of contact leaves the arm's reach at {1e3 * d:.0f} mm"
+                )
+            q = res.q
+            for n in touching:
+                self.planner.set_object_enabled(n, False)
+            hit = self.planner.in_collision(q)
+            for n in touching:
+                self.planner.set_object_enabled(n, True)
+            if hit:
+                raise StageFailure(
+                    stage,
+                    f"the straight path out of contact with {touching} hits another object at {1e3 * d:.0f} mm",
+                )
+            if free_at is None and not self.planner.in_collision(q):
+                free_at = d
+            path.append(q)
+            dists.append(d)
+        # Executed as straight joint-space segments between IK points, each short enough that the hand stays
+        # within 2 mm of the straight line (checked by FK at the segment's midpoints).
+        for n in touching:
+            self.planner.set_object_enabled(n, False)
+        try:
+            segments, i = [], 0
+            while i < len(path) - 1:
+                j = i + 1
+                while j + 1 < len(path) and self._straight_enough(path[i], path[j + 1], hand0, direction):
+                    j += 1
+                segments.append((path[i], path[j]))
+                i = j
+            t_plan, dur, err = 0.0, 0.0, 0.0
+            for a, b in segments:
+                t0 = time.perf_counter()
+                res = self.planner.plan(
+                    a,
+                    goal_q=b,
+                    time_limit=cfg.plan_time_limit,
+                    velocity_scale=cfg.velocity_scale,
+                    acceleration_scale=cfg.acceleration_scale,
+                    seed=self.episode.spec.seed,
+                )
+                t_plan += time.perf_counter() - t0
+                if not res.success or len(res.path) != 2:
+                    raise StageFailure(
+                        stage, f"the straight path out of contact is blocked ({res.status}): {res.message}"
+                    )
+                traj = res.interpolated(self.episode.recorder.sample_dt)
+                err = max(
+                    err, self.episode.recorder.execute(traj.positions, traj.velocities, self.episode.arm_idx, stage)
+                )
+                dur += float(res.duration)
+        finally:
+            for n in touching:
+                self.planner.set_object_enabled(n, True)
+        return {
+            "escape_distance_mm": 1e3 * dists[-1],
+            "allowed_contacts": touching,
+            "escape_segments": len(segments),
+            "escape_plan_ms": 1e3 * t_plan,
+            "escape_duration_s": dur,
+            "escape_tracking_error_rad": err,
+        }
+
+    def _straight_enough(self, qa: np.ndarray, qb: np.ndarray, hand0: np.ndarray, direction: np.ndarray) -> bool:
+        """Whether the joint-space line from ``qa`` to ``qb`` keeps the hand within 2 mm of the line through
+        ``hand0`` along ``direction`` and its orientation within 0.02 rad (FK at 4 interior points)."""
+        for t in (0.2, 0.4, 0.6, 0.8):
+            h = self._hand_fk((1 - t) * qa + t * qb)
+            off = h[:3, 3] - hand0[:3, 3]
+            if np.linalg.norm(off - np.dot(off, direction) * direction) > 0.002:
+                return False
+            c = (np.trace(hand0[:3, :3].T @ h[:3, :3]) - 1) / 2
+            if math.acos(min(1.0, max(-1.0, c))) > 0.02:
+                return False
+        return True
 
     def _ik_near(self, pose_base: np.ndarray, seed: np.ndarray, stage: str, collision_free: bool = False):
         res = self.planner.ik(pose_base, seed, num_seeds=32, collision_free=collision_free)
