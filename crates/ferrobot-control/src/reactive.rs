@@ -50,7 +50,7 @@ use nalgebra::{Isometry3, Vector3};
 use crate::config::ReactiveConfig;
 use crate::core::{Core, StepInfo, StepOutput};
 use crate::error::{ControlError, Result};
-use crate::exact::LinkClearance;
+use crate::exact::{LinkClearance, world_shape};
 use crate::guidance::{Action, Guidance, PlanAttempt, Update};
 use crate::world::ControlWorld;
 
@@ -200,6 +200,10 @@ pub struct ReactiveController {
     exact: Option<Arc<LinkClearance>>,
     /// Exact link-pair distances computed this step.
     exact_cache: Vec<((usize, usize), f64)>,
+    /// Per world part (`ControlWorld::parts` order): its parry shape and
+    /// the shape's pose in the part frame, None for shapes the exact layer
+    /// cannot measure (meshes, clouds: the spheres alone watch those).
+    world_shapes: Vec<Option<(parry3d::shape::SharedShape, Isometry3<f64>)>>,
     warp: Vec<Warp>,
     /// Global guidance: joint-space waypoints (full DOF vectors) still to pass.
     waypoints: std::collections::VecDeque<Vec<f64>>,
@@ -266,6 +270,7 @@ impl ReactiveController {
                 .ok()
                 .map(Arc::new),
             exact_cache: Vec::new(),
+            world_shapes: Vec::new(),
             warp: vec![Warp::default(); k],
             waypoints: Default::default(),
             stall_best: f64::INFINITY,
@@ -291,6 +296,7 @@ impl ReactiveController {
     /// Replaces the world (objects at rest).
     pub fn set_world(&mut self, world: ferrobot_collision::CollisionWorld) -> Result<()> {
         self.core.world = ControlWorld::new(world);
+        self.world_shapes.clear();
         Ok(())
     }
 
@@ -505,6 +511,7 @@ impl ReactiveController {
         };
         self.exact_cache.clear();
         let look = cfg.self_distance.max(cfg.self_filter_distance);
+        let exact_on = cfg.exact_filter != 0.0 && self.exact.is_some();
         for &(i, j) in &core.self_pairs {
             let (i, j) = (i as usize, j as usize);
             let (a, b) = (&core.spheres[i], &core.spheres[j]);
@@ -535,21 +542,29 @@ impl ReactiveController {
             // two-stage verdict), so targets with overlapping spheres but
             // separate links stay reachable.
             let gap = d - cfg.self_hold;
-            let exact_apart = gap <= 0.0
-                && self.exact.as_ref().is_some_and(|lc| {
-                    let key = (a.link, b.link);
-                    let dist = match self.exact_cache.iter().find(|c| c.0 == key) {
-                        Some(c) => c.1,
-                        None => {
-                            let v = lc
-                                .link_pair_distance(&core.poses, a.link, b.link)
-                                .unwrap_or(0.0);
-                            self.exact_cache.push((key, v));
-                            v
-                        }
-                    };
-                    dist > cfg.self_hold
-                });
+            // With the exact layer on, the links' own geometry is filtered
+            // below (a pair per link pair); the sphere pair is not.
+            let exact_pair = exact_on
+                && self
+                    .exact
+                    .as_ref()
+                    .is_some_and(|lc| lc.has_geometry(a.link) && lc.has_geometry(b.link));
+            let exact_apart = exact_pair
+                || gap <= 0.0
+                    && self.exact.as_ref().is_some_and(|lc| {
+                        let key = (a.link, b.link);
+                        let dist = match self.exact_cache.iter().find(|c| c.0 == key) {
+                            Some(c) => c.1,
+                            None => {
+                                let v = lc
+                                    .link_pair_distance(&core.poses, a.link, b.link)
+                                    .unwrap_or(0.0);
+                                self.exact_cache.push((key, v));
+                                v
+                            }
+                        };
+                        dist > cfg.self_hold
+                    });
             if d < cfg.self_filter_distance && !exact_apart {
                 self.filter_rows.extend_from_slice(&self.row);
                 self.filter_bounds.push(-gap.max(0.0) / dt);
@@ -562,6 +577,85 @@ impl ReactiveController {
             let (acc, m) = self_barrier.eval(d, dd);
             sys.add_row(&self.row, m, acc);
             info.active_avoidance += 1;
+        }
+        // Exact layer of the velocity filter: the links' own geometry.
+        if exact_on && let Some(lc) = self.exact.as_ref() {
+            let fd = cfg.self_filter_distance;
+            if fd > 0.0 {
+                for &(la, lb) in core.self_link_pairs() {
+                    let (Some((ca, ra)), Some((cb, rb))) = (lc.bound(la), lc.bound(lb)) else {
+                        continue;
+                    };
+                    let gap = (core.poses[la] * ca - core.poses[lb] * cb).norm() - ra - rb;
+                    if gap >= fd {
+                        continue;
+                    }
+                    let Some(c) = lc.link_pair_contact(&core.poses, la, lb, fd) else {
+                        continue;
+                    };
+                    if c.distance >= fd {
+                        continue;
+                    }
+                    // d(distance)/dt = -n · (v_a(p_a) - v_b(p_b)), n from a to b.
+                    core.point_jacobian(la, &c.point_a, &mut self.jp);
+                    core.point_jacobian(lb, &c.point_b, &mut self.jq);
+                    for (col, r) in self.row.iter_mut().enumerate() {
+                        *r = -(0..3)
+                            .map(|x| c.normal[x] * (self.jp[x * k + col] - self.jq[x * k + col]))
+                            .sum::<f64>();
+                    }
+                    info.self_clearance = info.self_clearance.min(c.distance);
+                    self.filter_rows.extend_from_slice(&self.row);
+                    self.filter_bounds
+                        .push(-(c.distance - cfg.self_hold).max(0.0) / dt);
+                }
+            }
+            let fw = cfg.collision_filter_distance;
+            let parts = core.world.parts();
+            if fw > 0.0 && !parts.is_empty() {
+                if self.world_shapes.len() != parts.len() {
+                    self.world_shapes = parts.iter().map(|p| world_shape(&p.shape)).collect();
+                }
+                for l in 0..core.poses.len() {
+                    let Some((cl, rl)) = lc.bound(l) else {
+                        continue;
+                    };
+                    // Only links that the controlled joints move.
+                    if core.link_dofs(l) == 0 {
+                        continue;
+                    }
+                    let centre = core.poses[l] * cl;
+                    for (part, shape) in parts.iter().zip(&self.world_shapes) {
+                        let Some((shape, fix)) = shape else {
+                            continue;
+                        };
+                        if !ControlWorld::near(part, &centre, rl, fw) {
+                            continue;
+                        }
+                        let Some(c) =
+                            lc.link_shape_contact(l, &core.poses[l], shape, &(part.pose * fix), fw)
+                        else {
+                            continue;
+                        };
+                        if c.distance >= fw {
+                            continue;
+                        }
+                        core.point_jacobian(l, &c.point_a, &mut self.jp);
+                        // n points from the obstacle to the link.
+                        let n = -c.normal;
+                        for (col, r) in self.row.iter_mut().enumerate() {
+                            *r = n.x * self.jp[col]
+                                + n.y * self.jp[k + col]
+                                + n.z * self.jp[2 * k + col];
+                        }
+                        let vo = core.world.point_velocity(part.object, &c.point_b);
+                        info.world_clearance = info.world_clearance.min(c.distance);
+                        self.filter_rows.extend_from_slice(&self.row);
+                        self.filter_bounds
+                            .push(n.dot(&vo) - (c.distance - cfg.collision_hold).max(0.0) / dt);
+                    }
+                }
+            }
         }
         // Velocity limits (joint space).
         let posture = core.posture.clone().expect("set by check_step");
