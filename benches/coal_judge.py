@@ -116,7 +116,7 @@ class CoalJudge:
 
     def pair_distances(self, q, pairs) -> dict[tuple[str, str], float]:
         """Signed distance (m, negative = penetration) of each (link, link) pair with geometry at ``q``; for pairs
-        whose bounding balls are apart, the gap between the balls (a lower bound: they cannot touch)."""
+        whose bounding balls are more than 2 cm apart, the gap between the balls (a lower bound: they cannot touch)."""
         cache: dict[str, list] = {}
 
         def posed(link):
@@ -140,14 +140,14 @@ class CoalJudge:
             if a not in self.links or b not in self.links:
                 continue
             gap = ball_gap(a, b)
-            # Balls apart: the links are at least that far apart (a lower bound, no contact).
-            out[(a, b)] = gap if gap > 0.0 else self._dist(posed(a), posed(b))
+            # Balls more than 2 cm apart: the links are at least that far apart (a lower bound, no contact).
+            out[(a, b)] = gap if gap > 0.02 else self._dist(posed(a), posed(b))
         return out
 
     def obstacle_distance(self, q, obstacles) -> tuple[float, str | None]:
         """Smallest signed distance between any link and the obstacles: a list of (kind, size, position) with kind
         ``sphere`` (size = radius) or ``box`` (size = half extent, axis-aligned); also the closest link. Links whose
-        bounding ball is apart from every obstacle's count with the gap between the balls (a lower bound)."""
+        bounding ball is more than 2 cm from every obstacle's count with the gap between the balls (a lower bound)."""
         shapes = []
         for kind, size, p in obstacles:
             s = self.coal.Sphere(size) if kind == "sphere" else self.coal.Box(2 * size, 2 * size, 2 * size)
@@ -164,7 +164,7 @@ class CoalJudge:
                 float(np.linalg.norm(pc - np.asarray(p))) - r - (size if kind == "sphere" else np.sqrt(3) * size)
                 for kind, size, p in obstacles
             )
-            if gap > 0.0:
+            if gap > 0.02:
                 d = gap
             else:
                 d = self._dist([(s, self._tf(T @ L)) for s, L in self.links[link]], shapes)

@@ -448,6 +448,7 @@ def main() -> None:
         help="goal configurations: 'valid' (inside the limits by a margin, no self-collision) or 'clip' (v1)",
     )
     ap.add_argument("--progress", action="store_true", help="print a line every 20 episodes")
+    ap.add_argument("--jsonl", type=Path, default=None, help="append each episode's result to this file as it ends")
     ap.add_argument(
         "--coal-judge",
         type=int,
@@ -506,6 +507,9 @@ def main() -> None:
                 print(f"{m}: episode {i}/{len(episodes)}, {time.time() - t_all:.0f} s", flush=True)
             p = replanner if m == "replan" else planner
             rows.append(run_episode(m, model, spheres, sc, q0, qg, judge, p, configs, goal_checker, judge, coal))
+            if args.jsonl:
+                with args.jsonl.open("a") as f:
+                    f.write(json.dumps({"method": m, "episode": i, **rows[-1]}) + "\n")
         results[m] = {"summary": summarise(rows), "episodes": rows}
         s = results[m]["summary"]
         print(

@@ -200,6 +200,8 @@ pub struct ReactiveController {
     exact: Option<Arc<LinkClearance>>,
     /// Exact link-pair distances computed this step.
     exact_cache: Vec<((usize, usize), f64)>,
+    /// Link pairs the exact layer watches (see [`exact_link_pairs`]).
+    exact_pairs: Vec<(usize, usize)>,
     /// Per world part (`ControlWorld::parts` order): its parry shape and
     /// the shape's pose in the part frame, None for shapes the exact layer
     /// cannot measure (meshes, clouds: the spheres alone watch those).
@@ -257,6 +259,13 @@ impl ReactiveController {
         let core = Core::new(checker, ee_link)?;
         let k = core.active.len();
         let guidance = Guidance::new(checker, core.ee_link);
+        let exact = LinkClearance::new(checker.model().clone())
+            .ok()
+            .map(Arc::new);
+        let exact_pairs = match &exact {
+            Some(lc) => exact_link_pairs(checker, lc, core.self_link_pairs()),
+            None => Vec::new(),
+        };
         Ok(Self {
             core,
             config,
@@ -266,10 +275,9 @@ impl ReactiveController {
             row: vec![0.0; k],
             filter_rows: Vec::new(),
             filter_bounds: Vec::new(),
-            exact: LinkClearance::new(checker.model().clone())
-                .ok()
-                .map(Arc::new),
+            exact,
             exact_cache: Vec::new(),
+            exact_pairs,
             world_shapes: Vec::new(),
             warp: vec![Warp::default(); k],
             waypoints: Default::default(),
@@ -582,7 +590,7 @@ impl ReactiveController {
         if exact_on && let Some(lc) = self.exact.as_ref() {
             let fd = cfg.self_filter_distance;
             if fd > 0.0 {
-                for &(la, lb) in core.self_link_pairs() {
+                for &(la, lb) in &self.exact_pairs {
                     let (Some((ca, ra)), Some((cb, rb))) = (lc.bound(la), lc.bound(lb)) else {
                         continue;
                     };
@@ -807,6 +815,50 @@ impl ReactiveController {
             &mut info,
         ))
     }
+}
+
+/// The link pairs the exact layer of the velocity filter watches: the
+/// checker's self-collision link pairs, plus the pairs that only a sampled
+/// never-in-contact analysis (reason `Never` in the checker's matrix, as
+/// `AnalyzeCollisions::analyze` records it) excluded while the model's own
+/// matrix (adjacent, rigid and SRDF pairs, and pairs confirmed always in
+/// contact: `automatic_acm`, the planner's and the judges') still checks
+/// them. A statistical "never" says nothing about the configurations a
+/// controller visits; the exact layer is cheap (a bounding-ball test per
+/// pair), so it keeps the checker's full matrix. Only pairs of links with
+/// exact geometry, at least one of them moved by the controlled joints.
+fn exact_link_pairs(
+    checker: &CollisionChecker,
+    lc: &LinkClearance,
+    checked: &[(usize, usize)],
+) -> Vec<(usize, usize)> {
+    let model = checker.model();
+    let mut pairs: Vec<(usize, usize)> = checked.to_vec();
+    if let Ok((model_acm, _)) = ferrobot_collision::acm::automatic_acm(model, checker.spheres()) {
+        let never: Vec<(usize, usize)> = checker
+            .allowed_collisions()
+            .pairs()
+            .filter(|&(_, _, reason)| reason == "Never")
+            .map(|(a, b, _)| (a.min(b), a.max(b)))
+            .filter(|&(a, b)| !model_acm.is_allowed(a, b))
+            .collect();
+        pairs.extend(never);
+    }
+    let moved = |l: usize| {
+        model
+            .path_to(l)
+            .into_iter()
+            .any(|j| model.joints()[j].kind.is_movable())
+    };
+    pairs.retain(|&(a, b)| {
+        lc.has_geometry(a) && lc.has_geometry(b) && a != b && (moved(a) || moved(b))
+    });
+    pairs
+        .iter_mut()
+        .for_each(|p| *p = (p.0.min(p.1), p.0.max(p.1)));
+    pairs.sort_unstable();
+    pairs.dedup();
+    pairs
 }
 
 impl crate::core::ControllerCore for ReactiveController {
