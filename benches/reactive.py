@@ -1,6 +1,6 @@
 """Dynamic-obstacle benchmark: reaching a target while 1-3 obstacles cross the arm's path.
 
-    python benches/reactive.py [--episodes 200] [--json FILE] [--robot panda|ur5] [--methods ...]
+    python benches/reactive.py [--episodes 200] [--json FILE] [--robot panda|ur5|ur5e] [--methods ...]
 
 Each seeded episode: the bundled Panda (59 automatic spheres) starts at rest near ``ready``; the target is the
 end-effector pose of a random configuration (so it is reachable); 1-3 obstacles (spheres or boxes, 4-8 cm across
@@ -26,17 +26,22 @@ spheres (links that cannot move out of the way: panda_link0/link1); the start an
 free of contact with the obstacles' *entire* swept paths' end points and the target is at least 0.25 m from the
 start (not trivial); each obstacle's path passes within 5 cm of the straight end-effector path (so it is in the
 way). Goal configurations (``--sampling valid``, the default) are what a user would command: at least 0.05 rad
-inside every joint limit and free of self-collision (sphere model + SRDF); ``--sampling clip`` reproduces the first
+inside every joint limit and free of self-collision (sphere model + SRDF, and the links' exact geometry, which a
+hand-made sphere model may not cover); ``--sampling clip`` reproduces the first
 version (goals clipped into the limits, about one in ten exactly at a hard limit, some in self-collision). Contacts
 are judged twice per control step, independently of the controllers' own distances: robot spheres vs obstacles
 (exact obstacle geometry) and exact link geometry vs obstacles (parry; the bundled Panda's links are primitives);
 self-contact is reported separately, twice: the sphere model confirmed on the links (``CollisionChecker.in_collision``)
 and the exact geometry of every link pair the SRDF's allowed-collision matrix checks (``exact_self_clearance``, parry,
 meshes as convex hulls), independent of the spheres. "Reached": position error < 1 cm and rotation error < 0.05 rad
-at some step. ``--robot ur5`` uses ``../shared/robots/ur5`` with 60 automatic spheres (``--ur5-spheres spherized``:
-its spherized URDF, which leaves parts of base_link and shoulder_link uncovered) and, unless ``--ur5-velocity 0``,
-the UR5's data-sheet joint speed (3.15 rad/s) instead of the file's 0.5 rad/s, at which the arm cannot outrun
-0.5 m/s obstacles.
+at some step. A third, independent judge (``--coal-judge 1``, the default when coal and trimesh are installed) measures
+the same contacts with coal on the URDF's own collision elements (``benches/coal_judge.py``: parsed here, meshes as
+convex hulls), sharing no geometry code with ferrobot. ``--robot ur5e`` is the bundled UR5e + Robotiq 2F-85
+(``ferrobot.robots.ur5e()``, primitive geometry, 60 automatic spheres, episodes around its ``home`` state, base links
+base_link/shoulder_link). ``--robot ur5`` uses ``../shared/robots/ur5`` with 60 automatic spheres
+(``--ur5-spheres spherized``: its spherized URDF, which leaves parts of base_link and shoulder_link uncovered)
+and, unless ``--ur5-velocity 0``, the UR5's data-sheet joint speed (3.15 rad/s) instead of the file's 0.5 rad/s,
+at which the arm cannot outrun 0.5 m/s obstacles.
 """
 
 from __future__ import annotations
@@ -52,6 +57,11 @@ from pathlib import Path
 import numpy as np
 
 import ferrobot
+
+try:  # the independent judge (coal on the URDF's own collision elements); optional
+    from coal_judge import CoalJudge
+except ImportError:  # pragma: no cover - coal or trimesh missing
+    CoalJudge = None
 
 # Self-collision pairs of the controllers: samples of the never/always analysis on top of the SRDF's matrix
 # (``--self-collision-samples``; 0 keeps the SRDF's matrix as is).
@@ -77,6 +87,13 @@ def load_robot(name: str, ur5_velocity: float | None = None, ur5_spheres: str = 
         model = ferrobot.robots.panda()
         spheres = ferrobot.SphereModel.automatic(model, total_budget=59)
         base_links = ["panda_link0", "panda_link1"]
+        urdf = (ferrobot.robots.panda_urdf(), None)
+    elif name == "ur5e":
+        # The bundled UR5e + Robotiq 2F-85 (primitive collision geometry, data-sheet joint speeds).
+        model = ferrobot.robots.ur5e()
+        spheres = ferrobot.SphereModel.automatic(model, total_budget=60)
+        base_links = ["base_link", "shoulder_link"]
+        urdf = (ferrobot.robots.ur5e_urdf(), None)
     else:
         text = (SHARED / "robots/ur5/ur5.urdf").read_text()
         if ur5_velocity is not None:
@@ -106,7 +123,8 @@ def load_robot(name: str, ur5_velocity: float | None = None, ur5_spheres: str = 
                 path.write_text(text)
                 spheres = ferrobot.SphereModel.from_spherized_urdf(model, path)
         base_links = ["base_link", "shoulder_link"]
-    return model, spheres, base_links
+        urdf = ((SHARED / "robots/ur5/ur5.urdf").read_text(), SHARED / "robots/ur5/meshes")
+    return model, spheres, base_links, urdf
 
 
 class Scenario:
@@ -136,7 +154,15 @@ def make_episode(rng, model, judge, base_spheres, q_ready, sampling="valid", che
     ``GOAL_LIMIT_MARGIN`` inside every joint limit and free of self-collision (the robot's sphere model and
     SRDF); ``"clip"`` is the first version of this benchmark (goals clipped into the limits, so about one
     in ten sits exactly at a hard limit, and not checked for self-collision)."""
-    rejected = {"start_close": 0, "base": 0, "target": 0, "trivial": 0, "goal_limit": 0, "goal_self": 0}
+    rejected = {
+        "start_close": 0,
+        "base": 0,
+        "target": 0,
+        "trivial": 0,
+        "goal_limit": 0,
+        "goal_self": 0,
+        "goal_self_exact": 0,
+    }
     lo, hi = model.lower_limits, model.upper_limits
     arm = len(judge.active_joints)
     while True:
@@ -151,6 +177,11 @@ def make_episode(rng, model, judge, base_spheres, q_ready, sampling="valid", che
                 continue
             if checker.in_collision(qg):
                 rejected["goal_self"] += 1
+                continue
+            # The sphere model may not cover the links (the UR5's spherized URDF does not): a goal whose links'
+            # exact geometry touches is in self-collision too, and no controller should be asked to reach it.
+            if judge.exact_self_clearance(qg)["distance"] <= 0.0:
+                rejected["goal_self_exact"] += 1
                 continue
         else:
             qg = np.clip(qg, lo, hi)
@@ -194,7 +225,9 @@ def make_episode(rng, model, judge, base_spheres, q_ready, sampling="valid", che
         return q0, qg, sc, rejected
 
 
-def run_episode(method, model, spheres, sc, q0, qg, judge, planner, configs=None, self_checker=None, self_judge=None):
+def run_episode(
+    method, model, spheres, sc, q0, qg, judge, planner, configs=None, self_checker=None, self_judge=None, coal=None
+):
     target = model.fk(qg)
     n = model.num_dof
     q, qd = q0.copy(), np.zeros(n)
@@ -222,6 +255,9 @@ def run_episode(method, model, spheres, sc, q0, qg, judge, planner, configs=None
     min_sphere = min_exact = np.inf
     contact_sphere = contact_exact = self_contact = self_contact_exact = False
     min_self_exact = np.inf
+    contact_coal = self_contact_coal = False
+    min_coal = min_self_coal = np.inf
+    coal_pairs = self_judge.self_link_pairs if coal is not None else []
     for k in range(steps):
         t = k * DT
         if ctl is not None:
@@ -260,6 +296,17 @@ def run_episode(method, model, spheres, sc, q0, qg, judge, planner, configs=None
         dse = float(self_judge.exact_self_clearance(q)["distance"]) if EXACT_SELF else np.inf
         min_self_exact = min(min_self_exact, dse)
         self_contact_exact |= dse <= 0.0
+        if coal is not None:
+            # The independent judge: coal on the URDF's collision elements (meshes as convex hulls).
+            obs = [
+                (kind, size, sc.p0[i] + sc.vel[i] * tn)
+                for i, (kind, size) in enumerate(zip(sc.kinds, sc.sizes, strict=True))
+            ]
+            dc = coal.obstacle_distance(q, obs)[0]
+            dsc = min(coal.pair_distances(q, coal_pairs).values(), default=np.inf)
+            min_coal, min_self_coal = min(min_coal, dc), min(min_self_coal, dsc)
+            contact_coal |= dc <= 0.0
+            self_contact_coal |= dsc <= 0.0
         if reached_at is None:
             T = model.fk(q)
             if np.linalg.norm(T[:3, 3] - target[:3, 3]) < POS_TOL and rot_err(T, target) < ROT_TOL:
@@ -276,6 +323,10 @@ def run_episode(method, model, spheres, sc, q0, qg, judge, planner, configs=None
         "contact_exact": bool(contact_exact),
         "self_contact_spheres": bool(self_contact),
         "self_contact_exact": bool(self_contact_exact),
+        "contact_coal": bool(contact_coal) if coal is not None else None,
+        "self_contact_coal": bool(self_contact_coal) if coal is not None else None,
+        "min_coal_clearance": min_coal,
+        "min_coal_self_clearance": min_self_coal,
         "min_exact_self_clearance": min_self_exact,
         "min_sphere_clearance": min_sphere,
         "min_exact_clearance": min_exact,
@@ -283,6 +334,11 @@ def run_episode(method, model, spheres, sc, q0, qg, judge, planner, configs=None
         "guidance_plans": guidance_plans,
         "controller_time_median_call_s": float(np.median(ctrl_times)) if ctrl_times else 0.0,
     }
+
+
+def pct_or_none(rows, key):
+    vals = [r[key] for r in rows if r[key] is not None]
+    return 100.0 * sum(vals) / len(vals) if vals else None
 
 
 def summarise(rows):
@@ -298,11 +354,22 @@ def summarise(rows):
         "reached_without_any_contact_pct": 100.0
         * sum(
             r["reached"]
-            and not (r["contact_spheres"] or r["contact_exact"] or r["self_contact_spheres"] or r["self_contact_exact"])
+            and not (
+                r["contact_spheres"]
+                or r["contact_exact"]
+                or r["self_contact_spheres"]
+                or r["self_contact_exact"]
+                or r["contact_coal"]
+                or r["self_contact_coal"]
+            )
             for r in rows
         )
         / n,
         "min_exact_self_clearance_m": float(min(r["min_exact_self_clearance"] for r in rows)),
+        "contact_coal_pct": pct_or_none(rows, "contact_coal"),
+        "self_contact_coal_pct": pct_or_none(rows, "self_contact_coal"),
+        "min_coal_clearance_m": float(min(r["min_coal_clearance"] for r in rows)),
+        "min_coal_self_clearance_m": float(min(r["min_coal_self_clearance"] for r in rows)),
         "reached_without_contact_pct": 100.0
         * sum(r["reached"] and not (r["contact_spheres"] or r["contact_exact"]) for r in rows)
         / n,
@@ -344,11 +411,15 @@ def time_one_step(model, spheres, q_ready, repeats: int = 5000) -> dict[str, flo
     return out
 
 
+def fmt_pct(x):
+    return "  n/a" if x is None else f"{x:5.1f}%"
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--episodes", type=int, default=200)
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--robot", choices=["panda", "ur5"], default="panda")
+    ap.add_argument("--robot", choices=["panda", "ur5", "ur5e"], default="panda")
     ap.add_argument("--methods", nargs="+", default=["reactive", "reactive_local", "potential", "plan_once", "replan"])
     ap.add_argument("--json", type=Path, default=None)
     ap.add_argument(
@@ -376,17 +447,28 @@ def main() -> None:
         default="valid",
         help="goal configurations: 'valid' (inside the limits by a margin, no self-collision) or 'clip' (v1)",
     )
+    ap.add_argument("--progress", action="store_true", help="print a line every 20 episodes")
+    ap.add_argument("--jsonl", type=Path, default=None, help="append each episode's result to this file as it ends")
+    ap.add_argument(
+        "--coal-judge",
+        type=int,
+        default=1,
+        help="1: also judge contacts with coal on the URDF's collision elements (independent of ferrobot's geometry)",
+    )
     ap.add_argument("--reactive-config", type=json.loads, default=None, help="gain overrides (JSON dict)")
     ap.add_argument("--potential-config", type=json.loads, default=None, help="gain overrides (JSON dict)")
     args = ap.parse_args()
     global SELF_COLLISION_SAMPLES
     SELF_COLLISION_SAMPLES = args.self_collision_samples
-    model, spheres, base_links = load_robot(
+    model, spheres, base_links, (urdf_text, mesh_dir) = load_robot(
         args.robot, None if args.ur5_velocity <= 0 else args.ur5_velocity, args.ur5_spheres
     )
     # The judge checks every link pair the allowed-collision matrix (SRDF) enables: no sampled analysis.
     judge = ferrobot.ReactiveController(model, None, spheres, self_collision_samples=0)
-    q_ready = model.named_state("ready") if args.robot == "panda" else model.neutral_configuration()
+    q_ready = {
+        "panda": lambda: model.named_state("ready"),
+        "ur5e": lambda: model.named_state("home"),
+    }.get(args.robot, model.neutral_configuration)()
     base = []
     for link in base_links:
         T = model.fk(q_ready, link)
@@ -413,19 +495,29 @@ def main() -> None:
         episodes.append((q0, qg, sc))
         for k, v in rej.items():
             rejected[k] = rejected.get(k, 0) + v
+    coal = None
+    if CoalJudge is not None and args.coal_judge:
+        coal = CoalJudge(model, urdf_text, mesh_dir)
     results = {}
     t_all = time.time()
     for m in args.methods:
         rows = []
-        for q0, qg, sc in episodes:
+        for i, (q0, qg, sc) in enumerate(episodes):
+            if args.progress and i % 20 == 0:
+                print(f"{m}: episode {i}/{len(episodes)}, {time.time() - t_all:.0f} s", flush=True)
             p = replanner if m == "replan" else planner
-            rows.append(run_episode(m, model, spheres, sc, q0, qg, judge, p, configs, goal_checker, judge))
+            rows.append(run_episode(m, model, spheres, sc, q0, qg, judge, p, configs, goal_checker, judge, coal))
+            if args.jsonl:
+                with args.jsonl.open("a") as f:
+                    f.write(json.dumps({"method": m, "episode": i, **rows[-1]}) + "\n")
         results[m] = {"summary": summarise(rows), "episodes": rows}
         s = results[m]["summary"]
         print(
             f"{m:<10} reached {s['reached_pct']:5.1f}%  contact spheres {s['contact_spheres_pct']:5.1f}% "
             f"exact {s['contact_exact_pct']:5.1f}%  self (spheres) {s['self_contact_spheres_pct']:5.1f}% "
             f"(exact links) {s['self_contact_exact_pct']:5.1f}%  "
+            f"coal: contact {fmt_pct(s['contact_coal_pct'])} self {fmt_pct(s['self_contact_coal_pct'])} "
+            f"(min {s['min_coal_clearance_m'] * 1e3:.1f} / {s['min_coal_self_clearance_m'] * 1e3:.1f} mm)  "
             f"reached w/o any contact {s['reached_without_any_contact_pct']:5.1f}%  "
             f"reached w/o contact {s['reached_without_contact_pct']:5.1f}%  "
             f"min sphere clearance {s['min_sphere_clearance_m'] * 1e3:7.1f} mm  "

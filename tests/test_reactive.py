@@ -7,6 +7,8 @@ are central finite differences of those hand distances.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -294,3 +296,116 @@ def test_guidance_status_and_config_validation(panda):
             ferrobot.ReactiveController(model, None, spheres, config={name: value})
         with pytest.raises(errors.InvalidArgumentError, match=name):
             ctl.set_config({name: value})
+
+
+SHARED = Path(__file__).resolve().parent.parent.parent / "shared"
+# Two episodes of benches/reactive.py on the UR5 with its spherized URDF (seed 0, episodes 6 and 12): q0, goal,
+# obstacles (kind, half size, start, velocity). With the spheres alone, the first drives forearm_link into
+# wrist_2_link (about 15 mm deep) and the second upper_arm_link into the box (9 mm) while every sphere stays apart.
+UR5_EPISODES = [
+    (
+        [
+            0.0794584628203639,
+            0.13102867929232093,
+            0.01782969708872023,
+            0.06300104205990148,
+            -0.0547215103789831,
+            -0.1234374851011607,
+        ],
+        [
+            0.3550324783930562,
+            -0.8948117861031558,
+            0.510985694338911,
+            -0.8869802032834749,
+            0.21024165713690335,
+            0.17030493118921186,
+        ],
+        [
+            (
+                "box",
+                0.047766068753999684,
+                [-0.27204118955913176, 0.7494031422967611, 1.3195426838311055],
+                [-0.14592408588690955, -0.16235138228783602, -0.07542108581001469],
+            )
+        ],
+    ),
+    (
+        [
+            0.04262539964864734,
+            0.1342969216818981,
+            -0.1159110565020935,
+            0.03742152213203914,
+            0.18956970951791047,
+            0.13191411808180814,
+        ],
+        [
+            0.7557932276518161,
+            0.04247143105151774,
+            -0.7632207339118713,
+            0.2926272934131101,
+            0.5907064197036797,
+            -0.38431600727464266,
+        ],
+        [
+            (
+                "box",
+                0.03850366495772059,
+                [-0.7063761300465192, 0.7713345621247012, 1.217349384081479],
+                [0.14242617223356646, -0.3444575704247799, -0.1717929542241922],
+            ),
+            (
+                "sphere",
+                0.04720163096197874,
+                [-0.18718944407547378, 0.4631498980959754, 1.624951090883227],
+                [-0.27872930464535006, 0.02870000983621513, -0.34884384653026596],
+            ),
+        ],
+    ),
+]
+
+
+@pytest.mark.skipif(not (SHARED / "robots/ur5/ur5_spherized.urdf").exists(), reason="needs ../shared/robots/ur5")
+def test_exact_filter_keeps_the_ur5s_uncovered_links_apart():
+    """The spherized UR5 (one sphere for base_link and shoulder_link, spheres not covering the links): with the
+    exact layer of the velocity filter (the default) neither episode touches, judged by coal on the URDF's own
+    collision meshes (convex hulls), independent of ferrobot's geometry; without it (``exact_filter 0``) both do."""
+    pytest.importorskip("coal")
+    pytest.importorskip("trimesh")
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "benches"))
+    from coal_judge import CoalJudge
+    from reactive import load_robot
+
+    model, spheres, _, (urdf, mesh_dir) = load_robot("ur5", 3.15, "spherized")
+    coal = CoalJudge(model, urdf, mesh_dir)
+    pairs = ferrobot.ReactiveController(model, None, spheres, self_collision_samples=0).self_link_pairs
+    dt = 0.01
+    for exact in (1.0, 0.0):
+        worst = []
+        for (q0, qg, obstacles), steps in zip(UR5_EPISODES, (150, 250), strict=True):
+            world = ferrobot.CollisionWorld()
+            for i, (kind, size, p0, _) in enumerate(obstacles):
+                if kind == "sphere":
+                    world.add_sphere(f"obs{i}", size, [*p0, 1, 0, 0, 0])
+                else:
+                    world.add_box(f"obs{i}", [2 * size] * 3, [*p0, 1, 0, 0, 0])
+            ctl = ferrobot.ReactiveController(
+                model, world, spheres, config={"guidance_plans": 0, "exact_filter": exact}
+            )
+            ctl.set_target(model.fk(np.array(qg)))
+            q, qd = np.array(q0), np.zeros(6)
+            self_min = world_min = np.inf
+            for k in range(steps):
+                t = k * dt
+                for i, (_, _, p0, v) in enumerate(obstacles):
+                    ctl.set_obstacle_pose(f"obs{i}", [*(np.array(p0) + np.array(v) * t), 1, 0, 0, 0], v)
+                q, qd, _ = ctl.step(q, qd, dt)
+                obs = [(kind, size, np.array(p0) + np.array(v) * (t + dt)) for kind, size, p0, v in obstacles]
+                world_min = min(world_min, coal.obstacle_distance(q, obs)[0])
+                self_min = min(self_min, min(coal.pair_distances(q, pairs).values()))
+            worst.append((self_min, world_min))
+        if exact:
+            assert all(s > 0 and w > 0 for s, w in worst), worst
+        else:
+            assert worst[0][0] < 0 and worst[1][1] < 0, worst

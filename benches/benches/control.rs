@@ -68,11 +68,37 @@ fn control(c: &mut Criterion) {
         out.info.active_avoidance,
         out.info.filtered
     );
+    // The same controller with the velocity filter on the spheres alone
+    // (`exact_filter` 0: the step before the exact layer), measured in the
+    // same run for a before/after comparison.
+    let mut spheres_only = ReactiveController::new(
+        &checker,
+        None,
+        ReactiveConfig {
+            guidance_plans: 0.0,
+            exact_filter: 0.0,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    spheres_only.core_mut().set_target(target, true).unwrap();
     let mut pf =
         PotentialFieldController::new(&checker, None, PotentialFieldConfig::default()).unwrap();
     pf.core_mut().set_target(target, true).unwrap();
     let mut g = c.benchmark_group("control/panda_59_spheres_10_obstacles");
     g.bench_function("reactive_step", |b| {
+        b.iter(|| black_box(rmp.step(black_box(&q), black_box(&qd), 0.001).unwrap()))
+    });
+    g.bench_function("reactive_step_spheres_only_filter", |b| {
+        b.iter(|| {
+            black_box(
+                spheres_only
+                    .step(black_box(&q), black_box(&qd), 0.001)
+                    .unwrap(),
+            )
+        })
+    });
+    g.bench_function("reactive_step_again", |b| {
         b.iter(|| black_box(rmp.step(black_box(&q), black_box(&qd), 0.001).unwrap()))
     });
     g.bench_function("potential_field_step", |b| {

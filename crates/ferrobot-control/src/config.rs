@@ -185,6 +185,17 @@ config_struct! {
         /// self-collision velocity filter: at least the closing distance of
         /// one control step (0 turns the self filter off), [0, 1].
         self_filter_distance: 0.05, [0.0, 1.0],
+        /// 1: the velocity filter watches the links' exact geometry (meshes
+        /// as convex hulls, primitives exactly; parry's closest points) for
+        /// every checked self link pair and every link near an obstacle
+        /// (boxes, spheres, cylinders, capsules), with the same holds and
+        /// filter distances as the sphere pairs, instead of trusting the
+        /// spheres to cover the links (a hand-made sphere model may not:
+        /// links then touch while their spheres are apart). Self sphere
+        /// pairs of links with exact geometry then leave the filter (the
+        /// exact pair replaces them); their avoidance policy stays. 0: the
+        /// spheres alone, [0, 1], whole.
+        exact_filter: 1.0, [0.0, 1.0],
         /// Joint limits: the controller works in limit-aware coordinates
         /// `q = m + h tanh(u / h)` per joint (`m` the middle of the range,
         /// `h` half the range minus this buffer), so its joints stay at least
@@ -314,6 +325,7 @@ impl ReactiveConfig {
         for (name, v) in [
             ("guidance_plans", self.guidance_plans),
             ("guidance_blocking", self.guidance_blocking),
+            ("exact_filter", self.exact_filter),
         ] {
             if v.fract() != 0.0 {
                 return Err(ControlError::InvalidArgument(format!(

@@ -210,6 +210,11 @@ impl Core {
         })
     }
 
+    /// Number of controlled DOFs that move link `l`.
+    pub(crate) fn link_dofs(&self, l: usize) -> usize {
+        self.link_joints[l].len()
+    }
+
     /// Lower position limit of controlled DOF number `col`.
     pub(crate) fn lower_limit(&self, col: usize) -> f64 {
         self.lower[col]

@@ -9,7 +9,7 @@ use std::sync::Arc;
 use ferrobot_collision::CollisionWorld;
 use ferrobot_geometry::MeshAs;
 use ferrobot_model::{RobotModel, Shape};
-use nalgebra::Isometry3;
+use nalgebra::{Isometry3, Point3, Vector3};
 use parry3d::math::{Pose, Rot3, Vector};
 use parry3d::shape::SharedShape;
 
@@ -32,7 +32,7 @@ fn link_shape(shape: &Shape) -> Option<(SharedShape, Isometry3<f64>)> {
 
 /// A world shape for parry: primitives only (meshes, hulls and clouds are
 /// left to the sphere model's distance queries).
-fn world_shape(shape: &Shape) -> Option<(SharedShape, Isometry3<f64>)> {
+pub(crate) fn world_shape(shape: &Shape) -> Option<(SharedShape, Isometry3<f64>)> {
     match shape {
         Shape::Box { .. }
         | Shape::Sphere { .. }
@@ -52,6 +52,55 @@ pub struct Clearance {
     pub closest: Option<(String, String)>,
 }
 
+/// The closest points of two convex shapes (or of the deepest
+/// penetration), base frame: see [`LinkClearance::link_pair_contact`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ExactContact {
+    /// Signed distance (m): negative when the shapes overlap (minus the
+    /// penetration depth).
+    pub distance: f64,
+    /// Point on the first shape.
+    pub point_a: Point3<f64>,
+    /// Point on the second shape.
+    pub point_b: Point3<f64>,
+    /// Unit normal pointing from the first shape towards the second: moving
+    /// the first shape along `-normal` increases the distance.
+    pub normal: Vector3<f64>,
+}
+
+fn to_point(v: Vector) -> Point3<f64> {
+    Point3::new(v.x as f64, v.y as f64, v.z as f64)
+}
+
+fn to_vector(v: Vector) -> Vector3<f64> {
+    Vector3::new(v.x as f64, v.y as f64, v.z as f64)
+}
+
+/// Closest (or deepest) contact between shape `a` at `pa` and `b` at `pb`
+/// within `prediction` (m), base frame.
+pub(crate) fn shape_contact(
+    a: &SharedShape,
+    pa: &Isometry3<f64>,
+    b: &SharedShape,
+    pb: &Isometry3<f64>,
+    prediction: f64,
+) -> Option<ExactContact> {
+    let c = parry3d::query::contact(
+        &to_pose(pa),
+        a.as_ref(),
+        &to_pose(pb),
+        b.as_ref(),
+        prediction as f32,
+    )
+    .ok()??;
+    Some(ExactContact {
+        distance: c.dist as f64,
+        point_a: to_point(c.point1),
+        point_b: to_point(c.point2),
+        normal: to_vector(c.normal1),
+    })
+}
+
 /// Exact link geometry of a robot, for clearance queries against worlds of
 /// primitives.
 #[derive(Debug, Clone)]
@@ -59,6 +108,9 @@ pub struct LinkClearance {
     model: Arc<RobotModel>,
     /// Per link: shapes and their poses in the link frame.
     links: Vec<Vec<(SharedShape, Isometry3<f64>)>>,
+    /// Per link: a ball holding all its shapes (centre in the link frame,
+    /// radius), None without geometry: the broad phase of the contact queries.
+    bounds: Vec<Option<(Point3<f64>, f64)>>,
 }
 
 impl LinkClearance {
@@ -78,7 +130,97 @@ impl LinkClearance {
             }
             links.push(parts);
         }
-        Ok(Self { model, links })
+        let bounds = links
+            .iter()
+            .map(|parts| {
+                // A ball about the mean of the parts' bounding-ball centres
+                // holding every part's bounding ball.
+                if parts.is_empty() {
+                    return None;
+                }
+                let balls: Vec<(Point3<f64>, f64)> = parts
+                    .iter()
+                    .map(|(s, local)| {
+                        let b = s.compute_local_bounding_sphere();
+                        (local * to_point(b.center()), b.radius() as f64)
+                    })
+                    .collect();
+                let c = balls
+                    .iter()
+                    .fold(Vector3::zeros(), |acc, (p, _)| acc + p.coords)
+                    / balls.len() as f64;
+                let r = balls
+                    .iter()
+                    .map(|(p, r)| (p.coords - c).norm() + r)
+                    .fold(0.0, f64::max);
+                Some((Point3::from(c), r * (1.0 + 1e-6) + 1e-6))
+            })
+            .collect();
+        Ok(Self {
+            model,
+            links,
+            bounds,
+        })
+    }
+
+    /// Whether link `l` has collision geometry.
+    pub fn has_geometry(&self, l: usize) -> bool {
+        self.links.get(l).is_some_and(|p| !p.is_empty())
+    }
+
+    /// A ball holding link `l`'s geometry: centre in the link frame, radius
+    /// (m); None without geometry.
+    pub fn bound(&self, l: usize) -> Option<(Point3<f64>, f64)> {
+        self.bounds.get(l).copied().flatten()
+    }
+
+    /// The closest points between the geometry of links `a` and `b` at the
+    /// link poses `poses` (base frame, one per link), or their deepest
+    /// penetration, when they are within `prediction` (m) of each other;
+    /// None when farther or when either link has no geometry. The normal
+    /// points from `a` to `b`.
+    pub fn link_pair_contact(
+        &self,
+        poses: &[Isometry3<f64>],
+        a: usize,
+        b: usize,
+        prediction: f64,
+    ) -> Option<ExactContact> {
+        let mut best: Option<ExactContact> = None;
+        for (sa, la) in self.links.get(a)? {
+            let pa = poses[a] * la;
+            for (sb, lb) in self.links.get(b)? {
+                let pb = poses[b] * lb;
+                if let Some(c) = shape_contact(sa, &pa, sb, &pb, prediction)
+                    && best.is_none_or(|x| c.distance < x.distance)
+                {
+                    best = Some(c);
+                }
+            }
+        }
+        best
+    }
+
+    /// The closest points between link `l`'s geometry (at `pose`, base
+    /// frame) and the shape `other` at `other_pose` within `prediction` (m),
+    /// as [`LinkClearance::link_pair_contact`] (the link is the first shape).
+    pub fn link_shape_contact(
+        &self,
+        l: usize,
+        pose: &Isometry3<f64>,
+        other: &SharedShape,
+        other_pose: &Isometry3<f64>,
+        prediction: f64,
+    ) -> Option<ExactContact> {
+        let mut best: Option<ExactContact> = None;
+        for (s, local) in self.links.get(l)? {
+            if let Some(c) = shape_contact(s, &(pose * local), other, other_pose, prediction)
+                && best.is_none_or(|x| c.distance < x.distance)
+            {
+                best = Some(c);
+            }
+        }
+        best
     }
 
     /// Smallest distance between the links (at `q`) and the objects of

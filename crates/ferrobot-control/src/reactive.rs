@@ -50,7 +50,7 @@ use nalgebra::{Isometry3, Vector3};
 use crate::config::ReactiveConfig;
 use crate::core::{Core, StepInfo, StepOutput};
 use crate::error::{ControlError, Result};
-use crate::exact::LinkClearance;
+use crate::exact::{LinkClearance, world_shape};
 use crate::guidance::{Action, Guidance, PlanAttempt, Update};
 use crate::world::ControlWorld;
 
@@ -200,6 +200,12 @@ pub struct ReactiveController {
     exact: Option<Arc<LinkClearance>>,
     /// Exact link-pair distances computed this step.
     exact_cache: Vec<((usize, usize), f64)>,
+    /// Link pairs the exact layer watches (see [`exact_link_pairs`]).
+    exact_pairs: Vec<(usize, usize)>,
+    /// Per world part (`ControlWorld::parts` order): its parry shape and
+    /// the shape's pose in the part frame, None for shapes the exact layer
+    /// cannot measure (meshes, clouds: the spheres alone watch those).
+    world_shapes: Vec<Option<(parry3d::shape::SharedShape, Isometry3<f64>)>>,
     warp: Vec<Warp>,
     /// Global guidance: joint-space waypoints (full DOF vectors) still to pass.
     waypoints: std::collections::VecDeque<Vec<f64>>,
@@ -253,6 +259,13 @@ impl ReactiveController {
         let core = Core::new(checker, ee_link)?;
         let k = core.active.len();
         let guidance = Guidance::new(checker, core.ee_link);
+        let exact = LinkClearance::new(checker.model().clone())
+            .ok()
+            .map(Arc::new);
+        let exact_pairs = match &exact {
+            Some(lc) => exact_link_pairs(checker, lc, core.self_link_pairs()),
+            None => Vec::new(),
+        };
         Ok(Self {
             core,
             config,
@@ -262,10 +275,10 @@ impl ReactiveController {
             row: vec![0.0; k],
             filter_rows: Vec::new(),
             filter_bounds: Vec::new(),
-            exact: LinkClearance::new(checker.model().clone())
-                .ok()
-                .map(Arc::new),
+            exact,
             exact_cache: Vec::new(),
+            exact_pairs,
+            world_shapes: Vec::new(),
             warp: vec![Warp::default(); k],
             waypoints: Default::default(),
             stall_best: f64::INFINITY,
@@ -291,6 +304,7 @@ impl ReactiveController {
     /// Replaces the world (objects at rest).
     pub fn set_world(&mut self, world: ferrobot_collision::CollisionWorld) -> Result<()> {
         self.core.world = ControlWorld::new(world);
+        self.world_shapes.clear();
         Ok(())
     }
 
@@ -505,6 +519,7 @@ impl ReactiveController {
         };
         self.exact_cache.clear();
         let look = cfg.self_distance.max(cfg.self_filter_distance);
+        let exact_on = cfg.exact_filter != 0.0 && self.exact.is_some();
         for &(i, j) in &core.self_pairs {
             let (i, j) = (i as usize, j as usize);
             let (a, b) = (&core.spheres[i], &core.spheres[j]);
@@ -535,21 +550,29 @@ impl ReactiveController {
             // two-stage verdict), so targets with overlapping spheres but
             // separate links stay reachable.
             let gap = d - cfg.self_hold;
-            let exact_apart = gap <= 0.0
-                && self.exact.as_ref().is_some_and(|lc| {
-                    let key = (a.link, b.link);
-                    let dist = match self.exact_cache.iter().find(|c| c.0 == key) {
-                        Some(c) => c.1,
-                        None => {
-                            let v = lc
-                                .link_pair_distance(&core.poses, a.link, b.link)
-                                .unwrap_or(0.0);
-                            self.exact_cache.push((key, v));
-                            v
-                        }
-                    };
-                    dist > cfg.self_hold
-                });
+            // With the exact layer on, the links' own geometry is filtered
+            // below (a pair per link pair); the sphere pair is not.
+            let exact_pair = exact_on
+                && self
+                    .exact
+                    .as_ref()
+                    .is_some_and(|lc| lc.has_geometry(a.link) && lc.has_geometry(b.link));
+            let exact_apart = exact_pair
+                || gap <= 0.0
+                    && self.exact.as_ref().is_some_and(|lc| {
+                        let key = (a.link, b.link);
+                        let dist = match self.exact_cache.iter().find(|c| c.0 == key) {
+                            Some(c) => c.1,
+                            None => {
+                                let v = lc
+                                    .link_pair_distance(&core.poses, a.link, b.link)
+                                    .unwrap_or(0.0);
+                                self.exact_cache.push((key, v));
+                                v
+                            }
+                        };
+                        dist > cfg.self_hold
+                    });
             if d < cfg.self_filter_distance && !exact_apart {
                 self.filter_rows.extend_from_slice(&self.row);
                 self.filter_bounds.push(-gap.max(0.0) / dt);
@@ -562,6 +585,85 @@ impl ReactiveController {
             let (acc, m) = self_barrier.eval(d, dd);
             sys.add_row(&self.row, m, acc);
             info.active_avoidance += 1;
+        }
+        // Exact layer of the velocity filter: the links' own geometry.
+        if exact_on && let Some(lc) = self.exact.as_ref() {
+            let fd = cfg.self_filter_distance;
+            if fd > 0.0 {
+                for &(la, lb) in &self.exact_pairs {
+                    let (Some((ca, ra)), Some((cb, rb))) = (lc.bound(la), lc.bound(lb)) else {
+                        continue;
+                    };
+                    let gap = (core.poses[la] * ca - core.poses[lb] * cb).norm() - ra - rb;
+                    if gap >= fd {
+                        continue;
+                    }
+                    let Some(c) = lc.link_pair_contact(&core.poses, la, lb, fd) else {
+                        continue;
+                    };
+                    if c.distance >= fd {
+                        continue;
+                    }
+                    // d(distance)/dt = -n · (v_a(p_a) - v_b(p_b)), n from a to b.
+                    core.point_jacobian(la, &c.point_a, &mut self.jp);
+                    core.point_jacobian(lb, &c.point_b, &mut self.jq);
+                    for (col, r) in self.row.iter_mut().enumerate() {
+                        *r = -(0..3)
+                            .map(|x| c.normal[x] * (self.jp[x * k + col] - self.jq[x * k + col]))
+                            .sum::<f64>();
+                    }
+                    info.self_clearance = info.self_clearance.min(c.distance);
+                    self.filter_rows.extend_from_slice(&self.row);
+                    self.filter_bounds
+                        .push(-(c.distance - cfg.self_hold).max(0.0) / dt);
+                }
+            }
+            let fw = cfg.collision_filter_distance;
+            let parts = core.world.parts();
+            if fw > 0.0 && !parts.is_empty() {
+                if self.world_shapes.len() != parts.len() {
+                    self.world_shapes = parts.iter().map(|p| world_shape(&p.shape)).collect();
+                }
+                for l in 0..core.poses.len() {
+                    let Some((cl, rl)) = lc.bound(l) else {
+                        continue;
+                    };
+                    // Only links that the controlled joints move.
+                    if core.link_dofs(l) == 0 {
+                        continue;
+                    }
+                    let centre = core.poses[l] * cl;
+                    for (part, shape) in parts.iter().zip(&self.world_shapes) {
+                        let Some((shape, fix)) = shape else {
+                            continue;
+                        };
+                        if !ControlWorld::near(part, &centre, rl, fw) {
+                            continue;
+                        }
+                        let Some(c) =
+                            lc.link_shape_contact(l, &core.poses[l], shape, &(part.pose * fix), fw)
+                        else {
+                            continue;
+                        };
+                        if c.distance >= fw {
+                            continue;
+                        }
+                        core.point_jacobian(l, &c.point_a, &mut self.jp);
+                        // n points from the obstacle to the link.
+                        let n = -c.normal;
+                        for (col, r) in self.row.iter_mut().enumerate() {
+                            *r = n.x * self.jp[col]
+                                + n.y * self.jp[k + col]
+                                + n.z * self.jp[2 * k + col];
+                        }
+                        let vo = core.world.point_velocity(part.object, &c.point_b);
+                        info.world_clearance = info.world_clearance.min(c.distance);
+                        self.filter_rows.extend_from_slice(&self.row);
+                        self.filter_bounds
+                            .push(n.dot(&vo) - (c.distance - cfg.collision_hold).max(0.0) / dt);
+                    }
+                }
+            }
         }
         // Velocity limits (joint space).
         let posture = core.posture.clone().expect("set by check_step");
@@ -713,6 +815,50 @@ impl ReactiveController {
             &mut info,
         ))
     }
+}
+
+/// The link pairs the exact layer of the velocity filter watches: the
+/// checker's self-collision link pairs, plus the pairs that only a sampled
+/// never-in-contact analysis (reason `Never` in the checker's matrix, as
+/// `AnalyzeCollisions::analyze` records it) excluded while the model's own
+/// matrix (adjacent, rigid and SRDF pairs, and pairs confirmed always in
+/// contact: `automatic_acm`, the planner's and the judges') still checks
+/// them. A statistical "never" says nothing about the configurations a
+/// controller visits; the exact layer is cheap (a bounding-ball test per
+/// pair), so it keeps the checker's full matrix. Only pairs of links with
+/// exact geometry, at least one of them moved by the controlled joints.
+fn exact_link_pairs(
+    checker: &CollisionChecker,
+    lc: &LinkClearance,
+    checked: &[(usize, usize)],
+) -> Vec<(usize, usize)> {
+    let model = checker.model();
+    let mut pairs: Vec<(usize, usize)> = checked.to_vec();
+    if let Ok((model_acm, _)) = ferrobot_collision::acm::automatic_acm(model, checker.spheres()) {
+        let never: Vec<(usize, usize)> = checker
+            .allowed_collisions()
+            .pairs()
+            .filter(|&(_, _, reason)| reason == "Never")
+            .map(|(a, b, _)| (a.min(b), a.max(b)))
+            .filter(|&(a, b)| !model_acm.is_allowed(a, b))
+            .collect();
+        pairs.extend(never);
+    }
+    let moved = |l: usize| {
+        model
+            .path_to(l)
+            .into_iter()
+            .any(|j| model.joints()[j].kind.is_movable())
+    };
+    pairs.retain(|&(a, b)| {
+        lc.has_geometry(a) && lc.has_geometry(b) && a != b && (moved(a) || moved(b))
+    });
+    pairs
+        .iter_mut()
+        .for_each(|p| *p = (p.0.min(p.1), p.0.max(p.1)));
+    pairs.sort_unstable();
+    pairs.dedup();
+    pairs
 }
 
 impl crate::core::ControllerCore for ReactiveController {
