@@ -620,6 +620,8 @@ class PlanResult:
     joint_names: list[str]
     samples: int
     stops_at_waypoints: bool
+    recheck_samples: int
+    refinements: int
     path_length: float
     duration: float | None
     @property

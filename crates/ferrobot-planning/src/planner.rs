@@ -852,8 +852,11 @@ impl Planner {
         deadline: Option<Instant>,
         tested: &mut usize,
     ) -> std::result::Result<Option<usize>, TimedOut> {
-        // Two packs of 512 per chunk: both cores busy, early exit soon.
-        const CHUNK: usize = 1024;
+        // Checked on the calling thread, in chunks: early exit soon after
+        // a collision, and no hand-off to the rayon pool (whose threads,
+        // on a busy machine, wake late: milliseconds for a few hundred
+        // configurations).
+        const CHUNK: usize = 256;
         let dim = traj.dim();
         let n = self.model().num_dof();
         let all = recheck::pieces(traj, resolution, verified);
@@ -871,7 +874,7 @@ impl Planner {
             }
             let hits = &mut hits[..seg_of.len()];
             *tested += seg_of.len();
-            self.checker.in_collision_batch_into(configs, hits);
+            self.checker.in_collision_batch_serial_into(configs, hits);
             let found = hits.iter().position(|&h| h).map(|k| seg_of[k]);
             configs.clear();
             seg_of.clear();

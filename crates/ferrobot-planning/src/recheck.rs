@@ -137,19 +137,15 @@ pub fn max_speed(traj: &Trajectory, i: usize, s0: f64, s1: f64) -> f64 {
 /// `|e_d(s)| + dist(u(s), [0, 1]) |delta_d|` in joint `d`.
 pub fn deviation_bound(traj: &Trajectory, i: usize, s0: f64, s1: f64, a: &[f64], b: &[f64]) -> f64 {
     let dim = traj.dim();
-    let delta: Vec<f64> = a.iter().zip(b).map(|(x, y)| y - x).collect();
+    let delta = |d: usize| b[d] - a[d];
     let r = (0..dim)
-        .max_by(|&x, &y| delta[x].abs().total_cmp(&delta[y].abs()))
+        .max_by(|&x, &y| delta(x).abs().total_cmp(&delta(y).abs()))
         .expect("at least one joint");
+    let dr = delta(r);
     // u(s) as a cubic (0 for a segment of zero length).
-    let u = if delta[r] != 0.0 {
+    let u = if dr != 0.0 {
         let c = cubic(traj, i, r);
-        [
-            (c[0] - a[r]) / delta[r],
-            c[1] / delta[r],
-            c[2] / delta[r],
-            c[3] / delta[r],
-        ]
+        [(c[0] - a[r]) / dr, c[1] / dr, c[2] / dr, c[3] / dr]
     } else {
         [0.0; 4]
     };
@@ -157,15 +153,15 @@ pub fn deviation_bound(traj: &Trajectory, i: usize, s0: f64, s1: f64, a: &[f64],
     let out = (-ulo).max(uhi - 1.0).max(0.0);
     let mut worst = 0.0f64;
     for d in 0..dim {
-        let c = cubic(traj, i, d);
+        let (c, dd) = (cubic(traj, i, d), delta(d));
         let e = [
-            c[0] - a[d] - u[0] * delta[d],
-            c[1] - u[1] * delta[d],
-            c[2] - u[2] * delta[d],
-            c[3] - u[3] * delta[d],
+            c[0] - a[d] - u[0] * dd,
+            c[1] - u[1] * dd,
+            c[2] - u[2] * dd,
+            c[3] - u[3] * dd,
         ];
         let (lo, hi) = cubic_range(&e, s0, s1);
-        worst = worst.max(lo.abs().max(hi.abs()) + out * delta[d].abs());
+        worst = worst.max(lo.abs().max(hi.abs()) + out * dd.abs());
     }
     // A rounding allowance (positions are O(1) rad or m, so rounding is
     // O(1e-15)): the residual of a joint that follows the reference joint
@@ -181,6 +177,22 @@ pub fn pieces(traj: &Trajectory, resolution: f64, waypoints: Option<&[Vec<f64>]>
     let mut out = Vec::new();
     for i in 0..traj.times.len() - 1 {
         let h = traj.times[i + 1] - traj.times[i];
+        // A whole interval within the tolerance is skipped without cutting
+        // it (a sub-range's bound is never above the whole range's).
+        let segment = waypoints.map(|w| (&w[traj.segment_of[i]], &w[traj.segment_of[i] + 1]));
+        if let Some((a, b)) = segment {
+            let whole = deviation_bound(traj, i, 0.0, h, a, b);
+            if whole <= SKIP_DEVIATION * resolution {
+                out.push(Piece {
+                    interval: i,
+                    s0: 0.0,
+                    s1: h,
+                    steps: (((h * max_speed(traj, i, 0.0, h)) / resolution).ceil() as usize).max(1),
+                    deviation: whole,
+                });
+                continue;
+            }
+        }
         // Pieces of about SAMPLES_PER_PIECE samples at the interval's top speed.
         let top = max_speed(traj, i, 0.0, h);
         let k = ((h * top / resolution / SAMPLES_PER_PIECE).ceil() as usize).clamp(1, MAX_PIECES);
@@ -189,11 +201,8 @@ pub fn pieces(traj: &Trajectory, resolution: f64, waypoints: Option<&[Vec<f64>]>
             let speed = max_speed(traj, i, s0, s1);
             // `as` saturates; callers bound the resolution and the duration.
             let steps = (((s1 - s0) * speed / resolution).ceil() as usize).max(1);
-            let deviation = match waypoints {
-                Some(w) => {
-                    let seg = traj.segment_of[i];
-                    deviation_bound(traj, i, s0, s1, &w[seg], &w[seg + 1])
-                }
+            let deviation = match segment {
+                Some((a, b)) => deviation_bound(traj, i, s0, s1, a, b),
                 None => f64::INFINITY,
             };
             out.push(Piece {

@@ -288,7 +288,9 @@ impl PyPlanResult {
         })
     }
 
-    /// Stage wall-clock times (s): ik, planning, simplify, trajectory, total.
+    /// Stage wall-clock times (s): ik, planning, simplify, trajectory, total;
+    /// of trajectory: fit (spline fits and time scaling) and recheck (its
+    /// collision re-checks).
     #[getter]
     fn times<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         guard(|| {
@@ -300,6 +302,8 @@ impl PyPlanResult {
                 ("simplify", t.simplify),
                 ("trajectory", t.trajectory),
                 ("total", t.total),
+                ("fit", t.fit),
+                ("recheck", t.recheck),
             ] {
                 d.set_item(k, v)?;
             }
@@ -318,6 +322,18 @@ impl PyPlanResult {
     #[getter]
     fn stops_at_waypoints(&self) -> PyResult<bool> {
         guard(|| Ok(self.inner.stops_at_waypoints))
+    }
+
+    /// Configurations the trajectory's collision re-checks tested.
+    #[getter]
+    fn recheck_samples(&self) -> PyResult<usize> {
+        guard(|| Ok(self.inner.recheck_samples))
+    }
+
+    /// Waypoints added to the smooth trajectory where it collided.
+    #[getter]
+    fn refinements(&self) -> PyResult<usize> {
+        guard(|| Ok(self.inner.refinements))
     }
 
     /// Length of the path in joint space (Euclidean over planned joints).
