@@ -152,10 +152,10 @@ pub fn deviation_bound(traj: &Trajectory, i: usize, s0: f64, s1: f64, a: &[f64],
     let (ulo, uhi) = cubic_range(&u, s0, s1);
     let out = (-ulo).max(uhi - 1.0).max(0.0);
     let mut worst = 0.0f64;
-    for d in 0..dim {
+    for (d, ad) in a.iter().enumerate().take(dim) {
         let (c, dd) = (cubic(traj, i, d), delta(d));
         let e = [
-            c[0] - a[d] - u[0] * dd,
+            c[0] - ad - u[0] * dd,
             c[1] - u[1] * dd,
             c[2] - u[2] * dd,
             c[3] - u[3] * dd,
