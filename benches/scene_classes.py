@@ -14,7 +14,9 @@ second), a single check from Python (includes the binding's call overhead), and 
 free configurations, joint goals): solved, plan + simplify median / p95 (wall time from Python with
 trajectory=False), finished trajectory median / p95 (wall time, trajectory=True), and the stage times the
 planner reports (planning = RRT-Connect, simplify = shortcutting + fine re-check, trajectory = spline fit,
-dense re-check, time scaling). Every path and trajectory is re-checked by a separate CollisionChecker at 5 mrad.
+dense re-check, time scaling; builds that report them split it into fit (spline fits and time scaling) and
+re-check, with the configurations re-checked). Every path and trajectory is re-checked by a separate
+CollisionChecker at 5 mrad.
 
 With --ab DIR the script runs itself alternately with ferrobot imported from DIR (the A side, e.g. a copy of
 `main`'s python/ferrobot with its built extension) and from the installed package (B), --rounds times each.
@@ -176,7 +178,10 @@ def run(args) -> dict:
                     ok = ok and not checker.in_collision_batch(qs).any()
                     ok = ok and np.abs(np.diff(traj, axis=0)).max() <= RESOLUTION
                     row["clean"] = bool(ok)
-                    row["stages"] = {k: v for k, v in rt.times.to_dict().items()}
+                    t = rt.times
+                    row["stages"] = dict(t.to_dict() if hasattr(t, "to_dict") else t)
+                    # Older builds report neither (the A side of an A/B run).
+                    row["recheck_samples"] = getattr(rt, "recheck_samples", None)
                 rows["plans"].append(row)
         out["classes"][cname] = rows
     return out
@@ -190,7 +195,11 @@ def report(res: dict, label: str = "") -> None:
         clean = [p for p in solved if p.get("clean")]
         ps = np.array([p["plan_simplify"] for p in solved]) * 1e6
         tr = np.array([p["trajectory"] for p in solved]) * 1e6
-        st = {k: np.median([p["stages"][k] for p in solved]) * 1e6 for k in ("planning", "simplify", "trajectory")}
+        st = {
+            k: np.median([p["stages"].get(k, np.nan) for p in solved]) * 1e6
+            for k in ("planning", "simplify", "trajectory", "fit", "recheck")
+        }
+        counts = [p["recheck_samples"] for p in solved if p.get("recheck_samples") is not None]
         print(
             f"  {cname:8s} obstacles {np.median(rows['obstacles']):5.0f}  "
             f"batch {np.median(rows['batch_wall']) / 1e6:5.2f} M/s wall "
@@ -204,6 +213,11 @@ def report(res: dict, label: str = "") -> None:
                 f"stages (median, trajectory=True run): rrt {st['planning']:.0f} simplify {st['simplify']:.0f} "
                 f"spline+recheck+timing {st['trajectory']:.0f} us"
             )
+            if counts:
+                print(
+                    f"           of which fit+timing {st['fit']:.0f} us, re-check {st['recheck']:.0f} us "
+                    f"(median), {np.mean(counts):.0f} configurations re-checked per trajectory (mean)"
+                )
 
 
 def main() -> None:

@@ -662,6 +662,8 @@ class PlanResult:
     joint_names: list[str]
     samples: int
     stops_at_waypoints: bool
+    recheck_samples: int
+    refinements: int
     path_length: float
     duration: float | None
     @property
@@ -1236,6 +1238,10 @@ class PlanTimes:
     def simplify(self) -> float: ...
     @property
     def trajectory(self) -> float: ...
+    @property
+    def fit(self) -> float: ...
+    @property
+    def recheck(self) -> float: ...
     @property
     def total(self) -> float: ...
     def to_dict(self) -> dict[str, Any]: ...

@@ -596,6 +596,31 @@ impl CollisionChecker {
             });
     }
 
+    /// [`CollisionChecker::in_collision_batch_into`] on the calling thread
+    /// (no hand-off to the rayon pool): for the few hundred configurations
+    /// of one plan's re-check, where waking pool threads on a busy machine
+    /// costs more than the checks.
+    pub fn in_collision_batch_serial_into(&self, qs: &[f64], out: &mut [bool]) {
+        let dof = self.shared.model.num_dof();
+        if self.static_hit {
+            out.iter_mut().for_each(|o| *o = true);
+            return;
+        }
+        let grid = self.world_grid();
+        let mut scratch = Scratch::<f32x8>::new(&self.robot);
+        crate::dispatch::check_packs(
+            self.simd,
+            &self.robot,
+            &self.compiled_world,
+            grid,
+            &qs[..out.len() * dof],
+            dof,
+            self.margin as f32,
+            out,
+            &mut scratch,
+        );
+    }
+
     /// Whether the straight joint-space motion from `q0` to `q1` is free:
     /// configurations are checked so that no DOF moves more than
     /// `resolution` between neighbours (endpoints included), eight at a time

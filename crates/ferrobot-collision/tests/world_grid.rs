@@ -214,6 +214,13 @@ fn candidate_lists_never_hide_a_collision_in_crowded_worlds() {
             batch, reference,
             "{n} obstacles: batch with candidate lists"
         );
+        // The same batch on the calling thread (the planner's re-check).
+        let mut serial = vec![false; qs.len()];
+        checker.in_collision_batch_serial_into(&qs.concat(), &mut serial);
+        assert_eq!(
+            serial, reference,
+            "{n} obstacles: serial batch with candidate lists"
+        );
         let single: Vec<bool> = qs
             .iter()
             .map(|q| checker.in_collision(q).unwrap())

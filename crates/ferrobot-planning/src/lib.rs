@@ -14,6 +14,7 @@ pub mod ik;
 pub mod joint_order;
 pub mod limits;
 pub mod planner;
+pub mod recheck;
 pub mod rrt;
 pub mod simplify;
 pub mod space;

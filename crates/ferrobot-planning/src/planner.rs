@@ -15,6 +15,7 @@ use rand::rngs::SmallRng;
 use crate::error::{Result, check_finite};
 use crate::ik::{IkOptions, IkSolution, IkSolver};
 use crate::limits::{KinematicLimits, LIMIT_TOLERANCE};
+use crate::recheck;
 use crate::rrt::{Edges, RrtFailure, RrtOptions, rrt_connect_until};
 use crate::simplify::{SimplifyOptions, path_length, simplify};
 
@@ -98,6 +99,25 @@ impl PlanOptions {
     }
 }
 
+/// The smooth trajectory of a plan and what making it cost.
+#[derive(Debug, Default)]
+struct Smoothed {
+    trajectory: Trajectory,
+    /// It stops at every waypoint (the smooth spline kept colliding, or
+    /// the deadline passed).
+    fell_back: bool,
+    /// The fall-back was for the deadline.
+    timed_out: bool,
+    /// Time in spline fits and time parametrisation (s).
+    fit: f64,
+    /// Time in collision re-checks (s).
+    recheck: f64,
+    /// Configurations re-checked.
+    samples: usize,
+    /// Waypoints added.
+    refinements: usize,
+}
+
 /// A check gave up because its deadline passed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct TimedOut;
@@ -151,6 +171,11 @@ pub struct StageTimes {
     pub simplify: f64,
     /// Trajectory fitting, time parametrisation and dense re-check.
     pub trajectory: f64,
+    /// Of `trajectory`: spline fits and time parametrisation (every
+    /// refinement included).
+    pub fit: f64,
+    /// Of `trajectory`: collision re-checks of the smooth trajectory.
+    pub recheck: f64,
     /// Everything.
     pub total: f64,
 }
@@ -176,6 +201,10 @@ pub struct PlanResult {
     /// Whether the trajectory had to stop at every waypoint (the smooth
     /// spline collided even after refinement).
     pub stops_at_waypoints: bool,
+    /// Configurations the trajectory's collision re-checks tested.
+    pub recheck_samples: usize,
+    /// Waypoints added to the smooth trajectory where it collided.
+    pub refinements: usize,
 }
 
 impl PlanResult {
@@ -194,6 +223,8 @@ impl PlanResult {
             times,
             samples: 0,
             stops_at_waypoints: false,
+            recheck_samples: 0,
+            refinements: 0,
         }
     }
 }
@@ -624,15 +655,21 @@ impl Planner {
         };
         let t2 = Instant::now();
         let mut stops = false;
+        let (mut recheck_samples, mut refinements) = (0, 0);
         let mut message = String::new();
         let trajectory = if opts.trajectory {
             let limits = self
                 .limits
                 .scaled(opts.velocity_scale, opts.acceleration_scale)
                 .expect("scales validated by the caller");
-            let (traj, fell_back, timed_out) = self.smooth(space, &path, &limits, opts, deadline);
-            stops = fell_back;
-            if timed_out {
+            let out = self.smooth(space, &path, &limits, opts, deadline);
+            stops = out.fell_back;
+            times.fit = out.fit;
+            times.recheck = out.recheck;
+            recheck_samples = out.samples;
+            refinements = out.refinements;
+            let traj = out.trajectory;
+            if out.timed_out {
                 message = format!(
                     "the time limit ({} s) passed while checking the smooth trajectory: it \
                      stops at every waypoint of the checked path instead",
@@ -654,6 +691,8 @@ impl Planner {
             times,
             samples: stats.samples,
             stops_at_waypoints: stops,
+            recheck_samples,
+            refinements,
         }
     }
 
@@ -696,9 +735,7 @@ impl Planner {
 
     /// The smooth trajectory through `path`, refined where it collides;
     /// falls back to stopping at every waypoint (which follows the checked
-    /// path exactly, so needs no further check). Returns the trajectory,
-    /// whether it fell back and whether the fall-back was for the deadline
-    /// (a dense re-check cut short).
+    /// path exactly, so needs no further check).
     fn smooth(
         &self,
         space: &ActiveSpace,
@@ -706,16 +743,52 @@ impl Planner {
         limits: &KinematicLimits,
         opts: &PlanOptions,
         deadline: Instant,
-    ) -> (Trajectory, bool, bool) {
+    ) -> Smoothed {
+        let mut out = Smoothed::default();
         let mut waypoints = path.to_vec();
+        let polyline = |out: &mut Smoothed, timed_out: bool| {
+            let t = Instant::now();
+            let traj = parametrize_polyline(path, limits);
+            out.fit += t.elapsed().as_secs_f64();
+            out.fell_back = true;
+            out.timed_out = timed_out;
+            traj
+        };
         for _ in 0..=opts.refinements {
             if Instant::now() >= deadline {
-                return (parametrize_polyline(path, limits), true, true);
+                let traj = polyline(&mut out, true);
+                return Smoothed {
+                    trajectory: traj,
+                    ..out
+                };
             }
+            let t = Instant::now();
             let traj = parametrize(&waypoints, limits);
-            match self.first_collision_in(space, &traj, opts.rrt.resolution, Some(deadline)) {
-                Err(TimedOut) => return (parametrize_polyline(path, limits), true, true),
-                Ok(None) => return (traj, false, false),
+            out.fit += t.elapsed().as_secs_f64();
+            let t = Instant::now();
+            let found = self.first_collision_counted(
+                space,
+                &traj,
+                opts.rrt.resolution,
+                Some(&waypoints),
+                Some(deadline),
+                &mut out.samples,
+            );
+            out.recheck += t.elapsed().as_secs_f64();
+            match found {
+                Err(TimedOut) => {
+                    let traj = polyline(&mut out, true);
+                    return Smoothed {
+                        trajectory: traj,
+                        ..out
+                    };
+                }
+                Ok(None) => {
+                    return Smoothed {
+                        trajectory: traj,
+                        ..out
+                    };
+                }
                 Ok(Some(seg)) => {
                     let mid: Vec<f64> = waypoints[seg]
                         .iter()
@@ -723,10 +796,15 @@ impl Planner {
                         .map(|(a, b)| 0.5 * (a + b))
                         .collect();
                     waypoints.insert(seg + 1, mid);
+                    out.refinements += 1;
                 }
             }
         }
-        (parametrize_polyline(path, limits), true, false)
+        let traj = polyline(&mut out, false);
+        Smoothed {
+            trajectory: traj,
+            ..out
+        }
     }
 
     /// Samples `traj` so that no joint moves more than `resolution` between
@@ -740,7 +818,7 @@ impl Planner {
     }
 
     /// [`Planner::first_collision`] that gives up when `deadline` passes
-    /// (read between chunks of 4,096 configurations).
+    /// (read between chunks of configurations).
     pub fn first_collision_until(
         &self,
         traj: &Trajectory,
@@ -757,37 +835,59 @@ impl Planner {
         resolution: f64,
         deadline: Option<Instant>,
     ) -> std::result::Result<Option<usize>, TimedOut> {
-        const CHUNK: usize = 4096;
+        self.first_collision_counted(space, traj, resolution, None, deadline, &mut 0)
+    }
+
+    /// [`Planner::first_collision_in`] adding the configurations it tested
+    /// to `tested`. With `verified` (the waypoints `traj` was fitted
+    /// through, every segment already checked free at `resolution`), the
+    /// pieces within [`crate::recheck::SKIP_DEVIATION`] of their segment are
+    /// skipped and the others checked furthest first ([`crate::recheck`]).
+    fn first_collision_counted(
+        &self,
+        space: &ActiveSpace,
+        traj: &Trajectory,
+        resolution: f64,
+        verified: Option<&[Vec<f64>]>,
+        deadline: Option<Instant>,
+        tested: &mut usize,
+    ) -> std::result::Result<Option<usize>, TimedOut> {
+        // Checked on the calling thread, in chunks: early exit soon after
+        // a collision, and no hand-off to the rayon pool (whose threads,
+        // on a busy machine, wake late: milliseconds for a few hundred
+        // configurations).
+        const CHUNK: usize = 256;
         let dim = traj.dim();
         let n = self.model().num_dof();
+        let all = recheck::pieces(traj, resolution, verified);
+        let order = if verified.is_some() {
+            recheck::to_check(&all, resolution)
+        } else {
+            all
+        };
         let mut configs = Vec::with_capacity(CHUNK * n);
         let mut seg_of = Vec::with_capacity(CHUNK);
         let mut hits = vec![false; CHUNK];
         let mut flush = |configs: &mut Vec<f64>, seg_of: &mut Vec<usize>| -> Option<usize> {
+            if seg_of.is_empty() {
+                return None;
+            }
             let hits = &mut hits[..seg_of.len()];
-            self.checker.in_collision_batch_into(configs, hits);
+            *tested += seg_of.len();
+            self.checker.in_collision_batch_serial_into(configs, hits);
             let found = hits.iter().position(|&h| h).map(|k| seg_of[k]);
             configs.clear();
             seg_of.clear();
             found
         };
-        let (mut q, mut v, mut a) = (vec![0.0; dim], vec![0.0; dim], vec![0.0; dim]);
+        let mut q = vec![0.0; dim];
         let mut full = space.locked.clone();
-        for i in 0..traj.times.len() - 1 {
-            let h = traj.times[i + 1] - traj.times[i];
-            let speed = (0..dim).map(|d| traj.max_speed(i, d)).fold(0.0, f64::max);
-            let steps = ((h * speed / resolution).ceil() as usize).max(1);
-            let first = usize::from(i > 0);
-            for k in first..=steps {
-                traj.sample_into(
-                    traj.times[i] + h * k as f64 / steps as f64,
-                    &mut q,
-                    &mut v,
-                    &mut a,
-                );
+        for piece in &order {
+            for s in recheck::sample_times(piece) {
+                traj.position_on(piece.interval, s, &mut q);
                 space.expand_into(&q, &mut full);
                 configs.extend_from_slice(&full);
-                seg_of.push(traj.segment_of[i]);
+                seg_of.push(traj.segment_of[piece.interval]);
                 if seg_of.len() == CHUNK {
                     if let Some(seg) = flush(&mut configs, &mut seg_of) {
                         return Ok(Some(seg));

@@ -15,7 +15,7 @@
 use nalgebra::DMatrix;
 
 /// A piecewise-cubic trajectory in the active space.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq)]
 pub struct Trajectory {
     /// Knot times, starting at 0, increasing.
     pub times: Vec<f64>,
@@ -186,6 +186,23 @@ impl Trajectory {
             q[d] = qq;
             v[d] = vv;
             a[d] = aa;
+        }
+    }
+
+    /// Position at time `s` since the start of interval `i` (`0 <= s <=`
+    /// the interval's length), written into `q`.
+    pub fn position_on(&self, i: usize, s: f64, q: &mut [f64]) {
+        let h = self.times[i + 1] - self.times[i];
+        for (d, out) in q.iter_mut().enumerate().take(self.dim()) {
+            *out = eval(
+                h,
+                self.positions[i][d],
+                self.positions[i + 1][d],
+                self.accelerations[i][d],
+                self.accelerations[i + 1][d],
+                s,
+            )
+            .0;
         }
     }
 

@@ -308,6 +308,18 @@ impl PyPlanResult {
         guard(|| Ok(self.inner.stops_at_waypoints))
     }
 
+    /// Configurations the trajectory's collision re-checks tested.
+    #[getter]
+    fn recheck_samples(&self) -> PyResult<usize> {
+        guard(|| Ok(self.inner.recheck_samples))
+    }
+
+    /// Waypoints added to the smooth trajectory where it collided.
+    #[getter]
+    fn refinements(&self) -> PyResult<usize> {
+        guard(|| Ok(self.inner.refinements))
+    }
+
     /// Length of the path in joint space (Euclidean over planned joints).
     #[getter]
     fn path_length(&self) -> PyResult<f64> {

@@ -177,8 +177,12 @@ result_class! {
         planning: f64,
         /// Shortcutting (s).
         simplify: f64,
-        /// Spline fitting and time scaling (s).
+        /// Spline fitting, time scaling and the trajectory's re-check (s).
         trajectory: f64,
+        /// Of `trajectory`: spline fits and time scaling (s).
+        fit: f64,
+        /// Of `trajectory`: collision re-checks of the fitted trajectory (s).
+        recheck: f64,
         /// The whole call (s).
         total: f64,
     }
@@ -192,6 +196,8 @@ impl PyPlanTimes {
             planning: t.planning,
             simplify: t.simplify,
             trajectory: t.trajectory,
+            fit: t.fit,
+            recheck: t.recheck,
             total: t.total,
         }
     }
