@@ -48,6 +48,9 @@ pub struct WorldConfig {
     /// (twice this against fixed bodies); higher is stiffer.
     pub contact_frequency: f64,
     /// Penetration depth (m) the solver tolerates before pushing bodies apart.
+    /// Also the contact recycling window: a contact pair whose relative pose
+    /// moved less than this since its last full narrow-phase update keeps its
+    /// contact points (see `World::new`).
     pub allowed_penetration: f64,
     /// Damping ratio of the contact springs (Rapier's own default is 10).
     pub contact_damping_ratio: f64,
