@@ -107,6 +107,7 @@ impl CollisionPipeline {
             0.0,
             false,
             0.0,
+            IntegrationParameters::default().allowed_linear_error(),
             islands,
             bodies,
             colliders,

@@ -136,6 +136,7 @@ impl PhysicsPipeline {
             } else {
                 0.0
             },
+            integration_parameters.allowed_linear_error(),
             islands,
             bodies,
             colliders,
