@@ -213,19 +213,51 @@ def test_single_small_mesh_object_rests_still_on_the_table(kind, size, mass, app
     assert np.degrees(np.arccos(np.clip(cos, -1, 1))) < 1.0
 
 
-@pytest.mark.xfail(
+_LIGHT_DUMBBELL = pytest.mark.xfail(
     strict=True,
-    reason="known: in this 6-object pile one superellipsoid still creeps 6 mm over 10,000 steps after the "
-    "recycling/clustering fix (single objects now rest; contacts between objects in a pile are not fixed yet)",
+    reason="known: a 29 g dumbbell decomposition (4 cm) alone on the table rocks at ~3 rad/s with contact clustering "
+    "on (its two ends share one 4-point manifold); it sleeps with clustering off, which costs up to 2.5x per step",
 )
-def test_settled_clutter_rests_still_for_10000_steps(objects_dir):
-    spec = clutter.random_clutter(1, 6, objects_dir, center=(0.0, 0.0))
+
+
+@pytest.fixture(scope="module")
+def heldout_dir(tmp_path_factory):
+    import heldout_objects
+
+    d = tmp_path_factory.mktemp("heldout")
+    heldout_objects.generate(d, per_kind=3)
+    return d
+
+
+@pytest.mark.parametrize(
+    ("object_set", "seed", "count"),
+    [
+        ("made", 5, 8),
+        pytest.param("made", 1, 6, marks=_LIGHT_DUMBBELL),
+        ("pybullet", 1, 8),
+        ("pybullet", 3, 12),
+        ("heldout", 2, 8),
+        ("heldout", 3, 8),
+    ],
+)
+def test_settled_clutter_rests_still_for_10000_steps(object_set, seed, count, objects_dir, heldout_dir):
+    """Piles of 6-12 objects (this module's rounded meshes, pybullet_data's objects, the held-out set of
+    ``benches/heldout_objects.py``), touching and partly stacked: once settled (every object slower than
+    2 mm/s and 2 mrad/s over 0.25 s), no object moves more than 2 mm or turns more than 2 degrees over
+    10,000 steps (41.7 s). Resting rigid bodies have nothing to move them; before the stable contact
+    reduction of the vendored Rapier (vendor/rapier3d/FERROBOT.md, change 12) objects rocked on contact
+    points that changed from step to step and crept by mm to cm (BENCHMARKS.md, "Piles at rest")."""
+    if object_set == "pybullet":
+        pytest.importorskip("pybullet_data")
+    objects = {"made": objects_dir, "pybullet": None, "heldout": heldout_dir}[object_set]
+    spec = clutter.random_clutter(seed, count, objects, center=(0.0, 0.0))
     w = _table_world(spec)
     names = clutter.add_clutter(w, spec)
+    assert clutter.settle(w, names, max_seconds=6.0) < 6.0, "the pile did not settle within 10 s"
     before = {n: w.get_object_pose(n) for n in names}
-    # Touching and partly stacked: some object rests above another's lowest level.
-    heights = sorted(p[2, 3] for p in before.values())
-    assert all(h > spec.table_top - 0.01 for h in heights)
+    # On the table (an object's frame may lie off its mesh, e.g. a URDF origin, hence the 10 cm: this catches
+    # an object through or off the table).
+    assert all(p[2, 3] > spec.table_top - 0.1 for p in before.values())
     w.step(10_000)
     for n in names:
         after = w.get_object_pose(n)
