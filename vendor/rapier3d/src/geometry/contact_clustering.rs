@@ -35,7 +35,6 @@ pub(crate) fn cluster_manifolds_for_solver(
     prev: &[ContactManifold],
     out: &mut Vec<ContactManifold>,
     prediction_distance: Real,
-    support_tolerance: Real,
 ) {
     let dedup_eps = prediction_distance * 0.25;
     let dedup_eps_sq = dedup_eps * dedup_eps;
@@ -96,18 +95,13 @@ pub(crate) fn cluster_manifolds_for_solver(
             pt.data = Default::default();
 
             // Deduplicate points that are nearly coincident (e.g. generated on both
-            // sides of a shared triangle edge): keep the first one (manifold order is
-            // stable from step to step) unless the new one is deeper by more than the
-            // support tolerance. Upstream kept the deepest: between the points of two
-            // parts of a convex decomposition resting together, that choice flipped
-            // with sub-micrometre depth noise and moved the contact by up to
-            // `dedup_eps` (ferrobot change 12).
+            // sides of a shared triangle edge): keep the deepest one.
             if let Some(existing) = cluster
                 .points
                 .iter_mut()
                 .find(|c| (c.local_p1 - pt.local_p1).length_squared() < dedup_eps_sq)
             {
-                if pt.dist < existing.dist - support_tolerance {
+                if pt.dist < existing.dist {
                     *existing = pt;
                 }
             } else if cluster.points.len() < MAX_CLUSTER_POINTS {

@@ -107,7 +107,6 @@ impl CollisionPipeline {
             0.0,
             false,
             0.0,
-            IntegrationParameters::default().allowed_linear_error(),
             islands,
             bodies,
             colliders,

@@ -30,8 +30,6 @@ impl NarrowPhase {
         contact_clustering: bool,
         // Contact-recycling drift threshold; `0.0` disables recycling.
         contact_recycle_distance: Real,
-        // Depth range of the support points kept first by manifold reduction.
-        support_tolerance: Real,
         islands: &mut IslandManager,
         bodies: &mut RigidBodySet,
         colliders: &ColliderSet,
@@ -109,7 +107,6 @@ impl NarrowPhase {
                 dt,
                 contact_clustering,
                 contact_recycle_distance,
-                support_tolerance,
                 bodies,
                 colliders,
                 impulse_joints,
@@ -137,7 +134,6 @@ impl NarrowPhase {
                 dt,
                 contact_clustering,
                 contact_recycle_distance,
-                support_tolerance,
                 bodies,
                 colliders,
                 impulse_joints,

@@ -75,8 +75,6 @@ pub(super) fn process_pair(
     contact_clustering: bool,
     // Contact-recycling drift threshold; `0.0` disables recycling.
     contact_recycle_distance: Real,
-    // Depth range of the support points a manifold reduction keeps first.
-    support_tolerance: Real,
     bodies: &RigidBodySet,
     colliders: &ColliderSet,
     impulse_joints: &ImpulseJointSet,
@@ -488,7 +486,6 @@ pub(super) fn process_pair(
                 &rigid.solver_clusters_prev,
                 &mut rigid.solver_clusters,
                 prediction_distance,
-                support_tolerance,
             );
 
             // The plain manifolds won't be seen by the solver, but keep their
@@ -548,7 +545,6 @@ pub(super) fn process_pair(
                 &mut selected,
                 &mut num_selected,
                 prediction_distance,
-                support_tolerance,
             );
 
             // Sort points lexicographically on the contact plane (in `local_n1`'s orthonormal-

@@ -136,7 +136,6 @@ impl PhysicsPipeline {
             } else {
                 0.0
             },
-            integration_parameters.allowed_linear_error(),
             islands,
             bodies,
             colliders,
