@@ -173,19 +173,92 @@ def _table_world(spec):
     return w
 
 
-@pytest.mark.xfail(
+_BENT_TUBE_2CM = pytest.mark.xfail(
     strict=True,
-    reason="known: small light mesh objects (0.1 kg, 3-6 cm convex decompositions) keep creeping in Rapier with the "
-    "world's 4 solver iterations (mm to cm over 10,000 steps; 10 iterations reduce but do not remove it)",
+    reason="known: a 2 cm bent tube (tube ~2 mm thick) still moves: its hull is still rolling after the 4 s "
+    "settle (it then sleeps, 12 mm away), its decomposition rocks at ~2 rad/s even without contact recycling",
 )
-def test_settled_clutter_rests_still_for_10000_steps(objects_dir):
-    spec = clutter.random_clutter(1, 6, objects_dir, center=(0.0, 0.0))
+
+
+@pytest.mark.parametrize("approximation", ["convex_hull", "convex_decomposition"])
+@pytest.mark.parametrize(
+    ("kind", "size", "mass"),
+    [
+        *[
+            (k, s, m)
+            for k in ("superellipsoid", "dumbbell", "ring")
+            for s, m in ((0.02, 0.05), (0.04, 0.1), (0.06, 0.3), (0.1, 1.0))
+        ],
+        pytest.param("bent_tube", 0.02, 0.05, marks=_BENT_TUBE_2CM),
+        *[("bent_tube", s, m) for s, m in ((0.04, 0.1), (0.06, 0.3), (0.1, 1.0))],
+    ],
+)
+def test_single_small_mesh_object_rests_still_on_the_table(kind, size, mass, approximation):
+    """One object alone on a table box, sizes 2-10 cm and masses 0.05-1 kg: after settling (4 s) it stays
+    within 0.5 mm and 1 degree over 10,000 steps (a rigid body resting on a rigid table has nothing to move
+    it). Before the contact-recycling and clustering settings of ``World`` (BENCHMARKS.md, "Small mesh objects
+    at rest"), a 4 cm 0.1 kg superellipsoid hull rocked at 1-3 rad/s for ever and decompositions crept by cm."""
+    rng = np.random.default_rng(3)
+    v, f = getattr(make_objects, kind)(rng)
+    v = (v - v.mean(axis=0)) * (size / np.ptp(v, axis=0).max())
+    w = ferrobot.World(dt=1 / 240)
+    w.add_box("table", [1.0, 1.0, 0.4], [0, 0, 0.2, 1, 0, 0, 0], fixed=True)
+    w.add_mesh("o", v, f, [0, 0, 0.4 + size / 2 + 0.005, 1, 0, 0, 0], approximation=approximation, mass=mass)
+    w.step(960)
+    before = w.get_object_pose("o")
+    assert before[2, 3] > 0.4, "fell through the table"
+    w.step(10_000)
+    after = w.get_object_pose("o")
+    assert np.linalg.norm(after[:3, 3] - before[:3, 3]) < 5e-4
+    cos = (np.trace(before[:3, :3].T @ after[:3, :3]) - 1) / 2
+    assert np.degrees(np.arccos(np.clip(cos, -1, 1))) < 1.0
+
+
+_MADE_PILE = pytest.mark.xfail(
+    strict=True,
+    reason="known: in this pile of light rounded meshes a 0.11 kg superellipsoid decomposition keeps rocking (it does "
+    "so alone on the table too: contact clustering is off, so this is not its deduplication) and moves ~5 mm; "
+    "about half of the made/pybullet_data piles in benches/pile_rest.py have not settled after 10 s "
+    "(BENCHMARKS.md, 'Piles at rest')",
+)
+
+
+@pytest.fixture(scope="module")
+def heldout_dir(tmp_path_factory):
+    import heldout_objects
+
+    d = tmp_path_factory.mktemp("heldout")
+    heldout_objects.generate(d, per_kind=3)
+    return d
+
+
+@pytest.mark.parametrize(
+    ("object_set", "seed", "count"),
+    [
+        ("made", 2, 6),
+        pytest.param("made", 1, 6, marks=_MADE_PILE),
+        ("pybullet", 2, 8),
+        ("pybullet", 3, 12),
+        ("heldout", 2, 8),
+        ("heldout", 3, 8),
+    ],
+)
+def test_settled_clutter_rests_still_for_10000_steps(object_set, seed, count, objects_dir, heldout_dir):
+    """Piles of 6-12 objects (this module's rounded meshes, pybullet_data's objects, the held-out set of
+    ``benches/heldout_objects.py``), touching and partly stacked: once settled (every object slower than
+    2 mm/s and 2 mrad/s over 0.25 s), no object moves more than 2 mm or turns more than 2 degrees over
+    10,000 steps (41.7 s): resting rigid bodies have nothing to move them (BENCHMARKS.md, "Piles at rest")."""
+    if object_set == "pybullet":
+        pytest.importorskip("pybullet_data")
+    objects = {"made": objects_dir, "pybullet": None, "heldout": heldout_dir}[object_set]
+    spec = clutter.random_clutter(seed, count, objects, center=(0.0, 0.0))
     w = _table_world(spec)
     names = clutter.add_clutter(w, spec)
+    assert clutter.settle(w, names, max_seconds=6.0) < 6.0, "the pile did not settle within 10 s"
     before = {n: w.get_object_pose(n) for n in names}
-    # Touching and partly stacked: some object rests above another's lowest level.
-    heights = sorted(p[2, 3] for p in before.values())
-    assert all(h > spec.table_top - 0.01 for h in heights)
+    # On the table (an object's frame may lie off its mesh, e.g. a URDF origin, hence the 10 cm: this catches
+    # an object through or off the table).
+    assert all(p[2, 3] > spec.table_top - 0.1 for p in before.values())
     w.step(10_000)
     for n in names:
         after = w.get_object_pose(n)

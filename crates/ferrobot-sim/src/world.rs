@@ -48,6 +48,9 @@ pub struct WorldConfig {
     /// (twice this against fixed bodies); higher is stiffer.
     pub contact_frequency: f64,
     /// Penetration depth (m) the solver tolerates before pushing bodies apart.
+    /// Also the contact recycling window: a contact pair whose relative pose
+    /// moved less than this since its last full narrow-phase update keeps its
+    /// contact points (see `World::new`).
     pub allowed_penetration: f64,
     /// Damping ratio of the contact springs (Rapier's own default is 10).
     pub contact_damping_ratio: f64,
@@ -216,6 +219,20 @@ impl World {
         params.contact_softness.damping_ratio = config.contact_damping_ratio as f32;
         params.static_contact_softness.damping_ratio = config.contact_damping_ratio as f32;
         params.friction_in_bias_pass = config.friction_in_stabilization;
+        // Resting small objects (issue 18, BENCHMARKS.md "Small mesh objects at rest"):
+        // Rapier's contact recycling keeps a pair's contact points, normal and
+        // solver lever arms frozen while the pair moves less than 5 cm and
+        // turns less than 11.5 degrees: more than a facet of a few-centimetre
+        // convex hull, so a hull resting near a facet edge rocks on stale
+        // contacts and never sleeps. The recycle window is now the allowed
+        // penetration (the contact error the solver tolerates anyway).
+        params.normalized_contact_recycle_distance = config.allowed_penetration as f32;
+        // Contact clustering merges the per-part manifolds of a convex
+        // decomposition into one manifold of at most 4 points; with it, a
+        // decomposition resting on the table on two or more parts kept
+        // rocking at 1-10 rad/s and crept by cm (measured, with or without
+        // recycling); without it, it sleeps.
+        params.contact_clustering = false;
         let mut world = Self {
             config,
             params,
