@@ -166,6 +166,14 @@ pub struct Multibody {
     // forces only (for the energy guard).
     link_wrenches: Vec<SVector<Real, SPATIAL_DIM>>,
     link_applied_wrenches: Vec<SVector<Real, SPATIAL_DIM>>,
+    // Per generalized coordinate: whether its joint-limit row (if the axis
+    // has a limit) is generated this step (`update_limit_rows`). When its
+    // length is not `ndofs` (never computed, or the multibody changed) every
+    // limit row is generated, as upstream.
+    limit_rows: Vec<bool>,
+    // Generate every limit row at every step, as upstream (for tests
+    // comparing the two).
+    pub(crate) all_limit_rows: bool,
 }
 impl Default for Multibody {
     fn default() -> Self {
@@ -210,6 +218,8 @@ impl Multibody {
             composite_inertias: Vec::new(),
             link_wrenches: Vec::new(),
             link_applied_wrenches: Vec::new(),
+            limit_rows: Vec::new(),
+            all_limit_rows: false,
             root_is_dynamic: false,
             self_contacts_enabled,
             couplings: Vec::new(),
@@ -1486,6 +1496,80 @@ impl Multibody {
                 }
             }
         }
+    }
+
+    /// Decides, once per step, which joint-limit rows the step's solver
+    /// generates: a limit row acts only once its coordinate is past the limit
+    /// at the start of a substep (`unit_joint_limit_constraint`), so a row is
+    /// kept when the coordinate is past or within reach of the limit during
+    /// the step, `|q − limit| ≤ 2·h·(|v| + h·|a|) + margin` (`h` the step
+    /// length, `v` the generalized velocity, `a` the free acceleration just
+    /// computed by `update_acceleration`, `margin` = 1e-3 in the coordinate's
+    /// unit), and dropped otherwise. A coordinate that still crosses its limit
+    /// within the step without having been predicted (a large impulse) gets
+    /// its row at the next step's start, which is where upstream catches a
+    /// limit crossed during the last substep of a step.
+    pub(crate) fn update_limit_rows(&mut self, step_dt: Real) {
+        const MARGIN: Real = 1.0e-3;
+        self.limit_rows.clear();
+        if self.all_limit_rows {
+            return;
+        }
+        self.limit_rows.resize(self.ndofs, true);
+        for link in self.links.iter() {
+            let data = &link.joint.data;
+            let locked = data.locked_axes.bits();
+            let limited = data.limit_axes.bits();
+            let mut dof = link.assembly_id;
+            for axis in 0..SPATIAL_DIM {
+                if (locked >> axis) & 1 != 0 {
+                    continue;
+                }
+                if (limited >> axis) & 1 != 0 {
+                    let q = link.joint.coords[axis];
+                    let [lo, hi] = [data.limits[axis].min, data.limits[axis].max];
+                    let reach = 2.0
+                        * step_dt
+                        * (self.velocities[dof].abs() + step_dt * self.accelerations[dof].abs())
+                        + MARGIN;
+                    let dist = (q - lo).min(hi - q);
+                    // `!(dist > reach)` keeps the row for NaN coordinates.
+                    self.limit_rows[dof] = !(dist > reach);
+                }
+                dof += 1;
+            }
+        }
+    }
+
+    /// Whether the limit row of generalized coordinate `dof` is generated
+    /// this step (see `update_limit_rows`).
+    #[inline]
+    pub(crate) fn limit_row_enabled(&self, dof: usize) -> bool {
+        self.limit_rows.len() != self.ndofs || self.limit_rows[dof]
+    }
+
+    /// The number of limit, motor and dry-friction rows of link `link_id`'s
+    /// joint generated this step: [`MultibodyJoint::num_velocity_constraints`]
+    /// without the limit rows dropped by `update_limit_rows`.
+    pub(crate) fn num_joint_velocity_constraints(&self, link_id: usize) -> usize {
+        let link = &self.links[link_id];
+        let mut n = link.joint.num_velocity_constraints();
+        if self.limit_rows.len() == self.ndofs {
+            let data = &link.joint.data;
+            let locked = data.locked_axes.bits();
+            let limited = data.limit_axes.bits();
+            let mut dof = link.assembly_id;
+            for axis in 0..SPATIAL_DIM {
+                if (locked >> axis) & 1 != 0 {
+                    continue;
+                }
+                if (limited >> axis) & 1 != 0 && !self.limit_rows[dof] {
+                    n -= 1;
+                }
+                dof += 1;
+            }
+        }
+        n
     }
 
     /// Per-DoF inverse joint-space inertia `diag(M⁻¹)` at the current configuration, where `M`

@@ -12,7 +12,7 @@ use crate::dynamics::solver::solver_contact_graph::SolverContactGraph;
 #[cfg(feature = "dim3")]
 use crate::dynamics::solver::velocity_solver::GyroParams;
 use crate::dynamics::{IntegrationParameters, MultibodyJointSet, RigidBodyHandle, RigidBodySet};
-use crate::math::DVector;
+use crate::math::{DVector, Real};
 use parry::math::SIMD_WIDTH;
 
 impl ContactConstraintsSet {
@@ -56,6 +56,7 @@ impl VelocitySolver {
     pub(super) fn init_solver_buffers_and_multibodies(
         &mut self,
         params: &IntegrationParameters,
+        step_dt: Real,
         island_bodies: &[RigidBodyHandle],
         num_awake_soft_mass_points: usize,
         bodies: &mut RigidBodySet,
@@ -115,6 +116,7 @@ impl VelocitySolver {
             multibody.update_velocities(bodies);
             multibody.update_mass_matrix(params.dt, bodies);
             multibody.update_acceleration(params.dt, bodies);
+            multibody.update_limit_rows(step_dt);
 
             let mut solver_vels_incr = self
                 .generic_solver_vels_increment
