@@ -147,8 +147,16 @@ impl VelocitySolver {
                 .generic_solver_vels
                 .rows(multibody.solver_id as usize, multibody.ndofs());
             multibody.velocities.copy_from(&solver_vels);
-            multibody.integrate(params.dt);
-            multibody.forward_kinematics(bodies, false);
+            // With every generalized velocity exactly zero (an arm holding a
+            // pose settles there) the coordinates do not move, and the link
+            // poses and body jacobians are already those of the current
+            // coordinates (computed at the start of the step, or by the
+            // previous substep, or kept by `fk_reusable`): the integration
+            // and the forward kinematics are skipped.
+            if multibody.velocities.iter().any(|v| *v != 0.0) {
+                multibody.integrate(params.dt);
+                multibody.forward_kinematics(bodies, false);
+            }
             multibody.update_rigid_bodies_internal(bodies, !is_last_substep, true, false);
             // After the last substep the links are at the step's final
             // coordinates and the end of the step moves the link bodies
