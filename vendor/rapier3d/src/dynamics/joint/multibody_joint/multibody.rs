@@ -1113,7 +1113,13 @@ impl Multibody {
         // Coriolis terms of the free-acceleration matrix (when moving).
         #[cfg(feature = "dim3")]
         {
-            self.assemble_mass_matrix_crba(bodies);
+            Self::assemble_mass_matrix_crba(
+                &self.links,
+                &self.body_jacobians,
+                &mut self.composite_inertias,
+                bodies,
+                &mut self.augmented_mass,
+            );
             if moving {
                 self.acc_augmented_mass.copy_from(&self.augmented_mass);
             }
@@ -1424,10 +1430,16 @@ impl Multibody {
     /// `O(links · ndofs²)` for the jacobian products, and the same matrix up
     /// to rounding.
     #[cfg(feature = "dim3")]
-    fn assemble_mass_matrix_crba(&mut self, bodies: &RigidBodySet) {
-        let nlinks = self.links.len();
-        self.composite_inertias.clear();
-        for link in self.links.iter() {
+    fn assemble_mass_matrix_crba(
+        links: &[MultibodyLink],
+        body_jacobians: &[Jacobian<Real>],
+        composite_inertias: &mut Vec<SMatrix<Real, SPATIAL_DIM, SPATIAL_DIM>>,
+        bodies: &RigidBodySet,
+        out: &mut DMatrix<Real>,
+    ) {
+        let nlinks = links.len();
+        composite_inertias.clear();
+        for link in links.iter() {
             let rb = &bodies[link.rigid_body];
             let mass = vect_to_na(rb.mprops.effective_mass());
             let inertia = mat_to_na(rb.mprops.effective_angular_inertia().into_matrix());
@@ -1437,14 +1449,14 @@ impl Multibody {
             }
             b.fixed_view_mut::<ANG_DIM, ANG_DIM>(DIM, DIM)
                 .copy_from(&inertia);
-            self.composite_inertias.push(b);
+            composite_inertias.push(b);
         }
 
         // Leaves to root (parents precede their children).
         for i in (1..nlinks).rev() {
-            let link = &self.links[i];
+            let link = &links[i];
             let rx = vect_to_na(link.shift02 + link.shift23).gcross_matrix();
-            let c = &self.composite_inertias[i];
+            let c = &composite_inertias[i];
             let a11 = c.fixed_view::<DIM, DIM>(0, 0);
             let a12 = c.fixed_view::<DIM, ANG_DIM>(0, DIM);
             let a21 = c.fixed_view::<ANG_DIM, DIM>(DIM, 0);
@@ -1454,7 +1466,7 @@ impl Multibody {
             let s21 = rx * a11 + a21;
             let s22 = a22 - a21 * rx + rx * s12;
             let s11 = a11.into_owned();
-            let parent = &mut self.composite_inertias[link.parent_internal_id];
+            let parent = &mut composite_inertias[link.parent_internal_id];
             let mut p11 = parent.fixed_view_mut::<DIM, DIM>(0, 0);
             p11 += s11;
             let mut p12 = parent.fixed_view_mut::<DIM, ANG_DIM>(0, DIM);
@@ -1465,14 +1477,14 @@ impl Multibody {
             p22 += s22;
         }
 
-        let mass = &mut self.augmented_mass;
+        let mass = out;
         for i in 0..nlinks {
-            let link = &self.links[i];
+            let link = &links[i];
             let first = link.assembly_id;
             let ndofs = link.joint.ndofs();
-            let jac = &self.body_jacobians[i];
+            let jac = &body_jacobians[i];
             for j in first..first + ndofs {
-                let mut f = self.composite_inertias[i] * jac.column(j);
+                let mut f = composite_inertias[i] * jac.column(j);
                 for k in first..=j {
                     let v = jac.column(k).dot(&f);
                     mass[(k, j)] = v;
@@ -1480,12 +1492,12 @@ impl Multibody {
                 }
                 let mut curr = i;
                 while curr != 0 {
-                    let curr_link = &self.links[curr];
+                    let curr_link = &links[curr];
                     let r = vect_to_na(curr_link.shift02 + curr_link.shift23);
                     f = shift_wrench(&f, &r);
                     let parent = curr_link.parent_internal_id;
-                    let parent_link = &self.links[parent];
-                    let parent_jac = &self.body_jacobians[parent];
+                    let parent_link = &links[parent];
+                    let parent_jac = &body_jacobians[parent];
                     let pfirst = parent_link.assembly_id;
                     for k in pfirst..pfirst + parent_link.joint.ndofs() {
                         let v = parent_jac.column(k).dot(&f);
@@ -1570,6 +1582,27 @@ impl Multibody {
             }
         }
         n
+    }
+
+    /// The joint-space mass matrix `M(q)` over all the generalized
+    /// coordinates (kinematic ones included; no armature, damping nor
+    /// spring term), at the link poses and body jacobians of the last
+    /// forward kinematics and the link bodies' current world mass
+    /// properties (as after a step, or [`Self::forward_kinematics`] followed
+    /// by [`Self::update_rigid_bodies`] with `update_mass_properties`):
+    /// the composite-rigid-body matrix the dynamics uses. Allocates.
+    #[cfg(feature = "dim3")]
+    pub fn mass_matrix(&self, bodies: &RigidBodySet) -> DMatrix<Real> {
+        let mut out = DMatrix::zeros(self.ndofs, self.ndofs);
+        let mut composite = Vec::with_capacity(self.links.len());
+        Self::assemble_mass_matrix_crba(
+            &self.links,
+            &self.body_jacobians,
+            &mut composite,
+            bodies,
+            &mut out,
+        );
+        out
     }
 
     /// Per-DoF inverse joint-space inertia `diag(M⁻¹)` at the current configuration, where `M`
