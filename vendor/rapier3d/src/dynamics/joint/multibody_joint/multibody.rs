@@ -123,6 +123,11 @@ pub struct Multibody {
     // (see `PhysicsPipeline::step`, which then skips the forward kinematics
     // at the start of the next step).
     pub(crate) fk_reusable: bool,
+    // The step length of the last `update_mass_matrix` when its matrices,
+    // factorisations and `M⁻¹` can be kept for the next one: it found the
+    // multibody at rest, and no forward kinematics nor change to the links,
+    // damping or armature happened since (`mass_reusable`).
+    pub(crate) mass_reusable: Option<Real>,
 
     // `M⁻¹` over all the generalized coordinates (rows and columns of
     // kinematic DoFs 0), computed with each factorisation (once per step,
@@ -202,6 +207,7 @@ impl Multibody {
             acc_inv_augmented_mass: LU::new(DMatrix::zeros(0, 0)),
             acc_mass_is_mass: false,
             fk_reusable: false,
+            mass_reusable: None,
             inv_mass_columns: DMatrix::zeros(0, 0),
             inv_mass_valid: false,
             inv_mass_tmp: DVector::zeros(0),
@@ -329,6 +335,7 @@ impl Multibody {
 
     pub(crate) fn append(&mut self, mut rhs: Multibody, parent: usize, joint: MultibodyJoint) {
         self.fk_reusable = false;
+        self.mass_reusable = None;
         let joint_ndofs = joint.ndofs();
         let rhs_root_ndofs = rhs.links[0].joint.ndofs();
         let ndofs_before_append = self.velocities.len();
@@ -578,6 +585,7 @@ impl Multibody {
     #[inline]
     pub fn root_mut(&mut self) -> &mut MultibodyLink {
         self.fk_reusable = false;
+        self.mass_reusable = None;
         &mut self.links[0]
     }
 
@@ -595,6 +603,7 @@ impl Multibody {
     #[inline]
     pub fn link_mut(&mut self, id: usize) -> Option<&mut MultibodyLink> {
         self.fk_reusable = false;
+        self.mass_reusable = None;
         self.links.get_mut(id)
     }
 
@@ -615,6 +624,7 @@ impl Multibody {
     /// All link are guaranteed to be yielded before its descendant.
     pub fn links_mut(&mut self) -> impl Iterator<Item = &mut MultibodyLink> {
         self.fk_reusable = false;
+        self.mass_reusable = None;
         self.links.iter_mut()
     }
 
@@ -627,6 +637,7 @@ impl Multibody {
     /// Mutable vector of damping applied to this multibody.
     #[inline]
     pub fn damping_mut(&mut self) -> &mut DVector {
+        self.mass_reusable = None;
         &mut self.damping
     }
 
@@ -641,6 +652,7 @@ impl Multibody {
     /// multibody.
     #[inline]
     pub fn armature_mut(&mut self) -> &mut DVector {
+        self.mass_reusable = None;
         &mut self.armature
     }
 
@@ -1082,6 +1094,21 @@ impl Multibody {
             return; // Nothing to do.
         }
 
+        // At rest, with nothing changed since the last assembly (no forward
+        // kinematics: the coordinates did not move; same step length,
+        // damping, armature and joints): the same matrices, factorisations
+        // and inverse, bit for bit. Kept.
+        let moving = self.velocities.iter().any(|v| *v != 0.0);
+        if !moving
+            && self.mass_reusable == Some(dt)
+            && self.acc_mass_is_mass
+            && self.has_inv_mass()
+            && self.augmented_mass.ncols() == self.ndofs
+        {
+            return;
+        }
+        self.mass_reusable = None;
+
         if self.augmented_mass.ncols() != self.ndofs {
             // TODO: do a resize instead of a full reallocation.
             self.augmented_mass = DMatrix::zeros(self.ndofs, self.ndofs);
@@ -1105,7 +1132,6 @@ impl Multibody {
 
         // All link velocities derive from the generalized ones (updated just
         // before, see `update_velocities`).
-        let moving = self.velocities.iter().any(|v| *v != 0.0);
         self.acc_mass_is_mass = !moving;
 
         // The velocity-independent part `Σ Jᵢᵀ·Bᵢ·Jᵢ` by the composite-rigid-
@@ -1412,6 +1438,9 @@ impl Multibody {
                 .into_owned(),
         );
         self.update_inv_mass_columns();
+        if !moving {
+            self.mass_reusable = Some(dt);
+        }
     }
 
     /// Writes `M = Σ Jᵢᵀ·Bᵢ·Jᵢ` (all generalized coordinates, kinematic ones
@@ -1813,6 +1842,7 @@ impl Multibody {
     /// To update the link poses and associated rigid-bodies, call [`Self::forward_kinematics`].
     pub fn apply_displacements(&mut self, disp: &[Real]) {
         self.fk_reusable = false;
+        self.mass_reusable = None;
         for link in self.links.iter_mut() {
             link.joint.apply_displacement(&disp[link.assembly_id..])
         }
@@ -1981,6 +2011,8 @@ impl Multibody {
         bodies: &RigidBodySet,
         read_root_pose_from_rigid_body: bool,
     ) {
+        // New link poses and jacobians: the mass matrix must be rebuilt.
+        self.mass_reusable = None;
         // Be sure the degrees of freedom match and take the root position if needed.
         self.update_root_type(bodies, read_root_pose_from_rigid_body);
 
