@@ -1024,6 +1024,18 @@ impl PyRobot {
         guard(|| Ok(vec1(py, self.read(|r, w| r.joint_velocities(w.state()))?)))
     }
 
+    /// Joint-space mass matrix M(q) (num_dof, num_dof) at the current joint
+    /// positions: the inertia the simulation uses (mimic joints held).
+    fn mass_matrix<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        guard(|| {
+            let n = self.model.num_dof();
+            let m = self.with(|r, s| Ok(r.mass_matrix(s)))?;
+            Ok(Array2::from_shape_vec((n, n), m)
+                .expect("num_dof x num_dof")
+                .into_pyarray(py))
+        })
+    }
+
     /// Teleports the joints (zero velocity; mimic joints follow). Drive
     /// targets are unchanged, as in Isaac Sim.
     fn set_joint_positions(&self, q: &Bound<'_, PyAny>) -> PyResult<()> {

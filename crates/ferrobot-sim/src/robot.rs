@@ -547,6 +547,57 @@ impl Robot {
             .collect()
     }
 
+    /// The joint-space mass matrix `M(q)` at the current joint positions,
+    /// `num_dof x num_dof` row-major in DOF order (mimic joints excluded,
+    /// their coordinates held: the simulation couples them by a constraint,
+    /// not through `M`), in kg·m² / kg·m / kg: the inertia the simulation
+    /// uses (the link inertials, composite-rigid-body algorithm of the
+    /// vendored Rapier multibody, f32 internally), without drive damping.
+    /// Before the world's first step the link bodies' mass properties are
+    /// computed here (Rapier computes them at the first step). Empty for a
+    /// robot without movable joints.
+    pub fn mass_matrix(&self, state: &mut PhysState) -> Vec<f64> {
+        let Some(id) = self.dofs.first().map(|d| d.link.multibody) else {
+            return Vec::new();
+        };
+        let PhysState {
+            bodies,
+            colliders,
+            multibody_joints,
+            ..
+        } = state;
+        let pending = self.bodies[1..]
+            .iter()
+            .any(|h| bodies.get(*h).is_some_and(|b| b.mass() == 0.0));
+        if pending {
+            for &h in &self.bodies[1..] {
+                if let Some(b) = bodies.get_mut(h) {
+                    b.recompute_mass_properties_from_colliders(colliders);
+                }
+            }
+            if let Some(mb) = multibody_joints.get_multibody_mut(id) {
+                mb.forward_kinematics(bodies, true);
+                mb.update_rigid_bodies(bodies, true);
+            }
+        }
+        let Some(mb) = multibody_joints.get_multibody(id) else {
+            return Vec::new();
+        };
+        let m = mb.mass_matrix(bodies);
+        let ids: Vec<usize> = self
+            .dofs
+            .iter()
+            .map(|d| mb.link(d.link.id).expect("link").assembly_id())
+            .collect();
+        let mut out = Vec::with_capacity(ids.len() * ids.len());
+        for &i in &ids {
+            for &j in &ids {
+                out.push(m[(i, j)] as f64);
+            }
+        }
+        out
+    }
+
     /// Positions of every movable joint (DOFs and mimics) for DOF vector `q`,
     /// as (joint, position).
     fn all_positions(&self, q: &[f64]) -> Vec<(ArtJoint, f64)> {

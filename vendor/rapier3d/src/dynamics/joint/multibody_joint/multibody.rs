@@ -38,6 +38,24 @@ impl Force {
     }
 }
 
+/// Moves a wrench `[force; torque]` from a point to another at `-r` from it
+/// (i.e. `r` is the first point minus the second): the force is unchanged,
+/// the torque gains `r × force`.
+#[cfg(feature = "dim3")]
+#[inline]
+fn shift_wrench(
+    w: &SVector<Real, SPATIAL_DIM>,
+    r: &na::Vector3<Real>,
+) -> SVector<Real, SPATIAL_DIM> {
+    let f = w.fixed_rows::<DIM>(0);
+    let t = r.cross(&f);
+    let mut out = *w;
+    out[3] += t[0];
+    out[4] += t[1];
+    out[5] += t[2];
+    out
+}
+
 /// A holonomic coupling between two generalized coordinates of a single
 /// [`Multibody`], `q2 = coeff · q1 + offset`, enforced as a velocity-level
 /// equality constraint. This is how MuJoCo's `<equality><joint>` (a polynomial
@@ -105,6 +123,11 @@ pub struct Multibody {
     // (see `PhysicsPipeline::step`, which then skips the forward kinematics
     // at the start of the next step).
     pub(crate) fk_reusable: bool,
+    // The step length of the last `update_mass_matrix` when its matrices,
+    // factorisations and `M⁻¹` can be kept for the next one: it found the
+    // multibody at rest, and no forward kinematics nor change to the links,
+    // damping or armature happened since (`mass_reusable`).
+    pub(crate) mass_reusable: Option<Real>,
 
     // `M⁻¹` over all the generalized coordinates (rows and columns of
     // kinematic DoFs 0), computed with each factorisation (once per step,
@@ -140,6 +163,22 @@ pub struct Multibody {
     i_coriolis_dt: Jacobian<Real>,
     // `B·J` of the link being assembled (body mass matrix times jacobian).
     mass_times_jacobian: Jacobian<Real>,
+    // Composite spatial inertia of each link's subtree about the link's
+    // centre of mass, in world axes (`assemble_mass_matrix_crba`).
+    composite_inertias: Vec<SMatrix<Real, SPATIAL_DIM, SPATIAL_DIM>>,
+    // Per-link wrenches (`[force; torque]` at the link's centre of mass) of
+    // the backward pass of `update_acceleration`: all forces, and the applied
+    // forces only (for the energy guard).
+    link_wrenches: Vec<SVector<Real, SPATIAL_DIM>>,
+    link_applied_wrenches: Vec<SVector<Real, SPATIAL_DIM>>,
+    // Per generalized coordinate: whether its joint-limit row (if the axis
+    // has a limit) is generated this step (`update_limit_rows`). When its
+    // length is not `ndofs` (never computed, or the multibody changed) every
+    // limit row is generated, as upstream.
+    limit_rows: Vec<bool>,
+    // Generate every limit row at every step, as upstream (for tests
+    // comparing the two).
+    pub(crate) all_limit_rows: bool,
 }
 impl Default for Multibody {
     fn default() -> Self {
@@ -168,6 +207,7 @@ impl Multibody {
             acc_inv_augmented_mass: LU::new(DMatrix::zeros(0, 0)),
             acc_mass_is_mass: false,
             fk_reusable: false,
+            mass_reusable: None,
             inv_mass_columns: DMatrix::zeros(0, 0),
             inv_mass_valid: false,
             inv_mass_tmp: DVector::zeros(0),
@@ -181,6 +221,11 @@ impl Multibody {
             coriolis_w: Vec::new(),
             i_coriolis_dt: Jacobian::zeros(0),
             mass_times_jacobian: Jacobian::zeros(0),
+            composite_inertias: Vec::new(),
+            link_wrenches: Vec::new(),
+            link_applied_wrenches: Vec::new(),
+            limit_rows: Vec::new(),
+            all_limit_rows: false,
             root_is_dynamic: false,
             self_contacts_enabled,
             couplings: Vec::new(),
@@ -290,6 +335,7 @@ impl Multibody {
 
     pub(crate) fn append(&mut self, mut rhs: Multibody, parent: usize, joint: MultibodyJoint) {
         self.fk_reusable = false;
+        self.mass_reusable = None;
         let joint_ndofs = joint.ndofs();
         let rhs_root_ndofs = rhs.links[0].joint.ndofs();
         let ndofs_before_append = self.velocities.len();
@@ -539,6 +585,7 @@ impl Multibody {
     #[inline]
     pub fn root_mut(&mut self) -> &mut MultibodyLink {
         self.fk_reusable = false;
+        self.mass_reusable = None;
         &mut self.links[0]
     }
 
@@ -556,6 +603,7 @@ impl Multibody {
     #[inline]
     pub fn link_mut(&mut self, id: usize) -> Option<&mut MultibodyLink> {
         self.fk_reusable = false;
+        self.mass_reusable = None;
         self.links.get_mut(id)
     }
 
@@ -576,6 +624,7 @@ impl Multibody {
     /// All link are guaranteed to be yielded before its descendant.
     pub fn links_mut(&mut self) -> impl Iterator<Item = &mut MultibodyLink> {
         self.fk_reusable = false;
+        self.mass_reusable = None;
         self.links.iter_mut()
     }
 
@@ -588,6 +637,7 @@ impl Multibody {
     /// Mutable vector of damping applied to this multibody.
     #[inline]
     pub fn damping_mut(&mut self) -> &mut DVector {
+        self.mass_reusable = None;
         &mut self.damping
     }
 
@@ -602,6 +652,7 @@ impl Multibody {
     /// multibody.
     #[inline]
     pub fn armature_mut(&mut self) -> &mut DVector {
+        self.mass_reusable = None;
         &mut self.armature
     }
 
@@ -710,8 +761,16 @@ impl Multibody {
             0
         });
 
+        let nlinks = self.links.len();
+        self.link_wrenches.clear();
+        self.link_wrenches.resize(nlinks, SVector::zeros());
+        if check_implicit_coriolis_divergence {
+            self.link_applied_wrenches.clear();
+            self.link_applied_wrenches.resize(nlinks, SVector::zeros());
+        }
+
         // Eqn 42 to 45
-        for i in 0..self.links.len() {
+        for i in 0..nlinks {
             let link = &self.links[i];
             let rb = &bodies[link.rigid_body];
 
@@ -764,19 +823,56 @@ impl Multibody {
                 rb.forces.force - rb_mass * acc.linvel,
                 rb.forces.torque - gyroscopic - rb_inertia * acc.angvel,
             );
-            self.accelerations.gemv_tr(
-                1.0,
-                &self.body_jacobians[i],
-                external_forces.as_vector(),
-                1.0,
-            );
+            self.link_wrenches[i] = *external_forces.as_vector();
 
             if check_implicit_coriolis_divergence {
                 let applied_forces = Force::new(rb.forces.force, rb.forces.torque);
+                self.link_applied_wrenches[i] = *applied_forces.as_vector();
+            }
+        }
+
+        // Generalized forces `Σ Jᵢᵀ·Fᵢ` by a backward (Newton-Euler) pass:
+        // each link's wrench, accumulated over its subtree and moved to its
+        // centre of mass, is projected on its own DoFs only (a link's
+        // jacobian column of an ancestor DoF is that DoF's twist at the
+        // ancestor moved to the link), `O(links + ndofs)` 6-vector
+        // operations instead of a `6 x ndofs` product per link.
+        #[cfg(feature = "dim3")]
+        {
+            for i in (0..nlinks).rev() {
+                let link = &self.links[i];
+                let first = link.assembly_id;
+                let jac = &self.body_jacobians[i];
+                let w = self.link_wrenches[i];
+                for k in first..first + link.joint.ndofs() {
+                    self.accelerations[k] += jac.column(k).dot(&w);
+                }
+                if check_implicit_coriolis_divergence {
+                    let wa = self.link_applied_wrenches[i];
+                    for k in first..first + link.joint.ndofs() {
+                        pos_forces[k] += jac.column(k).dot(&wa);
+                    }
+                }
+                if i != 0 {
+                    let parent = link.parent_internal_id;
+                    let r = vect_to_na(link.shift02 + link.shift23);
+                    self.link_wrenches[parent] += shift_wrench(&w, &r);
+                    if check_implicit_coriolis_divergence {
+                        let wa = self.link_applied_wrenches[i];
+                        self.link_applied_wrenches[parent] += shift_wrench(&wa, &r);
+                    }
+                }
+            }
+        }
+        #[cfg(feature = "dim2")]
+        for i in 0..nlinks {
+            self.accelerations
+                .gemv_tr(1.0, &self.body_jacobians[i], &self.link_wrenches[i], 1.0);
+            if check_implicit_coriolis_divergence {
                 pos_forces.gemv_tr(
                     1.0,
                     &self.body_jacobians[i],
-                    applied_forces.as_vector(),
+                    &self.link_applied_wrenches[i],
                     1.0,
                 );
             }
@@ -998,6 +1094,21 @@ impl Multibody {
             return; // Nothing to do.
         }
 
+        // At rest, with nothing changed since the last assembly (no forward
+        // kinematics: the coordinates did not move; same step length,
+        // damping, armature and joints): the same matrices, factorisations
+        // and inverse, bit for bit. Kept.
+        let moving = self.velocities.iter().any(|v| *v != 0.0);
+        if !moving
+            && self.mass_reusable == Some(dt)
+            && self.acc_mass_is_mass
+            && self.has_inv_mass()
+            && self.augmented_mass.ncols() == self.ndofs
+        {
+            return;
+        }
+        self.mass_reusable = None;
+
         if self.augmented_mass.ncols() != self.ndofs {
             // TODO: do a resize instead of a full reallocation.
             self.augmented_mass = DMatrix::zeros(self.ndofs, self.ndofs);
@@ -1021,8 +1132,24 @@ impl Multibody {
 
         // All link velocities derive from the generalized ones (updated just
         // before, see `update_velocities`).
-        let moving = self.velocities.iter().any(|v| *v != 0.0);
         self.acc_mass_is_mass = !moving;
+
+        // The velocity-independent part `Σ Jᵢᵀ·Bᵢ·Jᵢ` by the composite-rigid-
+        // body algorithm; the loop below then only adds the gyroscopic and
+        // Coriolis terms of the free-acceleration matrix (when moving).
+        #[cfg(feature = "dim3")]
+        {
+            Self::assemble_mass_matrix_crba(
+                &self.links,
+                &self.body_jacobians,
+                &mut self.composite_inertias,
+                bodies,
+                &mut self.augmented_mass,
+            );
+            if moving {
+                self.acc_augmented_mass.copy_from(&self.augmented_mass);
+            }
+        }
 
         let mut curr_assembly_id = 0;
 
@@ -1031,6 +1158,7 @@ impl Multibody {
             let rb = &bodies[link.rigid_body];
             let rb_mass = rb.mprops.effective_mass();
             let rb_inertia = rb.mprops.effective_angular_inertia().into_matrix();
+            #[cfg(feature = "dim2")]
             let body_jacobian = &self.body_jacobians[i];
 
             // NOTE: the mass matrix index reordering operates on the assumption that the assembly
@@ -1065,6 +1193,7 @@ impl Multibody {
             // (`BJ = [m∘Jv; I·Jw]`), without a 6x6 product nor the temporary
             // `quadform` allocates, and `Jᵀ·BJ` goes to both matrices.
             let end = link.assembly_id + link.joint.ndofs();
+            #[cfg(feature = "dim2")]
             {
                 let jac = body_jacobian.columns(0, end);
                 let mut bj = self.mass_times_jacobian.columns_mut(0, end);
@@ -1074,14 +1203,6 @@ impl Multibody {
                         out[k] = rb_mass_na[k] * col[k];
                     }
                 }
-                #[cfg(feature = "dim3")]
-                bj.fixed_rows_mut::<ANG_DIM>(DIM).gemm(
-                    1.0,
-                    &mat_to_na(rb_inertia),
-                    &jac.fixed_rows::<ANG_DIM>(DIM),
-                    0.0,
-                );
-                #[cfg(feature = "dim2")]
                 for (mut out, col) in bj.column_iter_mut().zip(jac.column_iter()) {
                     out[DIM] = rb_inertia * col[DIM];
                 }
@@ -1230,7 +1351,10 @@ impl Multibody {
                 {
                     let jac = rb_j.columns(0, end);
                     let mut rhs = self.i_coriolis_dt.columns_mut(0, end);
-                    rhs += &self.mass_times_jacobian.columns(0, end);
+                    #[cfg(feature = "dim2")]
+                    {
+                        rhs += &self.mass_times_jacobian.columns(0, end);
+                    }
                     #[cfg(feature = "dim3")]
                     rhs.fixed_rows_mut::<ANG_DIM>(DIM).gemm(
                         dt,
@@ -1314,6 +1438,200 @@ impl Multibody {
                 .into_owned(),
         );
         self.update_inv_mass_columns();
+        if !moving {
+            self.mass_reusable = Some(dt);
+        }
+    }
+
+    /// Writes `M = Σ Jᵢᵀ·Bᵢ·Jᵢ` (all generalized coordinates, kinematic ones
+    /// included, before any diagonal term) into `augmented_mass`, which must
+    /// be zero, by the composite-rigid-body algorithm.
+    ///
+    /// Every quantity is in world axes at a link's centre of mass (where its
+    /// body jacobian `Jᵢ` gives twists `[v; ω]`). The composite inertia
+    /// `Cᵢ` of each link's subtree is accumulated from the leaves with
+    /// `C_parent += Tᵀ·Cᵢ·T`, `T = [[1, −[r]×]; [0, 1]]`, `r` the vector from
+    /// the parent's centre of mass to the link's. For each DoF `j` of link
+    /// `i` (twist `sⱼ`, its column of `Jᵢ`), `f = Cᵢ·sⱼ` is the wrench of the
+    /// subtree moving along `j`; `M[k, j] = sₖᵀ·f` for the DoFs `k` of `i`
+    /// and, moving `f` up the chain (`τ += r × f`), of each ancestor. This is
+    /// `O(links + ndofs · depth)` 6-vector operations against
+    /// `O(links · ndofs²)` for the jacobian products, and the same matrix up
+    /// to rounding.
+    #[cfg(feature = "dim3")]
+    fn assemble_mass_matrix_crba(
+        links: &[MultibodyLink],
+        body_jacobians: &[Jacobian<Real>],
+        composite_inertias: &mut Vec<SMatrix<Real, SPATIAL_DIM, SPATIAL_DIM>>,
+        bodies: &RigidBodySet,
+        out: &mut DMatrix<Real>,
+    ) {
+        let nlinks = links.len();
+        composite_inertias.clear();
+        for link in links.iter() {
+            let rb = &bodies[link.rigid_body];
+            let mass = vect_to_na(rb.mprops.effective_mass());
+            let inertia = mat_to_na(rb.mprops.effective_angular_inertia().into_matrix());
+            let mut b = SMatrix::<Real, SPATIAL_DIM, SPATIAL_DIM>::zeros();
+            for k in 0..DIM {
+                b[(k, k)] = mass[k];
+            }
+            b.fixed_view_mut::<ANG_DIM, ANG_DIM>(DIM, DIM)
+                .copy_from(&inertia);
+            composite_inertias.push(b);
+        }
+
+        // Leaves to root (parents precede their children).
+        for i in (1..nlinks).rev() {
+            let link = &links[i];
+            let rx = vect_to_na(link.shift02 + link.shift23).gcross_matrix();
+            let c = &composite_inertias[i];
+            let a11 = c.fixed_view::<DIM, DIM>(0, 0);
+            let a12 = c.fixed_view::<DIM, ANG_DIM>(0, DIM);
+            let a21 = c.fixed_view::<ANG_DIM, DIM>(DIM, 0);
+            let a22 = c.fixed_view::<ANG_DIM, ANG_DIM>(DIM, DIM);
+            // Tᵀ·C·T by blocks.
+            let s12 = a12 - a11 * rx;
+            let s21 = rx * a11 + a21;
+            let s22 = a22 - a21 * rx + rx * s12;
+            let s11 = a11.into_owned();
+            let parent = &mut composite_inertias[link.parent_internal_id];
+            let mut p11 = parent.fixed_view_mut::<DIM, DIM>(0, 0);
+            p11 += s11;
+            let mut p12 = parent.fixed_view_mut::<DIM, ANG_DIM>(0, DIM);
+            p12 += s12;
+            let mut p21 = parent.fixed_view_mut::<ANG_DIM, DIM>(DIM, 0);
+            p21 += s21;
+            let mut p22 = parent.fixed_view_mut::<ANG_DIM, ANG_DIM>(DIM, DIM);
+            p22 += s22;
+        }
+
+        let mass = out;
+        for i in 0..nlinks {
+            let link = &links[i];
+            let first = link.assembly_id;
+            let ndofs = link.joint.ndofs();
+            let jac = &body_jacobians[i];
+            for j in first..first + ndofs {
+                let mut f = composite_inertias[i] * jac.column(j);
+                for k in first..=j {
+                    let v = jac.column(k).dot(&f);
+                    mass[(k, j)] = v;
+                    mass[(j, k)] = v;
+                }
+                let mut curr = i;
+                while curr != 0 {
+                    let curr_link = &links[curr];
+                    let r = vect_to_na(curr_link.shift02 + curr_link.shift23);
+                    f = shift_wrench(&f, &r);
+                    let parent = curr_link.parent_internal_id;
+                    let parent_link = &links[parent];
+                    let parent_jac = &body_jacobians[parent];
+                    let pfirst = parent_link.assembly_id;
+                    for k in pfirst..pfirst + parent_link.joint.ndofs() {
+                        let v = parent_jac.column(k).dot(&f);
+                        mass[(k, j)] = v;
+                        mass[(j, k)] = v;
+                    }
+                    curr = parent;
+                }
+            }
+        }
+    }
+
+    /// Decides, once per step, which joint-limit rows the step's solver
+    /// generates: a limit row acts only once its coordinate is past the limit
+    /// at the start of a substep (`unit_joint_limit_constraint`), so a row is
+    /// kept when the coordinate is past or within reach of the limit during
+    /// the step, `|q − limit| ≤ 2·h·(|v| + h·|a|) + margin` (`h` the step
+    /// length, `v` the generalized velocity, `a` the free acceleration just
+    /// computed by `update_acceleration`, `margin` = 1e-3 in the coordinate's
+    /// unit), and dropped otherwise. A coordinate that still crosses its limit
+    /// within the step without having been predicted (a large impulse) gets
+    /// its row at the next step's start, which is where upstream catches a
+    /// limit crossed during the last substep of a step.
+    pub(crate) fn update_limit_rows(&mut self, step_dt: Real) {
+        const MARGIN: Real = 1.0e-3;
+        self.limit_rows.clear();
+        if self.all_limit_rows {
+            return;
+        }
+        self.limit_rows.resize(self.ndofs, true);
+        for link in self.links.iter() {
+            let data = &link.joint.data;
+            let locked = data.locked_axes.bits();
+            let limited = data.limit_axes.bits();
+            let mut dof = link.assembly_id;
+            for axis in 0..SPATIAL_DIM {
+                if (locked >> axis) & 1 != 0 {
+                    continue;
+                }
+                if (limited >> axis) & 1 != 0 {
+                    let q = link.joint.coords[axis];
+                    let [lo, hi] = [data.limits[axis].min, data.limits[axis].max];
+                    let reach = 2.0
+                        * step_dt
+                        * (self.velocities[dof].abs() + step_dt * self.accelerations[dof].abs())
+                        + MARGIN;
+                    let dist = (q - lo).min(hi - q);
+                    // `!(dist > reach)` keeps the row for NaN coordinates.
+                    self.limit_rows[dof] = !(dist > reach);
+                }
+                dof += 1;
+            }
+        }
+    }
+
+    /// Whether the limit row of generalized coordinate `dof` is generated
+    /// this step (see `update_limit_rows`).
+    #[inline]
+    pub(crate) fn limit_row_enabled(&self, dof: usize) -> bool {
+        self.limit_rows.len() != self.ndofs || self.limit_rows[dof]
+    }
+
+    /// The number of limit, motor and dry-friction rows of link `link_id`'s
+    /// joint generated this step: [`MultibodyJoint::num_velocity_constraints`]
+    /// without the limit rows dropped by `update_limit_rows`.
+    pub(crate) fn num_joint_velocity_constraints(&self, link_id: usize) -> usize {
+        let link = &self.links[link_id];
+        let mut n = link.joint.num_velocity_constraints();
+        if self.limit_rows.len() == self.ndofs {
+            let data = &link.joint.data;
+            let locked = data.locked_axes.bits();
+            let limited = data.limit_axes.bits();
+            let mut dof = link.assembly_id;
+            for axis in 0..SPATIAL_DIM {
+                if (locked >> axis) & 1 != 0 {
+                    continue;
+                }
+                if (limited >> axis) & 1 != 0 && !self.limit_rows[dof] {
+                    n -= 1;
+                }
+                dof += 1;
+            }
+        }
+        n
+    }
+
+    /// The joint-space mass matrix `M(q)` over all the generalized
+    /// coordinates (kinematic ones included; no armature, damping nor
+    /// spring term), at the link poses and body jacobians of the last
+    /// forward kinematics and the link bodies' current world mass
+    /// properties (as after a step, or [`Self::forward_kinematics`] followed
+    /// by [`Self::update_rigid_bodies`] with `update_mass_properties`):
+    /// the composite-rigid-body matrix the dynamics uses. Allocates.
+    #[cfg(feature = "dim3")]
+    pub fn mass_matrix(&self, bodies: &RigidBodySet) -> DMatrix<Real> {
+        let mut out = DMatrix::zeros(self.ndofs, self.ndofs);
+        let mut composite = Vec::with_capacity(self.links.len());
+        Self::assemble_mass_matrix_crba(
+            &self.links,
+            &self.body_jacobians,
+            &mut composite,
+            bodies,
+            &mut out,
+        );
+        out
     }
 
     /// Per-DoF inverse joint-space inertia `diag(M⁻¹)` at the current configuration, where `M`
@@ -1524,6 +1842,7 @@ impl Multibody {
     /// To update the link poses and associated rigid-bodies, call [`Self::forward_kinematics`].
     pub fn apply_displacements(&mut self, disp: &[Real]) {
         self.fk_reusable = false;
+        self.mass_reusable = None;
         for link in self.links.iter_mut() {
             link.joint.apply_displacement(&disp[link.assembly_id..])
         }
@@ -1692,6 +2011,8 @@ impl Multibody {
         bodies: &RigidBodySet,
         read_root_pose_from_rigid_body: bool,
     ) {
+        // New link poses and jacobians: the mass matrix must be rebuilt.
+        self.mass_reusable = None;
         // Be sure the degrees of freedom match and take the root position if needed.
         self.update_root_type(bodies, read_root_pose_from_rigid_body);
 
@@ -2116,7 +2437,202 @@ mod test {
         ColliderSet, MultibodyJointHandle, MultibodyJointSet, RevoluteJoint, RigidBodyBuilder,
         RigidBodySet, SoftBodySet,
     };
+
     use na::{DVector, RowDVector};
+
+    /// A branched tree on a free (dynamic) root: a spherical joint, hinges
+    /// about different axes, a slider and a fixed joint, unequal and
+    /// anisotropic bodies, swinging in gravity.
+    #[cfg(feature = "dim3")]
+    fn swinging_tree() -> (
+        crate::prelude::PhysicsWorld,
+        crate::prelude::RigidBodyHandle,
+    ) {
+        use crate::prelude::*;
+        let mut world = PhysicsWorld::new();
+        let root = world
+            .insert(
+                RigidBodyBuilder::dynamic().translation(Vector::new(0.0, 1.0, 0.0)),
+                ColliderBuilder::cuboid(0.2, 0.1, 0.15).density(800.0),
+            )
+            .0;
+        let add = |world: &mut PhysicsWorld,
+                   parent: RigidBodyHandle,
+                   at: Vector,
+                   collider: ColliderBuilder,
+                   joint: GenericJoint| {
+            let body = world
+                .insert(RigidBodyBuilder::dynamic().translation(at), collider)
+                .0;
+            world.insert_multibody_joint(parent, body, joint);
+            body
+        };
+        let a = add(
+            &mut world,
+            root,
+            Vector::new(0.4, 1.0, 0.0),
+            ColliderBuilder::cylinder(0.15, 0.04).density(600.0),
+            SphericalJointBuilder::new()
+                .local_anchor1(Vector::new(0.2, 0.0, 0.0))
+                .local_anchor2(Vector::new(-0.2, 0.0, 0.0))
+                .into(),
+        );
+        let b = add(
+            &mut world,
+            a,
+            Vector::new(0.8, 1.1, 0.0),
+            ColliderBuilder::cuboid(0.2, 0.03, 0.05).density(1500.0),
+            RevoluteJointBuilder::new(Vector::new(0.0, 0.6, 0.8))
+                .local_anchor1(Vector::new(0.2, 0.05, 0.0))
+                .local_anchor2(Vector::new(-0.2, -0.05, 0.0))
+                .into(),
+        );
+        let c = add(
+            &mut world,
+            b,
+            Vector::new(1.2, 1.1, 0.0),
+            ColliderBuilder::ball(0.05).density(3000.0),
+            PrismaticJointBuilder::new(Vector::X)
+                .local_anchor1(Vector::new(0.2, 0.0, 0.0))
+                .limits([-0.1, 0.1])
+                .into(),
+        );
+        // A second branch off the root, with a fixed joint in it.
+        let d = add(
+            &mut world,
+            root,
+            Vector::new(-0.4, 1.0, 0.1),
+            ColliderBuilder::cuboid(0.1, 0.2, 0.05).density(900.0),
+            RevoluteJointBuilder::new(Vector::Z)
+                .local_anchor1(Vector::new(-0.2, 0.0, 0.1))
+                .local_anchor2(Vector::new(0.0, 0.0, 0.0))
+                .into(),
+        );
+        let _e = add(
+            &mut world,
+            d,
+            Vector::new(-0.4, 0.7, 0.1),
+            ColliderBuilder::cylinder(0.08, 0.03).density(700.0),
+            FixedJointBuilder::new()
+                .local_anchor1(Vector::new(0.0, -0.3, 0.0))
+                .into(),
+        );
+        (world, c)
+    }
+
+    /// `Σ Jᵢᵀ·diag(mᵢ, Iᵢ)·Jᵢ` from the public body jacobians and the link
+    /// bodies' mass properties: the definition of the mass matrix, computed
+    /// independently of the composite-rigid-body assembly.
+    #[cfg(feature = "dim3")]
+    fn reference_mass_matrix(mb: &super::Multibody, bodies: &RigidBodySet) -> na::DMatrix<Real> {
+        use crate::utils::{AngularInertiaOps, mat_to_na, vect_to_na};
+        let n = mb.ndofs();
+        let mut m = na::DMatrix::<Real>::zeros(n, n);
+        for (i, link) in mb.links().enumerate() {
+            let rb = &bodies[link.rigid_body_handle()];
+            let mass = vect_to_na(rb.mprops.effective_mass());
+            let inertia = mat_to_na(rb.mprops.effective_angular_inertia().into_matrix());
+            let mut b = na::SMatrix::<Real, 6, 6>::zeros();
+            for k in 0..3 {
+                b[(k, k)] = mass[k];
+            }
+            b.fixed_view_mut::<3, 3>(3, 3).copy_from(&inertia);
+            let j = mb.body_jacobian(i);
+            m += j.transpose() * b * j;
+        }
+        m
+    }
+
+    /// The composite-rigid-body mass matrix and the Newton-Euler generalized
+    /// forces match their definitions (`Σ Jᵢᵀ·Bᵢ·Jᵢ`, `Σ Jᵢᵀ·Fᵢ`) on a
+    /// branched tree, at rest and while swinging.
+    #[test]
+    #[cfg(feature = "dim3")]
+    fn crba_and_newton_euler_match_the_jacobian_definitions() {
+        use crate::utils::vect_to_na;
+        let (mut world, tip) = swinging_tree();
+        let dt = world.integration_parameters.dt;
+        for phase in 0..3 {
+            let mbi = world
+                .multibody_joints
+                .rigid_body_link(tip)
+                .unwrap()
+                .multibody;
+            let mb = world
+                .multibody_joints
+                .get_multibody_mut_internal(mbi)
+                .unwrap();
+            let n = mb.ndofs();
+            assert_eq!(n, 6 + 3 + 1 + 1 + 1);
+            if phase == 0 {
+                // At rest, with applied forces and torques on every link.
+                mb.velocities.fill(0.0);
+                for (i, link) in mb.links.iter().enumerate() {
+                    let rb = world.bodies.get_mut(link.rigid_body).unwrap();
+                    let s = i as Real;
+                    rb.forces.force = Vector::new(1.0 + s, -2.0 * s, 0.5);
+                    rb.forces.torque = Vector::new(0.3, 0.1 * s, -0.2);
+                }
+            } else {
+                // Small velocities keep the implicit Coriolis energy guard out.
+                for (k, v) in mb.velocities.iter_mut().enumerate() {
+                    *v = 0.1 * (((k * 7919) % 13) as Real / 13.0 - 0.5);
+                }
+            }
+            mb.forward_kinematics(&world.bodies, false);
+            mb.update_rigid_bodies_internal(&mut world.bodies, true, true, false);
+            mb.update_velocities(&mut world.bodies);
+            mb.update_mass_matrix(dt, &world.bodies);
+            mb.update_acceleration(dt, &world.bodies);
+
+            let bodies = &world.bodies;
+            let reference = reference_mass_matrix(mb, bodies);
+            let mut crba = mb.augmented_mass.clone();
+            for k in 0..n {
+                crba[(k, k)] -= mb.damping[k] * dt + mb.armature[k];
+            }
+            let scale = reference.amax();
+            let err = (&crba - &reference).amax();
+            assert!(
+                err <= 1.0e-5 * scale,
+                "phase {phase}: M error {err} (scale {scale})"
+            );
+
+            // Generalized forces: the matrix used for the free accelerations
+            // times them is `Σ Jᵢᵀ·Fᵢ − damping∘v`, `Fᵢ` the link wrench of
+            // the (unchanged) forward pass.
+            let mut forces = -mb.damping.component_mul(&mb.velocities);
+            for (i, link) in mb.links.iter().enumerate() {
+                let rb = &bodies[link.rigid_body];
+                let acc = mb.workspace.accs[i];
+                let inertia = rb.mprops.effective_angular_inertia();
+                let w = rb.vels.angvel;
+                let f = rb.forces.force - rb.mprops.effective_mass() * acc.linvel;
+                let t = rb.forces.torque - w.cross(inertia * w) - inertia * acc.angvel;
+                let mut wrench = na::SVector::<Real, 6>::zeros();
+                wrench.fixed_rows_mut::<3>(0).copy_from(&vect_to_na(f));
+                wrench.fixed_rows_mut::<3>(3).copy_from(&vect_to_na(t));
+                forces += mb.body_jacobian(i).transpose() * wrench;
+            }
+            let matrix = if mb.acc_mass_is_mass {
+                &mb.augmented_mass
+            } else {
+                &mb.acc_augmented_mass
+            };
+            let lhs = matrix * &mb.accelerations;
+            let gscale = forces.amax();
+            let gerr = (&lhs - &forces).amax();
+            assert!(gscale > 0.1, "phase {phase}: no force ({gscale})");
+            assert!(
+                gerr <= 1.0e-4 * gscale,
+                "phase {phase}: Q error {gerr} ({gscale}): {lhs} vs {forces}"
+            );
+
+            for _ in 0..40 {
+                world.step();
+            }
+        }
+    }
 
     #[test]
     fn test_multibody_append() {

@@ -346,7 +346,9 @@ impl MultibodyJoint {
                     );
                 }
 
-                if (limit_bits & (1 << i)) != 0 {
+                if (limit_bits & (1 << i)) != 0
+                    && multibody.limit_row_enabled(link.assembly_id + curr_free_dof)
+                {
                     joint::unit_joint_limit_constraint(
                         params,
                         multibody,
@@ -401,19 +403,21 @@ impl MultibodyJoint {
             if (locked_bits & (1 << i)) == 0 {
                 let limits = if (limit_bits & (1 << i)) != 0 {
                     let limits = [self.data.limits[i].min, self.data.limits[i].max];
-                    joint::unit_joint_limit_constraint(
-                        params,
-                        multibody,
-                        link,
-                        limits,
-                        self.coords[i],
-                        curr_free_dof,
-                        j_id,
-                        jacobians,
-                        constraints,
-                        &mut num_constraints,
-                        self.data.softness,
-                    );
+                    if multibody.limit_row_enabled(link.assembly_id + curr_free_dof) {
+                        joint::unit_joint_limit_constraint(
+                            params,
+                            multibody,
+                            link,
+                            limits,
+                            self.coords[i],
+                            curr_free_dof,
+                            j_id,
+                            jacobians,
+                            constraints,
+                            &mut num_constraints,
+                            self.data.softness,
+                        );
+                    }
                     Some(limits)
                 } else {
                     None

@@ -905,3 +905,187 @@ fn inverse_mass_matches_the_lu_solves() {
     }
     check(&world, parent, "kinematic first hinge");
 }
+
+/// Joint-limit rows are generated only when a coordinate can reach its limit
+/// within the step (`Multibody::update_limit_rows`), and the limits hold as
+/// before: a heavy pendulum released from horizontal swings at up to ~5
+/// rad/s into a hinge limit while a slider on it is thrown against its stop.
+/// At 1 and 4 substeps the run is identical, step for step, to the same run
+/// with every limit row generated at every step (upstream), each coordinate
+/// goes past its limit by less than one step's travel and the arm comes
+/// to rest on its limit; while far from the limits no row is generated.
+#[test]
+#[cfg(feature = "dim3")]
+fn limit_rows_only_near_the_limits_and_limits_hold() {
+    let (lo, hi) = (-1.2, 0.3);
+    let (slo, shi) = (-0.05, 0.08);
+    let run = |substeps: usize, all_rows: bool| {
+        let mut world = PhysicsWorld::new();
+        world.integration_parameters.dt = 1.0 / 240.0;
+        world.integration_parameters.num_solver_iterations = substeps;
+        let base = world.insert_body(RigidBodyBuilder::fixed());
+        let arm = world
+            .insert(
+                RigidBodyBuilder::dynamic().translation(Vector::new(0.5, 0.0, 0.0)),
+                ColliderBuilder::cuboid(0.5, 0.05, 0.05).density(2000.0),
+            )
+            .0;
+        // The arm hangs from the base about z; gravity swings it down (angle
+        // decreasing) to the lower limit.
+        world.insert_multibody_joint(
+            base,
+            arm,
+            RevoluteJointBuilder::new(Vector::Z)
+                .local_anchor2(Vector::new(-0.5, 0.0, 0.0))
+                .limits([lo, hi]),
+        );
+        let slider = world
+            .insert(
+                RigidBodyBuilder::dynamic().translation(Vector::new(1.0, 0.0, 0.0)),
+                ColliderBuilder::ball(0.05).density(3000.0),
+            )
+            .0;
+        world.insert_multibody_joint(
+            arm,
+            slider,
+            PrismaticJointBuilder::new(Vector::X)
+                .local_anchor1(Vector::new(0.5, 0.0, 0.0))
+                .limits([slo, shi]),
+        );
+        let link = world.multibody_joints.rigid_body_link(arm).unwrap();
+        let (mbi, arm_link) = (link.multibody, link.id);
+        let slider_link = world.multibody_joints.rigid_body_link(slider).unwrap().id;
+        world
+            .multibody_joints
+            .get_multibody_mut(mbi)
+            .unwrap()
+            .all_limit_rows = all_rows;
+        world.step();
+        world
+            .multibody_joints
+            .get_multibody_mut(mbi)
+            .unwrap()
+            .generalized_velocity_mut()[1] = -2.0;
+        // Per step: arm angle, slider position, their speeds, limit rows.
+        let mut out = vec![];
+        for _ in 0..1200 {
+            world.step();
+            let mb = world.multibody_joints.get_multibody(mbi).unwrap();
+            let rows = (0..mb.ndofs()).filter(|d| mb.limit_row_enabled(*d)).count();
+            out.push((
+                mb.link(arm_link).unwrap().joint.coords[3],
+                mb.link(slider_link).unwrap().joint.coords[0],
+                mb.generalized_velocity()[0],
+                mb.generalized_velocity()[1],
+                rows,
+            ));
+        }
+        out
+    };
+    for substeps in [1usize, 4] {
+        let gated = run(substeps, false);
+        let upstream = run(substeps, true);
+        let h = 1.0 / 240.0;
+        let (mut worst_arm, mut worst_slider) = (0.0 as Real, 0.0 as Real);
+        let (mut max_w, mut max_v) = (0.0 as Real, 0.0 as Real);
+        for (k, (g, u)) in gated.iter().zip(&upstream).enumerate() {
+            assert_eq!(
+                (g.0, g.1, g.2, g.3),
+                (u.0, u.1, u.2, u.3),
+                "{substeps} substeps, step {k}: differs from upstream"
+            );
+            assert_eq!(u.4, 2, "every row generated in the upstream run");
+            worst_arm = worst_arm.max(lo - g.0).max(g.0 - hi);
+            worst_slider = worst_slider.max(slo - g.1).max(g.1 - shi);
+            max_w = max_w.max(g.2.abs());
+            max_v = max_v.max(g.3.abs());
+        }
+        // The first steps: the arm starts at rest far from its limits.
+        assert!((gated[0].0 - lo).abs() > 0.5, "{:?}", gated[0]);
+        assert!(
+            gated[0].4 <= 1,
+            "limit rows far from the limits: {:?}",
+            gated[0]
+        );
+        assert!(gated.iter().any(|g| g.4 == 0), "no step without limit rows");
+        assert!(max_w > 3.0, "the arm did not swing fast ({max_w})");
+        assert!(
+            worst_arm < max_w * h + 1.0e-3,
+            "{substeps} substeps: arm {worst_arm} rad past its limit (speed {max_w})"
+        );
+        assert!(
+            worst_slider < max_v * h + 1.0e-3,
+            "{substeps} substeps: slider {worst_slider} m past its limit (speed {max_v})"
+        );
+        let last = gated.last().unwrap();
+        assert!(
+            (last.0 - lo).abs() < 5.0e-3,
+            "{substeps} substeps: arm rests at {}, not on its limit {lo}",
+            last.0
+        );
+    }
+}
+
+/// A multibody at rest keeps its mass matrix, factorisations and `M⁻¹`
+/// from one step to the next (`Multibody::mass_reusable`): stepped through
+/// rest (zero gravity, zero velocity), motion, a displacement, a damping
+/// change and rest again, it stays bit-identical to the same world whose
+/// matrices are rebuilt at every step, and the matrices were kept at rest.
+#[test]
+#[cfg(feature = "dim3")]
+fn mass_matrix_reuse_at_rest_gives_identical_steps() {
+    let make = || {
+        let (mut w, tip) = swinging_chain();
+        w.gravity = Vector::ZERO;
+        (w, tip)
+    };
+    let (mut reuse, tip) = make();
+    let (mut rebuild, _) = make();
+    let mbi = reuse
+        .multibody_joints
+        .rigid_body_link(tip)
+        .unwrap()
+        .multibody;
+    let state = |w: &PhysicsWorld| {
+        let mb = w.multibody_joints.get_multibody(mbi).unwrap();
+        let mut out: Vec<Real> = mb.generalized_velocity().iter().copied().collect();
+        for (_, b) in w.bodies.iter() {
+            let p = b.position();
+            out.extend([p.translation.x, p.translation.y, p.translation.z]);
+            out.extend([p.rotation.x, p.rotation.y, p.rotation.z, p.rotation.w]);
+        }
+        out
+    };
+    let mut kept = 0;
+    for step in 0..200 {
+        for w in [&mut reuse, &mut rebuild] {
+            let mb = w.multibody_joints.get_multibody_mut(mbi).unwrap();
+            match step {
+                40 => mb.generalized_velocity_mut()[1] = 0.7,
+                90 | 160 => mb.generalized_velocity_mut().fill(0.0),
+                120 => mb.apply_displacements(&[0.1, -0.2, 0.05, 0.01]),
+                140 => mb.damping_mut()[0] += 0.5,
+                _ => {}
+            }
+        }
+        if reuse
+            .multibody_joints
+            .get_multibody(mbi)
+            .unwrap()
+            .mass_reusable
+            .is_some()
+        {
+            kept += 1;
+        }
+        // Forces the rebuild at the next step (the values are unchanged).
+        let _ = rebuild
+            .multibody_joints
+            .get_multibody_mut(mbi)
+            .unwrap()
+            .damping_mut();
+        reuse.step();
+        rebuild.step();
+        assert_eq!(state(&reuse), state(&rebuild), "step {step}");
+    }
+    assert!(kept > 100, "matrices kept at {kept} steps only");
+}

@@ -263,10 +263,9 @@ pub struct JointGenericInternalConstraintBuilder {
 impl JointGenericInternalConstraintBuilder {
     pub fn num_constraints(multibodies: &MultibodyJointSet, link_id: &MultibodyLinkId) -> usize {
         let multibody = &multibodies[link_id.multibody];
-        let link = multibody.link(link_id.id).unwrap();
         // This link's own motor/limit/friction constraints, plus the DoF
         // couplings it owns (a coupling is owned by its first joint's link).
-        link.joint().num_velocity_constraints()
+        multibody.num_joint_velocity_constraints(link_id.id)
             + multibody.num_friction_constraints(link_id.id)
             + multibody.num_couplings_owned_by(link_id.id)
     }
@@ -280,8 +279,7 @@ impl JointGenericInternalConstraintBuilder {
         out_constraint_id: &mut usize,
     ) {
         let multibody = &multibodies[link_id.multibody];
-        let link = multibody.link(link_id.id).unwrap();
-        let num_constraints = link.joint().num_velocity_constraints()
+        let num_constraints = multibody.num_joint_velocity_constraints(link_id.id)
             + multibody.num_friction_constraints(link_id.id)
             + multibody.num_couplings_owned_by(link_id.id);
 

@@ -12,7 +12,7 @@ use crate::dynamics::solver::solver_contact_graph::SolverContactGraph;
 #[cfg(feature = "dim3")]
 use crate::dynamics::solver::velocity_solver::GyroParams;
 use crate::dynamics::{IntegrationParameters, MultibodyJointSet, RigidBodyHandle, RigidBodySet};
-use crate::math::DVector;
+use crate::math::{DVector, Real};
 use parry::math::SIMD_WIDTH;
 
 impl ContactConstraintsSet {
@@ -56,6 +56,7 @@ impl VelocitySolver {
     pub(super) fn init_solver_buffers_and_multibodies(
         &mut self,
         params: &IntegrationParameters,
+        step_dt: Real,
         island_bodies: &[RigidBodyHandle],
         num_awake_soft_mass_points: usize,
         bodies: &mut RigidBodySet,
@@ -115,6 +116,7 @@ impl VelocitySolver {
             multibody.update_velocities(bodies);
             multibody.update_mass_matrix(params.dt, bodies);
             multibody.update_acceleration(params.dt, bodies);
+            multibody.update_limit_rows(step_dt);
 
             let mut solver_vels_incr = self
                 .generic_solver_vels_increment
@@ -145,8 +147,16 @@ impl VelocitySolver {
                 .generic_solver_vels
                 .rows(multibody.solver_id as usize, multibody.ndofs());
             multibody.velocities.copy_from(&solver_vels);
-            multibody.integrate(params.dt);
-            multibody.forward_kinematics(bodies, false);
+            // With every generalized velocity exactly zero (an arm holding a
+            // pose settles there) the coordinates do not move, and the link
+            // poses and body jacobians are already those of the current
+            // coordinates (computed at the start of the step, or by the
+            // previous substep, or kept by `fk_reusable`): the integration
+            // and the forward kinematics are skipped.
+            if multibody.velocities.iter().any(|v| *v != 0.0) {
+                multibody.integrate(params.dt);
+                multibody.forward_kinematics(bodies, false);
+            }
             multibody.update_rigid_bodies_internal(bodies, !is_last_substep, true, false);
             // After the last substep the links are at the step's final
             // coordinates and the end of the step moves the link bodies

@@ -157,6 +157,7 @@ impl StagedIslandSolver {
         let num_soft_slots = self.soft_constraints.slots.len();
         self.velocity_solver.init_solver_buffers_and_multibodies(
             &params,
+            base_params.dt,
             island_bodies,
             num_soft_slots,
             bodies,
