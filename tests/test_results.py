@@ -51,11 +51,13 @@ def test_plan_times_and_limits(bundled_panda):
     t = _no_warning(lambda: r.times)
     assert type(t).__name__ == "PlanTimes"
     d = t.to_dict()
-    assert list(d) == ["ik", "planning", "simplify", "trajectory", "total"]
+    assert list(d) == ["ik", "planning", "simplify", "trajectory", "fit", "recheck", "total"]
     assert all(isinstance(v, float) and v >= 0 for v in d.values())
     assert t.ik == 0.0  # a configuration goal needs no IK
     # The stages run one after another inside the call.
     assert t.planning + t.simplify + t.trajectory <= t.total * (1 + 1e-9)
+    # fit and recheck are parts of the trajectory stage.
+    assert t.fit + t.recheck <= t.trajectory * (1 + 1e-9)
     _dict_style_warns(t, "total", t.total)
     assert "total=" in repr(t)
 

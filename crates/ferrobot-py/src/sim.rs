@@ -755,7 +755,15 @@ impl PyWorld {
         opts.friction = friction;
         // Without an SRDF, the planner's automatic matrix (pairs overlapping
         // by design, cached on the model) filters the robot's self-contacts.
-        if model.inner.srdf().is_none() {
+        // A robot with at most one link of collision geometry has no pair to
+        // filter (and no sphere model to build).
+        let collision_links = model
+            .inner
+            .links()
+            .iter()
+            .filter(|l| !l.collisions.is_empty())
+            .count();
+        if model.inner.srdf().is_none() && collision_links >= 2 {
             let checker = guard(|| crate::collision::build_checker(py, model, None, None, 0.0))?;
             opts.allowed_collisions = Some(checker.allowed_collisions().clone());
         }
