@@ -55,7 +55,8 @@ def test_headlight_and_ambient_and_defaults():
     _, g = _top_view()
     np.testing.assert_array_equal(f["depth"], g["depth"])
     np.testing.assert_array_equal(f["segmentation"], g["segmentation"])
-    assert ferrobot.World(ground=False).lighting == {"ambient": [0.35] * 3, "headlight": 0.65, "lights": []}
+    lt = ferrobot.World(ground=False).lighting.to_dict()
+    assert lt == {"ambient": (0.35,) * 3, "headlight": 0.65, "lights": []}
 
 
 @pytest.mark.parametrize(
@@ -74,10 +75,10 @@ def test_headlight_and_ambient_and_defaults():
 def test_bad_lighting_is_refused_and_keeps_the_previous(kwargs, word):
     w = ferrobot.World(ground=False)
     w.set_lighting(ambient=(0.1, 0.2, 0.3), headlight=0.4, lights=[((0, 0, -1), (1, 1, 1), 0.5)])
-    before = w.lighting
+    before = w.lighting.to_dict()
     with pytest.raises(FerrobotError, match=word):
         w.set_lighting(**kwargs)
-    assert w.lighting == before
+    assert w.lighting.to_dict() == before
 
 
 def test_generation_randomises_lighting_and_wrist_camera_deterministically():

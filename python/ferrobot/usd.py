@@ -404,8 +404,8 @@ def write_usd(model, path, *, drive_stiffness=None, drive_damping=None) -> Path:
     while pending:
         rest = []
         for j in pending:
-            if j["parent"] in pose:
-                pose[j["child"]] = pose[j["parent"]] @ np.asarray(j["origin"])
+            if j.parent in pose:
+                pose[j.child] = pose[j.parent] @ np.asarray(j.origin)
             else:
                 rest.append(j)
         if len(rest) == len(pending):
@@ -422,11 +422,11 @@ def write_usd(model, path, *, drive_stiffness=None, drive_damping=None) -> Path:
         prim = x.GetPrim()
         UsdPhysics.RigidBodyAPI.Apply(prim)
         inert = model.inertial(link)
-        if inert["mass"] > 0:
+        if inert.mass > 0:
             ma = UsdPhysics.MassAPI.Apply(prim)
-            ma.CreateMassAttr(float(inert["mass"]))
-            o = np.asarray(inert["origin"])
-            inertia = o[:3, :3] @ np.asarray(inert["inertia"]) @ o[:3, :3].T
+            ma.CreateMassAttr(float(inert.mass))
+            o = np.asarray(inert.origin)
+            inertia = o[:3, :3] @ np.asarray(inert.inertia) @ o[:3, :3].T
             w, V = np.linalg.eigh(inertia)
             if np.linalg.det(V) < 0:
                 V[:, 0] = -V[:, 0]
