@@ -410,7 +410,7 @@ def test_lighting_reads_back_what_was_set():
     w.set_lighting(ambient=[0.1, 0.2, 0.3], headlight=0.4, lights=[([0.0, 0.0, -1.0], [1.0, 0.9, 0.8], 2.5)])
     lt = _no_warning(lambda: w.lighting)
     assert type(lt).__name__ == "Lighting"
-    assert lt.ambient == pytest.approx((0.1, 0.2, 0.3)) and lt.headlight == pytest.approx(0.4)
+    assert lt.ambient == pytest.approx([0.1, 0.2, 0.3]) and lt.headlight == pytest.approx(0.4)
     ((direction, color, intensity),) = lt.lights
     np.testing.assert_allclose(color, [1.0, 0.9, 0.8])
     assert intensity == pytest.approx(2.5)

@@ -328,7 +328,7 @@ class World:
         [0, 10]). Pixel = 255 * albedo * (ambient + headlight * |n.r| + sum(colour * intensity * max(0, -n.l)))."""
     @property
     def lighting(self) -> Lighting:
-        """``ambient`` (r, g, b), ``headlight``, ``lights`` [(direction, color, intensity), ...]."""
+        """``ambient`` [r, g, b], ``headlight``, ``lights`` [(direction, color, intensity), ...]."""
     def add_box(
         self,
         name: str,
@@ -1651,7 +1651,7 @@ class JointInfo:
 class Lighting:
     """A world's lighting (``World.lighting``)."""
     @property
-    def ambient(self) -> tuple[float, float, float]: ...
+    def ambient(self) -> list[float]: ...
     @property
     def headlight(self) -> float: ...
     @property

@@ -529,8 +529,8 @@ result_class! {
 result_class! {
     /// A world's lighting (`World.lighting`; see `World.set_lighting`).
     PyLighting, "Lighting" {
-        /// Ambient colour (r, g, b), each in [0, 1].
-        ambient: (f64, f64, f64),
+        /// Ambient colour [r, g, b], each in [0, 1].
+        ambient: Vec<f64>,
         /// Intensity (>= 0) of the light at the camera.
         headlight: f64,
         /// Directional lights as (direction (3,), colour (r, g, b), intensity).

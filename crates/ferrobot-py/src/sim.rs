@@ -447,9 +447,8 @@ impl PyWorld {
     #[getter]
     fn lighting(&self) -> PyResult<crate::results::PyLighting> {
         let l = guard(|| Ok(lock(&self.inner)?.lighting().clone()))?;
-        let [r, g, b] = l.ambient;
         Ok(crate::results::PyLighting {
-            ambient: (r, g, b),
+            ambient: l.ambient.to_vec(),
             headlight: l.headlight,
             lights: l
                 .lights
