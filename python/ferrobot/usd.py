@@ -479,8 +479,7 @@ def write_usd(model, path, *, drive_stiffness=None, drive_damping=None) -> Path:
             k = int(np.argmax(np.abs(axis)))
             if abs(abs(axis[k]) - 1.0) > 1e-12:
                 raise InvalidArgumentError(
-                    f"joint '{j.name}': axis {axis.tolist()} is not a coordinate axis; "
-                    "USD joints turn about X, Y or Z"
+                    f"joint '{j.name}': axis {axis.tolist()} is not a coordinate axis; USD joints turn about X, Y or Z"
                 )
             sign = float(np.sign(axis[k]))
             revolute = kind != "prismatic"
