@@ -122,7 +122,7 @@ def test_observation_contract():
     # Gripper opening: both Panda fingers open at 4 cm each.
     assert obs["observation.gripper_opening"][0] == pytest.approx(0.08, abs=2e-3)
     # Depth: the renderer's metres, 0 where it returned inf.
-    raw = cams["scene"].render(rgb=False)["depth"]
+    raw = cams["scene"].render(rgb=False).depth
     np.testing.assert_array_equal(obs["observation.depth.scene"], np.where(np.isfinite(raw), raw, 0))
     f = features(robot, s, cams, segmentation=True)
     for key, value in obs.items():
