@@ -1,8 +1,10 @@
 """Typed result objects (issue 16): what were plain dicts (``PlanResult.times``, ``Planner.limits``,
 ``Planner.world_sync_stats``, ``Robot.execute`` / ``execute_trajectory``'s tracking report, a controller's
 ``last_step``, the robot's drive gains) are frozen classes with attributes and ``to_dict()``; dict-style access
-still works for one release and warns. References: the Panda's limits from Franka's datasheet, tracking errors
-recomputed with numpy from the report's own desired/actual arrays, hand-derived step counts."""
+still works for one release and warns. Also the render frame, the collision and distance reports, inertials, joint
+descriptions, lighting, the guidance plan and the camera's pose properties. References: the Panda's limits from
+Franka's datasheet, tracking errors recomputed with numpy from the report's own desired/actual arrays, hand-derived
+step counts and distances, a plane's depth by hand, the URDF read with ElementTree."""
 
 from __future__ import annotations
 
@@ -417,3 +419,27 @@ def test_lighting_reads_back_what_was_set():
     # Stored as given or normalised: either way a unit vector along -z.
     np.testing.assert_allclose(np.asarray(direction) / np.linalg.norm(direction), [0.0, 0.0, -1.0])
     _dict_style_warns(lt, "headlight", lt.headlight)
+
+
+def test_guidance_last_plan_after_a_stall():
+    model = ferrobot.robots.panda()
+    ctl = ferrobot.ReactiveController(
+        model, None, ferrobot.SphereModel.automatic(model, total_budget=59), config={"guidance_blocking": 1}
+    )
+    q = model.named_state("ready")
+    goal = q.copy()
+    goal[0] += 1.0
+    goal[3] += 0.5
+    ctl.set_target(model.fk(goal))
+    # The measured state never moves (nothing integrates the commands): the controller stalls and plans.
+    for _ in range(1000):
+        ctl.step(q, np.zeros(model.num_dof), 0.01)
+        if ctl.guidance_last_plan is not None:
+            break
+    p = _no_warning(lambda: ctl.guidance_last_plan)
+    assert type(p).__name__ == "GuidancePlan"
+    # An empty world: the planner connects start and IK goal directly; the controller follows those waypoints.
+    assert p.status == "solved" and p.waypoints >= 2 and p.waypoints == ctl.waypoints_remaining
+    assert ctl.last_step.guidance == "guided" and ctl.last_step.guidance_plans == 1
+    assert 0.0 < p.seconds < 60.0
+    _dict_style_warns(p, "status", "solved")
