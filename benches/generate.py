@@ -51,7 +51,7 @@ def breakdown(cameras: list[dict]) -> dict:
     spec = random_scene(0)
     world, robot, camera = build_world(spec)
     cams = make_cameras(
-        world, robot, camera.get_world_transform(), [CameraSpec(c["name"], c["width"], c["height"]) for c in cameras]
+        world, robot, camera.world_transform, [CameraSpec(c["name"], c["width"], c["height"]) for c in cameras]
     )
     out = {}
     for name, cam in cams.items():
@@ -63,9 +63,9 @@ def breakdown(cameras: list[dict]) -> dict:
         out[f"render_{name}_{cam.width}x{cam.height}_cpu_ms"] = 1e3 * (time.process_time() - c) / 10
         with tempfile.TemporaryDirectory() as d:
             images = {
-                "rgb": frame["rgb"],
-                "depth": np.where(np.isfinite(frame["depth"]), frame["depth"], 0),
-                "segmentation": frame["segmentation"],
+                "rgb": frame.rgb,
+                "depth": np.where(np.isfinite(frame.depth), frame.depth, 0),
+                "segmentation": frame.segmentation,
             }
             for kind, img in images.items():
                 v = _Video(Path(d) / f"{kind}.mp4", cam.width, cam.height, 10, kind)

@@ -410,10 +410,10 @@ class Scene:
 
     def detect(self, **options):
         frame = self.camera.render(rgb=False)
-        depth = np.where(np.isfinite(frame["depth"]), frame["depth"], 0.0)
+        depth = np.where(np.isfinite(frame.depth), frame.depth, 0.0)
         t0, c0 = time.perf_counter(), time.process_time()
         gg = fg.detect_from_rgbd(
-            depth, F, F, CX, CY, scale=1.0, mask=frame["segmentation"], object_id=self.object_id, **options
+            depth, F, F, CX, CY, scale=1.0, mask=frame.segmentation, object_id=self.object_id, **options
         )
         wall, cpu = time.perf_counter() - t0, time.process_time() - c0
         return gg, wall, cpu

@@ -84,10 +84,10 @@ def _geom_xml(g: dict, name: str, friction: float) -> str:
 
 def robot_mjcf(model: ferrobot.RobotModel, s: Settings, prefix: str = "") -> tuple[str, str, str]:
     """(body tree, actuators, contact excludes + equalities) of ``model`` with its base at the world origin."""
-    joints = {model.joint_info(j)["child"]: model.joint_info(j) for j in model.joint_names}
+    joints = {model.joint_info(j).child: model.joint_info(j) for j in model.joint_names}
     children: dict[str, list[str]] = {}
     for child, j in joints.items():
-        children.setdefault(j["parent"], []).append(child)
+        children.setdefault(j.parent, []).append(child)
     dofs = model.dof_names
     effort = dict(zip(dofs, model.effort_limits, strict=True))
     gravcomp = ' gravcomp="1"' if s.gravity_compensation else ""
@@ -95,25 +95,25 @@ def robot_mjcf(model: ferrobot.RobotModel, s: Settings, prefix: str = "") -> tup
     def body(link: str, depth: int) -> str:
         pad = "  " * depth
         j = joints.get(link)
-        origin = _pose_attrs(j["origin"]) if j is not None else 'pos="0 0 0"'
+        origin = _pose_attrs(j.origin) if j is not None else 'pos="0 0 0"'
         out = [f'{pad}<body name="{prefix}{link}" {origin}{gravcomp}>']
-        if j is not None and j["type"] in ("revolute", "continuous", "prismatic"):
-            kind = "slide" if j["type"] == "prismatic" else "hinge"
+        if j is not None and j.type in ("revolute", "continuous", "prismatic"):
+            kind = "slide" if j.type == "prismatic" else "hinge"
             lim = ""
-            if j["type"] != "continuous" and (j["mimic"] is None):
-                lim = f' limited="true" range="{j["lower"]:.9g} {j["upper"]:.9g}"'
+            if j.type != "continuous" and (j.mimic is None):
+                lim = f' limited="true" range="{j.lower:.9g} {j.upper:.9g}"'
             out.append(
-                f'{pad}  <joint name="{prefix}{j["name"]}" type="{kind}" axis="{_f(j["axis"])}"{lim} '
-                f'damping="{j["damping"]:.9g}" frictionloss="{j["friction"]:.9g}"/>'
+                f'{pad}  <joint name="{prefix}{j.name}" type="{kind}" axis="{_f(j.axis)}"{lim} '
+                f'damping="{j.damping:.9g}" frictionloss="{j.friction:.9g}"/>'
             )
         inert = model.inertial(link)
-        if inert["mass"] > 0:
+        if inert.mass > 0:
             # fullinertia is in the body frame: rotate the URDF inertial frame's tensor into it.
-            rot = inert["origin"][:3, :3]
-            i = rot @ inert["inertia"] @ rot.T
+            rot = inert.origin[:3, :3]
+            i = rot @ inert.inertia @ rot.T
             full = _f([i[0, 0], i[1, 1], i[2, 2], i[0, 1], i[0, 2], i[1, 2]])
-            com = _f(inert["origin"][:3, 3])
-            out.append(f'{pad}  <inertial pos="{com}" mass="{inert["mass"]:.9g}" fullinertia="{full}"/>')
+            com = _f(inert.origin[:3, 3])
+            out.append(f'{pad}  <inertial pos="{com}" mass="{inert.mass:.9g}" fullinertia="{full}"/>')
         for k, g in enumerate(model.collision_geometry(link)):
             out.append(pad + "  " + _geom_xml(g, f"{prefix}{link}_{k}", s.robot_friction))
         for c in children.get(link, []):

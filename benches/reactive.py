@@ -205,7 +205,7 @@ def make_episode(rng, model, judge, base_spheres, q_ready, sampling="valid", che
         sc = Scenario(kinds, sizes, starts, vels)
         # Start: every obstacle >= 0.3 m from the robot.
         judge.update_world(sc.world(0.0))
-        if judge.sphere_distances(q0, reach=1.0)["distance"].min() < 0.3:
+        if judge.sphere_distances(q0, reach=1.0).distance.min() < 0.3:
             rejected["start_close"] += 1
             continue
         # Never near the base (an obstacle's centre, minus its size, vs the base spheres).
@@ -219,7 +219,7 @@ def make_episode(rng, model, judge, base_spheres, q_ready, sampling="valid", che
             rejected["base"] += 1
             continue
         judge.update_world(sc.world(DURATION))
-        if judge.sphere_distances(qg, reach=0.5)["distance"].min() < 0.05:
+        if judge.sphere_distances(qg, reach=0.5).distance.min() < 0.05:
             rejected["target"] += 1
             continue
         return q0, qg, sc, rejected
@@ -285,15 +285,15 @@ def run_episode(
                 q = q_new
         tn = t + DT
         judge.update_world(sc.world(tn))
-        ds = float(judge.sphere_distances(q, reach=0.3)["distance"].min())
-        de = float(judge.exact_clearance(q)["distance"])
+        ds = float(judge.sphere_distances(q, reach=0.3).distance.min())
+        de = float(judge.exact_clearance(q).distance)
         min_sphere, min_exact = min(min_sphere, ds), min(min_exact, de)
         contact_sphere |= ds <= 0.0
         contact_exact |= de <= 0.0
         if self_checker is not None:
             self_contact |= bool(self_checker.in_collision(q))
         # Exact self-clearance of the checked link pairs (parry on the links' geometry, not the spheres).
-        dse = float(self_judge.exact_self_clearance(q)["distance"]) if EXACT_SELF else np.inf
+        dse = float(self_judge.exact_self_clearance(q).distance) if EXACT_SELF else np.inf
         min_self_exact = min(min_self_exact, dse)
         self_contact_exact |= dse <= 0.0
         if coal is not None:

@@ -34,7 +34,7 @@ def renders(n: int, cameras: str) -> dict:
         spec = random_scene(seed)
         world, robot, camera = build_world(spec)
         specs = [CameraSpec(c["name"], c["width"], c["height"]) for c in parse_cameras(cameras)]
-        cams = make_cameras(world, robot, camera.get_world_transform(), specs)
+        cams = make_cameras(world, robot, camera.world_transform, specs)
         for name, cam in cams.items():
             cam.render()
             c = time.process_time()

@@ -55,7 +55,7 @@ def bench(name: str) -> dict:
     row["spheres_cached_s"] = t_cached
     row.update(
         spheres=spheres.count,
-        max_protrusion_mm=1e3 * max((r["max_protrusion"] for r in spheres.report), default=0.0),
+        max_protrusion_mm=1e3 * max((r.max_protrusion for r in spheres.report), default=0.0),
         spheres_s=t,
     )
     with warnings.catch_warnings():

@@ -46,11 +46,11 @@ def move_to(q_goal, ignore=()):
 frame = camera.render()
 target_id = next(i for i, n in world.segmentation_labels.items() if n == spec.target)
 k = camera.intrinsic_matrix
-depth = np.where(np.isfinite(frame["depth"]), frame["depth"], 0.0)
+depth = np.where(np.isfinite(frame.depth), frame.depth, 0.0)
 points, pixels = ferrobot.grasp.backproject(depth, k[0, 0], k[1, 1], k[0, 2], k[1, 2], scale=1.0)
-cam_pose = camera.get_world_transform()
+cam_pose = camera.world_transform
 points = ferrobot.grasp.transform_points(points, cam_pose)
-labels = frame["segmentation"][pixels[:, 0], pixels[:, 1]]
+labels = frame.segmentation[pixels[:, 0], pixels[:, 1]]
 keep = points[:, 2] > TABLE_TOP - 0.02  # workspace: the table and what is on it
 
 # 2. Grasps on the target, approaching from above (normals face the camera: the viewpoint), then

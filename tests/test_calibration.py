@@ -83,7 +83,7 @@ def test_identify_payload_from_simulated_static_torques():
     qs = _configs(model, 12, 3)
     true_m, true_c = 1.5, np.array([0.02, -0.01, 0.08])
     hand = robot.get_link_inertial("panda_hand")
-    robot.set_link_inertial("panda_hand", *cal.add_payload(hand["mass"], hand["com"], hand["inertia"], true_m, true_c))
+    robot.set_link_inertial("panda_hand", *cal.add_payload(hand.mass, hand.com, hand.inertia, true_m, true_c))
     q_meas, efforts = cal.measure_static_efforts(world, robot, qs, settle_time=1.0, **SOFT)
     p = cal.identify_payload(model, "panda_hand", q_meas, efforts, cal.gravity_in_base(robot))
     assert abs(p.mass - true_m) <= 0.05 * true_m, p
@@ -98,8 +98,8 @@ def test_identify_link_masses_from_simulated_static_torques():
     truth = []
     for name, s in zip(links, scale, strict=True):
         li = robot.get_link_inertial(name)
-        robot.set_link_inertial(name, li["mass"] * s, li["com"], li["inertia"] * s)
-        truth.append(li["mass"] * s)
+        robot.set_link_inertial(name, li.mass * s, li.com, li.inertia * s)
+        truth.append(li.mass * s)
     q_meas, efforts = cal.measure_static_efforts(world, robot, qs, settle_time=1.0, **SOFT)
     fit = cal.identify_link_masses(model, links, q_meas, efforts)
     nominal = np.array([model_link_mass(model, n) for n in links])
@@ -107,7 +107,7 @@ def test_identify_link_masses_from_simulated_static_torques():
 
 
 def model_link_mass(model, name):
-    return model.inertial(name)["mass"]
+    return model.inertial(name).mass
 
 
 def test_identify_friction_from_simulated_sweeps():
@@ -142,11 +142,11 @@ def test_set_link_inertial_changes_the_dynamics():
     q = model.named_state("ready")
     _, e0 = cal.measure_static_efforts(world, robot, q[None])
     hand = robot.get_link_inertial("panda_hand")
-    robot.set_link_inertial("panda_hand", hand["mass"] + 2.0, hand["com"], hand["inertia"])
-    assert robot.get_link_inertial("panda_hand")["mass"] == pytest.approx(hand["mass"] + 2.0)
+    robot.set_link_inertial("panda_hand", hand.mass + 2.0, hand.com, hand.inertia)
+    assert robot.get_link_inertial("panda_hand").mass == pytest.approx(hand.mass + 2.0)
     qm, e1 = cal.measure_static_efforts(world, robot, q[None])
     y = cal.payload_regressor(model, qm[0], "panda_hand", G)
-    expected = y @ np.r_[2.0, 2.0 * hand["com"]]
+    expected = y @ np.r_[2.0, 2.0 * hand.com]
     np.testing.assert_allclose((e1 - e0)[0, :7], expected[:7], atol=0.05 + 0.02 * np.abs(expected[:7]).max())
 
 

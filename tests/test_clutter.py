@@ -273,7 +273,7 @@ def test_instance_masks_match_segmentation_ids(objects_dir):
     names = clutter.add_clutter(w, spec)
     assert {"bin_wall_x0", "bin_wall_y1"} <= set(w.object_names)
     cam = ferrobot.Camera(w, 160, 120, 130.0, pose=ferrobot.look_at([0.4, 0, 1.0], [0, 0, 0.4]))
-    seg = cam.render(rgb=False)["segmentation"]
+    seg = cam.render(rgb=False).segmentation
     masks = clutter.instance_masks(seg, w, names)
     ids = {n: i for i, n in w.segmentation_labels.items()}
     for n, m in masks.items():
@@ -299,8 +299,8 @@ def test_no_returned_grasp_collides_with_the_cloud_or_the_bin(objects_dir):
     cam = ferrobot.Camera(w, 640, 480, 525.0, pose=cam_pose)
     frame = cam.render(rgb=False)
     ids = [i for i, n in w.segmentation_labels.items() if n in names]
-    seg = np.where(np.isin(frame["segmentation"], ids), frame["segmentation"], 0).astype(np.int32)
-    depth = np.where(np.isfinite(frame["depth"]), frame["depth"], 0.0)
+    seg = np.where(np.isin(frame.segmentation, ids), frame.segmentation, 0).astype(np.int32)
+    depth = np.where(np.isfinite(frame.depth), frame.depth, 0.0)
     down = tuple(cam_pose[:3, :3].T @ np.array([0.0, 0.0, -1.0]))
     gg = ferrobot.grasp.detect_from_rgbd(
         depth, 525.0, 525.0, 319.5, 239.5, scale=1.0, mask=seg, approach_direction=down

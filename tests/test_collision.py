@@ -95,15 +95,15 @@ def test_analytic_distances_and_gradient_against_finite_differences():
         centre = 0.5 * np.array([np.cos(yaw), np.sin(yaw), 0.0])
         expected = np.linalg.norm(centre - [1, 0, 0]) - 0.3
         d = checker.distance(q)
-        assert d["distance"] == pytest.approx(expected, abs=1e-12)
-        assert d["closest"] == ("arm", "ball")
+        assert d.distance == pytest.approx(expected, abs=1e-12)
+        assert d.closest == ("arm", "ball")
         h = 1e-6
-        fd = (checker.distance(q + h)["distance"] - checker.distance(q - h)["distance"]) / (2 * h)
-        assert d["gradient"][0] == pytest.approx(fd, abs=1e-6)
+        fd = (checker.distance(q + h).distance - checker.distance(q - h).distance) / (2 * h)
+        assert d.gradient[0] == pytest.approx(fd, abs=1e-6)
         assert checker.in_collision(q) == (expected < 0)
     # margin: free at 0.25 m clearance, colliding with a 0.26 m margin
     q = np.array([np.arccos((1 + 0.25 - 0.55**2) / (2 * 0.5))])  # centre 0.55 m from the ball centre
-    assert checker.distance(q)["distance"] == pytest.approx(0.25, abs=1e-9)
+    assert checker.distance(q).distance == pytest.approx(0.25, abs=1e-9)
     assert not checker.in_collision(q)
     checker.margin = 0.26
     assert checker.in_collision(q)
@@ -139,8 +139,8 @@ def test_contacts_explain_self_collision(panda, panda_spheres):
     folded = np.array([0, 0, 0, -3.0, 0, 0.5, 0])  # elbow fully bent: the hand comes back onto link1
     assert checker.in_collision(folded)
     contacts = checker.contacts(folded)
-    hand = [c for c in contacts if {c["body"], c["other"]} == {"panda_link1", "panda_hand"}]
-    assert len(hand) == 1 and hand[0]["self_collision"]
+    hand = [c for c in contacts if {c.body, c.other} == {"panda_link1", "panda_hand"}]
+    assert len(hand) == 1 and hand[0].self_collision
     # Independent reference: the deepest overlap of the two links' spheres placed with fk_all.
     poses = dict(zip(panda.link_names, panda.fk_all(folded), strict=True))
 
@@ -150,7 +150,7 @@ def test_contacts_explain_self_collision(panda, panda_spheres):
 
     (ca, ra), (cb, rb) = placed("panda_link1"), placed("panda_hand")
     gaps = np.linalg.norm(ca[:, None] - cb[None], axis=2) - ra[:, None] - rb[None]
-    assert hand[0]["depth"] == pytest.approx(-gaps.min(), abs=1e-9)
+    assert hand[0].depth == pytest.approx(-gaps.min(), abs=1e-9)
     assert "panda_link1 hits robot link panda_hand" in checker.explain(folded)
     assert checker.explain(panda.named_state("ready")) == "collision-free"
 

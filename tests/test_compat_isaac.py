@@ -138,6 +138,6 @@ def test_camera_world_pose_axes():
     assert R[:, 0] == pytest.approx(forward, abs=1e-9) and R[2, 2] > 0
     # "ros" is the OpenCV frame of get_world_transform
     _, q = cam.get_world_pose(camera_axes="ros")
-    assert wxyz_to_matrix(q) == pytest.approx(cam.get_world_transform()[:3, :3], abs=1e-9)
+    assert wxyz_to_matrix(q) == pytest.approx(cam.world_transform[:3, :3], abs=1e-9)
     with pytest.raises(errors.InvalidArgumentError, match="camera_axes"):
         cam.get_world_pose(camera_axes="opengl")

@@ -99,7 +99,7 @@ def test_observation_contract():
     cams = make_cameras(
         world,
         robot,
-        camera.get_world_transform(),
+        camera.world_transform,
         [CameraSpec("scene", 64, 48), CameraSpec("wrist", 32, 24)],
         scene_fov_deg=60.0,
     )
@@ -122,7 +122,7 @@ def test_observation_contract():
     # Gripper opening: both Panda fingers open at 4 cm each.
     assert obs["observation.gripper_opening"][0] == pytest.approx(0.08, abs=2e-3)
     # Depth: the renderer's metres, 0 where it returned inf.
-    raw = cams["scene"].render(rgb=False)["depth"]
+    raw = cams["scene"].render(rgb=False).depth
     np.testing.assert_array_equal(obs["observation.depth.scene"], np.where(np.isfinite(raw), raw, 0))
     f = features(robot, s, cams, segmentation=True)
     for key, value in obs.items():
@@ -132,7 +132,7 @@ def test_observation_contract():
 
 def test_wrist_camera_moves_with_the_hand():
     spec, world, robot, camera = _world(2)
-    cams = make_cameras(world, robot, camera.get_world_transform(), [CameraSpec("wrist", 32, 24)])
+    cams = make_cameras(world, robot, camera.world_transform, [CameraSpec("wrist", 32, 24)])
     before = cams["wrist"].get_world_transform()
     s = ControlStepper(world, robot)
     a = s.hold_action()
@@ -143,4 +143,4 @@ def test_wrist_camera_moves_with_the_hand():
     hand = robot.get_link_pose("panda_hand")
     assert np.linalg.norm(after[:3, 3] - before[:3, 3]) > 0.05
     # Its pose relative to the hand is the configured one.
-    np.testing.assert_allclose(np.linalg.inv(hand) @ after, cams["wrist"].get_local_pose(), atol=1e-9)
+    np.testing.assert_allclose(np.linalg.inv(hand) @ after, cams["wrist"].local_pose, atol=1e-9)

@@ -42,7 +42,7 @@ def record(pp, spec, cams=CAMS, rand=None):
 
     def factory(world, robot, camera, arm):
         apply_lighting(world, rand or {})
-        cameras = make_cameras(world, robot, camera.get_world_transform(), specs, scene_fov_deg=scene_fov(spec))
+        cameras = make_cameras(world, robot, camera.world_transform, specs, scene_fov_deg=scene_fov(spec))
         labels.update(world.segmentation_labels)
         return ControlRecorder(
             world,

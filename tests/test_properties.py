@@ -119,7 +119,7 @@ def test_collision_queries(v):
     same_or_ferrobot_error(CHECKER.in_collision_batch, x, ref)
     same_or_ferrobot_error(lambda a: CHECKER.in_collision(a[0]), x, ref)
     same_or_ferrobot_error(lambda a: CHECKER.motion_valid(a[0], a[-1], 0.01), x, ref)
-    same_or_ferrobot_error(lambda a: CHECKER.distance(a[0]), x, ref)
+    same_or_ferrobot_error(lambda a: CHECKER.distance(a[0]).to_dict(), x, ref)
 
 
 @SETTINGS

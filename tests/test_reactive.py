@@ -61,12 +61,12 @@ def test_sphere_distances_and_gradients_match_hand_geometry(panda):
     assert len(P) == ctl.num_spheres == 59
     # Match the controller's spheres to the independently placed ones.
     order = []
-    for c, r in zip(got["centers"], got["radii"], strict=True):
+    for c, r in zip(got.centers, got.radii, strict=True):
         i = int(np.argmin(np.linalg.norm(P[:, :3] - c, axis=1) + np.abs(P[:, 3] - r)))
         assert np.linalg.norm(P[i, :3] - c) < 1e-9 and abs(P[i, 3] - r) < 1e-12
         order.append(i)
     expect = hand_distances(P[order], ball_c, ball_r, box_c, box_h)
-    np.testing.assert_allclose(got["distance"], expect, atol=1e-9)
+    np.testing.assert_allclose(got.distance, expect, atol=1e-9)
     h = 1e-6
     for dof in range(7):
         qp, qm = q.copy(), q.copy()
@@ -76,7 +76,7 @@ def test_sphere_distances_and_gradients_match_hand_geometry(panda):
             hand_distances(placed_spheres(model, spheres, qp)[order], ball_c, ball_r, box_c, box_h)
             - hand_distances(placed_spheres(model, spheres, qm)[order], ball_c, ball_r, box_c, box_h)
         ) / (2 * h)
-        np.testing.assert_allclose(got["gradient"][:, dof], fd, atol=1e-5)
+        np.testing.assert_allclose(got.gradient[:, dof], fd, atol=1e-5)
 
 
 def run(ctl, q, n, dt=0.01, each=None):
@@ -123,7 +123,7 @@ def test_never_enters_a_ball_flying_at_the_hand(panda):
             q, qd, _ = ctl.step(q, qd, 0.01)
             P = placed_spheres(model, spheres, q)
             worst = min(worst, (np.linalg.norm(P[:, :3] - c, axis=1) - 0.05 - P[:, 3]).min())
-            assert ctl.exact_clearance(q)["distance"] > 0.0
+            assert ctl.exact_clearance(q).distance > 0.0
         assert worst > 0.0, direction
 
 
@@ -255,7 +255,7 @@ def test_self_collision_filter_keeps_links_apart_when_the_target_presses_them_to
         exact, contact = np.inf, False
         for _ in range(300):
             q, qd, _ = ctl.step(q, qd, 0.01)
-            exact = min(exact, ctl.exact_self_clearance(q)["distance"])
+            exact = min(exact, ctl.exact_self_clearance(q).distance)
             contact |= checker.in_collision(q)
         return exact, contact
 
@@ -265,7 +265,7 @@ def test_self_collision_filter_keeps_links_apart_when_the_target_presses_them_to
         goal = q0.copy()
         goal[:7] += rng.uniform(-1.2, 1.2, 7)
         goal = np.clip(goal, model.lower_limits, model.upper_limits)
-        if not (checker.in_collision(goal) and probe.exact_self_clearance(goal)["distance"] <= 0.0):
+        if not (checker.in_collision(goal) and probe.exact_self_clearance(goal).distance <= 0.0):
             continue
         off = run(goal, {"self_filter_distance": 0.0})
         if off[1]:

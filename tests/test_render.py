@@ -32,30 +32,31 @@ def test_directional_light_follows_the_cosine_law(theta_deg):
     direction = (math.sin(th), 0.0, -math.cos(th))
     light_color, intensity, ambient = (1.0, 0.5, 0.25), 0.9, 0.1
     _, f = _top_view(ambient=(ambient,) * 3, headlight=0.0, lights=[(direction, light_color, intensity)])
-    assert np.all(np.isfinite(f["depth"]))
+    assert np.all(np.isfinite(f.depth))
     cos = max(0.0, math.cos(th))
     want = [math.floor(255 * a * (ambient + intensity * lc * cos)) for a, lc in zip(COLOR, light_color, strict=True)]
-    rgb = f["rgb"].reshape(-1, 3).astype(int)
+    rgb = f.rgb.reshape(-1, 3).astype(int)
     # Flat face, directional light: every pixel the same; f32 rounding may move the truncation by one.
     assert np.abs(rgb - np.array(want)).max() <= 1, (rgb[0], want)
 
 
 def test_headlight_and_ambient_and_defaults():
     w, f = _top_view(ambient=(0.2, 0.3, 0.4), headlight=0.5, lights=[])
-    centre = f["rgb"][(H - 1) // 2, (W - 1) // 2].astype(int)
+    centre = f.rgb[(H - 1) // 2, (W - 1) // 2].astype(int)
     want = [math.floor(255 * a * (amb + 0.5)) for a, amb in zip(COLOR, (0.2, 0.3, 0.4), strict=True)]
     assert np.abs(centre - want).max() <= 1
     # Off-centre pixels see the face at an angle: cos = 1 / |ray|.
     u, v = 0, 0
     r = math.hypot((u - 32) / 50.0, (v - 24) / 50.0, 1.0)
-    corner = f["rgb"][v, u].astype(int)
+    corner = f.rgb[v, u].astype(int)
     want = [math.floor(255 * a * (amb + 0.5 / r)) for a, amb in zip(COLOR, (0.2, 0.3, 0.4), strict=True)]
     assert np.abs(corner - want).max() <= 1
     # Lighting changes RGB only.
     _, g = _top_view()
-    np.testing.assert_array_equal(f["depth"], g["depth"])
-    np.testing.assert_array_equal(f["segmentation"], g["segmentation"])
-    assert ferrobot.World(ground=False).lighting == {"ambient": [0.35] * 3, "headlight": 0.65, "lights": []}
+    np.testing.assert_array_equal(f.depth, g.depth)
+    np.testing.assert_array_equal(f.segmentation, g.segmentation)
+    lt = ferrobot.World(ground=False).lighting.to_dict()
+    assert lt == {"ambient": [0.35] * 3, "headlight": 0.65, "lights": []}
 
 
 @pytest.mark.parametrize(
@@ -74,10 +75,10 @@ def test_headlight_and_ambient_and_defaults():
 def test_bad_lighting_is_refused_and_keeps_the_previous(kwargs, word):
     w = ferrobot.World(ground=False)
     w.set_lighting(ambient=(0.1, 0.2, 0.3), headlight=0.4, lights=[((0, 0, -1), (1, 1, 1), 0.5)])
-    before = w.lighting
+    before = w.lighting.to_dict()
     with pytest.raises(FerrobotError, match=word):
         w.set_lighting(**kwargs)
-    assert w.lighting == before
+    assert w.lighting.to_dict() == before
 
 
 def test_generation_randomises_lighting_and_wrist_camera_deterministically():
@@ -101,9 +102,9 @@ def test_generation_randomises_lighting_and_wrist_camera_deterministically():
     spec, rand = episode_spec(cfg, 1)
     world, robot, camera = build_world(spec)
     apply_lighting(world, rand)
-    assert world.lighting["lights"][0][2] == rand["lighting"]["lights"][0][2]
-    assert world.lighting["ambient"] == rand["lighting"]["ambient"]
-    cams = make_cameras(world, robot, camera.get_world_transform(), episode_cameras(cfg, rand))
+    assert world.lighting.lights[0][2] == rand["lighting"]["lights"][0][2]
+    assert world.lighting.ambient == rand["lighting"]["ambient"]
+    cams = make_cameras(world, robot, camera.world_transform, episode_cameras(cfg, rand))
     wc = rand["wrist_camera"]
     want = robot.get_link_pose("panda_hand") @ ferrobot.look_at(wc["eye"], wc["target"], (1, 0, 0))
     np.testing.assert_allclose(cams["wrist"].get_world_transform(), want, atol=1e-9)

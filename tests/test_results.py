@@ -1,8 +1,10 @@
 """Typed result objects (issue 16): what were plain dicts (``PlanResult.times``, ``Planner.limits``,
 ``Planner.world_sync_stats``, ``Robot.execute`` / ``execute_trajectory``'s tracking report, a controller's
 ``last_step``, the robot's drive gains) are frozen classes with attributes and ``to_dict()``; dict-style access
-still works for one release and warns. References: the Panda's limits from Franka's datasheet, tracking errors
-recomputed with numpy from the report's own desired/actual arrays, hand-derived step counts."""
+still works for one release and warns. Also the render frame, the collision and distance reports, inertials, joint
+descriptions, lighting, the guidance plan and the camera's pose properties. References: the Panda's limits from
+Franka's datasheet, tracking errors recomputed with numpy from the report's own desired/actual arrays, hand-derived
+step counts and distances, a plane's depth by hand, the URDF read with ElementTree."""
 
 from __future__ import annotations
 
@@ -200,3 +202,246 @@ def test_detect_with_gripper_uses_pad_scaled_depths(gripper, hand):
     )
     with pytest.raises(ferrobot.errors.InvalidArgumentError, match="gripper: expected a ferrobot.Gripper"):
         fg.detect(cloud, gripper="panda")
+
+
+# --- Issue 16 deliverable 5, the last dict results: render frames, collision reports, distances, inertials,
+# joint descriptions, lighting, and the camera's properties.
+
+
+def _look_down(height):
+    """A camera pose (OpenCV frame: x right, y down, z forward) `height` m above the origin, looking down."""
+    pose = np.diag([1.0, -1.0, -1.0, 1.0])
+    pose[2, 3] = height
+    return pose
+
+
+def test_render_frame_attributes_and_a_plane_by_hand():
+    w = ferrobot.World(ground=False)
+    # A slab whose top face is the plane z = 0; the camera 0.8 m above it looks straight down.
+    w.add_box("slab", [10.0, 10.0, 0.1], [0, 0, -0.05, 1, 0, 0, 0], fixed=True, color=[0.2, 0.6, 0.2])
+    cam = ferrobot.Camera(w, 64, 48, 60.0, pose=_look_down(0.8))
+    f = _no_warning(lambda: cam.render())
+    assert type(f).__name__ == "RenderFrame"
+    assert f.depth.shape == (48, 64) and f.depth.dtype == np.float32
+    assert f.segmentation.shape == (48, 64) and f.segmentation.dtype == np.int32
+    assert f.rgb.shape == (48, 64, 3) and f.rgb.dtype == np.uint8
+    # A plane perpendicular to the optical axis is at the same depth (along the axis) in every pixel.
+    np.testing.assert_allclose(f.depth, 0.8, atol=1e-5)
+    slab = [k for k, v in w.segmentation_labels.items() if v == "slab"][0]
+    assert np.all(f.segmentation == slab)
+    # Green-dominant pixels: the slab's colour under the default grey lighting.
+    assert np.all(f.rgb[..., 1] > f.rgb[..., 0])
+    d = f.to_dict()
+    assert list(d) == ["depth", "segmentation", "rgb"]
+    for k in d:
+        np.testing.assert_array_equal(d[k], getattr(f, k))
+    _dict_style_warns(f, "depth", f.depth)
+    no_rgb = cam.render(rgb=False)
+    assert no_rgb.rgb is None
+    np.testing.assert_array_equal(no_rgb.depth, f.depth)
+
+
+def test_camera_pose_properties_and_deprecated_getters():
+    w = ferrobot.World(ground=False)
+    pose = _look_down(0.8)
+    cam = ferrobot.Camera(w, 32, 24, 30.0, pose=pose)
+    # Fixed to the world, the mount is the world frame: the local pose is the world pose.
+    np.testing.assert_allclose(_no_warning(lambda: cam.world_transform), pose, atol=1e-12)
+    np.testing.assert_allclose(_no_warning(lambda: cam.local_pose), pose, atol=1e-12)
+    moved = _look_down(1.5)
+    moved[:3, 3] = [0.1, -0.2, 1.5]
+    cam.local_pose = moved
+    np.testing.assert_allclose(cam.world_transform, moved, atol=1e-12)
+    with pytest.warns(DeprecationWarning, match=r"Camera.get_world_transform\(\) is deprecated: read the property"):
+        np.testing.assert_allclose(cam.get_world_transform(), moved, atol=1e-12)
+    with pytest.warns(DeprecationWarning, match=r"Camera.get_local_pose\(\) is deprecated"):
+        np.testing.assert_allclose(cam.get_local_pose(), moved, atol=1e-12)
+    with pytest.warns(DeprecationWarning, match="assign Camera.local_pose"):
+        cam.set_local_pose(pose)
+    np.testing.assert_allclose(cam.local_pose, pose, atol=1e-12)
+    with pytest.raises(ferrobot.errors.ShapeError, match="pose: expected a 4x4 matrix"):
+        cam.local_pose = [1.0, 2.0]
+
+
+# A one-joint robot with one 0.1 m sphere 0.5 m out along its arm: distances are written by hand.
+_ARM = """<robot name="arm">
+  <link name="base"/>
+  <link name="arm"><collision><origin xyz="0.5 0 0"/><geometry><sphere radius="0.1"/></geometry></collision></link>
+  <joint name="yaw" type="revolute"><parent link="base"/><child link="arm"/><axis xyz="0 0 1"/>
+    <limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
+</robot>"""
+
+
+def test_collision_distance_and_contacts_by_hand(tmp_path):
+    path = tmp_path / "arm.urdf"
+    path.write_text(_ARM)
+    model = ferrobot.RobotModel.from_urdf_string(_ARM)
+    world = ferrobot.CollisionWorld()
+    world.add_sphere("ball", 0.2, [1.0, 0.0, 0.0, 1, 0, 0, 0])
+    checker = ferrobot.CollisionChecker(model, world, ferrobot.SphereModel.from_spherized_urdf(model, path))
+    yaw = 0.7
+    d = _no_warning(lambda: checker.distance([yaw]))
+    assert type(d).__name__ == "CollisionDistance"
+    centre = 0.5 * np.array([np.cos(yaw), np.sin(yaw), 0.0])
+    expected = np.linalg.norm(centre - [1, 0, 0]) - 0.3
+    assert d.distance == pytest.approx(expected, abs=1e-12) and d.world_distance == pytest.approx(expected, abs=1e-12)
+    assert d.closest == ("arm", "ball") and d.gradient.shape == (1,)
+    _dict_style_warns(d, "closest", ("arm", "ball"))
+    # Ball moved to x = 0.65: at yaw 0 the arm's sphere (centre 0.5, r 0.1) overlaps it (r 0.2) by
+    # (0.1 + 0.2) - 0.15 = 0.15 m.
+    world.set_pose("ball", [0.65, 0.0, 0.0, 1, 0, 0, 0])
+    checker.update_world(world)
+    (c,) = _no_warning(lambda: checker.contacts([0.0]))
+    assert type(c).__name__ == "Contact"
+    assert (c.body, c.other, c.self_collision) == ("arm", "ball", False)
+    assert c.depth == pytest.approx(0.15, abs=1e-12)
+    _dict_style_warns(c, "depth", c.depth)
+
+
+def test_self_collision_analysis_and_sphere_fit_report():
+    model = ferrobot.robots.panda()
+    spheres = ferrobot.SphereModel.automatic(model, total_budget=59)
+    rep = _no_warning(lambda: spheres.report)
+    assert all(type(r).__name__ == "SphereFit" for r in rep)
+    # The report's counts are the spheres the model holds per link.
+    for r in rep:
+        assert r.spheres == len(spheres.spheres(r.link))
+        assert 0.0 <= r.coverage <= 1.0 and 0.0 <= r.mean_protrusion <= r.max_protrusion
+    assert sum(r.spheres for r in rep) == 59
+    _dict_style_warns(rep[0], "link", rep[0].link)
+    checker = ferrobot.CollisionChecker(model, spheres=spheres)
+    a = _no_warning(lambda: checker.analyze_self_collisions(samples=50, seed=1))
+    assert type(a).__name__ == "SelfCollisionAnalysis" and a.samples == 50
+    # Never and always are excluded afterwards: they are now among the allowed pairs.
+    excluded = {r for *_, r in checker.allowed_collision_pairs}
+    assert (a.never > 0) == any("never" in r.lower() for r in excluded)
+    _dict_style_warns(a, "samples", 50)
+
+
+def test_sphere_distances_and_exact_clearance_by_hand():
+    model = ferrobot.robots.panda()
+    ball_c, ball_r = np.array([0.5, 0.3, 0.5]), 0.06
+    world = ferrobot.CollisionWorld()
+    world.add_sphere("ball", ball_r, [*ball_c, 1, 0, 0, 0])
+    ctl = ferrobot.ReactiveController(model, world, ferrobot.SphereModel.automatic(model, total_budget=59))
+    q = model.named_state("ready")
+    s = _no_warning(lambda: ctl.sphere_distances(q, reach=10.0))
+    assert type(s).__name__ == "SphereDistances"
+    assert s.distance.shape == s.radii.shape == (59,) and s.centers.shape == s.direction.shape == (59, 3)
+    # Sphere to ball, by hand from the reported centres and radii; the direction points away from the ball.
+    np.testing.assert_allclose(s.distance, np.linalg.norm(s.centers - ball_c, axis=1) - ball_r - s.radii, atol=1e-9)
+    away = (s.centers - ball_c) / np.linalg.norm(s.centers - ball_c, axis=1)[:, None]
+    np.testing.assert_allclose(s.direction, away, atol=1e-9)
+    _dict_style_warns(s, "radii", s.radii)
+    c = _no_warning(lambda: ctl.exact_clearance(q))
+    assert type(c).__name__ == "Clearance"
+    assert c.closest is not None and c.closest[1] == "ball" and c.closest[0] in model.link_names
+    # Exact geometry is inside the spheres up to their protrusion, so it is no nearer than the nearest sphere.
+    assert 0.0 < s.distance.min() <= c.distance
+    _dict_style_warns(c, "distance", c.distance)
+    sc = ctl.exact_self_clearance(q)
+    assert type(sc).__name__ == "Clearance" and sc.distance > 0.0
+
+
+def _urdf_origin(el):
+    from scipy.spatial.transform import Rotation
+
+    o = el.find("origin")
+    xyz = [float(v) for v in (o.get("xyz", "0 0 0") if o is not None else "0 0 0").split()]
+    rpy = [float(v) for v in (o.get("rpy", "0 0 0") if o is not None else "0 0 0").split()]
+    T = np.eye(4)
+    T[:3, :3] = Rotation.from_euler("xyz", rpy).as_matrix()  # URDF rpy: fixed axes x, y, z
+    T[:3, 3] = xyz
+    return T
+
+
+def test_inertials_and_joint_info_match_the_urdf_read_with_elementtree():
+    import xml.etree.ElementTree as ET
+
+    from conftest import PANDA_URDF
+
+    root = ET.parse(PANDA_URDF).getroot()
+    model = ferrobot.RobotModel.from_urdf(PANDA_URDF)
+    w = ferrobot.World(ground=False)
+    robot = w.add_robot(model)
+    for link in root.findall("link"):
+        el = link.find("inertial")
+        if el is None:
+            continue
+        name = link.get("name")
+        mass = float(el.find("mass").get("value"))
+        a = {k: float(v) for k, v in el.find("inertia").attrib.items()}
+        inertia = np.array(
+            [[a["ixx"], a["ixy"], a["ixz"]], [a["ixy"], a["iyy"], a["iyz"]], [a["ixz"], a["iyz"], a["izz"]]]
+        )
+        origin = _urdf_origin(el)
+        i = _no_warning(lambda name=name: model.inertial(name))
+        assert type(i).__name__ == "Inertial"
+        assert i.mass == pytest.approx(mass, rel=1e-12)
+        np.testing.assert_allclose(i.origin, origin, atol=1e-9)
+        np.testing.assert_allclose(i.inertia, inertia, atol=1e-12)
+        li = _no_warning(lambda name=name: robot.get_link_inertial(name))
+        assert type(li).__name__ == "LinkInertial"
+        assert li.mass == pytest.approx(mass, rel=1e-6)
+        np.testing.assert_allclose(li.com, origin[:3, 3], atol=1e-6)
+        R = origin[:3, :3]
+        np.testing.assert_allclose(li.inertia, R @ inertia @ R.T, atol=1e-6)
+    _dict_style_warns(i, "mass", i.mass)
+    _dict_style_warns(li, "com", li.com)
+    checked = 0
+    for j in root.findall("joint"):
+        info = _no_warning(lambda j=j: model.joint_info(j.get("name")))
+        assert type(info).__name__ == "JointInfo"
+        assert (info.name, info.type) == (j.get("name"), j.get("type"))
+        assert (info.parent, info.child) == (j.find("parent").get("link"), j.find("child").get("link"))
+        np.testing.assert_allclose(info.origin, _urdf_origin(j), atol=1e-9)
+        lim = j.find("limit")
+        if j.get("type") != "fixed":
+            axis = [float(v) for v in j.find("axis").get("xyz").split()]
+            np.testing.assert_allclose(info.axis, axis, atol=1e-12)
+        if lim is not None and j.get("type") == "revolute":
+            assert (info.lower, info.upper) == (float(lim.get("lower")), float(lim.get("upper")))
+            assert (info.velocity, info.effort) == (float(lim.get("velocity")), float(lim.get("effort")))
+            checked += 1
+        mimic = j.find("mimic")
+        assert (info.mimic is None) == (mimic is None)
+    assert checked == 7
+    _dict_style_warns(info, "type", info.type)
+
+
+def test_lighting_reads_back_what_was_set():
+    w = ferrobot.World(ground=False)
+    w.set_lighting(ambient=[0.1, 0.2, 0.3], headlight=0.4, lights=[([0.0, 0.0, -1.0], [1.0, 0.9, 0.8], 2.5)])
+    lt = _no_warning(lambda: w.lighting)
+    assert type(lt).__name__ == "Lighting"
+    assert lt.ambient == pytest.approx([0.1, 0.2, 0.3]) and lt.headlight == pytest.approx(0.4)
+    ((direction, color, intensity),) = lt.lights
+    np.testing.assert_allclose(color, [1.0, 0.9, 0.8])
+    assert intensity == pytest.approx(2.5)
+    # Stored as given or normalised: either way a unit vector along -z.
+    np.testing.assert_allclose(np.asarray(direction) / np.linalg.norm(direction), [0.0, 0.0, -1.0])
+    _dict_style_warns(lt, "headlight", lt.headlight)
+
+
+def test_guidance_last_plan_after_a_stall():
+    model = ferrobot.robots.panda()
+    ctl = ferrobot.ReactiveController(
+        model, None, ferrobot.SphereModel.automatic(model, total_budget=59), config={"guidance_blocking": 1}
+    )
+    q = model.named_state("ready")
+    goal = q.copy()
+    goal[0] += 1.0
+    goal[3] += 0.5
+    ctl.set_target(model.fk(goal))
+    # The measured state never moves (nothing integrates the commands): the controller stalls and plans.
+    for _ in range(1000):
+        ctl.step(q, np.zeros(model.num_dof), 0.01)
+        if ctl.guidance_last_plan is not None:
+            break
+    p = _no_warning(lambda: ctl.guidance_last_plan)
+    assert type(p).__name__ == "GuidancePlan"
+    # An empty world: the planner connects start and IK goal directly; the controller follows those waypoints.
+    assert p.status == "solved" and p.waypoints >= 2 and p.waypoints == ctl.waypoints_remaining
+    assert ctl.last_step.guidance == "guided" and ctl.last_step.guidance_plans == 1
+    assert 0.0 < p.seconds < 60.0
+    _dict_style_warns(p, "status", "solved")

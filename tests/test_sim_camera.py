@@ -21,7 +21,7 @@ def test_depth_of_ground_plane_from_tilted_camera():
     w = ferrobot.World()
     pose = ferrobot.look_at([0.3, -1.2, 0.9], [0.1, 2.0, 0.5])
     cam = ferrobot.Camera(w, 160, 120, 140.0, 150.0, 81.0, 57.5, pose, far=20.0)
-    depth = cam.render(rgb=False)["depth"]
+    depth = cam.render(rgb=False).depth
     assert depth.dtype == np.float32 and depth.shape == (120, 160)
     # ray origin c, direction R d (d.z = 1): hits z = 0 at t = -c_z / (R d)_z, and depth = t
     d_world = rays(cam) @ pose[:3, :3].T
@@ -31,7 +31,7 @@ def test_depth_of_ground_plane_from_tilted_camera():
     assert hit.sum() > 1000 and (~hit).sum() > 100  # the horizon is in view
     assert np.allclose(depth[hit], expected[hit], rtol=1e-5)
     assert np.all(np.isinf(depth[~hit]))
-    seg = cam.render(rgb=False)["segmentation"]
+    seg = cam.render(rgb=False).segmentation
     assert np.all(seg[hit] == 1) and np.all(seg[~hit] == 0)
     assert w.segmentation_labels[1] == "ground"
 
@@ -53,13 +53,13 @@ def test_depth_of_sphere_matches_ray_sphere_intersection():
     inner = disc > 1e-3 * dd
     outer = disc < -1e-3 * dd
     assert inner.sum() > 500
-    assert np.allclose(out["depth"][inner], t[inner], atol=1e-5)
-    assert np.all(np.isinf(out["depth"][outer]))
+    assert np.allclose(out.depth[inner], t[inner], atol=1e-5)
+    assert np.all(np.isinf(out.depth[outer]))
     ball_id = [k for k, v in w.segmentation_labels.items() if v == "ball"][0]
-    assert np.all(out["segmentation"][inner] == ball_id)
-    assert np.all(out["segmentation"][outer] == 0)
+    assert np.all(out.segmentation[inner] == ball_id)
+    assert np.all(out.segmentation[outer] == 0)
     # flat red, shaded by the angle to the surface: brightest at the centre
-    rgb = out["rgb"]
+    rgb = out.rgb
     assert rgb.shape == (96, 128, 3) and rgb.dtype == np.uint8
     assert np.all(rgb[inner][:, 1:] == 0) and rgb[inner][:, 0].min() > 50
 
@@ -72,7 +72,7 @@ def test_capsule_depth_along_the_centre_row():
     c = np.cos(np.pi / 4)
     w.add_capsule("cap", r, length, [0, 0, depth_c, c, 0, c, 0], fixed=True)  # z axis -> x axis
     cam = ferrobot.Camera(w, 200, 41, 100.0)
-    row = cam.render(rgb=False)["depth"][20]
+    row = cam.render(rgb=False).depth[20]
     a = (np.arange(200) - cam.intrinsic_matrix[0, 2]) / 100.0
     expected = np.full(200, np.inf)
     body = np.abs(a * (depth_c - r)) <= length / 2
@@ -107,18 +107,18 @@ def test_cylinder_and_rotated_box_depth():
     inside = r2 < (0.1 - 0.003) ** 2
     outside_cap = r2 > (0.1 + 0.003) ** 2
     assert inside.sum() > 40
-    assert np.allclose(out["depth"][inside], zc, atol=1e-5)
-    assert np.all(out["segmentation"][inside] == labels["cyl"])
+    assert np.allclose(out.depth[inside], zc, atol=1e-5)
+    assert np.all(out.segmentation[inside] == labels["cyl"])
     # beyond the cap only the side (farther than the cap plane) can be seen
-    side = outside_cap & (out["segmentation"] == labels["cyl"])
-    assert np.all(out["depth"][side] > zc)
+    side = outside_cap & (out.segmentation == labels["cyl"])
+    assert np.all(out.depth[side] > zc)
     # pixels whose ray meets the plane z = 1.9 inside the rotated square see the front face
     px, py = d[..., 0] * 1.9 - 0.3, d[..., 1] * 1.9
     lx, ly = c * px + s_ * py, -s_ * px + c * py
     face = (np.abs(lx) < 0.1 - 0.003) & (np.abs(ly) < 0.1 - 0.003)
     assert face.sum() > 40
-    assert np.all(out["segmentation"][face] == labels["box"])
-    assert np.allclose(out["depth"][face], 1.9, atol=1e-5)
+    assert np.all(out.segmentation[face] == labels["box"])
+    assert np.allclose(out.depth[face], 1.9, atol=1e-5)
 
 
 def test_box_face_depth_and_occlusion():
@@ -129,20 +129,20 @@ def test_box_face_depth_and_occlusion():
     out = cam.render(rgb=False)
     labels = {v: k for k, v in w.segmentation_labels.items()}
     # centre pixel: the front box's near face at z = 1.0
-    assert out["depth"][32, 32] == pytest.approx(1.0, abs=1e-6)
-    assert out["segmentation"][32, 32] == labels["front"]
+    assert out.depth[32, 32] == pytest.approx(1.0, abs=1e-6)
+    assert out.segmentation[32, 32] == labels["front"]
     # a corner pixel sees the back wall's face at z = 2.0
-    assert out["depth"][2, 2] == pytest.approx(2.0, abs=1e-6)
-    assert out["segmentation"][2, 2] == labels["back"]
+    assert out.depth[2, 2] == pytest.approx(2.0, abs=1e-6)
+    assert out.segmentation[2, 2] == labels["back"]
     # the front box (0.2 wide at 1.0 m, f = 64) covers about 12.8 pixels
-    assert 144 <= (out["segmentation"] == labels["front"]).sum() <= 196
+    assert 144 <= (out.segmentation == labels["front"]).sum() <= 196
 
 
 def test_backprojection_lands_on_the_plane():
     w = ferrobot.World()
     pose = ferrobot.look_at([0.0, -0.8, 1.0], [0.0, 0.2, 0.0])
     cam = ferrobot.Camera(w, 96, 72, 80.0, pose=pose)
-    depth = cam.render(rgb=False)["depth"]
+    depth = cam.render(rgb=False).depth
     pts, idx = cam.depth_to_points(depth)
     assert len(pts) == np.isfinite(depth).sum() == len(idx)
     world = pts @ pose[:3, :3].T + pose[:3, 3]
@@ -182,10 +182,10 @@ def test_camera_on_link_follows_the_robot():
     cam = ferrobot.Camera(w, 64, 48, 20.0, pose=local, robot=r, link="panda_hand")
     for q in (model.neutral_configuration(), np.array([0.5, -0.3, 0.2, -2.0, 0.1, 1.8, 0.3, 0.02])):
         r.set_joint_positions(q)
-        assert cam.get_world_transform() == pytest.approx(model.fk(q, "panda_hand") @ local, abs=1e-5)
+        assert cam.world_transform == pytest.approx(model.fk(q, "panda_hand") @ local, abs=1e-5)
     # looking down the hand's z axis the fingers are seen
     out = cam.render(rgb=False)
-    ids = {w.segmentation_labels[i] for i in np.unique(out["segmentation"])}
+    ids = {w.segmentation_labels[i] for i in np.unique(out.segmentation)}
     assert "robot/panda_leftfinger" in ids or "robot/panda_rightfinger" in ids
 
 

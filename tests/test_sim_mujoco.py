@@ -22,7 +22,7 @@ def test_mjcf_panda_has_the_models_masses_and_kinematics():
     q = np.array([0.3, -0.5, 0.2, -2.0, 0.4, 1.8, 0.5, 0.03])
     m, d, _ = build_mujoco(model, Settings(), q)
     for link in model.link_names:
-        assert m.body(link).mass[0] == pytest.approx(model.inertial(link)["mass"], abs=1e-9)
+        assert m.body(link).mass[0] == pytest.approx(model.inertial(link).mass, abs=1e-9)
         assert d.body(link).xpos == pytest.approx(model.fk(q, link)[:3, 3], abs=1e-9)
     # the mimic finger follows its driver
     assert d.joint("panda_finger_joint2").qpos[0] == pytest.approx(0.03)

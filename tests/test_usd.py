@@ -43,12 +43,12 @@ def test_round_trip_fk_equal(name, tmp_path):
         assert np.abs(back.fk_all(q)[order] - model.fk_all(q)).max() < 1e-9
     for link in model.link_names:
         a, b = model.inertial(link), back.inertial(link)
-        assert b["mass"] == pytest.approx(a["mass"], rel=1e-6)
-        if a["mass"] > 0:
-            Ia = a["origin"][:3, :3] @ a["inertia"] @ a["origin"][:3, :3].T
-            Ib = b["origin"][:3, :3] @ b["inertia"] @ b["origin"][:3, :3].T
+        assert b.mass == pytest.approx(a.mass, rel=1e-6)
+        if a.mass > 0:
+            Ia = a.origin[:3, :3] @ a.inertia @ a.origin[:3, :3].T
+            Ib = b.origin[:3, :3] @ b.inertia @ b.origin[:3, :3].T
             assert Ib == pytest.approx(Ia, abs=1e-6 * max(1e-9, np.abs(Ia).max()) + 1e-12)
-            assert b["origin"][:3, 3] == pytest.approx(a["origin"][:3, 3], abs=1e-6)
+            assert b.origin[:3, 3] == pytest.approx(a.origin[:3, 3], abs=1e-6)
         assert len(back.collision_geometry(link)) == len(model.collision_geometry(link))
         assert len(back.visual_geometry(link)) == len(model.visual_geometry(link))
 
@@ -59,10 +59,10 @@ def test_round_trip_fk_equal(name, tmp_path):
     for jn in model.dof_names:
         info = model.joint_info(jn)
         p = joints[jn]
-        if info["type"] == "revolute":
+        if info.type == "revolute":
             j = UsdPhysics.RevoluteJoint(p)
             lims = sorted([j.GetLowerLimitAttr().Get(), j.GetUpperLimitAttr().Get()])
-            assert lims == pytest.approx(sorted([math.degrees(info["lower"]), math.degrees(info["upper"])]), rel=1e-6)
+            assert lims == pytest.approx(sorted([math.degrees(info.lower), math.degrees(info.upper)]), rel=1e-6)
     assert stage.GetDefaultPrim().HasAPI(UsdPhysics.ArticulationRootAPI)
 
 

@@ -319,11 +319,11 @@ def observe(
     }
     for name, cam in cameras.items():
         frame = cam.render(rgb=True)
-        d = frame["depth"]
-        obs[f"observation.images.{name}"] = frame["rgb"]
+        d = frame.depth
+        obs[f"observation.images.{name}"] = frame.rgb
         obs[f"observation.depth.{name}"] = np.where(np.isfinite(d), d, 0.0).astype(np.float32)
         if segmentation:
-            obs[f"observation.segmentation.{name}"] = frame["segmentation"].astype(np.int32)
+            obs[f"observation.segmentation.{name}"] = frame.segmentation.astype(np.int32)
     return obs
 
 

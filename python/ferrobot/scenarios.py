@@ -281,7 +281,7 @@ def payload_change(
     names = [robot.dof_names[j] for j in idx]
     for k in range(len(positions) + int(0.5 / dt)):
         if k == change:
-            m, c, inertia = add_payload(before["mass"], before["com"], before["inertia"], payload, [0.0, 0.0, 0.1])
+            m, c, inertia = add_payload(before.mass, before.com, before.inertia, payload, [0.0, 0.0, 0.1])
             robot.set_link_inertial("panda_hand", m, c, inertia)
         i = min(k, len(positions) - 1)
         v = velocities[i] if k < len(positions) else np.zeros(len(idx))
@@ -300,7 +300,7 @@ def payload_change(
         "max_error_after": float(after.max()),
         "recovery_time": float(recovery),
         "self_collisions": _self_collisions(model, states),
-        "hand_mass": float(robot.get_link_inertial("panda_hand")["mass"]),
+        "hand_mass": float(robot.get_link_inertial("panda_hand").mass),
     }
     bounds = {
         "max_error_before": ("<=", max_error),
@@ -418,7 +418,7 @@ def sensor_noise(
     world.add_box("table", [0.8, 1.0, 0.4], [0.6, 0.0, 0.2, 1, 0, 0, 0], fixed=True)
     world.add_box("box", [0.1, 0.1, 0.1], [0.55, 0.0, 0.45, 1, 0, 0, 0], fixed=True)
     cam = Camera(world, 160, 120, fx=140.0, pose=look_at([1.3, 0.0, 1.1], [0.55, 0.0, 0.4]))
-    depth = cam.render(rgb=False)["depth"].astype(np.float64)
+    depth = cam.render(rgb=False).depth.astype(np.float64)
     noise = DepthNoise(seed=seed, dropout=0.05, edge_dropout=0.5)
     valid = np.isfinite(depth) & (depth > 0)
     edges = noise.edges(depth)

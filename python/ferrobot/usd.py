@@ -404,8 +404,8 @@ def write_usd(model, path, *, drive_stiffness=None, drive_damping=None) -> Path:
     while pending:
         rest = []
         for j in pending:
-            if j["parent"] in pose:
-                pose[j["child"]] = pose[j["parent"]] @ np.asarray(j["origin"])
+            if j.parent in pose:
+                pose[j.child] = pose[j.parent] @ np.asarray(j.origin)
             else:
                 rest.append(j)
         if len(rest) == len(pending):
@@ -422,11 +422,11 @@ def write_usd(model, path, *, drive_stiffness=None, drive_damping=None) -> Path:
         prim = x.GetPrim()
         UsdPhysics.RigidBodyAPI.Apply(prim)
         inert = model.inertial(link)
-        if inert["mass"] > 0:
+        if inert.mass > 0:
             ma = UsdPhysics.MassAPI.Apply(prim)
-            ma.CreateMassAttr(float(inert["mass"]))
-            o = np.asarray(inert["origin"])
-            inertia = o[:3, :3] @ np.asarray(inert["inertia"]) @ o[:3, :3].T
+            ma.CreateMassAttr(float(inert.mass))
+            o = np.asarray(inert.origin)
+            inertia = o[:3, :3] @ np.asarray(inert.inertia) @ o[:3, :3].T
             w, V = np.linalg.eigh(inertia)
             if np.linalg.det(V) < 0:
                 V[:, 0] = -V[:, 0]
@@ -468,49 +468,48 @@ def write_usd(model, path, *, drive_stiffness=None, drive_damping=None) -> Path:
                     xf.CreateDisplayColorAttr([Gf.Vec3f(*[float(c) for c in g["rgba"][:3]])])
     fix = UsdPhysics.FixedJoint.Define(stage, f"{rp}/joints/root_joint")
     fix.CreateBody1Rel().SetTargets([link_path[model.base_link]])
-    names = {j["name"]: _safe(j["name"]) for j in infos}
+    names = {j.name: _safe(j.name) for j in infos}
     for j in infos:
-        jp = f"{rp}/joints/{names[j['name']]}"
-        o = np.asarray(j["origin"])
+        jp = f"{rp}/joints/{names[j.name]}"
+        o = np.asarray(j.origin)
         q0 = _R_to_quat(o[:3, :3])
-        kind = j["type"]
+        kind = j.type
         if kind in ("revolute", "continuous", "prismatic"):
-            axis = np.asarray(j["axis"], dtype=np.float64)
+            axis = np.asarray(j.axis, dtype=np.float64)
             k = int(np.argmax(np.abs(axis)))
             if abs(abs(axis[k]) - 1.0) > 1e-12:
                 raise InvalidArgumentError(
-                    f"joint '{j['name']}': axis {axis.tolist()} is not a coordinate axis; "
-                    "USD joints turn about X, Y or Z"
+                    f"joint '{j.name}': axis {axis.tolist()} is not a coordinate axis; USD joints turn about X, Y or Z"
                 )
             sign = float(np.sign(axis[k]))
             revolute = kind != "prismatic"
             J = (UsdPhysics.RevoluteJoint if revolute else UsdPhysics.PrismaticJoint).Define(stage, jp)
             J.CreateAxisAttr("XYZ"[k])
             unit = 180 / math.pi if revolute else 1.0
-            lo, hi = j["lower"] * unit, j["upper"] * unit
+            lo, hi = j.lower * unit, j.upper * unit
             if math.isfinite(lo) or math.isfinite(hi):
                 J.CreateLowerLimitAttr(float(lo))
                 J.CreateUpperLimitAttr(float(hi))
             drive = UsdPhysics.DriveAPI.Apply(J.GetPrim(), "angular" if revolute else "linear")
             drive.CreateTypeAttr("force")
             per = math.pi / 180 if revolute else 1.0
-            drive.CreateStiffnessAttr(float((drive_stiffness or {}).get(j["name"], 0.0)) * per)
-            drive.CreateDampingAttr(float((drive_damping or {}).get(j["name"], 0.0)) * per)
-            if math.isfinite(j["effort"]):
-                drive.CreateMaxForceAttr(float(j["effort"]))
+            drive.CreateStiffnessAttr(float((drive_stiffness or {}).get(j.name, 0.0)) * per)
+            drive.CreateDampingAttr(float((drive_damping or {}).get(j.name, 0.0)) * per)
+            if math.isfinite(j.effort):
+                drive.CreateMaxForceAttr(float(j.effort))
             prim = J.GetPrim()
-            if math.isfinite(j["velocity"]):
-                prim.CreateAttribute("physxJoint:maxJointVelocity", Sdf.ValueTypeNames.Float).Set(j["velocity"] * unit)
-            if j["friction"]:
-                prim.CreateAttribute("physxJoint:jointFriction", Sdf.ValueTypeNames.Float).Set(j["friction"])
-            if j["damping"]:
-                prim.CreateAttribute("ferrobot:damping", Sdf.ValueTypeNames.Double).Set(j["damping"])
+            if math.isfinite(j.velocity):
+                prim.CreateAttribute("physxJoint:maxJointVelocity", Sdf.ValueTypeNames.Float).Set(j.velocity * unit)
+            if j.friction:
+                prim.CreateAttribute("physxJoint:jointFriction", Sdf.ValueTypeNames.Float).Set(j.friction)
+            if j.damping:
+                prim.CreateAttribute("ferrobot:damping", Sdf.ValueTypeNames.Double).Set(j.damping)
             # a negative axis: both joint frames turned by pi about another axis (exact in float), so the joint
             # moves along -axis of the child body and its coordinate is the URDF one
             flip = {0: Gf.Quatf(0, 0, 1, 0), 1: Gf.Quatf(0, 0, 0, 1), 2: Gf.Quatf(0, 1, 0, 0)}[k]
             rot1 = flip if sign < 0 else Gf.Quatf(1)
-            if j["mimic"]:
-                ref, mult, off = j["mimic"]
+            if j.mimic:
+                ref, mult, off = j.mimic
                 ax = ("rot" if revolute else "trans") + "XYZ"[k]
                 prim.AddAppliedSchema(f"PhysxMimicJointAPI:{ax}")
                 prim.CreateRelationship(f"physxMimicJoint:{ax}:referenceJoint").SetTargets(
@@ -522,9 +521,9 @@ def write_usd(model, path, *, drive_stiffness=None, drive_damping=None) -> Path:
             J = UsdPhysics.FixedJoint.Define(stage, jp)
             rot1 = Gf.Quatf(1)
         else:
-            raise InvalidArgumentError(f"joint '{j['name']}': type {kind} cannot be written to USD")
-        J.CreateBody0Rel().SetTargets([link_path[j["parent"]]])
-        J.CreateBody1Rel().SetTargets([link_path[j["child"]]])
+            raise InvalidArgumentError(f"joint '{j.name}': type {kind} cannot be written to USD")
+        J.CreateBody0Rel().SetTargets([link_path[j.parent]])
+        J.CreateBody1Rel().SetTargets([link_path[j.child]])
         J.CreateLocalPos0Attr(Gf.Vec3f(*o[:3, 3].tolist()))
         J.CreateLocalRot0Attr(Gf.Quatf(*q0) * rot1)
         J.CreateLocalPos1Attr(Gf.Vec3f(0, 0, 0))

@@ -12,7 +12,6 @@ use nalgebra::{Isometry3, Point3, Vector3};
 use numpy::ndarray::{Array1, Array2};
 use numpy::{IntoPyArray, PyArray1, PyArray2};
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
 
 use crate::arrays::{read_array, read_pose, read_pose_or_identity};
 use crate::errors::{InvalidArgumentError, collision_err, guard};
@@ -452,24 +451,20 @@ impl PySphereModel {
         })
     }
 
-    /// Per-link report of the automatic spherizer: dicts with `link`,
+    /// Per-link report of the automatic spherizer: `SphereFit`s with `link`,
     /// `spheres`, `coverage`, `mean_protrusion`, `max_protrusion` (m).
     #[getter]
-    fn report<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
-        guard(|| {
-            self.report
-                .iter()
-                .map(|(l, n, c, mean, max)| {
-                    let d = PyDict::new(py);
-                    d.set_item("link", l)?;
-                    d.set_item("spheres", n)?;
-                    d.set_item("coverage", c)?;
-                    d.set_item("mean_protrusion", mean)?;
-                    d.set_item("max_protrusion", max)?;
-                    Ok(d)
-                })
-                .collect()
-        })
+    fn report(&self) -> Vec<crate::results::PySphereFit> {
+        self.report
+            .iter()
+            .map(|(l, n, c, mean, max)| crate::results::PySphereFit {
+                link: l.clone(),
+                spheres: *n,
+                coverage: *c,
+                mean_protrusion: *mean,
+                max_protrusion: *max,
+            })
+            .collect()
     }
 
     fn __repr__(&self) -> PyResult<String> {
@@ -742,47 +737,43 @@ impl PyCollisionChecker {
         })
     }
 
-    /// Signed distance to the world and to itself with its gradient: a dict
-    /// with `distance`, `world_distance`, `self_distance`, `gradient`
-    /// (num_dof,) and `closest` (robot body, other) or None.
+    /// Signed distance to the world and to itself with its gradient: a
+    /// `CollisionDistance` with `distance`, `world_distance`,
+    /// `self_distance`, `gradient` (num_dof,) and `closest` (robot body,
+    /// other) or None.
     fn distance<'py>(
         &self,
         py: Python<'py>,
         q: &Bound<'py, PyAny>,
-    ) -> PyResult<Bound<'py, PyDict>> {
+    ) -> PyResult<crate::results::PyCollisionDistance> {
         guard(|| {
             let q = self.q(q, "q")?;
             let d = self.snap().distance(&q).map_err(collision_err)?;
-            let out = PyDict::new(py);
-            out.set_item("distance", d.distance)?;
-            out.set_item("world_distance", d.world_distance)?;
-            out.set_item("self_distance", d.self_distance)?;
-            out.set_item("gradient", Array1::from_vec(d.gradient).into_pyarray(py))?;
-            out.set_item("closest", d.closest)?;
-            Ok(out)
+            Ok(crate::results::PyCollisionDistance {
+                distance: d.distance,
+                world_distance: d.world_distance,
+                self_distance: d.self_distance,
+                gradient: crate::results::arr1(py, d.gradient),
+                closest: d.closest,
+            })
         })
     }
 
-    /// What collides at `q`: dicts with `body`, `other`, `self_collision`, `depth` (m), deepest first.
-    fn contacts<'py>(
-        &self,
-        py: Python<'py>,
-        q: &Bound<'py, PyAny>,
-    ) -> PyResult<Vec<Bound<'py, PyDict>>> {
+    /// What collides at `q`: `Contact`s with `body`, `other`,
+    /// `self_collision`, `depth` (m), deepest first.
+    fn contacts(&self, q: &Bound<'_, PyAny>) -> PyResult<Vec<crate::results::PyContact>> {
         guard(|| {
             let q = self.q(q, "q")?;
             let contacts = self.snap().contacts(&q).map_err(collision_err)?;
-            contacts
+            Ok(contacts
                 .into_iter()
-                .map(|c| {
-                    let d = PyDict::new(py);
-                    d.set_item("body", c.body)?;
-                    d.set_item("other", c.other)?;
-                    d.set_item("self_collision", c.self_collision)?;
-                    d.set_item("depth", c.depth)?;
-                    Ok(d)
+                .map(|c| crate::results::PyContact {
+                    body: c.body,
+                    other: c.other,
+                    self_collision: c.self_collision,
+                    depth: c.depth,
                 })
-                .collect()
+                .collect())
         })
     }
 
@@ -800,14 +791,15 @@ impl PyCollisionChecker {
     }
 
     /// Samples configurations and excludes link pairs never or always in
-    /// contact (MoveIt setup-assistant style). Returns counts per reason.
+    /// contact (MoveIt setup-assistant style). Returns the counts per
+    /// reason, a `SelfCollisionAnalysis`.
     #[pyo3(signature = (samples=10000, seed=0))]
-    fn analyze_self_collisions<'py>(
+    fn analyze_self_collisions(
         &self,
-        py: Python<'py>,
+        py: Python<'_>,
         samples: usize,
         seed: u64,
-    ) -> PyResult<Bound<'py, PyDict>> {
+    ) -> PyResult<crate::results::PySelfCollisionAnalysis> {
         guard(|| {
             let current = self.snap();
             let mut acm = current.allowed_collisions().clone();
@@ -820,12 +812,12 @@ impl PyCollisionChecker {
                 c.set_allowed_collisions(acm);
                 Ok(())
             })?;
-            let d = PyDict::new(py);
-            d.set_item("samples", report.samples)?;
-            d.set_item("never", report.never.len())?;
-            d.set_item("always", report.always.len())?;
-            d.set_item("sometimes", report.sometimes.len())?;
-            Ok(d)
+            Ok(crate::results::PySelfCollisionAnalysis {
+                samples: report.samples,
+                never: report.never.len(),
+                always: report.always.len(),
+                sometimes: report.sometimes.len(),
+            })
         })
     }
 

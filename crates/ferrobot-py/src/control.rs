@@ -7,7 +7,7 @@ use ferrobot_control::{
     ControlError, ControllerCore, LinkClearance, PotentialFieldConfig, PotentialFieldController,
     ReactiveConfig, ReactiveController, StepInfo,
 };
-use numpy::ndarray::{Array1, Array2};
+use numpy::ndarray::Array1;
 use numpy::{IntoPyArray, PyArray1};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -331,7 +331,7 @@ macro_rules! controller_class {
                 self.last.as_ref().map(crate::results::PyControlStepInfo::new)
             }
 
-            /// Per robot sphere at `q`: `distance` (S,) to the nearest world
+            /// Per robot sphere at `q`, a `SphereDistances`: `distance` (S,) to the nearest world
             /// shape (exact geometry, minus the sphere radius; inf beyond
             /// `reach` m), its unit `direction` (S, 3) of steepest increase,
             /// `gradient` (S, num_dof) with respect to q, `centers` (S, 3)
@@ -342,7 +342,7 @@ macro_rules! controller_class {
                 py: Python<'py>,
                 q: &Bound<'py, PyAny>,
                 reach: f64,
-            ) -> PyResult<Bound<'py, PyDict>> {
+            ) -> PyResult<crate::results::PySphereDistances> {
                 guard(|| {
                     let q = self.q(q, "q")?;
                     if !(reach.is_finite() && reach > 0.0) {
@@ -356,36 +356,26 @@ macro_rules! controller_class {
                         .map_err(control_err)?;
                     let s = dist.len();
                     let n = q.len();
-                    let out = PyDict::new(py);
-                    out.set_item("distance", Array1::from_vec(dist).into_pyarray(py))?;
-                    let flat = |v: Vec<[f64; 3]>| Array2::from_shape_vec((s, 3), v.concat()).expect("shape");
-                    out.set_item(
-                        "direction",
-                        flat(dirs.iter().map(|d| [d.x, d.y, d.z]).collect()).into_pyarray(py),
-                    )?;
-                    out.set_item(
-                        "gradient",
-                        Array2::from_shape_vec((s, n), grads.concat()).expect("shape").into_pyarray(py),
-                    )?;
-                    out.set_item(
-                        "centers",
-                        flat(centers.iter().map(|c| [c.x, c.y, c.z]).collect()).into_pyarray(py),
-                    )?;
-                    let radii: Vec<f64> = core.sphere_radii();
-                    out.set_item("radii", Array1::from_vec(radii).into_pyarray(py))?;
-                    Ok(out)
+                    let flat = |v: Vec<[f64; 3]>| crate::results::arr2(py, s, 3, v.concat());
+                    Ok(crate::results::PySphereDistances {
+                        distance: crate::results::arr1(py, dist),
+                        direction: flat(dirs.iter().map(|d| [d.x, d.y, d.z]).collect()),
+                        gradient: crate::results::arr2(py, s, n, grads.concat()),
+                        centers: flat(centers.iter().map(|c| [c.x, c.y, c.z]).collect()),
+                        radii: crate::results::arr1(py, core.sphere_radii()),
+                    })
                 })
             }
 
             /// Exact clearance (m) at `q` between the links' collision
             /// geometry (meshes as convex hulls) and the current obstacles
-            /// (boxes, spheres, cylinders, capsules), with parry: a dict with
-            /// `distance` (0 when touching) and `closest` (link, object) or None.
+            /// (boxes, spheres, cylinders, capsules), with parry: a `Clearance`
+            /// with `distance` (0 when touching) and `closest` (link, object) or None.
             fn exact_clearance<'py>(
                 &self,
                 py: Python<'py>,
                 q: &Bound<'py, PyAny>,
-            ) -> PyResult<Bound<'py, PyDict>> {
+            ) -> PyResult<crate::results::PyClearance> {
                 guard(|| {
                     let q = self.q(q, "q")?;
                     if self.clearance.get().is_none() {
@@ -395,23 +385,23 @@ macro_rules! controller_class {
                     let lc = self.clearance.get().expect("set above");
                     let world = self.inner.core().world().world();
                     let c = py.detach(|| lc.clearance(&q, world)).map_err(control_err)?;
-                    let out = PyDict::new(py);
-                    out.set_item("distance", c.distance)?;
-                    out.set_item("closest", c.closest)?;
-                    Ok(out)
+                    Ok(crate::results::PyClearance {
+                        distance: c.distance,
+                        closest: c.closest,
+                    })
                 })
             }
 
             /// Exact self-clearance (m) at `q`: the smallest distance
             /// between the collision geometry (meshes as convex hulls, with
             /// parry) of the link pairs the controller checks for
-            /// self-collision (`self_link_pairs`): a dict with `distance`
+            /// self-collision (`self_link_pairs`): a `Clearance` with `distance`
             /// (0 when touching) and `closest` (link, link) or None.
             fn exact_self_clearance<'py>(
                 &self,
                 py: Python<'py>,
                 q: &Bound<'py, PyAny>,
-            ) -> PyResult<Bound<'py, PyDict>> {
+            ) -> PyResult<crate::results::PyClearance> {
                 guard(|| {
                     let q = self.q(q, "q")?;
                     if self.clearance.get().is_none() {
@@ -421,10 +411,10 @@ macro_rules! controller_class {
                     let lc = self.clearance.get().expect("set above");
                     let pairs = self.inner.core().self_link_pairs();
                     let c = py.detach(|| lc.self_clearance(&q, pairs)).map_err(control_err)?;
-                    let out = PyDict::new(py);
-                    out.set_item("distance", c.distance)?;
-                    out.set_item("closest", c.closest)?;
-                    Ok(out)
+                    Ok(crate::results::PyClearance {
+                        distance: c.distance,
+                        closest: c.closest,
+                    })
                 })
             }
 
@@ -492,21 +482,18 @@ controller_class!(
             self.inner.waypoints_remaining()
         }
 
-        /// The last global-guidance plan attempt as {"status", "message",
-        /// "waypoints", "seconds"}, or None before the first one.
+        /// The last global-guidance plan attempt, a `GuidancePlan`
+        /// (status, message, waypoints, seconds), or None before the first one.
         #[getter]
-        fn guidance_last_plan<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
-            guard(|| {
-                let Some(a) = self.inner.guidance_last_plan() else {
-                    return Ok(None);
-                };
-                let d = PyDict::new(py);
-                d.set_item("status", &a.status)?;
-                d.set_item("message", &a.message)?;
-                d.set_item("waypoints", a.waypoints)?;
-                d.set_item("seconds", a.seconds)?;
-                Ok(Some(d))
-            })
+        fn guidance_last_plan(&self) -> Option<crate::results::PyGuidancePlan> {
+            self.inner
+                .guidance_last_plan()
+                .map(|a| crate::results::PyGuidancePlan {
+                    status: a.status.clone(),
+                    message: a.message.clone(),
+                    waypoints: a.waypoints,
+                    seconds: a.seconds,
+                })
         }
 
         /// Why global guidance is unavailable for this robot (no planner

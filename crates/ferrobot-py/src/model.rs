@@ -463,32 +463,30 @@ impl PyRobotModel {
         guard(|| Ok(Self::vec1(py, self.inner.neutral_configuration())))
     }
 
-    /// A joint's description: type, parent and child links, origin (4x4),
-    /// axis, limits, mimic and dynamics.
-    fn joint_info<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyDict>> {
+    /// A joint's description, a `JointInfo`: type, parent and child links,
+    /// origin (4x4), axis, limits, mimic and dynamics.
+    fn joint_info(&self, py: Python<'_>, name: &str) -> PyResult<crate::results::PyJointInfo> {
         guard(|| {
             let j = &self.inner.joints()[self.inner.joint(name).map_err(model_err)?];
             let links = self.inner.links();
-            let d = PyDict::new(py);
-            d.set_item("name", &j.name)?;
-            d.set_item("type", j.kind.as_str())?;
-            d.set_item("parent", &links[j.parent].name)?;
-            d.set_item("child", &links[j.child].name)?;
-            d.set_item("origin", matrix(py, &j.origin))?;
-            d.set_item("axis", j.axis.as_slice().to_vec())?;
-            d.set_item("lower", j.limits.lower)?;
-            d.set_item("upper", j.limits.upper)?;
-            d.set_item("velocity", j.limits.velocity)?;
-            d.set_item("effort", j.limits.effort)?;
-            d.set_item("damping", j.damping)?;
-            d.set_item("friction", j.friction)?;
-            d.set_item(
-                "mimic",
-                j.mimic
+            Ok(crate::results::PyJointInfo {
+                name: j.name.clone(),
+                r#type: j.kind.as_str().to_string(),
+                parent: links[j.parent].name.clone(),
+                child: links[j.child].name.clone(),
+                origin: matrix(py, &j.origin).unbind(),
+                axis: crate::results::arr1(py, j.axis.as_slice().to_vec()),
+                lower: j.limits.lower,
+                upper: j.limits.upper,
+                velocity: j.limits.velocity,
+                effort: j.limits.effort,
+                damping: j.damping,
+                friction: j.friction,
+                mimic: j
+                    .mimic
                     .as_ref()
                     .map(|m| (m.joint.clone(), m.multiplier, m.offset)),
-            )?;
-            Ok(d)
+            })
         })
     }
 
@@ -511,22 +509,18 @@ impl PyRobotModel {
         })
     }
 
-    /// Mass, centre-of-mass origin (4x4) and inertia (3x3) of `link`.
-    fn inertial<'py>(&self, py: Python<'py>, link: &str) -> PyResult<Bound<'py, PyDict>> {
+    /// Mass, centre-of-mass origin (4x4) and inertia (3x3) of `link`, an
+    /// `Inertial` (the URDF `<inertial>`).
+    fn inertial(&self, py: Python<'_>, link: &str) -> PyResult<crate::results::PyInertial> {
         guard(|| {
             let l = self.inner.link(link).map_err(model_err)?;
             let i = &self.inner.links()[l].inertial;
-            let d = PyDict::new(py);
-            d.set_item("mass", i.mass)?;
-            d.set_item("origin", matrix(py, &i.origin))?;
             let flat: Vec<f64> = i.inertia.iter().flatten().copied().collect();
-            d.set_item(
-                "inertia",
-                Array2::from_shape_vec((3, 3), flat)
-                    .expect("3x3")
-                    .into_pyarray(py),
-            )?;
-            Ok(d)
+            Ok(crate::results::PyInertial {
+                mass: i.mass,
+                origin: matrix(py, &i.origin).unbind(),
+                inertia: crate::results::arr2(py, 3, 3, flat),
+            })
         })
     }
 

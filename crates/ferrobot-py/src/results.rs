@@ -12,7 +12,7 @@
 //! `_core.pyi`).
 
 use numpy::ndarray::{Array1, Array2};
-use numpy::{IntoPyArray, PyArray1, PyArray2};
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3};
 use pyo3::IntoPyObjectExt;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -30,6 +30,12 @@ fn dict_access(py: Python<'_>, class: &str, how: &str, field: Option<&str>) -> P
             "{class}{how}: dict-style access to results is deprecated: {instead} or call to_dict()"
         ),
     )
+}
+
+/// A field's Python name: its Rust name without the `r#` of a raw
+/// identifier (`r#type` is `type`).
+fn unraw(name: &'static str) -> &'static str {
+    name.strip_prefix("r#").unwrap_or(name)
 }
 
 macro_rules! result_class {
@@ -53,14 +59,16 @@ macro_rules! result_class {
         }
 
         impl $rust {
-            /// The field names, in declaration order.
-            pub(crate) const FIELDS: &'static [&'static str] = &[$(stringify!($field)),*];
+            /// The field names (as Python spells them), in declaration order.
+            pub(crate) fn fields() -> Vec<&'static str> {
+                vec![$(unraw(stringify!($field))),*]
+            }
 
             fn field<'py>(&self, py: Python<'py>, key: &str) -> PyResult<Option<Bound<'py, PyAny>>> {
-                match key {
-                    $(stringify!($field) => Ok(Some((&self.$field).into_bound_py_any(py)?)),)*
-                    _ => Ok(None),
-                }
+                $(if key == unraw(stringify!($field)) {
+                    return Ok(Some((&self.$field).into_bound_py_any(py)?));
+                })*
+                Ok(None)
             }
 
             fn key_error(key: &Bound<'_, PyAny>) -> PyErr {
@@ -68,7 +76,7 @@ macro_rules! result_class {
                     "{}: no field {}; fields: {}",
                     $pyname,
                     key.repr().map(|r| r.to_string()).unwrap_or_default(),
-                    Self::FIELDS.join(", ")
+                    Self::fields().join(", ")
                 ))
             }
         }
@@ -79,7 +87,7 @@ macro_rules! result_class {
             fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
                 crate::errors::guard(|| {
                     let d = PyDict::new(py);
-                    $(d.set_item(stringify!($field), (&self.$field).into_bound_py_any(py)?)?;)*
+                    $(d.set_item(unraw(stringify!($field)), (&self.$field).into_bound_py_any(py)?)?;)*
                     Ok(d)
                 })
             }
@@ -94,19 +102,19 @@ macro_rules! result_class {
             /// Deprecated dict-style access: `key in result`.
             fn __contains__(&self, py: Python<'_>, key: &Bound<'_, PyAny>) -> PyResult<bool> {
                 dict_access(py, $pyname, ": `in`", None)?;
-                Ok(key.extract::<String>().is_ok_and(|k| Self::FIELDS.contains(&k.as_str())))
+                Ok(key.extract::<String>().is_ok_and(|k| Self::fields().contains(&k.as_str())))
             }
 
             /// Deprecated dict-style access: iterates over the field names.
             fn __iter__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
                 dict_access(py, $pyname, ": iteration", None)?;
-                Self::FIELDS.to_vec().into_bound_py_any(py)?.try_iter().map(|i| i.into_any())
+                Self::fields().into_bound_py_any(py)?.try_iter().map(|i| i.into_any())
             }
 
             /// Deprecated dict-style access: the field names.
             fn keys(&self, py: Python<'_>) -> PyResult<Vec<&'static str>> {
                 dict_access(py, $pyname, ".keys()", None)?;
-                Ok(Self::FIELDS.to_vec())
+                Ok(Self::fields())
             }
 
             /// Deprecated dict-style access: the field values.
@@ -118,7 +126,7 @@ macro_rules! result_class {
             /// Deprecated dict-style access: (name, value) pairs.
             fn items<'py>(&self, py: Python<'py>) -> PyResult<Vec<(&'static str, Bound<'py, PyAny>)>> {
                 dict_access(py, $pyname, ".items()", None)?;
-                Ok(vec![$((stringify!($field), (&self.$field).into_bound_py_any(py)?)),*])
+                Ok(vec![$((unraw(stringify!($field)), (&self.$field).into_bound_py_any(py)?)),*])
             }
 
             /// Deprecated dict-style access: the field `key`, or `default`.
@@ -145,7 +153,7 @@ macro_rules! result_class {
                 let mut parts = Vec::new();
                 $(parts.push(format!(
                     "{}={}",
-                    stringify!($field),
+                    unraw(stringify!($field)),
                     (&self.$field).into_bound_py_any(py)?.repr()?
                 ));)*
                 Ok(format!("{}({})", $pyname, parts.join(", ")))
@@ -350,6 +358,192 @@ result_class! {
     }
 }
 
+result_class! {
+    /// One rendered camera frame (`Camera.render()`), H x W pixels.
+    PyRenderFrame, "RenderFrame" {
+        /// Depth (m) along the optical axis, float32 (H, W); inf: no hit.
+        depth: Py<PyArray2<f32>>,
+        /// Segmentation ids, int32 (H, W) (see `World.segmentation_labels`).
+        segmentation: Py<PyArray2<i32>>,
+        /// Colour, uint8 (H, W, 3), or None when rendered with `rgb=False`.
+        rgb: Option<Py<PyArray3<u8>>>,
+    }
+}
+
+result_class! {
+    /// Signed distance of a configuration to the world and to itself, with
+    /// its gradient (`CollisionChecker.distance`).
+    PyCollisionDistance, "CollisionDistance" {
+        /// The smaller of `world_distance` and `self_distance` (m; negative: penetration).
+        distance: f64,
+        /// Smallest signed robot-to-world distance (m; inf without a world).
+        world_distance: f64,
+        /// Smallest signed distance between checked link pairs (m).
+        self_distance: f64,
+        /// d distance / d q (num_dof,) (m/rad or m/m).
+        gradient: Py<PyArray1<f64>>,
+        /// (robot body, other body) of the closest pair, or None.
+        closest: Option<(String, String)>,
+    }
+}
+
+result_class! {
+    /// One collision at a configuration (`CollisionChecker.contacts`).
+    PyContact, "Contact" {
+        /// The robot body (link or attached object).
+        body: String,
+        /// What it collides with (world object or link).
+        other: String,
+        /// Whether `other` is part of the robot.
+        self_collision: bool,
+        /// Penetration depth (m, > 0).
+        depth: f64,
+    }
+}
+
+result_class! {
+    /// Counts of the self-collision analysis
+    /// (`CollisionChecker.analyze_self_collisions`).
+    PySelfCollisionAnalysis, "SelfCollisionAnalysis" {
+        /// Configurations sampled.
+        samples: usize,
+        /// Link pairs never in contact (now excluded).
+        never: usize,
+        /// Link pairs always in contact (now excluded).
+        always: usize,
+        /// Link pairs sometimes in contact (still checked).
+        sometimes: usize,
+    }
+}
+
+result_class! {
+    /// The automatic spherizer's report for one link (`SphereModel.report`).
+    PySphereFit, "SphereFit" {
+        /// The link's name.
+        link: String,
+        /// Spheres fitted.
+        spheres: usize,
+        /// Fraction (0..1) of the link's surface samples covered.
+        coverage: f64,
+        /// Mean distance (m) the spheres stick out of the geometry.
+        mean_protrusion: f64,
+        /// Largest distance (m) a sphere sticks out of the geometry.
+        max_protrusion: f64,
+    }
+}
+
+result_class! {
+    /// Per robot sphere distances to the world at one configuration
+    /// (`sphere_distances` of the reactive controllers), S spheres in the
+    /// controller's sphere order.
+    PySphereDistances, "SphereDistances" {
+        /// Distance (m) of each sphere's surface to the nearest world shape (S,); inf beyond `reach`.
+        distance: Py<PyArray1<f64>>,
+        /// Unit direction of steepest distance increase (S, 3).
+        direction: Py<PyArray2<f64>>,
+        /// d distance / d q (S, num_dof) (m/rad or m/m).
+        gradient: Py<PyArray2<f64>>,
+        /// Sphere centres in the base frame (S, 3) (m).
+        centers: Py<PyArray2<f64>>,
+        /// Sphere radii (S,) (m).
+        radii: Py<PyArray1<f64>>,
+    }
+}
+
+result_class! {
+    /// Exact clearance between collision geometries (`exact_clearance`,
+    /// `exact_self_clearance` of the reactive controllers).
+    PyClearance, "Clearance" {
+        /// Smallest distance (m; 0 when touching).
+        distance: f64,
+        /// The closest pair: (link, object) or (link, link); None when nothing is in reach.
+        closest: Option<(String, String)>,
+    }
+}
+
+result_class! {
+    /// The last global-guidance plan attempt (`ReactiveController.guidance_last_plan`).
+    PyGuidancePlan, "GuidancePlan" {
+        /// The planner's status name.
+        status: String,
+        /// The planner's message.
+        message: String,
+        /// Waypoints of the plan (0 on failure).
+        waypoints: usize,
+        /// Time the attempt took (s).
+        seconds: f64,
+    }
+}
+
+result_class! {
+    /// A simulated link's mass properties in the link frame
+    /// (`Robot.get_link_inertial`).
+    PyLinkInertial, "LinkInertial" {
+        /// Mass (kg).
+        mass: f64,
+        /// Centre of mass in the link frame (3,) (m).
+        com: Py<PyArray1<f64>>,
+        /// Inertia about the centre of mass, link-frame axes (3, 3) (kg·m²).
+        inertia: Py<PyArray2<f64>>,
+    }
+}
+
+result_class! {
+    /// A link's URDF `<inertial>` (`RobotModel.inertial`).
+    PyInertial, "Inertial" {
+        /// Mass (kg).
+        mass: f64,
+        /// Pose (4x4) of the inertial frame in the link frame (m).
+        origin: Py<PyArray2<f64>>,
+        /// Inertia about the centre of mass, inertial-frame axes (3, 3) (kg·m²).
+        inertia: Py<PyArray2<f64>>,
+    }
+}
+
+result_class! {
+    /// A joint's description (`RobotModel.joint_info`).
+    PyJointInfo, "JointInfo" {
+        /// The joint's name.
+        name: String,
+        /// "revolute", "continuous", "prismatic" or "fixed".
+        r#type: String,
+        /// Parent link.
+        parent: String,
+        /// Child link.
+        child: String,
+        /// Pose (4x4) of the joint frame in the parent link frame (m).
+        origin: Py<PyArray2<f64>>,
+        /// Unit axis (3,) in the joint frame.
+        axis: Py<PyArray1<f64>>,
+        /// Lower position limit (rad or m; -inf: none).
+        lower: f64,
+        /// Upper position limit (rad or m; inf: none).
+        upper: f64,
+        /// Velocity limit (rad/s or m/s).
+        velocity: f64,
+        /// Effort limit (N·m or N).
+        effort: f64,
+        /// Viscous damping (N·m·s/rad or N·s/m).
+        damping: f64,
+        /// Dry friction (N·m or N).
+        friction: f64,
+        /// (joint, multiplier, offset) when this joint mimics another, else None.
+        mimic: Option<(String, f64, f64)>,
+    }
+}
+
+result_class! {
+    /// A world's lighting (`World.lighting`; see `World.set_lighting`).
+    PyLighting, "Lighting" {
+        /// Ambient colour [r, g, b], each in [0, 1].
+        ambient: Vec<f64>,
+        /// Intensity (>= 0) of the light at the camera.
+        headlight: f64,
+        /// Directional lights as (direction (3,), colour (r, g, b), intensity).
+        lights: Vec<(Vec<f64>, Vec<f64>, f64)>,
+    }
+}
+
 /// Registers the result classes.
 pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyPlanTimes>()?;
@@ -358,5 +552,17 @@ pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyTrackingReport>()?;
     m.add_class::<PyControlStepInfo>()?;
     m.add_class::<PyDriveGains>()?;
+    m.add_class::<PyRenderFrame>()?;
+    m.add_class::<PyCollisionDistance>()?;
+    m.add_class::<PyContact>()?;
+    m.add_class::<PySelfCollisionAnalysis>()?;
+    m.add_class::<PySphereFit>()?;
+    m.add_class::<PySphereDistances>()?;
+    m.add_class::<PyClearance>()?;
+    m.add_class::<PyGuidancePlan>()?;
+    m.add_class::<PyLinkInertial>()?;
+    m.add_class::<PyInertial>()?;
+    m.add_class::<PyJointInfo>()?;
+    m.add_class::<PyLighting>()?;
     Ok(())
 }

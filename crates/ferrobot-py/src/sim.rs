@@ -442,21 +442,20 @@ impl PyWorld {
         guard(|| lock(&self.inner)?.set_lighting(lighting).map_err(sim_err))
     }
 
-    /// The lighting: `{"ambient": (r, g, b), "headlight": float, "lights":
-    /// [(direction, color, intensity), ...]}` (see `set_lighting`).
+    /// The lighting, a `Lighting` (`ambient` (r, g, b), `headlight`,
+    /// `lights` [(direction, color, intensity), ...]; see `set_lighting`).
     #[getter]
-    fn lighting<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+    fn lighting(&self) -> PyResult<crate::results::PyLighting> {
         let l = guard(|| Ok(lock(&self.inner)?.lighting().clone()))?;
-        let d = PyDict::new(py);
-        d.set_item("ambient", l.ambient.to_vec())?;
-        d.set_item("headlight", l.headlight)?;
-        let lights: Vec<(Vec<f64>, Vec<f64>, f64)> = l
-            .lights
-            .iter()
-            .map(|x| (x.direction.to_vec(), x.color.to_vec(), x.intensity))
-            .collect();
-        d.set_item("lights", lights)?;
-        Ok(d)
+        Ok(crate::results::PyLighting {
+            ambient: l.ambient.to_vec(),
+            headlight: l.headlight,
+            lights: l
+                .lights
+                .iter()
+                .map(|x| (x.direction.to_vec(), x.color.to_vec(), x.intensity))
+                .collect(),
+        })
     }
 
     /// Adds a box of full edge lengths `size`.
@@ -1665,8 +1664,13 @@ impl PyRobot {
         crate::sim2real::set_link_inertial(self, link, mass, com, inertia)
     }
 
-    /// `link`'s simulated mass properties: dict with mass, com, inertia.
-    fn get_link_inertial<'py>(&self, py: Python<'py>, link: &str) -> PyResult<Bound<'py, PyDict>> {
+    /// `link`'s simulated mass properties in the link frame, a
+    /// `LinkInertial` (mass, com, inertia).
+    fn get_link_inertial(
+        &self,
+        py: Python<'_>,
+        link: &str,
+    ) -> PyResult<crate::results::PyLinkInertial> {
         crate::sim2real::get_link_inertial(py, self, link)
     }
 
@@ -1841,13 +1845,15 @@ impl PyCamera {
         })
     }
 
-    /// Pose of the camera relative to its mount (OpenCV frame).
-    fn get_local_pose<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    /// Pose (4x4) of the camera relative to its mount (OpenCV frame);
+    /// assignable (a 4x4 or [x, y, z, qw, qx, qy, qz]).
+    #[getter(local_pose)]
+    fn read_local_pose<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
         guard(|| Ok(matrix(py, &self.camera.pose)))
     }
 
-    /// Sets the pose relative to the mount (OpenCV frame).
-    fn set_local_pose(&mut self, pose: &Bound<'_, PyAny>) -> PyResult<()> {
+    #[setter(local_pose)]
+    fn assign_local_pose(&mut self, pose: &Bound<'_, PyAny>) -> PyResult<()> {
         guard(|| {
             self.camera.pose = read_pose(pose, "pose")?;
             Ok(())
@@ -1855,13 +1861,41 @@ impl PyCamera {
     }
 
     /// World pose (4x4) of the OpenCV camera frame.
-    fn get_world_transform<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    #[getter(world_transform)]
+    fn read_world_transform<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
         let p = guard(|| {
             lock(&self.world)?
                 .camera_pose(&self.camera)
                 .map_err(sim_err)
         })?;
         Ok(matrix(py, &p))
+    }
+
+    /// Deprecated: read the `local_pose` property instead.
+    fn get_local_pose<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        crate::planning::deprecated(
+            py,
+            "Camera.get_local_pose() is deprecated: read the property Camera.local_pose",
+        )?;
+        self.read_local_pose(py)
+    }
+
+    /// Deprecated: assign the `local_pose` property instead.
+    fn set_local_pose(&mut self, py: Python<'_>, pose: &Bound<'_, PyAny>) -> PyResult<()> {
+        crate::planning::deprecated(
+            py,
+            "Camera.set_local_pose() is deprecated: assign Camera.local_pose",
+        )?;
+        self.assign_local_pose(pose)
+    }
+
+    /// Deprecated: read the `world_transform` property instead.
+    fn get_world_transform<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        crate::planning::deprecated(
+            py,
+            "Camera.get_world_transform() is deprecated: read the property Camera.world_transform",
+        )?;
+        self.read_world_transform(py)
     }
 
     /// World pose as Isaac Sim's `Camera.get_world_pose(camera_axes)`:
@@ -1893,11 +1927,12 @@ impl PyCamera {
         Ok(pose_parts(py, &p))
     }
 
-    /// Renders the scene: dict with "depth" (H, W) float32 metres along the
-    /// optical axis (inf: no hit), "segmentation" (H, W) int32 ids (see
-    /// `World.segmentation_labels`) and, when `rgb`, "rgb" (H, W, 3) uint8.
+    /// Renders the scene: a `RenderFrame` with `depth` (H, W) float32
+    /// metres along the optical axis (inf: no hit), `segmentation` (H, W)
+    /// int32 ids (see `World.segmentation_labels`) and, when `rgb`, `rgb`
+    /// (H, W, 3) uint8 (else None).
     #[pyo3(signature = (rgb=true))]
-    fn render<'py>(&self, py: Python<'py>, rgb: bool) -> PyResult<Bound<'py, PyDict>> {
+    fn render(&self, py: Python<'_>, rgb: bool) -> PyResult<crate::results::PyRenderFrame> {
         let world = self.world.clone();
         let cam = self.camera.clone();
         let frame = guard(|| {
@@ -1905,29 +1940,23 @@ impl PyCamera {
                 .map_err(sim_err)
         })?;
         let (h, w) = (frame.height, frame.width);
-        let d = PyDict::new(py);
-        d.set_item(
-            "depth",
-            Array2::from_shape_vec((h, w), frame.depth)
-                .expect("h x w")
-                .into_pyarray(py),
-        )?;
         let seg: Vec<i32> = frame.segmentation.iter().map(|&s| s as i32).collect();
-        d.set_item(
-            "segmentation",
-            Array2::from_shape_vec((h, w), seg)
+        Ok(crate::results::PyRenderFrame {
+            depth: Array2::from_shape_vec((h, w), frame.depth)
                 .expect("h x w")
-                .into_pyarray(py),
-        )?;
-        if let Some(c) = frame.rgb {
-            d.set_item(
-                "rgb",
+                .into_pyarray(py)
+                .unbind(),
+            segmentation: Array2::from_shape_vec((h, w), seg)
+                .expect("h x w")
+                .into_pyarray(py)
+                .unbind(),
+            rgb: frame.rgb.map(|c| {
                 Array3::from_shape_vec((h, w, 3), c)
                     .expect("h x w x 3")
-                    .into_pyarray(py),
-            )?;
-        }
-        Ok(d)
+                    .into_pyarray(py)
+                    .unbind()
+            }),
+        })
     }
 
     /// Back-projects a depth image (H, W) to camera-frame points (N, 3),

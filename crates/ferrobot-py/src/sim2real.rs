@@ -250,11 +250,11 @@ pub(crate) fn set_link_inertial(
 
 /// `PyRobot.get_link_inertial`: (mass, com (3,), inertia (3, 3)) in the
 /// link frame (the inertia rotated from the inertial frame).
-pub(crate) fn get_link_inertial<'py>(
-    py: Python<'py>,
+pub(crate) fn get_link_inertial(
+    py: Python<'_>,
     robot: &PyRobot,
     link: &str,
-) -> PyResult<Bound<'py, PyDict>> {
+) -> PyResult<crate::results::PyLinkInertial> {
     let inertial = robot.with_robot(|r, _| {
         let l = r.model().link(link)?;
         Ok(r.link_inertial(l)?.clone())
@@ -262,20 +262,16 @@ pub(crate) fn get_link_inertial<'py>(
     let rot = inertial.origin.rotation.to_rotation_matrix();
     let m = nalgebra::Matrix3::from_fn(|r, c| inertial.inertia[r][c]);
     let in_link = rot.matrix() * m * rot.matrix().transpose();
-    let d = PyDict::new(py);
-    d.set_item("mass", inertial.mass)?;
-    d.set_item(
-        "com",
-        vec1(
+    Ok(crate::results::PyLinkInertial {
+        mass: inertial.mass,
+        com: crate::results::arr1(
             py,
             inertial.origin.translation.vector.iter().copied().collect(),
         ),
-    )?;
-    d.set_item(
-        "inertia",
-        Array2::from_shape_fn((3, 3), |(r, c)| in_link[(r, c)]).into_pyarray(py),
-    )?;
-    Ok(d)
+        inertia: Array2::from_shape_fn((3, 3), |(r, c)| in_link[(r, c)])
+            .into_pyarray(py)
+            .unbind(),
+    })
 }
 
 /// `PyRobot.set_joint_dynamics`.

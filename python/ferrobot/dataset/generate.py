@@ -398,7 +398,7 @@ def run_episode(cfg: dict, index: int, root: str) -> dict:
             apply_lighting(world, rand)
             labels.update({str(k): v for k, v in world.segmentation_labels.items()})
             cameras = make_cameras(
-                world, robot, camera.get_world_transform(), specs, scene_fov_deg=scene_fov(spec), gripper=pp.gripper
+                world, robot, camera.world_transform, specs, scene_fov_deg=scene_fov(spec), gripper=pp.gripper
             )
             return ControlRecorder(
                 world,

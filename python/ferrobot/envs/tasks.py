@@ -355,7 +355,7 @@ class FerrobotEnv(gym.Env):
         return make_cameras(
             self.world,
             self.robot,
-            self.scene_camera.get_world_transform(),
+            self.scene_camera.world_transform,
             specs,
             scene_fov_deg=scene_fov(self.spec_scene),
             gripper=self.gripper,
@@ -443,7 +443,7 @@ class FerrobotEnv(gym.Env):
             eye, target, (w, h) = RENDER_VIEW
             pose = _core.look_at(self._clear(eye, target, self.base_pose[:3, 3]), target)
             self._render_camera = _core.Camera(self.world, w, h, 0.82 * w, 0.82 * w, (w - 1) / 2, (h - 1) / 2, pose)
-        return self._render_camera.render(rgb=True)["rgb"]
+        return self._render_camera.render(rgb=True).rgb
 
     # -- actions ----------------------------------------------------------------------------------------------
 

@@ -253,7 +253,7 @@ class Recorder:
 
     def _frame(self, stage: str) -> None:
         if self.camera is not None and self._since_frame >= self.every:
-            self.frames.append((self.world.time, stage, self.camera.render(rgb=True)["rgb"]))
+            self.frames.append((self.world.time, stage, self.camera.render(rgb=True).rgb))
             self.states.append(
                 {
                     "t": self.world.time,
@@ -484,7 +484,7 @@ class PickPlace:
         self.episode.frame = self.episode.camera.render(rgb=True)
         labels = self.episode.world.segmentation_labels
         self.episode.target_id = next(i for i, n in labels.items() if n == self.episode.spec.target)
-        visible = int(np.count_nonzero(self.episode.frame["segmentation"] == self.episode.target_id))
+        visible = int(np.count_nonzero(self.episode.frame.segmentation == self.episode.target_id))
         if visible < 50:
             raise StageFailure(
                 "perceive", f"target '{self.episode.spec.target}' covers only {visible} pixels in the camera"
@@ -495,13 +495,13 @@ class PickPlace:
         """Grasps on the target, sought in the world frame: the depth image is back-projected, moved to the
         world by the camera pose, cropped to the table's workspace, and searched with the approach
         preferred straight down; every other point is an obstacle for the hand."""
-        depth = np.where(np.isfinite(self.episode.frame["depth"]), self.episode.frame["depth"], 0.0)
+        depth = np.where(np.isfinite(self.episode.frame.depth), self.episode.frame.depth, 0.0)
         k = self.episode.camera.intrinsic_matrix
-        cam = self.episode.camera.get_world_transform()
+        cam = self.episode.camera.world_transform
         intrinsics = camera_model.Intrinsics.from_matrix(k, depth.shape[1], depth.shape[0])
         points, pixels = camera_model.backproject(depth, intrinsics)
         points = grasp.transform_points(points, cam)
-        labels = self.episode.frame["segmentation"][pixels[:, 0], pixels[:, 1]].astype(np.int64)
+        labels = self.episode.frame.segmentation[pixels[:, 0], pixels[:, 1]].astype(np.int64)
         opts = {
             "approach_direction": (0.0, 0.0, -1.0),
             "viewpoint": tuple(cam[:3, 3]),

@@ -47,8 +47,8 @@ def grasp_image(episode: Episode | PickPlace, top: int = 8) -> np.ndarray | None
     ep = _record(episode, "grasp_image(pp)", "grasp_image(result.episode)")
     if ep.grasps_world is None or ep.frame is None:
         return None
-    img = ep.frame["rgb"].copy()
-    cam, k = ep.camera.get_world_transform(), ep.camera.intrinsic_matrix
+    img = ep.frame.rgb.copy()
+    cam, k = ep.camera.world_transform, ep.camera.intrinsic_matrix
     gw = ep.grasps_world
     lines = gripper_lines(gw, getattr(ep, "gripper", None))
     chosen = ep.choice

@@ -300,7 +300,7 @@ def viewer_data(episode) -> dict:
         k = ep.camera.intrinsic_matrix
         cameras.append(
             {
-                "pose": ep.camera.get_world_transform(),
+                "pose": ep.camera.world_transform,
                 "fx": k[0, 0],
                 "fy": k[1, 1],
                 "cx": k[0, 2],

@@ -197,7 +197,7 @@ def episode_scene(folder, max_frames: int = 300) -> dict:
     k = camera.intrinsic_matrix
     cams = [
         {
-            "pose": camera.get_world_transform(),
+            "pose": camera.world_transform,
             "fx": k[0, 0],
             "fy": k[1, 1],
             "cx": k[0, 2],
