@@ -103,7 +103,7 @@ def test_identify_link_masses_from_simulated_static_torques():
     q_meas, efforts = cal.measure_static_efforts(world, robot, qs, settle_time=1.0, **SOFT)
     fit = cal.identify_link_masses(model, links, q_meas, efforts)
     nominal = np.array([model_link_mass(model, n) for n in links])
-    np.testing.assert_allclose(nominal + fit["offsets"], truth, rtol=0.05)
+    np.testing.assert_allclose(nominal + fit.offsets, truth, rtol=0.05)
 
 
 def model_link_mass(model, name):

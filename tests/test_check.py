@@ -51,11 +51,11 @@ def line_of(path: Path, needle: str) -> int:
 
 
 def findings(path, **kw):
-    return urdf_check(str(path), skip_coverage=kw.pop("skip_coverage", True), **kw)["findings"]
+    return urdf_check(str(path), skip_coverage=kw.pop("skip_coverage", True), **kw).findings
 
 
 def only(fs, code):
-    hits = [f for f in fs if f["code"] == code]
+    hits = [f for f in fs if f.code == code]
     assert len(hits) == 1, (code, fs)
     return hits[0]
 
@@ -63,7 +63,7 @@ def only(fs, code):
 def test_clean_two_link_robot(tmp_path):
     p = write(tmp_path, GOOD_LINK.format(name="a") + GOOD_LINK.format(name="b") + joint("j", "a", "b"))
     fs = findings(p)
-    assert not [f for f in fs if f["severity"] in ("error", "warning")], fs
+    assert not [f for f in fs if f.severity in ("error", "warning")], fs
 
 
 @pytest.mark.parametrize(
@@ -77,17 +77,17 @@ def test_mass_defects(tmp_path, defect, code, severity, needle):
     bad = GOOD_LINK.format(name="b").replace('<mass value="1.0"/>', defect)
     p = write(tmp_path, GOOD_LINK.format(name="a") + bad + joint("j", "a", "b"))
     f = only(findings(p), code)
-    assert f["severity"] == severity and f["element"] == "b"
+    assert f.severity == severity and f.element == "b"
     # The second link's <inertial> (the first belongs to link a).
     lines = [i for i, s in enumerate(p.read_text().splitlines(), 1) if needle in s]
-    assert f["line"] == lines[1]
+    assert f.line == lines[1]
 
 
 def test_missing_inertial_is_a_warning_at_the_link(tmp_path):
     bad = '  <link name="b">\n    <collision><geometry><sphere radius="0.1"/></geometry></collision>\n  </link>\n'
     p = write(tmp_path, GOOD_LINK.format(name="a") + bad + joint("j", "a", "b"))
     f = only(findings(p), "missing-inertial")
-    assert f["severity"] == "warning" and f["line"] == line_of(p, '<link name="b">')
+    assert f.severity == "warning" and f.line == line_of(p, '<link name="b">')
 
 
 def test_inertia_triangle_and_definiteness(tmp_path):
@@ -104,9 +104,9 @@ def test_inertia_triangle_and_definiteness(tmp_path):
     p = write(tmp_path, GOOD_LINK.format(name="a") + tri + nonpd + joint("j", "a", "b") + joint("k", "b", "c"))
     fs = findings(p)
     t = only(fs, "inertia-triangle")
-    assert t["element"] == "b" and t["line"] == line_of(p, 'izz="0.03"')
+    assert t.element == "b" and t.line == line_of(p, 'izz="0.03"')
     n = only(fs, "inertia-not-positive-definite")
-    assert n["element"] == "c" and n["line"] == line_of(p, 'ixy="2"')
+    assert n.element == "c" and n.line == line_of(p, 'ixy="2"')
 
 
 def test_missing_limits_effort_velocity(tmp_path):
@@ -115,11 +115,11 @@ def test_missing_limits_effort_velocity(tmp_path):
     p = write(tmp_path, "".join(GOOD_LINK.format(name=n) for n in "abc") + no_limit + no_eff)
     fs = findings(p)
     f = only(fs, "missing-limit")
-    assert f["severity"] == "error" and f["line"] == line_of(p, '<joint name="j"')
+    assert f.severity == "error" and f.line == line_of(p, '<joint name="j"')
     e = only(fs, "missing-effort")
     v = only(fs, "missing-velocity")
-    assert e["line"] == v["line"] == line_of(p, '<limit lower="-1" upper="1"/>')
-    assert e["severity"] == "warning" and e["element"] == "k"
+    assert e.line == v.line == line_of(p, '<limit lower="-1" upper="1"/>')
+    assert e.severity == "warning" and e.element == "k"
 
 
 def test_axes(tmp_path):
@@ -127,11 +127,11 @@ def test_axes(tmp_path):
     long = joint("k", "b", "c", extra='<axis xyz="0 0 2"/>\n    <limit lower="-1" upper="1" effort="1" velocity="1"/>')
     p = write(tmp_path, "".join(GOOD_LINK.format(name=n) for n in "abc") + zero + long)
     fs = findings(p)
-    assert only(fs, "zero-axis")["line"] == line_of(p, 'xyz="0 0 0"')
+    assert only(fs, "zero-axis").line == line_of(p, 'xyz="0 0 0"')
     f = only(fs, "non-unit-axis")
-    assert f["line"] == line_of(p, 'xyz="0 0 2"') and f["severity"] == "warning"
+    assert f.line == line_of(p, 'xyz="0 0 2"') and f.severity == "warning"
     # A zero axis stops loading: one error for it, and the loader's own message.
-    assert any(f["code"] == "skipped" for f in fs)
+    assert any(f.code == "skipped" for f in fs)
 
 
 def test_unreachable_mesh_lists_paths(tmp_path):
@@ -140,8 +140,8 @@ def test_unreachable_mesh_lists_paths(tmp_path):
     )
     p = write(tmp_path, GOOD_LINK.format(name="a") + mesh + joint("j", "a", "b"))
     f = only(findings(p), "mesh-not-found")
-    assert f["line"] == line_of(p, "nopkg") and f["severity"] == "error"
-    assert "tried" in f["message"] and str(tmp_path) in f["message"]
+    assert f.line == line_of(p, "nopkg") and f.severity == "error"
+    assert "tried" in f.message and str(tmp_path) in f.message
 
 
 def test_self_collision_at_home(tmp_path):
@@ -154,16 +154,16 @@ def test_self_collision_at_home(tmp_path):
     )
     p = write(tmp_path, body)
     fs = findings(p)
-    hits = [f for f in fs if f["code"] == "self-collision" and f["severity"] == "warning"]
+    hits = [f for f in fs if f.code == "self-collision" and f.severity == "warning"]
     assert len(hits) == 1, fs
-    assert {hits[0]["element"], *[w.strip("'") for w in hits[0]["message"].split() if w.startswith("'")]} >= {"a", "c"}
+    assert {hits[0].element, *[w.strip("'") for w in hits[0].message.split() if w.startswith("'")]} >= {"a", "c"}
 
 
 def test_tree_matches_check_urdf_and_shipped_robots_have_no_errors(tmp_path):
     for name in ("panda", "ur5"):
         urdf = SHARED / name / f"{name}.urdf"
         rep = urdf_check(str(urdf), srdf=str(SHARED / name / f"{name}.srdf"), skip_coverage=True)
-        errors = [f for f in rep["findings"] if f["severity"] == "error"]
+        errors = [f for f in rep.findings if f.severity == "error"]
         assert not errors, errors
         tool = shutil.which("check_urdf")
         if tool:
@@ -174,17 +174,17 @@ def test_tree_matches_check_urdf_and_shipped_robots_have_no_errors(tmp_path):
             def norm(lines):
                 return sorted(re.sub(r"child\(\d+\)", "child", ln) for ln in lines)
 
-            assert norm(rep["tree"].splitlines()) == norm(ref)
+            assert norm(rep.tree.splitlines()) == norm(ref)
             if name == "panda":  # no branching ambiguity: identical text
-                assert rep["tree"].splitlines() == ref
+                assert rep.tree.splitlines() == ref
 
 
 def test_coverage_on_shipped_panda():
     rep = urdf_check(str(SHARED / "panda" / "panda.urdf"))
-    cov = [f for f in rep["findings"] if f["code"] == "sphere-coverage"]
+    cov = [f for f in rep.findings if f.code == "sphere-coverage"]
     assert len(cov) >= 8
     for f in cov:
-        pct = float(f["message"].split("%")[0].split()[-1]) if "%" in f["message"] else 100.0
+        pct = float(f.message.split("%")[0].split()[-1]) if "%" in f.message else 100.0
         assert 0.0 <= pct <= 100.0
 
 
@@ -230,9 +230,9 @@ def test_bundled_panda_home_self_collision_is_real_per_pybullet(tmp_path):
     sp.write_text(srdf)
     report = urdf_check(str(up), srdf=str(sp), skip_coverage=True)
     reported = set()
-    for f in report["findings"]:
-        if f["code"] == "self-collision" and f["severity"] == "warning" and "state 'home'" in f["message"]:
-            a, b = re.findall(r"link '([^']+)'", f["message"])[:2]
+    for f in report.findings:
+        if f.code == "self-collision" and f.severity == "warning" and "state 'home'" in f.message:
+            a, b = re.findall(r"link '([^']+)'", f.message)[:2]
             reported.add(frozenset((a, b)))
     assert frozenset(("panda_link5", "panda_hand")) in reported
     model = robots.panda()

@@ -65,12 +65,12 @@ def test_decomposition_covers_the_mesh(tmp_path, kind):
     v, f = getattr(make_objects, kind)(rng)
     path = write_obj(tmp_path / f"{kind}.obj", v, f)
     info = ferrobot.load_mesh(path)
-    assert np.allclose(info["vertices"][info["faces"]], v[f], atol=1e-6)
-    assert info["closed"] and len(info["vertices"]) == len(v)
-    hulls = [scipy_spatial.ConvexHull(pv) for pv, _ in info["parts"]]
+    assert np.allclose(info.vertices[info.faces], v[f], atol=1e-6)
+    assert info.closed and len(info.vertices) == len(v)
+    hulls = [scipy_spatial.ConvexHull(pv) for pv, _ in info.parts]
     # The reported volume is the parts' (scipy's hulls of the parts' vertices).
     # (parry's volumes of the parts differ from scipy's hulls of the same vertices by up to 3.5% here.)
-    assert info["volume"] == pytest.approx(sum(h.volume for h in hulls), rel=0.05)
+    assert info.volume == pytest.approx(sum(h.volume for h in hulls), rel=0.05)
     # Every surface point of the mesh lies in (or on) a part: 2,000 area-weighted samples.
     pts = surface_samples(v, f, 2000, rng)
     size = np.ptp(v, axis=0).max()
@@ -83,10 +83,10 @@ def test_decomposition_covers_the_mesh(tmp_path, kind):
     mesh_vol = mesh_volume(v, f)
     hull_vol = scipy_spatial.ConvexHull(v).volume
     if kind not in ("l_shape", "dumbbell"):  # those two are overlapping closed parts: mesh_vol over-counts
-        assert info["volume"] >= 0.95 * min(mesh_vol, hull_vol)
+        assert info.volume >= 0.95 * min(mesh_vol, hull_vol)
     if kind in ("ring", "bent_tube"):
-        assert mesh_vol > 0 and info["volume"] < 0.75 * hull_vol
-        assert info["volume"] < 1.3 * mesh_vol
+        assert mesh_vol > 0 and info.volume < 0.75 * hull_vol
+        assert info.volume < 1.3 * mesh_vol
 
 
 def test_pybullet_objects_decompose_and_cover(tmp_path):
@@ -98,10 +98,10 @@ def test_pybullet_objects_decompose_and_cover(tmp_path):
     for urdf in (root / "random_urdfs" / "000" / "000.urdf", root / "random_urdfs" / "001" / "001.urdf"):
         of = clutter.read_object_file(urdf)
         info = ferrobot.load_mesh(of.mesh, of.scale)
-        assert len(info["parts"]) >= 1
-        pts = surface_samples(info["vertices"], info["faces"], 1000, np.random.default_rng(0))
+        assert len(info.parts) >= 1
+        pts = surface_samples(info.vertices, info.faces, 1000, np.random.default_rng(0))
         depth = np.full(len(pts), np.inf)
-        for pv, _ in info["parts"]:
+        for pv, _ in info.parts:
             h = scipy_spatial.ConvexHull(pv)
             depth = np.minimum(depth, (pts @ h.equations[:, :3].T + h.equations[:, 3]).max(axis=1))
         assert (depth <= 1e-5).all()
@@ -112,8 +112,8 @@ def test_decomposition_is_cached_per_file_and_scale(tmp_path):
     a = ferrobot.load_mesh(path, 1.0)
     b = ferrobot.load_mesh(path, 1.0)
     c = ferrobot.load_mesh(path, 0.5)
-    assert [p[0].tolist() for p in a["parts"]] == [p[0].tolist() for p in b["parts"]]
-    assert c["volume"] == pytest.approx(a["volume"] / 8, rel=0.05)
+    assert [p[0].tolist() for p in a.parts] == [p[0].tolist() for p in b.parts]
+    assert c.volume == pytest.approx(a.volume / 8, rel=0.05)
 
 
 def test_bad_mesh_files_raise_naming_the_file(tmp_path):

@@ -445,3 +445,122 @@ def test_guidance_last_plan_after_a_stall():
     assert ctl.last_step.guidance == "guided" and ctl.last_step.guidance_plans == 1
     assert 0.0 < p.seconds < 60.0
     _dict_style_warns(p, "status", "solved")
+
+
+# --- sim-to-real and fault-injection reads (issue 16, last debts) ---
+
+
+def test_friction_fit_recovers_the_law_it_was_fed():
+    v = np.linspace(-1.0, 1.0, 41)  # 0.0 and |v| <= 1e-3 are skipped: 40 equations
+    e = 0.3 * np.sign(v) + 0.05 * v
+    fit = _no_warning(lambda: ferrobot._core.identify_friction(v, e, 1e-3))
+    assert type(fit).__name__ == "FrictionFit"
+    assert fit.coulomb == pytest.approx(0.3, abs=1e-9) and fit.viscous == pytest.approx(0.05, abs=1e-9)
+    assert fit.rms_residual == pytest.approx(0.0, abs=1e-9) and fit.equations == 40
+    assert fit.condition >= 1.0
+    # The wrapper keeps its own dataclass, filled from the attributes.
+    f = _no_warning(lambda: ferrobot.calibration.identify_friction(v, e))
+    assert (f.coulomb, f.equations) == (pytest.approx(0.3, abs=1e-9), 40)
+    _dict_style_warns(fit, "viscous", fit.viscous)
+
+
+def test_payload_and_link_mass_fits(bundled_panda):
+    core = ferrobot._core
+    g = np.array([0.0, 0.0, -9.81])
+    rng = np.random.default_rng(3)
+    lo, hi = bundled_panda.lower_limits, bundled_panda.upper_limits
+    qs = rng.uniform(lo, hi, size=(12, bundled_panda.num_dof))
+    m, com = 0.8, np.array([0.01, -0.02, 0.05])
+    theta = np.array([m, *(m * com)])  # the regressor's parameters: [m, m cx, m cy, m cz]
+    base = np.array([core.gravity_torques(bundled_panda, q, g) for q in qs])
+    link = "panda_link7"
+    e = base + np.array([core.payload_regressor(bundled_panda, q, link, g) @ theta for q in qs])
+    p = _no_warning(lambda: core.identify_payload(bundled_panda, link, qs, e, g))
+    assert type(p).__name__ == "PayloadFit"
+    assert p.mass == pytest.approx(m, rel=1e-6)
+    np.testing.assert_allclose(p.com, com, atol=1e-6)
+    assert p.rms_residual == pytest.approx(0.0, abs=1e-6) and p.equations > 0
+    _dict_style_warns(p, "mass", p.mass)
+    # Efforts that are exactly the model's gravity torques: no mass is missing anywhere.
+    fit = _no_warning(lambda: ferrobot.calibration.identify_link_masses(bundled_panda, ["panda_link5", link], qs, base))
+    assert type(fit).__name__ == "LinkMassFit"
+    np.testing.assert_allclose(fit.offsets, [0.0, 0.0], atol=1e-6)
+    _dict_style_warns(fit, "offsets", fit.offsets)
+
+
+def test_arbiter_conflict_names_winner_and_loser():
+    arb = ferrobot._core.Arbiter(2, 0.1, 1e-9)
+    arb.add_source("teleop", 1)
+    arb.add_source("policy", 0)
+    arb.command("policy", 0.0, [0], [0.5])
+    arb.command("teleop", 0.0, [0], [0.2])
+    arb.resolve(0.01)
+    (c,) = _no_warning(lambda: arb.conflicts)
+    assert type(c).__name__ == "ArbiterConflict"
+    assert (c.joint, c.winner, c.losers) == (0, "teleop", ["policy"]) and 0.0 <= c.t <= 0.01
+    _dict_style_warns(c, "winner", "teleop")
+
+
+def test_stream_guard_step_holds_then_rate_limits():
+    g = ferrobot.StreamGuard(0.05, [1.0])
+    first = _no_warning(lambda: g.update(0.0, [0.0], [0.0]))
+    assert type(first).__name__ == "StreamGuardStep"
+    assert first.step == 0.0 and not first.holding and not first.catching_up
+    assert g.update(0.2, None, [0.0]).holding  # nothing for 0.2 s > timeout 0.05 s
+    out = g.update(0.21, [1.0], [0.0])  # resumes at most 1 rad/s * 0.01 s
+    assert out.command[0] == pytest.approx(0.01) and out.catching_up and out.step == pytest.approx(0.01)
+    _dict_style_warns(out, "step", out.step)
+
+
+def test_depth_noise_params_are_what_was_given():
+    given = {
+        "sigma0": 0.002,
+        "sigma2": 0.003,
+        "z0": 0.5,
+        "dropout": 0.1,
+        "edge_threshold": 0.04,
+        "edge_dropout": 0.3,
+        "missing_value": 0.0,
+    }
+    p = _no_warning(lambda: ferrobot._core.DepthNoise(**given, seed=1).params())
+    assert type(p).__name__ == "DepthNoiseParams"
+    assert p.to_dict() == given and p.z0 == 0.5
+    _dict_style_warns(p, "sigma2", 0.003)
+
+
+def test_urdf_check_report_points_at_the_line(tmp_path):
+    inertia = '<inertia ixx="0.1" ixy="0" ixz="0" iyy="0.1" iyz="0" izz="0.1"/>'
+    link = '<link name="{n}"><inertial><mass value="1"/>' + inertia + "</inertial></link>\n"
+    text = (
+        '<robot name="two">\n'
+        + link.format(n="a")
+        + link.format(n="b")
+        + '<joint name="j" type="revolute"><parent link="a"/><child link="b"/>\n'
+        + '<axis xyz="0 0 0"/>\n'
+        + '<limit lower="-1" upper="1" effort="1" velocity="1"/></joint>\n</robot>\n'
+    )
+    path = tmp_path / "two.urdf"
+    path.write_text(text)
+    rep = _no_warning(lambda: ferrobot._core.urdf_check(str(path), skip_coverage=True))
+    assert type(rep).__name__ == "UrdfCheckReport"
+    assert rep.robot == "two" and str(path) in rep.source and "a" in rep.tree and "b" in rep.tree
+    (f,) = [f for f in rep.findings if f.code == "zero-axis"]
+    assert type(f).__name__ == "UrdfFinding"
+    assert f.line == 5 and f.severity == "error" and f.element == "j" and f.message
+    _dict_style_warns(f, "line", 5)
+    _dict_style_warns(rep, "robot", "two")
+
+
+def test_loaded_mesh_of_a_cube(tmp_path):
+    s = 0.1  # an axis-aligned cube of side s: 8 vertices, 12 triangles, volume s**3
+    v = [(x, y, z) for x in (0, s) for y in (0, s) for z in (0, s)]
+    quads = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
+    lines = [f"v {x} {y} {z}" for x, y, z in v] + [f"f {a + 1} {b + 1} {c + 1} {d + 1}" for a, b, c, d in quads]
+    path = tmp_path / "cube.obj"
+    path.write_text("\n".join(lines) + "\n")
+    mesh = _no_warning(lambda: ferrobot.load_mesh(path, 2.0))
+    assert type(mesh).__name__ == "LoadedMesh"
+    assert mesh.vertices.shape == (8, 3) and mesh.faces.shape == (12, 3) and mesh.closed
+    np.testing.assert_allclose(np.sort(np.unique(mesh.vertices)), [0.0, 2 * s], atol=1e-12)
+    assert mesh.volume == pytest.approx((2 * s) ** 3, rel=0.02) and len(mesh.parts) >= 1
+    _dict_style_warns(mesh, "volume", mesh.volume)

@@ -81,7 +81,7 @@ def test_arbiter_priority_then_latest():
     arb.command("b", 0.0, [0], [3.0])
     v, w = arb.resolve(0.02)
     assert list(v) == [3.0, 2.0, 2.0] and w == ["b", "c", "c"]
-    assert {c["joint"] for c in arb.conflicts} == {0, 1}
+    assert {c.joint for c in arb.conflicts} == {0, 1}
     v, w = arb.resolve(0.5)  # all stale
     assert np.all(np.isnan(v)) and w == [None] * 3
     with pytest.raises(UnknownNameError):
@@ -108,10 +108,10 @@ def test_latency_helpers():
     assert _core.trajectory_sample(traj, 0.1, 0.15)[0] == pytest.approx(1.5)
     assert _core.trajectory_sample(traj, 0.1, 9.0)[0] == 2.0
     g = _core.StreamGuard(0.05, [1.0])
-    assert g.update(0.0, [0.0], [0.0])["step"] == 0.0
-    assert g.update(0.2, None, [0.0])["holding"]
+    assert g.update(0.0, [0.0], [0.0]).step == 0.0
+    assert g.update(0.2, None, [0.0]).holding
     out = g.update(0.21, [1.0], [0.0])
-    assert out["command"][0] == pytest.approx(0.01) and out["catching_up"]
+    assert out.command[0] == pytest.approx(0.01) and out.catching_up
     with pytest.raises(InvalidArgumentError, match="delay"):
         _core.CommandDelay(-0.1, 2)
     with pytest.raises(ShapeError):

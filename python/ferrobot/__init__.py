@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from . import _core, calibration, camera, errors, grasp, pipeline, robots, scenarios, transforms
 from ._core import (
+    ArbiterConflict,
     Camera,
     Clearance,
     CollisionChecker,
@@ -21,8 +22,10 @@ from ._core import (
     CommandDelay,
     Contact,
     ControlStepInfo,
+    DepthNoiseParams,
     DetectOptions,
     DriveGains,
+    FrictionFit,
     Gripper,  # the one gripper description (issue 17)
     GuidancePlan,
     IkOptions,
@@ -35,6 +38,9 @@ from ._core import (
     Lighting,
     LinearPredictor,
     LinkInertial,
+    LinkMassFit,
+    LoadedMesh,
+    PayloadFit,
     Planner,
     PlanOptions,
     PlanResult,
@@ -50,7 +56,10 @@ from ._core import (
     SphereFit,
     SphereModel,
     StreamGuard,
+    StreamGuardStep,
     TrackingReport,
+    UrdfCheckReport,
+    UrdfFinding,
     World,
     WorldSyncStats,
     __version__,
@@ -116,6 +125,15 @@ __all__ = [
     "PlanTimes",
     "TrackingReport",
     "WorldSyncStats",
+    "PayloadFit",
+    "LinkMassFit",
+    "FrictionFit",
+    "ArbiterConflict",
+    "StreamGuardStep",
+    "DepthNoiseParams",
+    "UrdfFinding",
+    "UrdfCheckReport",
+    "LoadedMesh",
 ]
 
 

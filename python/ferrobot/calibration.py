@@ -116,12 +116,12 @@ def identify_payload(model, link: str, qs, efforts, gravity=GRAVITY, dofs=None, 
     """
     efforts = _tare(model, qs, efforts, baseline, gravity)
     d = _core.identify_payload(model, link, qs, efforts, gravity, dofs)
-    return Payload(d["mass"], d["com"], d["rms_residual"], d["condition"], d["equations"])
+    return Payload(d.mass, d.com, d.rms_residual, d.condition, d.equations)
 
 
-def identify_link_masses(model, links, qs, efforts, gravity=GRAVITY, baseline=None) -> dict:
-    """Mass offsets (kg) of ``links`` (names) from static efforts; dict with
-    ``offsets`` (in ``links`` order), ``rms_residual``, ``condition``, ``equations``.
+def identify_link_masses(model, links, qs, efforts, gravity=GRAVITY, baseline=None) -> _core.LinkMassFit:
+    """Mass offsets (kg) of ``links`` (names) from static efforts: a :class:`ferrobot.LinkMassFit`
+    with ``offsets`` (in ``links`` order), ``rms_residual``, ``condition``, ``equations``.
     ``baseline``: efforts at the same configurations before the change (see
     :func:`identify_payload`); the offsets are then the change since the baseline."""
     if isinstance(links, str):
@@ -133,7 +133,7 @@ def identify_link_masses(model, links, qs, efforts, gravity=GRAVITY, baseline=No
 def identify_friction(velocities, efforts, min_speed: float = 1e-3) -> Friction:
     """Fits ``effort = coulomb sign(v) + viscous v`` (samples with |v| <= min_speed ignored)."""
     d = _core.identify_friction(velocities, efforts, min_speed)
-    return Friction(d["coulomb"], d["viscous"], d["rms_residual"], d["condition"], d["equations"])
+    return Friction(d.coulomb, d.viscous, d.rms_residual, d.condition, d.equations)
 
 
 def add_payload(mass: float, com, inertia, p_mass: float, p_com, p_inertia=None):

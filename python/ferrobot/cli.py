@@ -396,18 +396,19 @@ def cmd_check(args: argparse.Namespace) -> int:
                 srdf = str(Path(tmp) / "panda.srdf")
                 Path(srdf).write_text(srdf_text)
         report = urdf_check(path, srdf=srdf, package_dirs=args.package_dir, skip_coverage=args.no_coverage)
-    findings = report["findings"]
-    count = {s: sum(f["severity"] == s for f in findings) for s in ("error", "warning", "info")}
+    findings = report.findings
+    count = {s: sum(f.severity == s for f in findings) for s in ("error", "warning", "info")}
     failed = count["error"] > 0 or (args.strict and count["warning"] > 0)
     if args.json:
-        print(json.dumps({**report, "counts": count, "ok": not failed}, indent=2))
+        out = {**report.to_dict(), "findings": [f.to_dict() for f in findings], "counts": count, "ok": not failed}
+        print(json.dumps(out, indent=2))
     else:
-        print(report["tree"], end="")
+        print(report.tree, end="")
         print()
-        shown = [f for f in findings if args.verbose or f["severity"] != "info" or f["code"] == "sphere-coverage"]
+        shown = [f for f in findings if args.verbose or f.severity != "info" or f.code == "sphere-coverage"]
         for f in shown:
-            where = f"{report['source']}:{f['line']}" if f["line"] else report["source"]
-            print(f"{where}: {f['severity']}: [{f['code']}] {f['message']}")
+            where = f"{report.source}:{f.line}" if f.line else report.source
+            print(f"{where}: {f.severity}: [{f.code}] {f.message}")
         print(f"{count['error']} error(s), {count['warning']} warning(s), {count['info']} info")
     return 1 if failed else 0
 

@@ -140,7 +140,7 @@ class DepthNoise:
             missing_value=missing_value,
             seed=seed,
         )
-        for k, v in self._inner.params().items():
+        for k, v in self._inner.params().to_dict().items():
             setattr(self, k, v)
 
     def sigma(self, z) -> np.ndarray:
@@ -175,7 +175,7 @@ class Arbiter:
     the latest command wins; among equal times the source registered first wins.
     Every resolution where two or more fresh sources command one joint with
     values differing by more than ``tolerance`` is recorded as a conflict
-    (``conflicts``: dicts with ``t``, ``joint``, ``winner``, ``losers``).
+    (``conflicts``: :class:`ferrobot.ArbiterConflict` objects with ``t``, ``joint``, ``winner``, ``losers``).
     """
 
     def __init__(self, num_joints: int, timeout: float = 0.1, tolerance: float = 1e-9):
@@ -192,7 +192,7 @@ class Arbiter:
         return list(self._inner.sources)
 
     @property
-    def conflicts(self) -> list[dict]:
+    def conflicts(self) -> list[_core.ArbiterConflict]:
         return list(self._inner.conflicts)
 
     def add_source(self, name: str, priority: int) -> None:
@@ -347,21 +347,21 @@ def stream_interruption(
         incoming = None if t0 <= t < t1 else positions[i]
         current = robot.joint_positions[idx]
         out = guard.update(t, incoming, current)
-        cmd = out["command"]
+        cmd = out.command
         if prev is not None:
             worst_ratio = max(worst_ratio, float(np.max(np.abs(cmd - prev) / (vmax * dt))))
         prev = cmd
-        steps_max = max(steps_max, out["step"])
-        vel = np.zeros(len(idx)) if (out["holding"] or out["catching_up"]) else velocities[i]
+        steps_max = max(steps_max, out.step)
+        vel = np.zeros(len(idx)) if (out.holding or out.catching_up) else velocities[i]
         robot.set_joint_position_targets(cmd, joint_names=names)
         robot.set_joint_velocity_targets(vel, joint_names=names)
         world.step(1)
         states.append(robot.joint_positions)
-        if out["holding"] and t > t0 + timeout + 0.2:
+        if out.holding and t > t0 + timeout + 0.2:
             hold_speed = max(hold_speed, float(np.max(np.abs(robot.joint_velocities[idx]))))
         if t >= t1 and resumed_at is None:
             resumed_at = t
-        if resumed_at is not None and caught_at is None and not out["catching_up"] and not out["holding"]:
+        if resumed_at is not None and caught_at is None and not out.catching_up and not out.holding:
             caught_at = t
     recovery = (caught_at - resumed_at) if caught_at is not None else float("inf")
     metrics = {
@@ -490,7 +490,7 @@ def conflicting_targets(dt: float = 1 / 240, tolerance: float = 0.01) -> Scenari
             q_teleop = robot.joint_positions[:3].copy()
         world.step(1)
     q_end = robot.joint_positions
-    joints = sorted({c["joint"] for c in arb.conflicts})
+    joints = sorted({c.joint for c in arb.conflicts})
     metrics = {
         "teleop_error": float(np.max(np.abs(q_teleop - teleop_q))),
         "final_error": float(np.max(np.abs(q_end[:7] - q0[:7]))),

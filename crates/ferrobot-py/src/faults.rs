@@ -6,7 +6,6 @@ use ferrobot_control::{Arbiter, ControlError, DepthNoise, DepthNoiseParams, Enco
 use numpy::ndarray::{Array1, ArrayD, IxDyn};
 use numpy::{IntoPyArray, PyArray1, PyArrayDyn};
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyList};
 
 use crate::arrays::{Finite, read_array, read_array_any, read_array_with};
 use crate::errors::{InvalidArgumentError, NonFiniteError, ShapeError, UnknownNameError, guard};
@@ -119,25 +118,19 @@ impl PyDepthNoise {
         })
     }
 
-    /// The parameters as a dict (sigma0, sigma2, z0, dropout,
+    /// The parameters: a `DepthNoiseParams` (sigma0, sigma2, z0, dropout,
     /// edge_threshold, edge_dropout, missing_value).
-    fn params<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
-        guard(|| {
-            let d = pyo3::types::PyDict::new(py);
-            let n = &self.inner;
-            for (k, v) in [
-                ("sigma0", n.sigma0),
-                ("sigma2", n.sigma2),
-                ("z0", n.z0),
-                ("dropout", n.dropout),
-                ("edge_threshold", n.edge_threshold),
-                ("edge_dropout", n.edge_dropout),
-                ("missing_value", n.missing_value),
-            ] {
-                d.set_item(k, v)?;
-            }
-            Ok(d)
-        })
+    fn params(&self) -> crate::results::PyDepthNoiseParams {
+        let n = &self.inner;
+        crate::results::PyDepthNoiseParams {
+            sigma0: n.sigma0,
+            sigma2: n.sigma2,
+            z0: n.z0,
+            dropout: n.dropout,
+            edge_threshold: n.edge_threshold,
+            edge_dropout: n.edge_dropout,
+            missing_value: n.missing_value,
+        }
     }
 
     /// Axial standard deviation (m) per depth in `z` (m), any shape.
@@ -267,19 +260,19 @@ impl PyArbiter {
         })
     }
 
-    /// Every conflict so far: dicts with t, joint, winner, losers.
+    /// Every conflict so far: `ArbiterConflict`s (t, joint, winner, losers).
     #[getter]
-    fn conflicts<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
-        let list = PyList::empty(py);
-        for c in self.inner.conflicts() {
-            let d = PyDict::new(py);
-            d.set_item("t", c.t)?;
-            d.set_item("joint", c.joint)?;
-            d.set_item("winner", &c.winner)?;
-            d.set_item("losers", c.losers.clone())?;
-            list.append(d)?;
-        }
-        Ok(list)
+    fn conflicts(&self) -> Vec<crate::results::PyArbiterConflict> {
+        self.inner
+            .conflicts()
+            .iter()
+            .map(|c| crate::results::PyArbiterConflict {
+                t: c.t,
+                joint: c.joint,
+                winner: c.winner.clone(),
+                losers: c.losers.clone(),
+            })
+            .collect()
     }
 }
 

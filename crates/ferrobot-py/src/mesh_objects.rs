@@ -10,7 +10,6 @@ use nalgebra::Vector3;
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray2};
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyList};
 
 use crate::arrays::read_array;
 use crate::errors::{InvalidArgumentError, MeshError, guard};
@@ -100,7 +99,7 @@ fn faces_array<'py>(py: Python<'py>, tris: &[[u32; 3]]) -> Bound<'py, PyArray2<i
 
 /// Loads an object mesh (OBJ, STL, DAE) scaled by `scale`, checks it and
 /// computes its convex decomposition (both cached per file, scale and
-/// parameters). Returns a dict: `vertices` (N, 3) and `faces` (M, 3) of
+/// parameters). Returns a `LoadedMesh`: `vertices` (N, 3) and `faces` (M, 3) of
 /// the scaled mesh, `parts` (list of (vertices, faces) of the convex
 /// parts), `volume` (m³, of the decomposition), `closed` (every edge
 /// shared by two triangles). Bad files raise `ferrobot.errors.MeshError`
@@ -114,7 +113,7 @@ pub fn load_mesh<'py>(
     resolution: u32,
     concavity: f64,
     max_convex_hulls: u32,
-) -> PyResult<Bound<'py, PyDict>> {
+) -> PyResult<crate::results::PyLoadedMesh> {
     guard(|| {
         let scale = scale_arg(scale)?;
         let params = decomposition_params(resolution, concavity, max_convex_hulls)?;
@@ -122,26 +121,23 @@ pub fn load_mesh<'py>(
         let shape = mesh
             .convex_decomposition()
             .map_err(|e| mesh_error(&path, e))?;
-        let out = PyDict::new(py);
-        out.set_item(
-            "vertices",
-            points_array(py, mesh.vertices().map(|p| [p.x, p.y, p.z])),
-        )?;
-        out.set_item("faces", faces_array(py, mesh.triangles()))?;
-        let parts = PyList::empty(py);
+        let mut parts = Vec::new();
         if let Some(c) = shape.as_compound() {
             for (_, s) in c.shapes() {
                 if let Some(poly) = s.as_convex_polyhedron() {
                     let (v, t) = poly.to_trimesh();
                     let v =
                         points_array(py, v.iter().map(|p| [p.x as f64, p.y as f64, p.z as f64]));
-                    parts.append((v, faces_array(py, &t)))?;
+                    parts.push((v.unbind(), faces_array(py, &t).unbind()));
                 }
             }
         }
-        out.set_item("parts", parts)?;
-        out.set_item("volume", shape.mass_properties(1.0).mass() as f64)?;
-        out.set_item("closed", mesh.is_closed())?;
-        Ok(out)
+        Ok(crate::results::PyLoadedMesh {
+            vertices: points_array(py, mesh.vertices().map(|p| [p.x, p.y, p.z])).unbind(),
+            faces: faces_array(py, mesh.triangles()).unbind(),
+            parts,
+            volume: shape.mass_properties(1.0).mass() as f64,
+            closed: mesh.is_closed(),
+        })
     })
 }

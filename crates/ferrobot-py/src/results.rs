@@ -544,6 +544,146 @@ result_class! {
     }
 }
 
+result_class! {
+    /// A payload identified from static efforts (`_core.identify_payload`).
+    PyPayloadFit, "PayloadFit" {
+        /// Payload mass (kg).
+        mass: f64,
+        /// Payload centre of mass in the link frame (3,) (m).
+        com: Py<PyArray1<f64>>,
+        /// RMS of the fit's effort residuals (N·m or N).
+        rms_residual: f64,
+        /// Condition number of the regressor (dimensionless; large: poorly excited).
+        condition: f64,
+        /// Number of equations (effort samples) in the fit.
+        equations: usize,
+    }
+}
+
+result_class! {
+    /// Link mass offsets identified from static efforts (`identify_link_masses`).
+    PyLinkMassFit, "LinkMassFit" {
+        /// Mass offset (kg) of each link, in the order the links were given (L,).
+        offsets: Py<PyArray1<f64>>,
+        /// RMS of the fit's effort residuals (N·m or N).
+        rms_residual: f64,
+        /// Condition number of the regressor (dimensionless; large: poorly excited).
+        condition: f64,
+        /// Number of equations (effort samples) in the fit.
+        equations: usize,
+    }
+}
+
+result_class! {
+    /// Joint friction fitted as effort = coulomb·sign(v) + viscous·v (`_core.identify_friction`).
+    PyFrictionFit, "FrictionFit" {
+        /// Coulomb (dry) friction (N·m or N).
+        coulomb: f64,
+        /// Viscous coefficient (N·m·s/rad or N·s/m).
+        viscous: f64,
+        /// RMS of the fit's effort residuals (N·m or N).
+        rms_residual: f64,
+        /// Condition number of the regressor (dimensionless).
+        condition: f64,
+        /// Number of equations (samples with |v| > min_speed) in the fit.
+        equations: usize,
+    }
+}
+
+result_class! {
+    /// One joint's command conflict resolved by an `Arbiter` (`Arbiter.conflicts`).
+    PyArbiterConflict, "ArbiterConflict" {
+        /// Time (s) of the conflict.
+        t: f64,
+        /// Joint index.
+        joint: usize,
+        /// The source whose command was applied.
+        winner: String,
+        /// The other sources with a fresh command for that joint.
+        losers: Vec<String>,
+    }
+}
+
+result_class! {
+    /// One control tick of a `StreamGuard` (`StreamGuard.update`).
+    PyStreamGuardStep, "StreamGuardStep" {
+        /// The command to apply (n,) (rad or m).
+        command: Py<PyArray1<f64>>,
+        /// True while holding (no fresh command within the timeout; velocity targets should be 0).
+        holding: bool,
+        /// True while catching up with the stream after a hold (rate-limited).
+        catching_up: bool,
+        /// Largest |change| of the command from the previous tick (rad or m).
+        step: f64,
+    }
+}
+
+result_class! {
+    /// A depth-noise model's parameters (`DepthNoise.params`).
+    PyDepthNoiseParams, "DepthNoiseParams" {
+        /// Axial standard deviation (m) at `z0`, >= 0.
+        sigma0: f64,
+        /// Quadratic growth of the standard deviation (1/m), >= 0.
+        sigma2: f64,
+        /// Depth (m) of the smallest noise.
+        z0: f64,
+        /// Probability (0..1) that any valid pixel is missing.
+        dropout: f64,
+        /// Depth jump (m) between 4-neighbours that makes a discontinuity, > 0.
+        edge_threshold: f64,
+        /// Extra probability (0..1) that a pixel on a discontinuity is missing.
+        edge_dropout: f64,
+        /// Value written into missing pixels (m, or inf/NaN).
+        missing_value: f64,
+    }
+}
+
+result_class! {
+    /// One finding of the URDF checker (`UrdfCheckReport.findings`).
+    PyUrdfFinding, "UrdfFinding" {
+        /// "error", "warning" or "info".
+        severity: String,
+        /// Stable short code of the finding.
+        code: String,
+        /// 1-based line in the URDF, or None.
+        line: Option<u32>,
+        /// The element concerned (link, joint, ...).
+        element: String,
+        /// Human-readable explanation.
+        message: String,
+    }
+}
+
+result_class! {
+    /// The URDF checker's report (`urdf_check`, `ferrobot check`).
+    PyUrdfCheckReport, "UrdfCheckReport" {
+        /// The robot's name.
+        robot: String,
+        /// The file checked.
+        source: String,
+        /// The kinematic tree as text.
+        tree: String,
+        /// Everything found, in file order within each check.
+        findings: Vec<Py<PyUrdfFinding>>,
+    }
+}
+
+result_class! {
+    /// An object mesh, checked and decomposed into convex parts (`load_mesh`).
+    PyLoadedMesh, "LoadedMesh" {
+        /// Vertices of the scaled mesh (N, 3) (m).
+        vertices: Py<PyArray2<f64>>,
+        /// Triangles as vertex indices (M, 3).
+        faces: Py<PyArray2<i64>>,
+        /// Convex parts of the decomposition: (vertices (K, 3) (m), faces (L, 3)) each.
+        parts: Vec<(Py<PyArray2<f64>>, Py<PyArray2<i64>>)>,
+        /// Volume (m³) of the convex decomposition.
+        volume: f64,
+        /// True when every edge of the mesh is shared by two triangles.
+        closed: bool,
+    }
+}
+
 /// Registers the result classes.
 pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyPlanTimes>()?;
@@ -564,5 +704,14 @@ pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyInertial>()?;
     m.add_class::<PyJointInfo>()?;
     m.add_class::<PyLighting>()?;
+    m.add_class::<PyPayloadFit>()?;
+    m.add_class::<PyLinkMassFit>()?;
+    m.add_class::<PyFrictionFit>()?;
+    m.add_class::<PyArbiterConflict>()?;
+    m.add_class::<PyStreamGuardStep>()?;
+    m.add_class::<PyDepthNoiseParams>()?;
+    m.add_class::<PyUrdfFinding>()?;
+    m.add_class::<PyUrdfCheckReport>()?;
+    m.add_class::<PyLoadedMesh>()?;
     Ok(())
 }

@@ -7,17 +7,19 @@ use std::path::PathBuf;
 
 use ferrobot_collision::urdf_check::{CheckOptions, check_urdf_file};
 use ferrobot_model::{Inertial, RobotModel};
-use ferrobot_sim::calibration::{self, FitQuality};
+use ferrobot_sim::calibration;
 use ferrobot_sim::latency::{self, CommandDelay, LinearPredictor, StreamGuard};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use numpy::ndarray::{Array1, Array2};
 use numpy::{IntoPyArray, PyArray1, PyArray2};
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyList};
 
 use crate::arrays::read_array;
 use crate::errors::{FileFormatError, guard, model_err};
 use crate::model::PyRobotModel;
+use crate::results::{
+    PyFrictionFit, PyLinkMassFit, PyPayloadFit, PyStreamGuardStep, PyUrdfCheckReport, PyUrdfFinding,
+};
 use crate::sim::{PyRobot, sim_err};
 
 fn vec1<'py>(py: Python<'py>, v: Vec<f64>) -> Bound<'py, PyArray1<f64>> {
@@ -30,18 +32,10 @@ fn vec3(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Vector3<f64>> {
     Ok(Vector3::new(d[0], d[1], d[2]))
 }
 
-fn fit_dict<'py>(py: Python<'py>, d: &Bound<'py, PyDict>, fit: &FitQuality) -> PyResult<()> {
-    let _ = py;
-    d.set_item("rms_residual", fit.rms_residual)?;
-    d.set_item("condition", fit.condition)?;
-    d.set_item("equations", fit.equations)?;
-    Ok(())
-}
-
-/// Checks a URDF file (see `ferrobot check`): returns a dict with `robot`,
-/// `source`, `tree` (text) and `findings`, a list of dicts with
+/// Checks a URDF file (see `ferrobot check`): returns a `UrdfCheckReport`
+/// (`robot`, `source`, `tree` (text) and `findings`, `UrdfFinding`s with
 /// `severity` ("error", "warning", "info"), `code`, `line` (or None),
-/// `element` and `message`.
+/// `element` and `message`).
 #[pyfunction]
 #[pyo3(signature = (path, srdf=None, package_dirs=None, skip_coverage=false))]
 pub fn urdf_check<'py>(
@@ -50,7 +44,7 @@ pub fn urdf_check<'py>(
     srdf: Option<PathBuf>,
     package_dirs: Option<Vec<PathBuf>>,
     skip_coverage: bool,
-) -> PyResult<Bound<'py, PyDict>> {
+) -> PyResult<PyUrdfCheckReport> {
     let options = CheckOptions {
         srdf,
         package_dirs: package_dirs.unwrap_or_default(),
@@ -61,22 +55,28 @@ pub fn urdf_check<'py>(
             FileFormatError::new_err(format!("path: cannot read '{}': {e}", path.display()))
         })
     })?;
-    let d = PyDict::new(py);
-    d.set_item("robot", &report.robot)?;
-    d.set_item("source", &report.source)?;
-    d.set_item("tree", &report.tree)?;
-    let findings = PyList::empty(py);
-    for f in &report.findings {
-        let fd = PyDict::new(py);
-        fd.set_item("severity", f.severity.as_str())?;
-        fd.set_item("code", f.code)?;
-        fd.set_item("line", f.line)?;
-        fd.set_item("element", &f.element)?;
-        fd.set_item("message", &f.message)?;
-        findings.append(fd)?;
-    }
-    d.set_item("findings", findings)?;
-    Ok(d)
+    let findings = report
+        .findings
+        .iter()
+        .map(|f| {
+            Py::new(
+                py,
+                PyUrdfFinding {
+                    severity: f.severity.as_str().to_string(),
+                    code: f.code.to_string(),
+                    line: f.line,
+                    element: f.element.clone(),
+                    message: f.message.clone(),
+                },
+            )
+        })
+        .collect::<PyResult<_>>()?;
+    Ok(PyUrdfCheckReport {
+        robot: report.robot,
+        source: report.source,
+        tree: report.tree,
+        findings,
+    })
 }
 
 fn link_index(model: &RobotModel, link: &str) -> PyResult<usize> {
@@ -119,7 +119,7 @@ pub fn payload_regressor<'py>(
 }
 
 /// Identifies a payload on `link` from static efforts (see the Rust docs
-/// of `identify_payload`). Returns a dict: mass, com, rms_residual,
+/// of `identify_payload`). Returns a `PayloadFit`: mass, com, rms_residual,
 /// condition, equations.
 #[pyfunction]
 #[pyo3(signature = (model, link, qs, efforts, gravity, dofs=None))]
@@ -131,7 +131,7 @@ pub fn identify_payload<'py>(
     efforts: &Bound<'py, PyAny>,
     gravity: &Bound<'py, PyAny>,
     dofs: Option<Vec<usize>>,
-) -> PyResult<Bound<'py, PyDict>> {
+) -> PyResult<PyPayloadFit> {
     let n = model.inner.num_dof();
     let q = read_array(qs, "qs", 2, &[Some(n)])?;
     let e = read_array(efforts, "efforts", 2, &[Some(n)])?;
@@ -148,16 +148,18 @@ pub fn identify_payload<'py>(
         py.detach(|| calibration::identify_payload(&model.inner, l, &qv, &ev, &g, dofs.as_deref()))
             .map_err(sim_err)
     })?;
-    let d = PyDict::new(py);
-    d.set_item("mass", p.mass)?;
-    d.set_item("com", vec1(py, p.com.iter().copied().collect()))?;
-    fit_dict(py, &d, &p.fit)?;
-    Ok(d)
+    Ok(PyPayloadFit {
+        mass: p.mass,
+        com: vec1(py, p.com.iter().copied().collect()).unbind(),
+        rms_residual: p.fit.rms_residual,
+        condition: p.fit.condition,
+        equations: p.fit.equations,
+    })
 }
 
 /// Identifies mass offsets (kg) of `links` from static efforts. Returns a
-/// dict: offsets (array in `links` order), rms_residual, condition,
-/// equations.
+/// `LinkMassFit`: offsets (array in `links` order), rms_residual,
+/// condition, equations.
 #[pyfunction]
 pub fn identify_link_masses<'py>(
     py: Python<'py>,
@@ -166,7 +168,7 @@ pub fn identify_link_masses<'py>(
     qs: &Bound<'py, PyAny>,
     efforts: &Bound<'py, PyAny>,
     gravity: &Bound<'py, PyAny>,
-) -> PyResult<Bound<'py, PyDict>> {
+) -> PyResult<PyLinkMassFit> {
     let n = model.inner.num_dof();
     let q = read_array(qs, "qs", 2, &[Some(n)])?;
     let e = read_array(efforts, "efforts", 2, &[Some(n)])?;
@@ -186,14 +188,16 @@ pub fn identify_link_masses<'py>(
         py.detach(|| calibration::identify_link_masses(&model.inner, &ls, &qv, &ev, &g))
             .map_err(sim_err)
     })?;
-    let d = PyDict::new(py);
-    d.set_item("offsets", vec1(py, x))?;
-    fit_dict(py, &d, &fit)?;
-    Ok(d)
+    Ok(PyLinkMassFit {
+        offsets: vec1(py, x).unbind(),
+        rms_residual: fit.rms_residual,
+        condition: fit.condition,
+        equations: fit.equations,
+    })
 }
 
-/// Fits effort = coulomb·sign(v) + viscous·v. Returns a dict: coulomb,
-/// viscous, rms_residual, condition, equations.
+/// Fits effort = coulomb·sign(v) + viscous·v. Returns a `FrictionFit`:
+/// coulomb, viscous, rms_residual, condition, equations.
 #[pyfunction]
 #[pyo3(signature = (velocities, efforts, min_speed=1e-3))]
 pub fn identify_friction<'py>(
@@ -201,18 +205,21 @@ pub fn identify_friction<'py>(
     velocities: &Bound<'py, PyAny>,
     efforts: &Bound<'py, PyAny>,
     min_speed: f64,
-) -> PyResult<Bound<'py, PyDict>> {
+) -> PyResult<PyFrictionFit> {
     let v = read_array(velocities, "velocities", 1, &[None])?
         .data()
         .to_vec();
     let e = read_array(efforts, "efforts", 1, &[None])?.data().to_vec();
     let (c, vis, fit) =
         guard(|| calibration::identify_friction(&v, &e, min_speed).map_err(sim_err))?;
-    let d = PyDict::new(py);
-    d.set_item("coulomb", c)?;
-    d.set_item("viscous", vis)?;
-    fit_dict(py, &d, &fit)?;
-    Ok(d)
+    let _ = py;
+    Ok(PyFrictionFit {
+        coulomb: c,
+        viscous: vis,
+        rms_residual: fit.rms_residual,
+        condition: fit.condition,
+        equations: fit.equations,
+    })
 }
 
 /// `PyRobot.set_link_inertial`.
@@ -405,7 +412,7 @@ impl PyStreamGuard {
         })
     }
 
-    /// One control tick.
+    /// One control tick: a `StreamGuardStep`.
     #[pyo3(signature = (t, command, current))]
     fn update<'py>(
         &mut self,
@@ -413,18 +420,18 @@ impl PyStreamGuard {
         t: f64,
         command: Option<&Bound<'py, PyAny>>,
         current: &Bound<'py, PyAny>,
-    ) -> PyResult<Bound<'py, PyDict>> {
+    ) -> PyResult<PyStreamGuardStep> {
         let c = command
             .map(|c| read_array(c, "command", 1, &[None]).map(|a| a.data().to_vec()))
             .transpose()?;
         let cur = read_array(current, "current", 1, &[None])?.data().to_vec();
         let out = self.inner.update(t, c.as_deref(), &cur).map_err(sim_err)?;
-        let d = PyDict::new(py);
-        d.set_item("command", vec1(py, out.command))?;
-        d.set_item("holding", out.holding)?;
-        d.set_item("catching_up", out.catching_up)?;
-        d.set_item("step", out.step)?;
-        Ok(d)
+        Ok(PyStreamGuardStep {
+            command: vec1(py, out.command).unbind(),
+            holding: out.holding,
+            catching_up: out.catching_up,
+            step: out.step,
+        })
     }
 }
 

@@ -283,7 +283,7 @@ def random_clutter(
             base = np.asarray(of.scale, dtype=np.float64)
             factor = rng.uniform(*scale_range)
             info = _core.load_mesh(of.mesh, base * factor)
-            ext = np.sort(info["vertices"].max(axis=0) - info["vertices"].min(axis=0))
+            ext = np.sort(info.vertices.max(axis=0) - info.vertices.min(axis=0))
             if ext[1] > max_middle_extent:
                 factor *= max_middle_extent / ext[1]
                 info = _core.load_mesh(of.mesh, base * factor)
@@ -291,11 +291,11 @@ def random_clutter(
             skipped.append((str(path), str(e)))
             continue
         scale = base * factor
-        mass = (of.mass if of.mass is not None else density * info["volume"]) * rng.uniform(*mass_range)
+        mass = (of.mass if of.mass is not None else density * info.volume) * rng.uniform(*mass_range)
         mass = float(min(max(mass, 0.01), 2.0))
         friction = float(rng.uniform(*friction_range)) if of.friction is None else float(of.friction)
         q = _random_rotation(rng)
-        verts = _rotate(q, info["vertices"])
+        verts = _rotate(q, info.vertices)
         centre = 0.5 * (verts.max(axis=0) + verts.min(axis=0))
         if bin_spec is not None:
             ix, iy = bin_spec.inner

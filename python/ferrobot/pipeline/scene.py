@@ -320,7 +320,7 @@ def clutter_scene(seed: int, num_objects: int = 8, objects=None, *, bin: bool = 
                 [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
             ]
         )
-        v = info["vertices"] @ r.T
+        v = info.vertices @ r.T
         ext = tuple(float(e) for e in v.max(axis=0) - v.min(axis=0))
         objs.append(
             ObjectSpec(

@@ -285,7 +285,7 @@ def viewer_data(episode) -> dict:
         if o["kind"] == "mesh":  # mesh objects (clutter scenes): their scaled file mesh
             spec = ep.spec.object(o["name"])
             info = _core.load_mesh(spec.mesh, spec.scale)
-            o["vertices"], o["faces"] = info["vertices"], info["faces"]
+            o["vertices"], o["faces"] = info.vertices, info.faces
     if getattr(ep.spec, "bin", None) is not None:
         from .clutter import BinSpec
 

@@ -162,8 +162,8 @@ def episode_scene(folder, max_frames: int = 300) -> dict:
                     "kind": kind,
                     "size": o.size,
                     "color": o.color,
-                    "vertices": info["vertices"],
-                    "faces": info["faces"],
+                    "vertices": info.vertices,
+                    "faces": info.faces,
                 }
             )
         else:
