@@ -124,7 +124,7 @@ def part_files(o: clutter.ClutterObject, tmp: Path, cache: dict) -> tuple[list[s
         return cache[key]
     info = ferrobot.load_mesh(o.mesh, o.scale)
     files, com, vol = [], np.zeros(3), 0.0
-    for k, (v, f) in enumerate(info["parts"]):
+    for k, (v, f) in enumerate(info.parts):
         path = tmp / f"part_{len(cache)}_{k}.obj"
         lines = [f"v {x:.9g} {y:.9g} {z:.9g}" for x, y, z in v] + [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in f]
         path.write_text("\n".join(lines) + "\n")
