@@ -36,7 +36,9 @@ import numpy as np
 
 HERE = Path(__file__).resolve().parent
 SHARED = HERE.parent.parent / "shared"
-RESOLUTION = 0.005
+# The re-check resolution (5 mrad) and path densification of the MotionBenchMaker bench.
+sys.path.insert(0, str(HERE))
+from mbm import RESOLUTION, densify  # noqa: E402
 
 
 def _pose(x, y, z, yaw=0.0):
@@ -112,15 +114,6 @@ def clutter(world, rng):
 
 
 CLASSES = {"table": table, "shelves": shelves, "cage": cage, "clutter": clutter}
-
-
-def densify(path: np.ndarray) -> np.ndarray:
-    out = [path[:1]]
-    for a, b in zip(path[:-1], path[1:], strict=True):
-        n = max(1, int(np.ceil(np.abs(b - a).max() / RESOLUTION)))
-        t = np.arange(1, n + 1)[:, None] / n
-        out.append(a + (b - a) * t)
-    return np.concatenate(out)
 
 
 def run(args) -> dict:
