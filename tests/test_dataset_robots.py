@@ -270,7 +270,7 @@ def test_viewer_draws_the_grippers_own_fingers(tmp_path):
     assert result.episode.choice is not None
     write_episode(tmp_path, result)
     report = json.loads((tmp_path / "report.json").read_text())
-    depth = ferrobot.Gripper.robotiq_2f85().detection_options()["finger_depth"]
+    depth = ferrobot.Gripper.robotiq_2f85().detection_options().finger_depth
     assert report["gripper"]["name"] == "robotiq_2f85" and report["gripper"]["finger_depth"] == depth == 0.0375
     for data in (viewer_data(result.episode), episode_scene(tmp_path)):
         seg = np.asarray(data["grasp"], dtype=float).reshape(-1, 2, 3)

@@ -155,8 +155,47 @@ def test_to_hand_generalises_to_panda_hand():
 
 def test_detection_options_follow_the_gripper():
     opts = ferrobot.Gripper.robotiq_2f85().detection_options()
-    assert abs(opts["max_width"] - 0.085) < 2e-4 and opts["finger_depth"] == 0.0375
-    assert ferrobot.Gripper.panda_hand().detection_options()["max_width"] == 0.08
+    assert isinstance(opts, ferrobot.GripperDetection)
+    assert abs(opts.max_width - 0.085) < 2e-4 and opts.finger_depth == 0.0375
+    assert ferrobot.Gripper.panda_hand().detection_options().max_width == 0.08
+    # The detector takes these as DetectOptions fields of the same names.
+    fields = set(ferrobot.DetectOptions().to_dict())
+    assert set(opts.to_dict()) <= fields
+    with pytest.warns(DeprecationWarning, match="GripperDetection"):
+        assert opts["max_width"] == opts.max_width
+
+
+def test_finger_geometry_is_typed_and_round_trips():
+    """``Gripper.fingers`` is a FingerGeometry; a gripper built from another's fingers (object or dict)
+    has the same geometry; bad finger dicts name the key."""
+    hand = ferrobot.Gripper.panda_hand()
+    f = hand.fingers
+    assert isinstance(f, ferrobot.FingerGeometry)
+    assert set(f.to_dict()) == {"depth", "thickness", "height", "palm_width", "palm_height", "palm_depth"}
+    assert all(v > 0 for v in f.to_dict().values())
+    args = dict(
+        name="copy",
+        hand_link=hand.hand_link,
+        tcp=list(hand.tcp),
+        approach=list(hand.approach),
+        closing=list(hand.closing),
+        driver=hand.driver,
+        followers=hand.followers,
+        open_position=hand.open_position,
+        closed_position=hand.closed_position,
+        opening_map=("linear", 2.0, 0.0),
+    )
+    for fingers in (f, f.to_dict()):
+        g = ferrobot.Gripper(**args, fingers=fingers)
+        assert g.fingers.to_dict() == f.to_dict()
+    bad = f.to_dict() | {"span": 0.1}
+    with pytest.raises(ferrobot.errors.InvalidArgumentError, match="span"):
+        ferrobot.Gripper(**args, fingers=bad)
+    missing = {k: v for k, v in f.to_dict().items() if k != "depth"}
+    with pytest.raises(ferrobot.errors.InvalidArgumentError, match="depth"):
+        ferrobot.Gripper(**args, fingers=missing)
+    with pytest.raises(ferrobot.errors.InvalidArgumentError, match="fingers"):
+        ferrobot.Gripper(**args, fingers=[0.05] * 6)
 
 
 def test_add_robot_starts_free_of_self_collision():

@@ -9,6 +9,7 @@ use pyo3::types::PyDict;
 
 use crate::errors::{InvalidArgumentError, guard, model_err};
 use crate::model::PyRobotModel;
+use crate::results::{PyFingerGeometry, PyGripperDetection};
 
 /// A parallel-jaw gripper: hand link, TCP, approach and closing axes (hand
 /// frame), driver joint and mimic followers, the driver-to-opening map and
@@ -38,12 +39,58 @@ fn unit(v: &[f64], what: &str) -> PyResult<Unit<Vector3<f64>>> {
     Ok(Unit::new_normalize(v))
 }
 
+/// `fingers` argument: a `FingerGeometry` or a dict with exactly its six
+/// fields (m).
+fn finger_geometry(fingers: &Bound<'_, PyAny>) -> PyResult<FingerGeometry> {
+    if let Ok(f) = fingers.cast::<PyFingerGeometry>() {
+        let f = f.get();
+        return Ok(FingerGeometry {
+            depth: f.depth,
+            thickness: f.thickness,
+            height: f.height,
+            palm_width: f.palm_width,
+            palm_height: f.palm_height,
+            palm_depth: f.palm_depth,
+        });
+    }
+    let Ok(d) = fingers.cast::<PyDict>() else {
+        return Err(InvalidArgumentError::new_err(format!(
+            "fingers: expected a FingerGeometry or a dict, got {}",
+            fingers.get_type().name()?
+        )));
+    };
+    let known = PyFingerGeometry::fields();
+    for k in d.keys() {
+        let k: String = k.extract()?;
+        if !known.contains(&k.as_str()) {
+            return Err(InvalidArgumentError::new_err(format!(
+                "fingers: unknown key '{k}'; known: {known:?}"
+            )));
+        }
+    }
+    let get = |k: &str| -> PyResult<f64> {
+        d.get_item(k)?
+            .ok_or_else(|| InvalidArgumentError::new_err(format!("fingers: missing '{k}'")))?
+            .extract()
+            .map_err(|_| InvalidArgumentError::new_err(format!("fingers: '{k}' must be a number")))
+    };
+    Ok(FingerGeometry {
+        depth: get("depth")?,
+        thickness: get("thickness")?,
+        height: get("height")?,
+        palm_width: get("palm_width")?,
+        palm_height: get("palm_height")?,
+        palm_depth: get("palm_depth")?,
+    })
+}
+
 #[pymethods]
 impl PyGripper {
     /// An explicit gripper. `opening_map` is ("linear", scale, offset),
     /// ("four_bar", offset, radius, phase) or ("table", q list, opening list);
-    /// `fingers` a dict of depth, thickness, height, palm_width, palm_height,
-    /// palm_depth (m). Validated (see `Gripper.validate`).
+    /// `fingers` a `FingerGeometry` (e.g. another gripper's `fingers`) or a
+    /// dict of depth, thickness, height, palm_width, palm_height, palm_depth
+    /// (m). Validated (see `Gripper.validate`).
     #[new]
     #[pyo3(signature = (name, hand_link, tcp, approach, closing, driver, followers, open_position, closed_position, opening_map, fingers))]
     #[allow(clippy::too_many_arguments)]
@@ -58,7 +105,7 @@ impl PyGripper {
         open_position: f64,
         closed_position: f64,
         opening_map: &Bound<'_, PyAny>,
-        fingers: &Bound<'_, PyDict>,
+        fingers: &Bound<'_, PyAny>,
     ) -> PyResult<Self> {
         guard(|| {
             let kind: String = opening_map.get_item(0)?.extract()?;
@@ -82,30 +129,7 @@ impl PyGripper {
                     )));
                 }
             };
-            let get = |k: &str| -> PyResult<f64> {
-                fingers
-                    .get_item(k)?
-                    .ok_or_else(|| {
-                        InvalidArgumentError::new_err(format!("fingers: missing '{k}'"))
-                    })?
-                    .extract()
-            };
-            let known = [
-                "depth",
-                "thickness",
-                "height",
-                "palm_width",
-                "palm_height",
-                "palm_depth",
-            ];
-            for k in fingers.keys() {
-                let k: String = k.extract()?;
-                if !known.contains(&k.as_str()) {
-                    return Err(InvalidArgumentError::new_err(format!(
-                        "fingers: unknown key '{k}'; known: {known:?}"
-                    )));
-                }
-            }
+            let fingers = finger_geometry(fingers)?;
             let g = Gripper {
                 name,
                 hand_link,
@@ -117,14 +141,7 @@ impl PyGripper {
                 open_position,
                 closed_position,
                 map,
-                fingers: FingerGeometry {
-                    depth: get("depth")?,
-                    thickness: get("thickness")?,
-                    height: get("height")?,
-                    palm_width: get("palm_width")?,
-                    palm_height: get("palm_height")?,
-                    palm_depth: get("palm_depth")?,
-                },
+                fingers,
             };
             g.validate().map_err(model_err)?;
             Ok(Self { inner: g })
@@ -212,18 +229,11 @@ impl PyGripper {
     fn min_opening(&self) -> f64 {
         self.inner.min_opening()
     }
-    /// Finger geometry: depth, thickness, height, palm_width, palm_height, palm_depth (m).
+    /// Finger geometry (a `FingerGeometry`: depth, thickness, height,
+    /// palm_width, palm_height, palm_depth, m).
     #[getter]
-    fn fingers<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let f = &self.inner.fingers;
-        let d = PyDict::new(py);
-        d.set_item("depth", f.depth)?;
-        d.set_item("thickness", f.thickness)?;
-        d.set_item("height", f.height)?;
-        d.set_item("palm_width", f.palm_width)?;
-        d.set_item("palm_height", f.palm_height)?;
-        d.set_item("palm_depth", f.palm_depth)?;
-        Ok(d)
+    fn fingers(&self) -> PyFingerGeometry {
+        PyFingerGeometry::new(&self.inner.fingers)
     }
     /// The opening map's kind: "linear", "four_bar" or "table".
     #[getter]
@@ -258,20 +268,12 @@ impl PyGripper {
             .into_pyarray(py)
     }
 
-    /// The grasp detector's gripper options (`ferrobot.grasp.OPTIONS` keys
-    /// max_width, finger_depth, finger_width, height, palm_width,
-    /// palm_height, palm_depth), derived in `ferrobot_grasp::GripperGeometry::from_gripper`.
-    fn detection_options<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let g = ferrobot_grasp::GripperGeometry::from_gripper(&self.inner);
-        let d = PyDict::new(py);
-        d.set_item("max_width", g.max_width)?;
-        d.set_item("finger_depth", g.finger_depth)?;
-        d.set_item("finger_width", g.finger_width)?;
-        d.set_item("height", g.height)?;
-        d.set_item("palm_width", g.palm_width)?;
-        d.set_item("palm_height", g.palm_height)?;
-        d.set_item("palm_depth", g.palm_depth)?;
-        Ok(d)
+    /// The grasp detector's hand geometry for this gripper (a
+    /// `GripperDetection`: max_width, finger_depth, finger_width, height,
+    /// palm_width, palm_height, palm_depth, m; the `DetectOptions` fields of
+    /// the same names), derived in `ferrobot_grasp::GripperGeometry::from_gripper`.
+    fn detection_options(&self) -> PyGripperDetection {
+        PyGripperDetection::new(&ferrobot_grasp::GripperGeometry::from_gripper(&self.inner))
     }
 
     fn __repr__(&self) -> String {

@@ -684,6 +684,75 @@ result_class! {
     }
 }
 
+result_class! {
+    /// A gripper's finger and palm geometry, metres (`Gripper.fingers`).
+    PyFingerGeometry, "FingerGeometry" {
+        /// Finger length along the approach axis (m).
+        depth: f64,
+        /// Finger thickness along the closing axis (m).
+        thickness: f64,
+        /// Finger size along the third axis (m).
+        height: f64,
+        /// Palm (housing) size along the closing axis (m).
+        palm_width: f64,
+        /// Palm size along the third axis (m).
+        palm_height: f64,
+        /// Palm size along the approach axis, behind the fingers (m).
+        palm_depth: f64,
+    }
+}
+
+impl PyFingerGeometry {
+    /// From the model's finger geometry.
+    pub(crate) fn new(f: &ferrobot_model::FingerGeometry) -> Self {
+        Self {
+            depth: f.depth,
+            thickness: f.thickness,
+            height: f.height,
+            palm_width: f.palm_width,
+            palm_height: f.palm_height,
+            palm_depth: f.palm_depth,
+        }
+    }
+}
+
+result_class! {
+    /// The grasp detector's hand geometry derived from a gripper
+    /// (`Gripper.detection_options()`; the `DetectOptions` fields of the
+    /// same names), metres.
+    PyGripperDetection, "GripperDetection" {
+        /// Largest opening between the fingers' inner faces (m).
+        max_width: f64,
+        /// Finger length along the approach axis the detector uses (m).
+        finger_depth: f64,
+        /// Finger thickness along the closing axis (m).
+        finger_width: f64,
+        /// Finger size along the third axis (m).
+        height: f64,
+        /// Hand housing size along the closing axis (m).
+        palm_width: f64,
+        /// Hand housing size along the third axis (m).
+        palm_height: f64,
+        /// Hand housing size along the approach axis (m).
+        palm_depth: f64,
+    }
+}
+
+impl PyGripperDetection {
+    /// From the detector's gripper geometry.
+    pub(crate) fn new(g: &ferrobot_grasp::GripperGeometry) -> Self {
+        Self {
+            max_width: g.max_width,
+            finger_depth: g.finger_depth,
+            finger_width: g.finger_width,
+            height: g.height,
+            palm_width: g.palm_width,
+            palm_height: g.palm_height,
+            palm_depth: g.palm_depth,
+        }
+    }
+}
+
 /// Registers the result classes.
 pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyPlanTimes>()?;
@@ -713,5 +782,7 @@ pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyUrdfFinding>()?;
     m.add_class::<PyUrdfCheckReport>()?;
     m.add_class::<PyLoadedMesh>()?;
+    m.add_class::<PyFingerGeometry>()?;
+    m.add_class::<PyGripperDetection>()?;
     Ok(())
 }

@@ -94,7 +94,7 @@ def write_episode(out: Path, result: EpisodeResult, *deprecated) -> dict[str, Pa
     paths = {}
     report = {"result": result.to_dict(), "scene": ep.spec.to_dict()}
     if ep.gripper is not None:  # what `ferrobot view` needs to draw this robot's grasp
-        report["gripper"] = {"name": ep.gripper.name, **ep.gripper.detection_options()}
+        report["gripper"] = {"name": ep.gripper.name, **ep.gripper.detection_options().to_dict()}
     if ep.choice is not None:
         g = ep.grasps_world[ep.choice]
         report["grasp"] = {

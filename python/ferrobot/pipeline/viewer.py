@@ -331,7 +331,7 @@ def gripper_lines(grasps, gripper=None) -> np.ndarray:
     if gripper is None:
         return grasps.gripper_lines()
     o = gripper.detection_options()
-    return grasps.gripper_lines(finger_depth=o["finger_depth"], finger_width=o["finger_width"])
+    return grasps.gripper_lines(finger_depth=o.finger_depth, finger_width=o.finger_width)
 
 
 #: The page: HTML, CSS and the canvas renderer, with __TITLE__ and __DATA__ to fill in.
