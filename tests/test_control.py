@@ -77,7 +77,7 @@ def test_bad_arguments():
         ControlStepper(world, robot, control_hz=480.0)
     with pytest.raises(InvalidArgumentError, match="control_hz"):
         ControlStepper(world, robot, control_hz=float("nan"))
-    with pytest.raises(InvalidArgumentError, match="arm_joint_indices"):
+    with pytest.raises(InvalidArgumentError, match="arm_joint_indices"), pytest.warns(DeprecationWarning):
         ControlStepper(world, robot, arm_joint_indices=[0, 99])
     s = ControlStepper(world, robot)
     a = s.hold_action()
@@ -133,13 +133,13 @@ def test_observation_contract():
 def test_wrist_camera_moves_with_the_hand():
     spec, world, robot, camera = _world(2)
     cams = make_cameras(world, robot, camera.world_transform, [CameraSpec("wrist", 32, 24)])
-    before = cams["wrist"].get_world_transform()
+    before = cams["wrist"].world_transform
     s = ControlStepper(world, robot)
     a = s.hold_action()
     a[0] += 0.3
     for _ in range(5):
         s.step(a)
-    after = cams["wrist"].get_world_transform()
+    after = cams["wrist"].world_transform
     hand = robot.get_link_pose("panda_hand")
     assert np.linalg.norm(after[:3, 3] - before[:3, 3]) > 0.05
     # Its pose relative to the hand is the configured one.

@@ -22,6 +22,7 @@ from grasp_scenes import (
 )
 from scipy.spatial.transform import Rotation
 
+import ferrobot.camera
 import ferrobot.grasp as fg
 from ferrobot.errors import InvalidArgumentError, NonFiniteError, ShapeError
 from ferrobot.transforms import quat_wxyz_to_xyzw
@@ -51,26 +52,35 @@ def _rotation_angle(a, b):
 # --- back-projection -------------------------------------------------------------------------
 
 
+def _backproject(depth, fx, fy, cx, cy, scale):
+    """The supported back-projection (``ferrobot.camera``) for a (H, W) depth image."""
+    k = ferrobot.camera.Intrinsics(depth.shape[1], depth.shape[0], fx, fy, cx, cy, scale)
+    return ferrobot.camera.backproject(depth, k)
+
+
 def test_backproject_equals_the_pinhole_formula():
+    """The deprecated ``ferrobot.grasp.backproject`` still works (and warns) for one release."""
     rng = np.random.default_rng(1)
     depth = rng.integers(0, 3000, size=(24, 32)).astype(np.uint16)
     depth[rng.random(depth.shape) < 0.2] = 0
     fx, fy, cx, cy, scale = 410.0, 420.0, 15.2, 11.7, 1000.0
-    pts, pix = fg.backproject(depth, fx, fy, cx, cy, scale)
+    with pytest.warns(DeprecationWarning, match="backproject"):
+        pts, pix = fg.backproject(depth, fx, fy, cx, cy, scale)
     v, u = np.nonzero(depth)
     z = depth[v, u] / scale
     want = np.stack([(u - cx) / fx * z, (v - cy) / fy * z, z], axis=1)
     np.testing.assert_array_equal(pix, np.stack([v, u], axis=1))
     np.testing.assert_allclose(pts, want, rtol=0, atol=1e-12)
     lims = [-0.5, 0.5, -0.4, 0.4, 0.5, 2.0]
-    pts_ws, _ = fg.backproject(depth, fx, fy, cx, cy, scale, workspace=lims)
+    with pytest.warns(DeprecationWarning, match="backproject"):
+        pts_ws, _ = fg.backproject(depth, fx, fy, cx, cy, scale, workspace=lims)
     keep = np.all((want >= np.array(lims[0::2])) & (want <= np.array(lims[1::2])), axis=1)
     np.testing.assert_allclose(pts_ws, want[keep], atol=1e-12)
 
 
 def test_rendered_frame_back_projects_onto_the_true_surfaces(scene_frame):
     scene, cam, depth, labels = scene_frame
-    pts, pix = fg.backproject(depth, FX, FY, CX, CY, 1.0)
+    pts, pix = _backproject(depth, FX, FY, CX, CY, 1.0)
     world = fg.transform_points(pts, cam)
     on_object = labels[pix[:, 0], pix[:, 1]] > 0
     # table pixels lie on z = 0; object pixels on the objects' surfaces (not inside them by > 1 mm)
@@ -183,7 +193,7 @@ def test_mask_and_object_id_select_where_grasps_are_sought(scene_frame):
 
 def test_point_cloud_input_in_the_world_frame(scene_frame):
     scene, cam, depth, labels = scene_frame
-    pts, pix = fg.backproject(depth, FX, FY, CX, CY, 1.0)
+    pts, pix = _backproject(depth, FX, FY, CX, CY, 1.0)
     world = fg.transform_points(pts, cam)
     gg = fg.detect(
         world,
@@ -354,14 +364,19 @@ def test_panda_hand_frame():
     rows[0, 4:13] = R.ravel()
     rows[0, 13:16] = [0.1, 0.2, 0.3]
     gg = fg.GraspGroup(rows)
-    H = gg.to_panda_hand()[0]
+    with pytest.warns(DeprecationWarning, match="to_panda_hand"):
+        H = gg.to_panda_hand()[0]
     np.testing.assert_allclose(H[:3, 2], R[:, 0], atol=1e-12)  # hand z = grasp approach (x)
     np.testing.assert_allclose(H[:3, 1], R[:, 1], atol=1e-12)  # hand y = closing axis
     np.testing.assert_allclose(np.linalg.det(H[:3, :3]), 1.0, atol=1e-12)
     tcp = H[:3, 3] + fg.PANDA_TCP_OFFSET * H[:3, 2]
     np.testing.assert_allclose(tcp, rows[0, 13:16] + 0.03 * R[:, 0], atol=1e-12)
-    np.testing.assert_allclose(gg[0].to_panda_hand(), H, atol=1e-12)
-    np.testing.assert_allclose(fg.to_panda_hand(gg)[0], H, atol=1e-12)
+    with pytest.warns(DeprecationWarning, match="to_panda_hand") as caught:
+        np.testing.assert_allclose(gg[0].to_panda_hand(), H, atol=1e-12)
+        np.testing.assert_allclose(fg.to_panda_hand(gg)[0], H, atol=1e-12)
+        np.testing.assert_allclose(fg.to_panda_hand(gg[0]), H, atol=1e-12)
+    # Each warning points at the caller (this file), not into the package.
+    assert [w.filename for w in caught] == [__file__] * 3
 
 
 # --- errors ------------------------------------------------------------------------------------
@@ -382,7 +397,7 @@ def test_bad_inputs_raise_clear_errors():
         fg.detect_from_rgbd(d, 0, 500, 2, 2)
     with pytest.raises(NonFiniteError, match="fy must be finite"):
         fg.detect_from_rgbd(d, 500, float("nan"), 2, 2)
-    with pytest.raises(InvalidArgumentError, match="depth scale"):
+    with pytest.raises(InvalidArgumentError, match="depth scale"), pytest.warns(DeprecationWarning):
         fg.backproject(d, 500, 500, 2, 2, scale=-1)
     with pytest.raises(ShapeError, match="mask"):
         fg.detect_from_rgbd(d, 500, 500, 2, 2, mask=np.ones((3, 3), dtype=bool))

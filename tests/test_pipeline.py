@@ -141,7 +141,7 @@ def test_episode_record_and_deprecated_spellings(pp, tmp_path):
     r = pp.run(unreachable, record_frames=True)
     ep = r.episode
     assert isinstance(ep, Episode) and ep.result is r and ep.spec is unreachable
-    assert ep.frame["depth"].shape == (480, 640) and len(ep.grasps_world) > 0
+    assert ep.frame.depth.shape == (480, 640) and len(ep.grasps_world) > 0
     assert ep.choice is None and ep.q_pre is None and ep.hand_grasp is None
     assert "episode" not in r.to_dict()
 

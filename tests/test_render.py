@@ -107,7 +107,7 @@ def test_generation_randomises_lighting_and_wrist_camera_deterministically():
     cams = make_cameras(world, robot, camera.world_transform, episode_cameras(cfg, rand))
     wc = rand["wrist_camera"]
     want = robot.get_link_pose("panda_hand") @ ferrobot.look_at(wc["eye"], wc["target"], (1, 0, 0))
-    np.testing.assert_allclose(cams["wrist"].get_world_transform(), want, atol=1e-9)
+    np.testing.assert_allclose(cams["wrist"].world_transform, want, atol=1e-9)
     # Without randomisation: default lighting and the nominal wrist pose.
     spec0, rand0 = episode_spec({**cfg, "randomize": False}, 1)
     assert rand0 == {}

@@ -55,7 +55,7 @@ def test_spherized_urdf_robot_uses_its_own_spheres(rel):
                 sorted(map(tuple, got)), sorted(ref), rtol=0, atol=1e-12, err_msg=f"{rel}: {link}"
             )
     report = ferrobot.SphereModel.automatic(model).report
-    assert all(r["max_protrusion"] == 0.0 for r in report)
+    assert all(r.max_protrusion == 0.0 for r in report)
 
 
 # --- SRDF as found: warn and skip like MoveIt's srdfdom, strict=True raises ---------------------

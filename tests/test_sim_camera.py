@@ -147,10 +147,15 @@ def test_backprojection_lands_on_the_plane():
     assert len(pts) == np.isfinite(depth).sum() == len(idx)
     world = pts @ pose[:3, :3].T + pose[:3, 3]
     assert np.abs(world[:, 2]).max() < 1e-5
-    # the free function with explicit intrinsics agrees
+    # the free function with explicit intrinsics agrees (ferrobot.camera's, pixels as (row, column)), and so
+    # does the deprecated ferrobot.depth_to_points (flat indices) for its last release
     k = cam.intrinsic_matrix
-    pts2, idx2 = ferrobot.depth_to_points(depth, k[0, 0], k[1, 1], k[0, 2], k[1, 2])
-    assert np.array_equal(pts, pts2) and np.array_equal(idx, idx2)
+    intr = ferrobot.camera.Intrinsics(depth.shape[1], depth.shape[0], k[0, 0], k[1, 1], k[0, 2], k[1, 2], 1.0)
+    pts2, pix2 = ferrobot.camera.backproject(depth, intr)
+    assert np.array_equal(pts, pts2) and np.array_equal(idx, pix2[:, 0] * depth.shape[1] + pix2[:, 1])
+    with pytest.warns(DeprecationWarning, match="depth_to_points"):
+        pts3, idx3 = ferrobot.depth_to_points(depth, k[0, 0], k[1, 1], k[0, 2], k[1, 2])
+    assert np.array_equal(pts, pts3) and np.array_equal(idx, idx3)
     # points project back onto their pixels
     uv = pts[:, :2] / pts[:, 2:] * [k[0, 0], k[1, 1]] + [k[0, 2], k[1, 2]]
     assert np.allclose(uv[:, 0], idx % 96, atol=1e-6) and np.allclose(uv[:, 1], idx // 96, atol=1e-6)

@@ -75,7 +75,7 @@ def test_mass_matrix_matches_pinocchio_crba(which):
             # After a step with the arm moving: the matrix of the new pose.
             r.set_joint_velocities(rng.uniform(-0.5, 0.5, model.num_dof))
             w.step()
-            q = r.get_joint_positions()
+            q = r.joint_positions
         m = r.mass_matrix()
         ref = pin_mass_matrix(pm, pdata, model, q)
         assert m.shape == ref.shape == (model.num_dof, model.num_dof)

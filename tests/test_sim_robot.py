@@ -161,13 +161,14 @@ def test_position_and_velocity_targets():
     r = w.add_robot(model, q=PANDA_Q0)
     target = PANDA_Q0.copy()
     target[[0, 3]] += [0.4, 0.3]
-    r.set_joint_position_targets(target[[0, 3]], joint_indices=[0, 3])
+    names = r.dof_names
+    r.set_joint_position_targets(target[[0, 3]], joint_names=[names[0], names[3]])
     assert r.joint_position_targets == pytest.approx(target)
     w.step(480)
     assert r.joint_positions == pytest.approx(target, abs=2e-3)
     # pure velocity drive on joint 1
-    r.set_drive_gains([0.0], [200.0], joint_indices=[0])
-    r.set_joint_velocity_targets([0.5], joint_indices=[0])
+    r.set_drive_gains([0.0], [200.0], joint_names=[names[0]])
+    r.set_joint_velocity_targets([0.5], joint_names=[names[0]])
     w.step(240)
     assert r.joint_velocities[0] == pytest.approx(0.5, abs=0.01)
     g = r.drive_gains
@@ -238,7 +239,7 @@ def test_mimic_fingers_move_together():
     w = ferrobot.World()
     r = w.add_robot(model, q=PANDA_Q0)
     for opening in (0.01, 0.035):
-        r.set_joint_position_targets([opening], joint_indices=[7])
+        r.set_joint_position_targets([opening], joint_names=["panda_finger_joint1"])
         w.step(240)
         hand = r.get_link_pose("panda_hand")
         left = np.linalg.inv(hand) @ r.get_link_pose("panda_leftfinger")
@@ -519,20 +520,23 @@ def test_robot_invalid_inputs(ur5):
     model = ferrobot.robots.panda()
     w = ferrobot.World()
     r = w.add_robot(model, name="panda")
-    with pytest.raises(errors.UnknownNameError, match="joint index 9"):
+    # the deprecated index spelling still validates (and warns) for its last release
+    with pytest.raises(errors.UnknownNameError, match="joint index 9"), pytest.warns(DeprecationWarning):
         r.set_joint_position_targets([0.0], joint_indices=[9])
-    with pytest.raises(errors.UnknownNameError):
+    with pytest.raises(errors.UnknownNameError), pytest.warns(DeprecationWarning):
         r.set_joint_position_targets([0.0], joint_indices=[-1])
+    with pytest.raises(errors.UnknownNameError, match="no_such_joint"):
+        r.set_joint_position_targets([0.0], joint_names=["no_such_joint"])
     with pytest.raises(errors.ShapeError):
         r.set_joint_positions([0.0, 1.0])
     with pytest.raises(errors.ShapeError):
-        r.set_joint_position_targets([0.0, 1.0], joint_indices=[0])
+        r.set_joint_position_targets([0.0, 1.0], joint_names=["panda_joint1"])
     with pytest.raises(errors.NonFiniteError):
         r.set_joint_positions([np.nan] * 8)
     with pytest.raises(errors.NonFiniteError):
         r.set_joint_velocity_targets([np.inf] * 8)
     with pytest.raises(errors.InvalidArgumentError, match="twice"):
-        r.set_joint_position_targets([0.0, 0.0], joint_indices=[1, 1])
+        r.set_joint_position_targets([0.0, 0.0], joint_names=["panda_joint2", "panda_joint2"])
     with pytest.raises(errors.InvalidArgumentError, match="stiffness"):
         r.set_drive_gains([-1.0] * 8, [0.0] * 8)
     with pytest.raises(errors.InvalidArgumentError, match="max_force"):

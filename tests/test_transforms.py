@@ -40,3 +40,21 @@ def test_bad_input():
         T.quat_to_matrix([np.nan, 0, 0, 1])
     with pytest.raises(E.NonFiniteError, match="zero-length"):
         T.quat_to_matrix([0, 0, 0, 0])
+
+
+@pytest.mark.filterwarnings("error")
+def test_matrices_near_the_float64_limit_are_rejected_without_numpy_warnings():
+    """Huge finite entries overflow R^T R to inf and, with mixed signs, to NaN (inf - inf); NaN must count
+    as "not a rotation" (a NaN comparison is False) and the overflow must not leak a RuntimeWarning."""
+    big = 1e200
+    mixed = np.array([[big, -big, big], [-big, big, -big], [big, big, -big]])
+    with np.errstate(over="ignore", invalid="ignore"):
+        gram = mixed.T @ mixed - np.eye(3)
+    assert np.isnan(gram).any() or np.isinf(gram).any()  # the case this test is about
+    for m in (mixed, np.full((3, 3), big), np.diag([big, 1.0, 1.0])):
+        with pytest.raises(E.InvalidArgumentError, match="not a rotation"):
+            T.matrix_to_quat(m)
+        pose = np.eye(4)
+        pose[:3, :3] = m
+        with pytest.raises(E.InvalidArgumentError, match="not a rotation"):
+            T.matrix_to_pose(pose)

@@ -140,9 +140,9 @@ def test_hand_built_usd_in_centimetres(tmp_path):
     p = T[:3, :3] @ [0.2, 0, 0] + T[:3, 3]
     assert p == pytest.approx([0.2 * math.cos(a), 0, 0.5 - 0.2 * math.sin(a)], abs=1e-9)
     inert = m.inertial("upper")
-    assert inert["mass"] == pytest.approx(2.0)
-    assert inert["origin"][:3, 3] == pytest.approx([0.1, 0, 0])
-    inertia = inert["origin"][:3, :3] @ inert["inertia"] @ inert["origin"][:3, :3].T
+    assert inert.mass == pytest.approx(2.0)
+    assert inert.origin[:3, 3] == pytest.approx([0.1, 0, 0])
+    inertia = inert.origin[:3, :3] @ inert.inertia @ inert.origin[:3, :3].T
     assert np.diag(inertia) == pytest.approx([0.01, 0.02, 0.03])
     (g,) = m.collision_geometry("upper")
     assert g["type"] == "capsule" and g["radius"] == pytest.approx(0.03) and g["length"] == pytest.approx(0.2)

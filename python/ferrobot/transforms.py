@@ -35,9 +35,12 @@ def _check_rotation(r: np.ndarray, name: str) -> None:
     flat = r.reshape(-1, 3, 3)
     if flat.shape[0] == 0:
         return
-    err = np.abs(np.swapaxes(flat, -1, -2) @ flat - np.eye(3)).max(axis=(-1, -2))
-    det = np.linalg.det(flat)
-    bad = np.flatnonzero((err > ROTATION_TOLERANCE) | (det <= 0))
+    # Entries near the float64 limit overflow to inf or NaN (inf - inf) here; the comparisons below are
+    # written so that NaN counts as "not a rotation", and the overflow itself is expected, not a warning.
+    with np.errstate(over="ignore", invalid="ignore"):
+        err = np.abs(np.swapaxes(flat, -1, -2) @ flat - np.eye(3)).max(axis=(-1, -2))
+        det = np.linalg.det(flat)
+    bad = np.flatnonzero(~(err <= ROTATION_TOLERANCE) | ~(det > 0))
     if bad.size:
         i = int(bad[0])
         raise InvalidArgumentError(
