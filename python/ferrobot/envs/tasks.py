@@ -58,6 +58,7 @@ from .. import _core, robots, transforms
 from ..control import DEFAULT_CAMERAS, CameraSpec, ControlStepper, make_cameras, observe, tcp_pose
 from ..dataset.generate import apply_lighting, scene_fov, scene_from_dict
 from ..errors import FerrobotError, InvalidArgumentError, NonFiniteError, ShapeError
+from ..pipeline.pick_place import placement_failure
 from ..pipeline.scene import (
     BASE_POSE,
     TABLE_TOP,
@@ -568,7 +569,9 @@ class PickPlaceEnv(_ObjectTask):
 
     Success: the target's centre within 3 cm of the place location in x, y; resting upright (centre within
     1 cm of its resting height, spheres and mesh objects excepted; speed under 5 cm/s); the gripper open (the
-    last command at most 0.5).
+    last command at most 0.5). The placement part is the pipeline's own criterion
+    (:func:`ferrobot.pipeline.pick_place.placement_failure`), so a recorded pipeline success is an
+    environment success.
     ``observation.environment_state`` (10,): the target's pose [x, y, z, qw, qx, qy, qz] and the place
     location [x, y, z] (on the table top), both in the robot base frame."""
 
@@ -582,15 +585,17 @@ class PickPlaceEnv(_ObjectTask):
 
     def _evaluate(self) -> tuple[bool, str, float]:
         p = self._object_pos(self.target)
-        rise = self._rise()
+        self._rise()
         err = float(np.hypot(p[0] - self.spec_scene.place_xy[0], p[1] - self.spec_scene.place_xy[1]))
         speed = float(np.linalg.norm(self.world.get_object_velocity(self.target)[0]))
-        # Spheres and mesh objects (placed on whatever face they land on) have no upright pose to check.
-        upright = abs(rise) <= 0.01 or self.target_spec.kind in ("sphere", "mesh")
-        if err > self.place_tolerance:
+        # The pipeline's criterion (one definition: ferrobot.pipeline.pick_place.placement_failure).
+        placed, _ = placement_failure(
+            p, speed, self.rest_z, self.spec_scene.place_xy, self.target_spec.kind, self.place_tolerance
+        )
+        if placed == "not_at_place":
             cause = "not_lifted" if self.max_rise < 0.02 else "not_at_place"
-        elif not upright or speed > 0.05:
-            cause = "not_resting"
+        elif placed:
+            cause = placed
         elif self.stepper.gripper_closed:
             cause = "not_released"
         else:

@@ -74,6 +74,34 @@ class StageFailure(Exception):
         self.reason = reason
 
 
+#: Largest speed (m/s) at which a placed object counts as resting: the one criterion of a successful place,
+#: shared by :meth:`PickPlace.verify` and :class:`ferrobot.envs.PickPlaceEnv`.
+REST_SPEED = 0.05
+#: Largest offset (m) of a placed box's or cylinder's centre from its resting height (upright on the table).
+UPRIGHT_TOLERANCE = 0.01
+#: Longest time (s) :meth:`PickPlace.verify` waits, after the first 0.3 s, for a placed object to come to rest.
+SETTLE_WAIT = 1.0
+
+
+def placement_failure(
+    position, speed: float, rest_z: float, place_xy, kind: str, place_tolerance: float
+) -> tuple[str, str]:
+    """Whether an object at ``position`` (x, y, z in the world, m) moving at ``speed`` (m/s) is placed:
+    ``("", "")`` if so, else ``(cause, message)`` with cause ``"not_at_place"`` (centre further than
+    ``place_tolerance`` from ``place_xy`` in x, y) or ``"not_resting"`` (faster than :data:`REST_SPEED`, or,
+    for kinds other than ``"sphere"`` and ``"mesh"``, which have no upright pose, its centre more than
+    :data:`UPRIGHT_TOLERANCE` from ``rest_z``). The one definition of a successful place, used by the
+    pipeline's ``verify`` and the Gymnasium ``PickPlaceEnv``."""
+    err = float(np.hypot(position[0] - place_xy[0], position[1] - place_xy[1]))
+    if err > place_tolerance:
+        return "not_at_place", f"object rests {1e3 * err:.0f} mm from the place location"
+    if abs(position[2] - rest_z) > UPRIGHT_TOLERANCE and kind not in ("sphere", "mesh"):
+        return "not_resting", f"object is not resting upright on the table (centre {position[2]:.3f} m)"
+    if speed > REST_SPEED:
+        return "not_resting", f"object still moving at {1e3 * speed:.0f} mm/s"
+    return "", ""
+
+
 @dataclass
 class PickPlaceConfig:
     """Settings of the pick-and-place workflow (SI units)."""
@@ -695,22 +723,32 @@ class PickPlace:
         self._stage("retreat", retreat)
 
     def verify(self) -> dict:
-        self.episode.recorder.wait(0.3, "verify")
-        pose = self.episode.world.get_object_pose(self.episode.spec.target)
-        err = float(np.hypot(pose[0, 3] - self.episode.spec.place_xy[0], pose[1, 3] - self.episode.spec.place_xy[1]))
-        spec = self.episode.spec.object(self.episode.spec.target)
+        """Waits 0.3 s, then up to :data:`SETTLE_WAIT` more while the object still moves faster than
+        :data:`REST_SPEED`, and judges the place with :func:`placement_failure`."""
+        ep = self.episode
+        world, target = ep.world, ep.spec.target
+        ep.recorder.wait(0.3, "verify")
+        waited = 0.0
+        while np.linalg.norm(world.get_object_velocity(target)[0]) > REST_SPEED and waited < SETTLE_WAIT - 1e-9:
+            ep.recorder.wait(0.1, "verify")
+            waited += 0.1
+        pose = world.get_object_pose(target)
+        spec = ep.spec.object(target)
         rest_z = TABLE_TOP + spec.height / 2
-        lin, _ = self.episode.world.get_object_velocity(self.episode.spec.target)
-        self.episode.result.place_error_m = err
+        speed = float(np.linalg.norm(world.get_object_velocity(target)[0]))
+        err = float(np.hypot(pose[0, 3] - ep.spec.place_xy[0], pose[1, 3] - ep.spec.place_xy[1]))
+        ep.result.place_error_m = err
         detail = {
             "place_error_mm": 1e3 * err,
             "height_error_mm": 1e3 * (pose[2, 3] - rest_z),
-            "speed_mm_s": 1e3 * float(np.linalg.norm(lin)),
+            "speed_mm_s": 1e3 * speed,
+            "settle_wait_s": waited,
         }
-        if err > self.config.place_tolerance:
-            raise StageFailure("verify", f"object rests {1e3 * err:.0f} mm from the place location")
-        if abs(pose[2, 3] - rest_z) > 0.01 and spec.kind not in ("sphere", "mesh"):
-            raise StageFailure("verify", f"object is not resting upright on the table (centre {pose[2, 3]:.3f} m)")
+        cause, message = placement_failure(
+            pose[:3, 3], speed, rest_z, ep.spec.place_xy, spec.kind, self.config.place_tolerance
+        )
+        if cause:
+            raise StageFailure("verify", message)
         return detail
 
     # -- helpers used by stages -----------------------------------------------------------------------------
