@@ -9,7 +9,10 @@ metres, segmentation as the mask):
 - ``cylinder``: a 3 cm radius, 12 cm tall cylinder alone, its id as ``object_id``;
 - ``clutter``: seven boxes and cylinders 1-3 cm apart, grasps sought on the middle one (``object_id=1``);
 - ``clutter-all``: the same, grasps sought on every object (mask without ``object_id``);
-- ``bin``: the clutter in a 32 x 32 x 12 cm bin, ``object_id=1``.
+- ``bin``: the clutter in a 32 x 32 x 12 cm bin, ``object_id=1``;
+- ``mesh``: a mesh object, ``pybullet_data/random_urdfs/000`` (its convex hull, as ``benches/grasp_eval.py``
+  simulates it), settled on a table in a ferrobot ``World`` and rendered by its ``Camera`` (525 px, 0.6 m away,
+  50 degrees down), its id as ``object_id``.
 
 Each ``--build`` (default: the installed ferrobot, named ``current``) runs in its own worker process with
 ``PYTHONPATH`` set to the given folder (a copy of another build's ``python/`` tree holding its
@@ -31,10 +34,12 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from grasp_scenes import CX, CY, FX, FY, Box, Cylinder, Scene, clutter_scene, look_at, render  # noqa: E402
 
-FRAMES = ("box", "cylinder", "clutter", "clutter-all", "bin")
+FRAMES = ("box", "cylinder", "mesh", "clutter", "clutter-all", "bin")
+MESH = "random_urdfs/000/000.urdf"
 
 
 def frames() -> dict:
@@ -45,27 +50,43 @@ def frames() -> dict:
         ("cylinder", Cylinder(radius=0.03, height=0.12, label=1)),
     ):
         depth, labels = render(Scene(objects=[obj]), cam)
-        out[name] = (depth, labels, 1)
+        out[name] = (depth, labels, 1, (FX, FY, CX, CY))
+    out["mesh"] = mesh_frame()
     for name, with_bin in (("clutter", False), ("bin", True)):
         scene, ccam = clutter_scene(with_bin)
         depth, labels = render(scene, ccam)
-        out[name] = (depth, labels, 1)
+        out[name] = (depth, labels, 1, (FX, FY, CX, CY))
         if not with_bin:
-            out["clutter-all"] = (depth, labels, None)
+            out["clutter-all"] = (depth, labels, None, (FX, FY, CX, CY))
     return out
+
+
+def mesh_frame():
+    """The ``mesh`` frame: ``grasp_eval.py``'s scene (table, settled object, camera) for one fixed mesh."""
+    import random
+
+    import grasp_eval as ge
+    import numpy as np
+    import pybullet_data
+
+    spec = ge.make_spec(Path(pybullet_data.getDataPath()) / MESH)
+    scene = ge.Scene(spec, random.Random(0))
+    frame = scene.camera.render(rgb=False)
+    depth = np.where(np.isfinite(frame.depth), frame.depth, 0.0)
+    return depth, frame.segmentation, scene.object_id, (ge.F, ge.F, ge.CX, ge.CY)
 
 
 def worker(runs: int) -> int:
     import ferrobot.grasp as fg
 
     res = {}
-    for name, (depth, labels, oid) in frames().items():
+    for name, (depth, labels, oid, (fx, fy, cx, cy)) in frames().items():
         kw = {"mask": labels} if oid is None else {"mask": labels, "object_id": oid}
-        fg.detect_from_rgbd(depth, FX, FY, CX, CY, 1.0, **kw)  # warm-up
+        fg.detect_from_rgbd(depth, fx, fy, cx, cy, 1.0, **kw)  # warm-up
         wall, cpu = [], []
         for _ in range(runs):
             t0, c0 = time.perf_counter(), time.process_time()
-            gg = fg.detect_from_rgbd(depth, FX, FY, CX, CY, 1.0, **kw)
+            gg = fg.detect_from_rgbd(depth, fx, fy, cx, cy, 1.0, **kw)
             wall.append(time.perf_counter() - t0)
             cpu.append(time.process_time() - c0)
         res[name] = {"wall": wall, "cpu": cpu, "grasps": len(gg)}
