@@ -22,7 +22,7 @@ Per object, in a fresh ``ferrobot.World`` (240 Hz):
   segmentation; ``detect_from_rgbd`` runs with default options, the object's mask and, as the
   preferred approach direction, the world's -z in the camera frame (``--camera-approach``: the
   camera's view, the detector's default); the top grasp is taken (no grasp: failure in both judges);
-  the Panda hand pose comes from ``to_panda_hand`` with the TCP at the fingertips of the simulated
+  the Panda hand pose comes from ``hand_poses`` (the gripper's ``to_hand``) with the TCP at the fingertips of the simulated
   finger meshes (0.112 m);
 - a **floating Panda hand** executes it: the Panda hand and finger collision meshes of
   ``pybullet_data/franka_panda`` on three prismatic joints along the hand's own axes (a URDF written
@@ -77,6 +77,17 @@ MIN_RISE = 0.08
 MIN_OPENING = 0.002
 # fingertip centre of pybullet_data's Panda finger meshes: joint at 0.0584 m + 0.0538 m finger
 TCP_OFFSET = 0.0584 + 0.0538
+PANDA_HAND = ferrobot.Gripper.panda_hand()
+
+
+def hand_poses(grasps) -> np.ndarray:
+    """(N, 4, 4) poses of the simulated hand's ``panda_hand`` frame for ``grasps``: the Panda gripper's hand
+    pose (``to_hand``), moved back along its approach so that the fingertips of pybullet_data's finger
+    meshes (``TCP_OFFSET`` from the hand frame, not the gripper's 0.1034 m TCP) are on the grasp."""
+    hands = grasps.to_hand(PANDA_HAND)
+    hands[:, :3, 3] -= (TCP_OFFSET - PANDA_HAND.tcp[2]) * hands[:, :3, 2]
+    return hands
+
 
 HAND_URDF = """<?xml version="1.0"?>
 <robot name="floating_panda_hand">
@@ -426,7 +437,9 @@ def outcome(obj_z0: float, obj_z: float, opening: float) -> bool:
 def judge_ferrobot(scene: Scene, hand_model, base: np.ndarray, steps) -> dict:
     w = scene.world
     robot = w.add_robot(hand_model, pose7(base), name="hand", q=np.array([0, 0, 0, OPEN, OPEN]))
-    robot.set_drive_gains(stiffness=[2.0e4, 2.0e4, 2.0e4], damping=[1.0e3, 1.0e3, 1.0e3], joint_indices=[0, 1, 2])
+    names = robot.dof_names
+    slide, fingers = names[:3], names[3:]
+    robot.set_drive_gains(stiffness=[2.0e4, 2.0e4, 2.0e4], damping=[1.0e3, 1.0e3, 1.0e3], joint_names=slide)
     robot.set_gripper(["panda_finger_joint1", "panda_finger_joint2"], [OPEN, OPEN], [0.0, 0.0])
     robot.set_joint_position_targets(np.array([0, 0, 0, OPEN, OPEN]))
     p0 = w.get_object_pose("object")[:3, 3]
@@ -435,21 +448,21 @@ def judge_ferrobot(scene: Scene, hand_model, base: np.ndarray, steps) -> dict:
     k_close = -1
     diag = {}
     for k, (target, force) in enumerate(steps):
-        robot.set_joint_position_targets(target[:3], joint_indices=[0, 1, 2])
+        robot.set_joint_position_targets(target[:3], joint_names=slide)
         if force > 0 and not closing:
-            q = robot.get_joint_positions()
+            q = robot.joint_positions
             diag["approach_error"] = float(PREGRASP - q[2])
             diag["pushed"] = float(np.linalg.norm(w.get_object_pose("object")[:3, 3] - p0))
             robot.close_gripper(force=force)
             closing = True
             k_close = k
         if closing and k == k_close + int(CLOSE_S / DT) - 1:
-            q = robot.get_joint_positions()
+            q = robot.joint_positions
             diag["closed_opening"] = float(q[3] + q[4])
         elif force == 0:
-            robot.set_joint_position_targets(target[3:], joint_indices=[3, 4])
+            robot.set_joint_position_targets(target[3:], joint_names=fingers)
         w.step(1)
-    q = robot.get_joint_positions()
+    q = robot.joint_positions
     z = w.get_object_pose("object")[2, 3]
     return {"success": outcome(z0, z, q[3] + q[4]), "rise": z - z0, "opening": q[3] + q[4], **diag}
 
@@ -589,7 +602,7 @@ def evaluate(
                         rec["pybullet"] = {"success": False, "reason": "no grasp"}
                 else:
                     top = gg[:1].transform(fg.camera_to_world(scene.cam_pose, "opencv"))
-                    hand = top.to_panda_hand(TCP_OFFSET)[0]
+                    hand = hand_poses(top)[0]
                     base = hand.copy()
                     base[:3, 3] -= PREGRASP * hand[:3, 2]
                     rec.update(score=float(top.scores[0]), width=float(top.widths[0]), hand_pose=hand.tolist())
