@@ -1118,6 +1118,7 @@ class _DetectOverrides(TypedDict, total=False):
     body_collision: bool
     single_object: bool
     occlusion: bool
+    wall_approaches: bool
     max_width: float
     finger_depth: float
     finger_width: float
@@ -1192,6 +1193,7 @@ class DetectOptions:
     body_collision: bool
     single_object: bool
     occlusion: bool
+    wall_approaches: bool
     max_width: float
     finger_depth: float
     finger_width: float
