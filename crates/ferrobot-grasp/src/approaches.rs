@@ -16,8 +16,9 @@
 //! leans across its short side) and about the housing's short axis (it
 //! leans along its long side), smallest tilt first ([`TILTS`]); the first
 //! orientation whose housing, swept back along the approach, holds no
-//! obstacle point of the cloud at some fingertip depth is returned, with
-//! those depths. The hand search then runs on exactly that orientation and
+//! observed point of the cloud (nor of the far obstacles) and stays above
+//! the support plane at some fingertip depth is returned, with those
+//! depths. The hand search then runs on exactly that orientation and
 //! those depths ([`crate::candidates::hands_in_frame`]): the fingers are
 //! fitted to the object and every check of the search applies, and the
 //! housing is checked again, at the depth the search chose, after
