@@ -424,6 +424,11 @@ def summarise(scenes: list[dict], use_pybullet: bool) -> dict:
         "median_cpu_s_per_attempt": statistics.median(a["cpu_s"] for a in att) if att else None,
         "sim_s_per_pick": max((a.get("sim_s", 0.0) for a in att), default=None),
     }
+    stages: dict[str, int] = {}
+    for a in att:
+        st = a["ferrobot"].get("stage", a["ferrobot"].get("reason", "?"))
+        stages[st] = stages.get(st, 0) + 1
+    out["stages"] = stages
     if use_pybullet:
         out["grasp_success"]["pybullet"] = sum(a["pybullet"]["success"] for a in att) / len(att) if att else 0.0
     return out
@@ -502,6 +507,7 @@ def main() -> int:
         f"attempts {res['attempts']} ({res['attempts_per_removed_object'] or float('nan'):.2f} per removed object), "
         f"clean lifts {res['clean_lifts']}"
     )
+    print("stages: " + ", ".join(f"{k} {v}" for k, v in sorted(res["stages"].items(), key=lambda kv: -kv[1])))
     for judge, rate in res["grasp_success"].items():
         print(f"grasp success per attempt, {judge:8s}: {rate * 100:.1f}%")
     if res["attempts"]:

@@ -7,7 +7,20 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from grasp_scenes import CX, CY, FX, FY, Box, Scene, clutter_scene, hand_boxes, inside, look_at, object_volume, render
+from grasp_scenes import (
+    CX,
+    CY,
+    FX,
+    FY,
+    Box,
+    Scene,
+    clutter_scene,
+    hand_boxes,
+    inside,
+    look_at,
+    object_volume,
+    render,
+)
 
 import ferrobot.grasp as fg
 
@@ -151,3 +164,74 @@ def test_objects_lower_than_the_shallowest_depth_are_grasped_from_above(height):
     assert best.rotation_matrix[:, 0] @ np.array([0.0, 0.0, -1.0]) > np.cos(np.radians(30))
     tips = best.translation + best.depth * best.rotation_matrix[:, 0]
     assert tips[2] <= height / 2 + 1e-3
+
+
+def _against_the_walls_scene(center_xy):
+    """``benches/clutter.py``'s bin (30 x 24 cm inside, walls 10 cm tall and 1.2 cm thick, label 9) with a
+    standing slab (2.2 x 8.5 x 6.5 cm, label 1) at ``center_xy`` near the +x wall; the camera looks down
+    at 60 degrees from the +x side. The hand's housing (20.8 cm along the closing axis) fits across the
+    slab only where it leans away from the walls."""
+    ix, iy, h, t = 0.30, 0.24, 0.10, 0.012
+    walls = [
+        Box(size=(ix + 2 * t, t, h), center_xy=(0.0, iy / 2 + t / 2), label=9),
+        Box(size=(ix + 2 * t, t, h), center_xy=(0.0, -iy / 2 - t / 2), label=9),
+        Box(size=(t, iy, h), center_xy=(ix / 2 + t / 2, 0.0), label=9),
+        Box(size=(t, iy, h), center_xy=(-ix / 2 - t / 2, 0.0), label=9),
+    ]
+    objects = [Box(size=(0.022, 0.085, 0.065), center_xy=center_xy, label=1), *walls]
+    return Scene(objects=objects, table_half=0.4), look_at(eye=(0.35, 0.0, 0.6), target=(0.0, 0.0, 0.0))
+
+
+def _obb_overlap(c1, r1, h1, c2, r2, h2, tol=1e-3):
+    """Whether two oriented boxes (centre, rotation columns = axes, half sizes) overlap by more than ``tol``
+    along every separating axis (the 15 axes of the separating axis theorem)."""
+    axes = [*r1.T, *r2.T]
+    axes += [np.cross(a, b) for a in r1.T for b in r2.T]
+    d = c2 - c1
+    for ax in axes:
+        n = np.linalg.norm(ax)
+        if n < 1e-9:
+            continue
+        ax = ax / n
+        reach = np.abs(r1.T @ ax) @ h1 + np.abs(r2.T @ ax) @ h2
+        if abs(d @ ax) >= reach - tol:
+            return False
+    return True
+
+
+@pytest.mark.parametrize("center_xy", [(0.09, 0.0), (0.1, 0.07)], ids=["wall", "corner"])
+def test_objects_against_bin_walls_get_grasps_clear_of_the_walls(center_xy):
+    target = 1
+    scene, cam = _against_the_walls_scene(center_xy)
+    depth, labels = render(scene, cam)
+    cloud = backproject_world(depth, cam)
+    cloud = cloud[cloud[:, 2] > 0.003]
+    down = tuple(cam[:3, :3].T @ np.array([0.0, 0.0, -1.0]))
+    opts = dict(mask=labels, object_id=target, approach_direction=down)
+    # Seed-normal approaches alone leave no room for the housing there.
+    assert len(fg.detect_from_rgbd(depth, FX, FY, CX, CY, 1.0, wall_approaches=False, **opts)) == 0
+    gw = fg.detect_from_rgbd(depth, FX, FY, CX, CY, 1.0, **opts).transform(cam)
+    assert len(gw) >= 1
+    box = next(o for o in scene.objects if o.label == target)
+    vol = object_volume(box)
+    for g in gw:
+        # Fingers, palm and approach corridor, and the housing swept back: out of the walls, the table and
+        # the object (the analytic solids) and free of observed points.
+        for lo, hi in all_boxes(g):
+            world = grid_box(lo, hi) @ g.rotation_matrix.T + g.translation
+            hits = inside(scene, world, margin=1e-3)
+            assert not hits.any(), f"{g} penetrates the scene at {world[hits][0]}"
+            seen = points_in_box(cloud, g, lo, hi, shrink=1e-3)
+            assert not seen.any(), f"{g}: an observed point lies in the hand at {cloud[seen][0]}"
+            # Exactly, box against box: no hand box overlaps a wall of the bin (separating axes).
+            for wall in (o for o in scene.objects if o.label == 9):
+                half = np.array(wall.size) / 2
+                wc = np.array([*wall.center_xy, half[2]])
+                hc = g.translation + g.rotation_matrix @ ((lo + hi) / 2)
+                assert not _obb_overlap(hc, g.rotation_matrix, (hi - lo) / 2, wc, np.eye(3), half), (
+                    f"{g}: the hand box {lo}..{hi} overlaps the wall at {wc}"
+                )
+        # And the target is between the fingers.
+        q = (vol - g.translation) @ g.rotation_matrix
+        between = (np.abs(q[:, 2]) <= HEIGHT / 2) & (q[:, 0] >= g.depth - L_FINGER) & (q[:, 0] <= g.depth)
+        assert (between & (np.abs(q[:, 1]) <= g.width / 2)).any(), f"{g}: the target is not between the fingers"

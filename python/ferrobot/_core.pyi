@@ -1120,6 +1120,7 @@ class _DetectOverrides(TypedDict, total=False):
     body_collision: bool
     single_object: bool
     occlusion: bool
+    wall_approaches: bool
     max_width: float
     finger_depth: float
     finger_width: float
@@ -1194,6 +1195,7 @@ class DetectOptions:
     body_collision: bool
     single_object: bool
     occlusion: bool
+    wall_approaches: bool
     max_width: float
     finger_depth: float
     finger_width: float

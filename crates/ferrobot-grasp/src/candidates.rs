@@ -191,9 +191,21 @@ impl SlotScratch {
 
 /// All scored collision-free hands at `seed` (score > 0 only).
 pub fn hands_at_seed(cloud: &SurfaceCloud, seed: usize, sp: &SearchParams) -> Vec<Grasp> {
+    hands_in_frame(cloud, seed, -cloud.normal(seed), cloud.tangent(seed), sp)
+}
+
+/// [`hands_at_seed`] in a given seed frame: approach `a0` and closing axis
+/// `t0` (unit, perpendicular) instead of the seed's inward normal and
+/// tangent, turned by `sp.num_rotations` about `a0` and tilted by
+/// `sp.approach_tilts` about the closing axis as there.
+pub fn hands_in_frame(
+    cloud: &SurfaceCloud,
+    seed: usize,
+    a0: Vector3<f64>,
+    t0: Vector3<f64>,
+    sp: &SearchParams,
+) -> Vec<Grasp> {
     let p = cloud.points[seed];
-    let a0 = -cloud.normal(seed);
-    let t0 = cloud.tangent(seed);
     let b0 = a0.cross(&t0);
     let max_depth = sp.depths.iter().copied().fold(0.0, f64::max);
     let nb = cloud.within(&p, sp.gripper.reach(max_depth));

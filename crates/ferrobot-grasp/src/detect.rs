@@ -4,6 +4,7 @@
 use nalgebra::{Point3, Vector3};
 use rayon::prelude::*;
 
+use crate::approaches::hands_with_clear_approaches;
 use crate::backproject::{Intrinsics, Workspace, backproject};
 use crate::candidates::{Obstacles, SearchParams, body_collides, body_sweep_box, hands_at_seed};
 use crate::error::{GraspError, Result, positive};
@@ -75,6 +76,13 @@ pub struct DetectOptions {
     /// out of the neighbours and the walls (default true; see
     /// [`crate::candidates::body_collides`]).
     pub body_collision: bool,
+    /// Where the housing of a hand along `approach_direction` would meet
+    /// another object (a bin wall, a neighbour; any point without labels),
+    /// also search hands whose approach is chosen to keep the housing clear
+    /// of them: along `approach_direction` or tilted away from the
+    /// obstacles, with the closing axis turned to fit (see
+    /// [`crate::approaches`]; default true). Out in the open nothing changes.
+    pub wall_approaches: bool,
     /// With labels, reject hands whose closing region holds another
     /// labelled object's points (see [`SearchParams::single_object`];
     /// default true).
@@ -108,6 +116,7 @@ impl Default for DetectOptions {
             plane_threshold: 0.005,
             torque_scale: 0.01,
             body_collision: true,
+            wall_approaches: true,
             single_object: true,
             occlusion: true,
         }
@@ -378,7 +387,13 @@ fn detect_with(
     };
     let grasps: Vec<_> = seeds
         .par_iter()
-        .flat_map_iter(|&s| hands_at_seed(&cloud, s, &params))
+        .flat_map_iter(|&s| {
+            if opts.wall_approaches {
+                hands_with_clear_approaches(&cloud, Some(&far_obstacles), s, &params)
+            } else {
+                hands_at_seed(&cloud, s, &params)
+            }
+        })
         .collect();
     let margin = body_margin(opts.voxel_size);
     let kept = nms_filtered(&grasps, opts.nms_translation, opts.nms_rotation, |i| {

@@ -16,6 +16,7 @@
 //! fingers), z = x × y. The grasp translation is the hand's centre point on
 //! the surface; the fingertips reach `depth` beyond it along x.
 
+pub mod approaches;
 pub mod backproject;
 pub mod candidates;
 pub mod detect;

@@ -382,6 +382,11 @@ options_class! {
         /// With an RGB-D frame and a mask, reject fingers or palm in space
         /// hidden behind another object (default True).
         occlusion / set_occlusion: bool ["bool"] => occlusion;
+        /// Where a hand's housing along the preferred approach would meet
+        /// another object (bin walls, neighbours), also search approaches
+        /// chosen to keep it clear: straight or tilted away, the closing
+        /// axis turned to fit (default True).
+        wall_approaches / set_wall_approaches: bool ["bool"] => wall_approaches;
         /// Largest opening between the fingers, metres, > 0 (default 0.08).
         max_width / set_max_width: f64 ["float"] => gripper.max_width;
         /// Finger length along the approach, metres, > 0 (default 0.05).

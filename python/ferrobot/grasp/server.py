@@ -262,6 +262,7 @@ OPTION_RANGES: dict[str, Range] = {
     "body_collision": Range("bool", doc="check the hand body against the whole cloud"),
     "single_object": Range("bool", doc="reject grasps closing on another labelled object"),
     "occlusion": Range("bool", doc="reject hands in space hidden behind another object (RGB-D with mask)"),
+    "wall_approaches": Range("bool", doc="also search approaches that keep the housing clear of walls"),
     "max_width": Range("float", 0.0, 0.5, lo_open=True, doc="gripper opening, metres"),
     "finger_depth": Range("float", 0.0, 0.3, lo_open=True, doc="finger length, metres"),
     "finger_width": Range("float", 0.0, 0.1, lo_open=True, doc="finger thickness, metres"),
