@@ -304,14 +304,15 @@ def attempt(
         return rec
     top = gg[:1].transform(fg.camera_to_world(cam_pose, "opencv"))
     rec["target"] = ids.get(int(top.object_ids[0]), None)
-    hand = top.to_panda_hand(ge.TCP_OFFSET)[0]
+    hand = ge.hand_poses(top)[0]
     base = hand.copy()
     base[:3, 3] -= ge.PREGRASP * hand[:3, 2]
     steps = bin_schedule(base) if state.spec.bin is not None else ge.hand_schedule(base)
     rec["hand_base"] = base.tolist()
     rec["settled"] = {n: ge.pose7(settled[n]) for n in names}
     robot = w.add_robot(hand_model, ge.pose7(base), name="hand", q=np.array([0, 0, 0, ge.OPEN, ge.OPEN]))
-    robot.set_drive_gains(stiffness=[2.0e4] * 3, damping=[1.0e3] * 3, joint_indices=[0, 1, 2])
+    slide, fingers = robot.dof_names[:3], robot.dof_names[3:]
+    robot.set_drive_gains(stiffness=[2.0e4] * 3, damping=[1.0e3] * 3, joint_names=slide)
     robot.set_gripper(["panda_finger_joint1", "panda_finger_joint2"], [ge.OPEN, ge.OPEN], [0.0, 0.0])
     robot.set_joint_position_targets(np.array([0, 0, 0, ge.OPEN, ge.OPEN]))
     z0 = {n: settled[n][2, 3] for n in names}
@@ -327,9 +328,9 @@ def attempt(
     k_close = -1
     n_close = int(round(ge.CLOSE_S / DT))
     for k, (target, force) in enumerate(steps):
-        robot.set_joint_position_targets(target[:3], joint_indices=[0, 1, 2])
+        robot.set_joint_position_targets(target[:3], joint_names=slide)
         if force > 0 and not closing:
-            q = robot.get_joint_positions()
+            q = robot.joint_positions
             diag["approach_error"] = float(ge.PREGRASP - q[2])
             diag["pushed"] = {n: float(np.linalg.norm(w.get_object_pose(n)[:3, 3] - settled[n][:3, 3])) for n in names}
             if picture_dir is not None:
@@ -338,12 +339,12 @@ def attempt(
             closing = True
             k_close = k
         elif force == 0:
-            robot.set_joint_position_targets(target[3:], joint_indices=[3, 4])
+            robot.set_joint_position_targets(target[3:], joint_names=fingers)
         w.step(1)
         if closing and k == k_close + n_close - 1:
-            q = robot.get_joint_positions()
+            q = robot.joint_positions
             diag["closed_opening"] = float(q[3] + q[4])
-    q = robot.get_joint_positions()
+    q = robot.joint_positions
     opening = float(q[3] + q[4])
     after = {n: w.get_object_pose(n) for n in names}
     lifted = [n for n in names if after[n][2, 3] - z0[n] >= ge.MIN_RISE]

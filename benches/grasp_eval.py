@@ -22,8 +22,8 @@ Per object, in a fresh ``ferrobot.World`` (240 Hz):
   segmentation; ``detect_from_rgbd`` runs with default options, the object's mask and, as the
   preferred approach direction, the world's -z in the camera frame (``--camera-approach``: the
   camera's view, the detector's default); the top grasp is taken (no grasp: failure in both judges);
-  the Panda hand pose comes from ``hand_poses`` (the gripper's ``to_hand``) with the TCP at the fingertips of the simulated
-  finger meshes (0.112 m);
+  the Panda hand pose comes from ``hand_poses`` (the gripper's ``to_hand``) with the TCP at the
+  fingertips of the simulated finger meshes (0.112 m);
 - a **floating Panda hand** executes it: the Panda hand and finger collision meshes of
   ``pybullet_data/franka_panda`` on three prismatic joints along the hand's own axes (a URDF written
   here, loaded as a ferrobot robot whose base is placed at the pre-grasp pose; joint drives move it),

@@ -318,7 +318,7 @@ def test_no_returned_grasp_collides_with_the_cloud_or_the_bin(objects_dir):
         on_face = (np.abs(np.abs(grid) - s / 2) < 1e-3).any(axis=1)
         wall_pts.append(grid[on_face] + np.asarray(pose[:3]))
     walls = np.vstack(wall_pts)
-    hands = world_gg.to_panda_hand(ge.TCP_OFFSET)
+    hands = ge.hand_poses(world_gg)
     tol = 0.003  # points may sit up to 3 mm inside the meshes (depth quantisation, rounded finger pads)
     for k, hand in enumerate(hands):
         half = world_gg.widths[k] / 2
