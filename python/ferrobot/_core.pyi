@@ -102,6 +102,9 @@ class _ObjectProps(TypedDict, total=False):
     fixed: bool
     color: _ArrayLike | None
 
+def _simd_support() -> tuple[str, str]:
+    """(best level this CPU supports, level this build was compiled for); issue 22's loader."""
+
 def bundled_robot(name: str) -> tuple[str, str, str]:
     """(URDF text, SRDF text, default ee link) of a bundled robot."""
 
