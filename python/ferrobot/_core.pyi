@@ -30,6 +30,7 @@ __all__ = [
     "look_at",
     "load_mesh",
     "bundled_robot",
+    "_simd_support",  # issue 22: the per-level builds loader
     "ReactiveController",
     "PotentialFieldController",
     "grasp_detect",
