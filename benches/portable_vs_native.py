@@ -7,7 +7,8 @@ issue 22, one built with ``RUSTFLAGS="-C target-cpu=native"`` and the portable o
 run-time SIMD dispatch). Every measurement runs in a fresh subprocess importing ferrobot from one of the
 two folders, alternating A, B, A, B, ... for ``--rounds`` rounds, so that the machine's drift (20-30 % on
 a shared VM) hits both builds alike. Times are process CPU time (``time.process_time``, all threads) of
-the timed part only; the figure per workload is the median over rounds, and the ratio is portable / native.
+the timed part only (each subprocess times ``--reps`` runs after a warm-up run and reports their median);
+the figure per workload is the median over rounds, and the ratio is portable / native.
 
 Since issue 22's per-level wheels (``scripts/build_wheel.py``), ``PORTABLE_DIR`` holds every level's build and
 loads the best one the CPU supports; ``--forced baseline`` (any ``FERROBOT_SIMD`` level, repeatable) adds an
@@ -88,19 +89,21 @@ else:
     mm = np.round(depth * 1000).astype(np.uint16)
     run = lambda: fg.detect_from_rgbd(mm, FX, FY, CX, CY, 1000.0)
 run()
-c0 = time.process_time(); out = run(); c1 = time.process_time()
+cpu = []
+for _ in range(int(sys.argv[4])):
+    c0 = time.process_time(); out = run(); c1 = time.process_time(); cpu.append(c1 - c0)
 level = ferrobot.simd_level() if hasattr(ferrobot, "simd_level") else "?"
-print(json.dumps({"cpu_s": c1 - c0, "file": ferrobot.__file__, "level": level}))
+print(json.dumps({"cpu_s": sorted(cpu)[len(cpu) // 2], "file": ferrobot.__file__, "level": level}))
 """
 
 
-def measure(site: Path, workload: str, forced: str | None = None) -> tuple[float, str]:
+def measure(site: Path, workload: str, forced: str | None = None, reps: int = 5) -> tuple[float, str]:
     env = dict(os.environ, PYTHONPATH=str(site), RAYON_NUM_THREADS="1")
     env.pop("FERROBOT_SIMD", None)
     if forced is not None:
         env["FERROBOT_SIMD"] = forced
     out = subprocess.run(
-        [sys.executable, "-c", CHILD, workload, str(SHARED), str(HERE.parent / "tests")],
+        [sys.executable, "-c", CHILD, workload, str(SHARED), str(HERE.parent / "tests"), str(reps)],
         env=env,
         capture_output=True,
         text=True,
@@ -118,6 +121,7 @@ def main() -> int:
     ap.add_argument("--rounds", type=int, default=5)
     ap.add_argument("--only", nargs="*", default=WORKLOADS, choices=WORKLOADS)
     ap.add_argument("--forced", nargs="*", default=[], help="FERROBOT_SIMD levels to run the portable folder at too")
+    ap.add_argument("--reps", type=int, default=5, help="timed runs per subprocess; its figure is their median")
     ap.add_argument("--json")
     args = ap.parse_args()
     arms: dict[str, tuple[Path, str | None]] = {"native": (args.native, None), "portable": (args.portable, None)}
@@ -131,7 +135,7 @@ def main() -> int:
             order = names if r % 2 == 0 else names[::-1]
             for arm in order:
                 site, forced = arms[arm]
-                cpu_s, level = measure(site, w, forced)
+                cpu_s, level = measure(site, w, forced, args.reps)
                 times[w][arm].append(cpu_s)
                 if levels.setdefault(arm, level) != level:
                     raise SystemExit(f"{arm}: loaded {level}, earlier {levels[arm]}")
