@@ -131,7 +131,8 @@ def assemble(base_wheel: Path, variants: dict[str, Path], out: Path) -> Path:
             dst.writestr(zi, data, compress_type=zipfile.ZIP_DEFLATED)
             records.append(_record_line(name, data))
         records.append(f"{record_name},,")
-        dst.writestr(record_name, "\n".join(records) + "\n", compress_type=zipfile.ZIP_DEFLATED)
+        record = zipfile.ZipInfo(record_name, date_time=src.getinfo(record_name).date_time)
+        dst.writestr(record, "\n".join(records) + "\n", compress_type=zipfile.ZIP_DEFLATED)
     tmp.replace(target)
     return target
 
