@@ -7,8 +7,8 @@ NEON, every aarch64 CPU has it) and, on x86-64, ``ferrobot/_simd/<level>/_core.<
 kiddo and ferrobot's own kernels all use that level's instructions), and every build gives the same answers.
 ``import ferrobot`` imports this module first: it asks the baseline build (always loadable) which level the
 CPU and OS support, loads the best build at or below it and registers it as ``ferrobot._core``, before
-anything else imports ``ferrobot._core``. A source install (``pip install .``) holds one build, compiled for the machine
-that built it, and loads it unchanged.
+anything else imports ``ferrobot._core``. A source install (``pip install .``) holds one build, compiled
+for the machine that built it, and loads it unchanged.
 
 ``FERROBOT_SIMD`` (``baseline``, ``x86-64-v2``, ``x86-64-v3``, ``x86-64-v4``; ``v2``, ``v3``, ``v4`` also
 accepted) forces a level. The environment variable is then rewritten to the canonical name, which the
