@@ -13,7 +13,7 @@ takes the baseline wheel and adds the other levels' extension files as
 NEON), with the target's default CPU.
 
 On Linux the result is checked with ``auditwheel show`` (every build must link only what the manylinux
-policy allows); ``--repair`` also runs ``auditwheel repair`` into the output folder. Arguments after ``--``
+policy allows); ``--repair`` also runs ``auditwheel repair`` into ``OUT/repaired/``. Arguments after ``--``
 go to every ``maturin build`` (e.g. ``-- -i python3.12 --compatibility manylinux2014 --zig`` or
 ``-- --target aarch64-unknown-linux-gnu --zig``).
 """
@@ -152,7 +152,7 @@ def main() -> int:
         help="cargo target directory per level, with {level} (default $CARGO_TARGET_DIR/simd-{level})",
     )
     ap.add_argument("--no-auditwheel", action="store_true", help="skip `auditwheel show` (Linux only anyway)")
-    ap.add_argument("--repair", action="store_true", help="also run `auditwheel repair -w OUT` (Linux)")
+    ap.add_argument("--repair", action="store_true", help="also run `auditwheel repair -w OUT/repaired` (Linux)")
     args = ap.parse_args(argv)
 
     arch = target_arch(maturin_args)
@@ -184,7 +184,8 @@ def main() -> int:
         if sys.platform.startswith("linux") and "linux" in w.name and not args.no_auditwheel:
             subprocess.run([sys.executable, "-m", "auditwheel", "show", str(w)], check=True)
             if args.repair:
-                subprocess.run([sys.executable, "-m", "auditwheel", "repair", "-w", str(args.out), str(w)], check=True)
+                repaired = str(args.out / "repaired")  # same file name as the input: another folder
+                subprocess.run([sys.executable, "-m", "auditwheel", "repair", "-w", repaired, str(w)], check=True)
     return 0
 
 
