@@ -1,13 +1,19 @@
 """Two builds of ferrobot compared on the collision, planning and grasp workloads, interleaved, in CPU time.
 
-    python benches/portable_vs_native.py NATIVE_DIR PORTABLE_DIR [--rounds 5] [--json FILE]
+    python benches/portable_vs_native.py NATIVE_DIR PORTABLE_DIR [--rounds 5] [--forced LEVEL ...] [--json FILE]
 
 ``NATIVE_DIR`` and ``PORTABLE_DIR`` each hold an unpacked wheel (``python -m zipfile -e x.whl DIR``): for
 issue 22, one built with ``RUSTFLAGS="-C target-cpu=native"`` and the portable one (baseline target,
 run-time SIMD dispatch). Every measurement runs in a fresh subprocess importing ferrobot from one of the
 two folders, alternating A, B, A, B, ... for ``--rounds`` rounds, so that the machine's drift (20-30 % on
 a shared VM) hits both builds alike. Times are process CPU time (``time.process_time``, all threads) of
-the timed part only; the figure per workload is the median over rounds, and the ratio is portable / native.
+the timed part only (each subprocess times ``--reps`` runs after a warm-up run and reports their median);
+the figure per workload is the median over rounds, and the ratio is portable / native.
+
+Since issue 22's per-level wheels (``scripts/build_wheel.py``), ``PORTABLE_DIR`` holds every level's build and
+loads the best one the CPU supports; ``--forced baseline`` (any ``FERROBOT_SIMD`` level, repeatable) adds an
+arm running the same portable folder with ``FERROBOT_SIMD`` set, interleaved with the others, to show what
+the loader's choice is worth. Each child reports ``ferrobot.simd_level()`` (printed once per arm).
 
 Workloads (one thread, ``RAYON_NUM_THREADS=1``, so CPU time is not inflated by idle spinning):
 - ``collision_batch``: ``in_collision_batch`` of 100,000 random Panda configurations in the
@@ -83,15 +89,21 @@ else:
     mm = np.round(depth * 1000).astype(np.uint16)
     run = lambda: fg.detect_from_rgbd(mm, FX, FY, CX, CY, 1000.0)
 run()
-c0 = time.process_time(); out = run(); c1 = time.process_time()
-print(json.dumps({"cpu_s": c1 - c0, "file": ferrobot.__file__}))
+cpu = []
+for _ in range(int(sys.argv[4])):
+    c0 = time.process_time(); out = run(); c1 = time.process_time(); cpu.append(c1 - c0)
+level = ferrobot.simd_level() if hasattr(ferrobot, "simd_level") else "?"
+print(json.dumps({"cpu_s": sorted(cpu)[len(cpu) // 2], "file": ferrobot.__file__, "level": level}))
 """
 
 
-def measure(site: Path, workload: str) -> float:
+def measure(site: Path, workload: str, forced: str | None = None, reps: int = 5) -> tuple[float, str]:
     env = dict(os.environ, PYTHONPATH=str(site), RAYON_NUM_THREADS="1")
+    env.pop("FERROBOT_SIMD", None)
+    if forced is not None:
+        env["FERROBOT_SIMD"] = forced
     out = subprocess.run(
-        [sys.executable, "-c", CHILD, workload, str(SHARED), str(HERE.parent / "tests")],
+        [sys.executable, "-c", CHILD, workload, str(SHARED), str(HERE.parent / "tests"), str(reps)],
         env=env,
         capture_output=True,
         text=True,
@@ -99,7 +111,7 @@ def measure(site: Path, workload: str) -> float:
     ).stdout
     r = json.loads(out.strip().splitlines()[-1])
     assert r["file"].startswith(str(site)), (r["file"], site)  # the build under test, not another install
-    return r["cpu_s"]
+    return r["cpu_s"], r["level"]
 
 
 def main() -> int:
@@ -108,24 +120,45 @@ def main() -> int:
     ap.add_argument("portable", type=Path)
     ap.add_argument("--rounds", type=int, default=5)
     ap.add_argument("--only", nargs="*", default=WORKLOADS, choices=WORKLOADS)
+    ap.add_argument("--forced", nargs="*", default=[], help="FERROBOT_SIMD levels to run the portable folder at too")
+    ap.add_argument("--reps", type=int, default=5, help="timed runs per subprocess; its figure is their median")
     ap.add_argument("--json")
     args = ap.parse_args()
-    times: dict[str, dict[str, list[float]]] = {w: {"native": [], "portable": []} for w in args.only}
+    arms: dict[str, tuple[Path, str | None]] = {"native": (args.native, None), "portable": (args.portable, None)}
+    for lv in args.forced:
+        arms[f"portable@{lv}"] = (args.portable, lv)
+    times: dict[str, dict[str, list[float]]] = {w: {a: [] for a in arms} for w in args.only}
+    levels: dict[str, str] = {}
+    names = list(arms)
     for r in range(args.rounds):
         for w in args.only:
-            order = ("native", "portable") if r % 2 == 0 else ("portable", "native")
-            for which in order:
-                times[w][which].append(measure(getattr(args, which), w))
+            order = names if r % 2 == 0 else names[::-1]
+            for arm in order:
+                site, forced = arms[arm]
+                cpu_s, level = measure(site, w, forced, args.reps)
+                times[w][arm].append(cpu_s)
+                if levels.setdefault(arm, level) != level:
+                    raise SystemExit(f"{arm}: loaded {level}, earlier {levels[arm]}")
         print(f"round {r + 1}/{args.rounds}, load {os.getloadavg()[0]:.1f}", file=sys.stderr)
-    print(f"{'workload':<18} {'native ms':>10} {'portable ms':>12} {'ratio':>7}")
-    summary = {}
+    print("levels loaded: " + ", ".join(f"{a} = {lv}" for a, lv in levels.items()))
+    head = f"{'workload':<18} " + " ".join(f"{a + ' ms':>20}" for a in names)
+    head += " " + " ".join(f"{a + '/native':>26}" for a in names[1:])
+    print(head)
+    summary: dict[str, dict[str, object]] = {}
     for w, t in times.items():
-        n, p = statistics.median(t["native"]), statistics.median(t["portable"])
-        ratios = [b / a for a, b in zip(t["native"], t["portable"], strict=True)]
-        summary[w] = {"native_ms": n * 1e3, "portable_ms": p * 1e3, "ratio": p / n, "ratio_per_round": ratios}
-        print(f"{w:<18} {n * 1e3:10.1f} {p * 1e3:12.1f} {p / n:7.3f}")
+        med = {a: statistics.median(t[a]) for a in names}
+        row = f"{w:<18} " + " ".join(f"{med[a] * 1e3:20.1f}" for a in names)
+        entry: dict[str, object] = {f"{a}_ms": med[a] * 1e3 for a in names}
+        entry["per_round_ms"] = {a: [x * 1e3 for x in t[a]] for a in names}
+        for a in names[1:]:
+            ratios = [b / n for n, b in zip(t["native"], t[a], strict=True)]
+            entry[f"{a}_ratio"] = med[a] / med["native"]
+            entry[f"{a}_ratio_per_round"] = ratios
+            row += f" {med[a] / med['native']:10.3f} ({', '.join(f'{x:.2f}' for x in ratios)})"
+        summary[w] = entry
+        print(row)
     if args.json:
-        Path(args.json).write_text(json.dumps(summary, indent=1))
+        Path(args.json).write_text(json.dumps({"levels": levels, "workloads": summary}, indent=1))
     return 0
 
 

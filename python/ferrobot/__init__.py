@@ -11,7 +11,8 @@ Conventions (everywhere in the public API):
 
 from __future__ import annotations
 
-from . import _core, calibration, camera, errors, grasp, pipeline, robots, scenarios, transforms
+# _builds first: importing it loads the best per-level build of a wheel as ferrobot._core (issue 22)
+from . import _builds, _core, calibration, camera, errors, grasp, pipeline, robots, scenarios, transforms
 from ._core import (
     ArbiterConflict,
     Camera,
@@ -71,7 +72,12 @@ from ._core import (
     opengl_to_opencv,
 )
 
+simd_level = _builds.simd_level  # the instruction-set level of the loaded build (issue 22)
+simd_info = _builds.simd_info
+
 __all__ = [
+    "simd_info",  # which per-level build was loaded (issue 22)
+    "simd_level",
     "CommandDelay",
     "LinearPredictor",
     "StreamGuard",

@@ -30,6 +30,7 @@ __all__ = [
     "look_at",
     "load_mesh",
     "bundled_robot",
+    "_simd_support",  # issue 22: the per-level builds loader
     "ReactiveController",
     "PotentialFieldController",
     "grasp_detect",
@@ -103,6 +104,9 @@ class _ObjectProps(TypedDict, total=False):
     restitution: float
     fixed: bool
     color: _ArrayLike | None
+
+def _simd_support() -> tuple[str, str]:
+    """(best level this CPU supports, level this build was compiled for); issue 22's loader."""
 
 def bundled_robot(name: str) -> tuple[str, str, str]:
     """(URDF text, SRDF text, default ee link) of a bundled robot."""

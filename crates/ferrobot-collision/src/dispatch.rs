@@ -1,7 +1,12 @@
 //! Run-time choice of the instruction set for the collision kernels.
 //!
-//! ferrobot is built for the architecture's baseline (x86-64: SSE2;
-//! aarch64: NEON), so one wheel runs on every machine. The kernels' entry
+//! For a build of the crate for the architecture's baseline (x86-64: SSE2;
+//! aarch64: NEON), e.g. a Rust program using it without
+//! `target-cpu=native`. (The Python wheel goes further: it holds the whole
+//! extension compiled once per level and loads the best at import,
+//! `python/ferrobot/_builds.py`; each of those builds' dispatch then runs
+//! its own level, capped through `FERROBOT_SIMD` when a level is forced.)
+//! The kernels' entry
 //! points (a batch chunk, a motion, one configuration) are compiled once per
 //! [`SimdLevel`] by [`dispatched!`](crate::dispatched) with the
 //! `multiversion` crate, and the best level the CPU supports is chosen once,

@@ -36,6 +36,56 @@ fn bundled_robot(name: &str) -> PyResult<(&'static str, &'static str, &'static s
     })
 }
 
+/// The instruction-set levels of this process, for the Python loader that
+/// picks one of a wheel's per-level builds (`python/ferrobot/_builds.py`):
+/// (the best level this CPU and OS support, the level this module was
+/// compiled for). Names as `FERROBOT_SIMD` takes them: `baseline`,
+/// `x86-64-v2`, `x86-64-v3`, `x86-64-v4`.
+#[pyfunction]
+fn _simd_support() -> (&'static str, &'static str) {
+    use ferrobot_collision::SimdLevel as L;
+    let v2 = cfg!(all(
+        target_feature = "sse3",
+        target_feature = "ssse3",
+        target_feature = "sse4.1",
+        target_feature = "sse4.2",
+        target_feature = "popcnt",
+        target_feature = "cmpxchg16b"
+    ));
+    let v3 = v2
+        && cfg!(all(
+            target_feature = "avx",
+            target_feature = "avx2",
+            target_feature = "fma",
+            target_feature = "bmi1",
+            target_feature = "bmi2",
+            target_feature = "lzcnt",
+            target_feature = "movbe",
+            target_feature = "f16c"
+        ));
+    let v4 = v3
+        && cfg!(all(
+            target_feature = "avx512f",
+            target_feature = "avx512bw",
+            target_feature = "avx512cd",
+            target_feature = "avx512dq",
+            target_feature = "avx512vl"
+        ));
+    let built = if v4 {
+        L::X86V4
+    } else if v3 {
+        L::X86V3
+    } else if v2 {
+        L::X86V2
+    } else {
+        L::Baseline
+    };
+    (
+        ferrobot_collision::dispatch::detected().name(),
+        built.name(),
+    )
+}
+
 /// The extension module.
 /// The extension's allocator. Detection and collision queries allocate and
 /// free buffers of several megabytes per call; with the system allocator
@@ -73,6 +123,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(camera::camera_backproject, m)?)?;
     m.add_function(wrap_pyfunction!(camera::camera_convert_pose, m)?)?;
     m.add_function(wrap_pyfunction!(bundled_robot, m)?)?;
+    m.add_function(wrap_pyfunction!(_simd_support, m)?)?;
     m.add_function(wrap_pyfunction!(mesh_objects::load_mesh, m)?)?;
     m.add_class::<control::PyReactiveController>()?;
     m.add_class::<control::PyPotentialFieldController>()?;
