@@ -258,6 +258,7 @@ fn main() {
     for (name, generate) in classes {
         let (mut batch, mut batch_cpu, mut single) = (vec![], vec![], vec![]);
         let (mut ps, mut tr, mut fit, mut chk) = (vec![], vec![], vec![], vec![]);
+        let mut tails = vec![];
         let (mut samples, mut refinements, mut waypoints) = (vec![], vec![], vec![]);
         let (mut solved, mut total, mut obstacles) = (0, 0, 0);
         for wi in 0..worlds {
@@ -312,6 +313,12 @@ fn main() {
                 if r.success() && rt.success() {
                     solved += 1;
                     ps.push(e_ps * 1e6);
+                    tails.push((
+                        e_ps * 1e6,
+                        r.times.planning * 1e6,
+                        r.times.simplify * 1e6,
+                        r.path.len(),
+                    ));
                     tr.push(e_tr * 1e6);
                     fit.push(rt.times.fit * 1e6);
                     chk.push(rt.times.recheck * 1e6);
@@ -328,6 +335,16 @@ fn main() {
             pct(&mut single, 0.5)
         );
         let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
+        tails.sort_by(|a, b| b.0.total_cmp(&a.0));
+        // The tail: which stage the slowest plans spent their time in.
+        println!(
+            "         slowest 3 plans (plan+simplify, of which search, shortcutting, µs wall; waypoints): {:?}",
+            tails
+                .iter()
+                .take(3)
+                .map(|t| (t.0 as i64, t.1 as i64, t.2 as i64, t.3))
+                .collect::<Vec<_>>()
+        );
         println!(
             "         plan+simplify {:.0} (p95 {:.0}) us, trajectory {:.0} (p95 {:.0}) us; last stage: fit+timing {:.0} us, re-check {:.0} us (median), {:.0} samples, {:.2} refinements, {:.1} waypoints (mean)",
             pct(&mut ps, 0.5),

@@ -836,8 +836,10 @@ class Planner:
         random_seed: int | None = None,
         **overrides: Unpack[_IkOverrides],
     ) -> IkResult:
-        """``starts``: (N, k) start configurations; ``seed``: the random seed. Deprecated: ``seeds`` (use
-        ``starts``), ``random_seed`` (use ``seed``)."""
+        """``starts``: (N, k) start configurations; ``seed``: the random seed. Without ``starts``, a batch of
+        64 or more poses starts each pose from the nearest-pose entry of a 512-configuration random library
+        (made from ``seed``; it counts as one of the seeds tried). Deprecated: ``seeds`` (use ``starts``),
+        ``random_seed`` (use ``seed``)."""
     def plan(
         self,
         start: npt.ArrayLike,

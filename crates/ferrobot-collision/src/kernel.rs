@@ -366,27 +366,40 @@ pub fn check<L: Lanes>(
             let p8 = [0, 1, 2].map(|a| f32x8::from_fn(|i| bc[a].lane(i)));
             let reach = f32x8::splat(body.bound.1 + margin + crate::world_grid::SLACK);
             let mut todo = full & !g.clear_lanes(world, &p8, reach, full);
-            let mut cells = [(usize::MAX, 0u32); 8];
+            // (cell, its lanes, the farthest candidate distance they reach)
+            let mut cells = [(usize::MAX, 0u32, 0.0f32); 8];
             let mut ncells = 0;
             full = 0;
+            let reach_body = body.bound.1 + margin;
             while todo != 0 {
                 let l = todo.trailing_zeros() as usize;
                 todo &= todo - 1;
                 let p = [bc[0].lane(l), bc[1].lane(l), bc[2].lane(l)];
                 match g.list_cell(&p) {
                     None => full |= 1 << l,
-                    Some(c) => match cells[..ncells].iter_mut().find(|x| x.0 == c) {
-                        Some(x) => x.1 |= 1 << l,
-                        None => {
-                            cells[ncells] = (c, 1 << l);
-                            ncells += 1;
+                    Some(c) => {
+                        let limit = g.list_limit(c, &p, reach_body);
+                        match cells[..ncells].iter_mut().find(|x| x.0 == c) {
+                            Some(x) => {
+                                x.1 |= 1 << l;
+                                x.2 = x.2.max(limit);
+                            }
+                            None => {
+                                cells[ncells] = (c, 1 << l, limit);
+                                ncells += 1;
+                            }
                         }
-                    },
+                    }
                 }
             }
-            for &(c, lanes) in &cells[..ncells] {
-                for &oi in g.candidates(world, c) {
-                    let obs = &world.obstacles[oi as usize];
+            for &(c, lanes, limit) in &cells[..ncells] {
+                for cand in g.candidates(world, c) {
+                    // Nearest first: the rest are out of these lanes' reach.
+                    // (NaN limits were kept out by `list_cell`.)
+                    if cand.distance > limit {
+                        break;
+                    }
+                    let obs = &world.obstacles[cand.obstacle as usize];
                     self::world_pair(robot, body, bi, &bc, obs, m, lanes, &mut hit, scratch);
                     if hit & active == active {
                         return hit & active;

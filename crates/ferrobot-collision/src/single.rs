@@ -203,13 +203,18 @@ pub fn check_one(
             let reach_body = body.bound.1 + margin;
             // The obstacles near the body's cell, nearest first, when the
             // grid's lists cover this body; else every obstacle.
-            let list = grid
-                .filter(|g| reach_body <= g.list_reach())
-                .and_then(|g| g.list_cell(&bc).map(|c| g.candidates(world, c)));
-            if let Some(list) = list {
+            let list = grid.filter(|g| reach_body <= g.list_reach()).and_then(|g| {
+                g.list_cell(&bc)
+                    .map(|c| (g.candidates(world, c), g.list_limit(c, &bc, reach_body)))
+            });
+            if let Some((list, limit)) = list {
                 let rb1 = body.bound.1;
-                for &oi in list {
-                    let obs = &world.obstacles[oi as usize];
+                for cand in list {
+                    // Nearest first: the rest are out of the body's reach.
+                    if cand.distance > limit {
+                        break;
+                    }
+                    let obs = &world.obstacles[cand.obstacle as usize];
                     // The same bound test as the eight-wide one below.
                     let (dx, dy, dz) = (
                         bc[0] - obs.bound_c[0],

@@ -52,6 +52,22 @@ const LIST_CELL: f32 = 0.1;
 /// Slack (m) of the candidate lists' reach for the `f32` arithmetic.
 const LIST_SLACK: f32 = 1e-3;
 
+/// One obstacle of a candidate list.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Candidate {
+    /// Index into the world's obstacles.
+    pub obstacle: u32,
+    /// Distance (m) from the list cell's centre to the obstacle's solid
+    /// (its bounding sphere for meshes and clouds; 0 where that distance is
+    /// not a number), never above the true distance by more than the `f32`
+    /// rounding that the lists' 1 mm slack covers. Lists are sorted by it, so a body
+    /// centred at `p` with radius plus margin `r` can only touch obstacles
+    /// with `distance <= r + |p - centre| + LIST_SLACK` (the distance to a
+    /// solid is 1-Lipschitz): the rest of a list can be skipped at the
+    /// first entry beyond that.
+    pub distance: f32,
+}
+
 /// The grid (see the module docs).
 #[derive(Debug)]
 pub struct WorldGrid {
@@ -65,7 +81,7 @@ pub struct WorldGrid {
     /// `list_n` as `f32`.
     list_n_f32: [f32; 3],
     /// Candidate obstacles per list cell, nearest first (made on first use).
-    lists: Box<[OnceLock<Box<[u32]>>]>,
+    lists: Box<[OnceLock<Box<[Candidate]>>]>,
     /// The bounding radius plus margin the lists cover: a body whose
     /// bounding radius plus margin exceeds it must not use them.
     list_reach: f32,
@@ -141,24 +157,40 @@ impl WorldGrid {
         Some(idx)
     }
 
+    /// Centre of list cell `idx`.
+    #[inline(always)]
+    pub fn list_centre(&self, idx: usize) -> [f32; 3] {
+        let k = idx % self.list_n[2];
+        let j = (idx / self.list_n[2]) % self.list_n[1];
+        let i = idx / (self.list_n[2] * self.list_n[1]);
+        let c = [i, j, k];
+        [0, 1, 2].map(|a| self.origin[a] + (c[a] as f32 + 0.5) * LIST_CELL)
+    }
+
+    /// The farthest distance from the centre of list cell `idx` a
+    /// [`Candidate`] of that cell can have and still be touched by a body
+    /// centred at `p` with bounding radius plus margin `reach`.
+    #[inline(always)]
+    pub fn list_limit(&self, idx: usize, p: &[f32; 3], reach: f32) -> f32 {
+        let c = self.list_centre(idx);
+        let d = [p[0] - c[0], p[1] - c[1], p[2] - c[2]];
+        reach + (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt() + LIST_SLACK
+    }
+
     /// The obstacles (indices into `world.obstacles`, nearest first) a body
     /// centred anywhere in list cell `idx` (from [`WorldGrid::list_cell`])
     /// with bounding radius plus margin at most
     /// [`WorldGrid::list_reach`] can touch; every other obstacle is
     /// farther from it than that.
     #[inline(always)]
-    pub fn candidates(&self, world: &CompiledWorld, idx: usize) -> &[u32] {
+    pub fn candidates(&self, world: &CompiledWorld, idx: usize) -> &[Candidate] {
         self.lists[idx].get_or_init(|| self.fill_list(world, idx))
     }
 
     #[cold]
     #[inline(never)]
-    fn fill_list(&self, world: &CompiledWorld, idx: usize) -> Box<[u32]> {
-        let k = idx % self.list_n[2];
-        let j = (idx / self.list_n[2]) % self.list_n[1];
-        let i = idx / (self.list_n[2] * self.list_n[1]);
-        let c = [i, j, k];
-        let c = [0, 1, 2].map(|a| self.origin[a] + (c[a] as f32 + 0.5) * LIST_CELL);
+    fn fill_list(&self, world: &CompiledWorld, idx: usize) -> Box<[Candidate]> {
+        let c = self.list_centre(idx);
         let reach = self.list_reach + 0.5 * LIST_CELL * 3f32.sqrt() + LIST_SLACK;
         let mut near: Vec<(f32, u32)> = world
             .obstacles
@@ -171,7 +203,9 @@ impl WorldGrid {
             })
             .collect();
         near.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-        near.into_iter().map(|(_, oi)| oi).collect()
+        near.into_iter()
+            .map(|(distance, obstacle)| Candidate { obstacle, distance })
+            .collect()
     }
 
     /// A lower bound on the distance from `p` to every obstacle of `world`

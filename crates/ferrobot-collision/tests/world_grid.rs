@@ -84,15 +84,23 @@ fn grid_bounds_never_exceed_exact_distances() {
                 .collect();
             let exact = dists.iter().copied().fold(f32::INFINITY, f32::min);
             // Every obstacle within the lists' reach of `p` is a candidate
-            // of `p`'s cell (one part per obstacle in these scenes).
+            // of `p`'s cell (one part per obstacle in these scenes), and
+            // within the list's cut-off for a body of that reach at `p`
+            // (so the early exit at the first farther entry never skips it);
+            // also for a small body (reach 3 cm).
             if let Some(cell) = grid.list_cell(&p) {
                 let list = grid.candidates(compiled, cell);
-                for (oi, &d) in dists.iter().enumerate() {
-                    if d < grid.list_reach() {
-                        assert!(
-                            list.contains(&(oi as u32)),
-                            "{scene} at {p:?}: obstacle {oi} at {d} m missing"
-                        );
+                assert!(list.windows(2).all(|w| w[0].distance <= w[1].distance));
+                for reach in [grid.list_reach(), 0.03] {
+                    let limit = grid.list_limit(cell, &p, reach);
+                    for (oi, &d) in dists.iter().enumerate() {
+                        if d < reach {
+                            let c = list.iter().find(|c| c.obstacle == oi as u32);
+                            assert!(
+                                c.is_some_and(|c| c.distance <= limit),
+                                "{scene} at {p:?}: obstacle {oi} at {d} m missing or cut ({c:?}, limit {limit})"
+                            );
+                        }
                     }
                 }
             }

@@ -125,7 +125,11 @@ impl KinematicChain {
             if s.prismatic {
                 pos += rot * (s.axis * qj);
             } else {
-                rot *= UnitQuaternion::from_scaled_axis(s.axis * qj);
+                // The unit axis' half-angle quaternion, as in `pose` (no
+                // norm or division: `from_scaled_axis` up to rounding).
+                let (sin, cos) = (0.5 * qj).sin_cos();
+                let v = s.axis * sin;
+                rot *= UnitQuaternion::new_unchecked(nalgebra::Quaternion::new(cos, v.x, v.y, v.z));
             }
         }
         pos += rot * self.tip.translation.vector;

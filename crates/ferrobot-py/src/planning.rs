@@ -1011,6 +1011,9 @@ impl PyPlanner {
     /// IK for each of N poses independently, in parallel; `starts` (N, k)
     /// optional start configurations, `seed` the random seed, `options`
     /// and `**overrides` as in `ik`. Results are arrays over the batch.
+    /// Without `starts`, a batch of 64 or more poses starts each pose from
+    /// the nearest-pose entry of a 512-configuration random library (made
+    /// from `seed`; it counts as one of the seeds tried).
     /// (Deprecated: `seeds` for `starts`, `random_seed` for `seed`.)
     #[pyo3(signature = (goal_poses, starts=None, *, link=None, joint_names=None,
         options=None, seed=None, seeds=None, random_seed=None, **overrides))]
