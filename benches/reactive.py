@@ -180,7 +180,7 @@ def make_episode(rng, model, judge, base_spheres, q_ready, sampling="valid", che
                 continue
             # The sphere model may not cover the links (the UR5's spherized URDF does not): a goal whose links'
             # exact geometry touches is in self-collision too, and no controller should be asked to reach it.
-            if judge.exact_self_clearance(qg)["distance"] <= 0.0:
+            if judge.exact_self_clearance(qg).distance <= 0.0:
                 rejected["goal_self_exact"] += 1
                 continue
         else:
@@ -238,6 +238,8 @@ def run_episode(
     names = planner.joint_names
     idx = [model.dof_names.index(j) for j in names]
     guidance_plans = 0
+    held_steps = 0  # steps whose velocity the reactive controller's filter changed (held at a hold)
+    last_status = None
     if method in ("reactive", "reactive_local", "potential"):
         cls = ferrobot.PotentialFieldController if method == "potential" else ferrobot.ReactiveController
         cfg = dict((configs or {}).get(method.replace("_local", "")) or {})
@@ -266,7 +268,10 @@ def run_episode(
             t0 = time.perf_counter()
             q_new, qd, _ = ctl.step(q, qd, DT)
             if method != "potential":
-                guidance_plans = ctl.last_step.guidance_plans
+                ls = ctl.last_step
+                guidance_plans = ls.guidance_plans
+                held_steps += bool(getattr(ls, "filter_active", False))
+                last_status = ls.guidance
             ctrl_times.append(time.perf_counter() - t0)
             q = q_new
         else:
@@ -332,6 +337,8 @@ def run_episode(
         "min_exact_clearance": min_exact,
         "controller_time_per_step_s": per_step,
         "guidance_plans": guidance_plans,
+        "held_steps": held_steps,
+        "final_guidance": last_status,
         "controller_time_median_call_s": float(np.median(ctrl_times)) if ctrl_times else 0.0,
     }
 

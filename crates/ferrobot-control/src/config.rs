@@ -196,6 +196,18 @@ config_struct! {
         /// exact pair replaces them); their avoidance policy stays. 0: the
         /// spheres alone, [0, 1], whole.
         exact_filter: 1.0, [0.0, 1.0],
+        /// 1: the avoidance policies also act on the links' exact distances
+        /// that the filter's exact layer measures (needs `exact_filter`):
+        /// a self barrier (the `self_*` gains) on every watched link pair
+        /// closer than `self_distance`, and a world barrier (the
+        /// `collision_*` gains) on every link closer than
+        /// `collision_filter_distance` to an obstacle, each along the exact
+        /// witness points' normal. Their metrics resist motion along the
+        /// normal only, so the combined solve turns the attraction into
+        /// motion along the links' surfaces before the filter's hold stops
+        /// it, where the sphere policies cannot see the geometry (links not
+        /// covered by their spheres). 0: the sphere policies alone, [0, 1], whole.
+        exact_policy: 1.0, [0.0, 1.0],
         /// Joint limits: the controller works in limit-aware coordinates
         /// `q = m + h tanh(u / h)` per joint (`m` the middle of the range,
         /// `h` half the range minus this buffer), so its joints stay at least
@@ -227,6 +239,14 @@ config_struct! {
         /// (evading, say) and the stall watch restarts: a local minimum is
         /// a rest away from the target, [1e-4, 10].
         stall_speed: 0.05, [1e-4, 10.0],
+        /// 1: a step whose commanded velocity the velocity filter changed
+        /// (the arm pressed against a hold: `StepInfo::filter_active`)
+        /// counts as at rest for the stall watch, whatever the joints'
+        /// speed: an arm sliding along a hold without getting
+        /// `stall_progress` closer within `stall_time` is in a local
+        /// minimum too, and asks for guidance. 0: only joint speed counts
+        /// (an arm jittering at a hold never stalls), [0, 1], whole.
+        stall_filtered: 1.0, [0.0, 1.0],
         /// Global guidance (see `crate::guidance`): plan attempts per target
         /// when a step reports `stalled` (a whole number; 0 disables
         /// guidance), [0, 100].
@@ -326,6 +346,8 @@ impl ReactiveConfig {
             ("guidance_plans", self.guidance_plans),
             ("guidance_blocking", self.guidance_blocking),
             ("exact_filter", self.exact_filter),
+            ("exact_policy", self.exact_policy),
+            ("stall_filtered", self.stall_filtered),
         ] {
             if v.fract() != 0.0 {
                 return Err(ControlError::InvalidArgument(format!(

@@ -61,6 +61,10 @@ pub struct StepInfo {
     /// (reactive controller; see `ReactiveConfig::self_hold` and
     /// `ReactiveConfig::collision_hold`).
     pub filtered: usize,
+    /// Whether the velocity filter changed the commanded velocity this step
+    /// (a filter row was binding: the arm is held at a hold, or an obstacle
+    /// pushes it).
+    pub filter_active: bool,
 }
 
 /// The result of one controller step, in `dof_names` order.
@@ -486,7 +490,7 @@ impl Core {
         // on a sphere already within `collision_hold`.
         if let Some((rows, bounds)) = filter {
             let k = v.len();
-            for _ in 0..50 {
+            for pass in 0..50 {
                 let mut worst = 0.0f64;
                 for (a, &bound) in rows.chunks_exact(k).zip(bounds) {
                     let av: f64 = a.iter().zip(v.iter()).map(|(x, y)| x * y).sum();
@@ -501,6 +505,9 @@ impl Core {
                 }
                 if worst <= 1e-9 {
                     break;
+                }
+                if pass == 0 {
+                    info.filter_active = true;
                 }
             }
             info.filtered = rows.len() / k.max(1);

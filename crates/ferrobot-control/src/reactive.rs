@@ -218,6 +218,9 @@ pub struct ReactiveController {
     guided_rest: f64,
     /// The planner side of global guidance.
     guidance: Guidance,
+    /// Whether the velocity filter changed the previous step's velocity
+    /// (the stall watch's `stall_filtered`).
+    last_filter_active: bool,
 }
 
 /// One joint's limit-aware coordinate: `dq/du`, the curvature term, `u`,
@@ -286,6 +289,7 @@ impl ReactiveController {
             watched: None,
             guided_rest: 0.0,
             guidance,
+            last_filter_active: false,
         })
     }
 
@@ -348,6 +352,14 @@ impl ReactiveController {
         self.waypoints = out;
         self.stall_since = 0.0;
         Ok(())
+    }
+
+    /// The link pairs (link indices, smaller first) whose exact geometry
+    /// the velocity filter watches (with `exact_filter`): the checker's
+    /// self-collision pairs plus those the sampled analysis dropped (never
+    /// or always in contact by the spheres).
+    pub fn exact_link_pairs(&self) -> &[(usize, usize)] {
+        &self.exact_pairs
     }
 
     /// Drops the waypoints: back to the end-effector target.
@@ -447,7 +459,11 @@ impl ReactiveController {
             } else {
                 self.guided_rest = 0.0;
             }
-            if guided || moving {
+            // Motion the velocity filter shaped (the arm pressed against a
+            // hold, sliding or jittering there) is not evasion: only the
+            // error's progress resets the watch then.
+            let evading = moving && !(cfg.stall_filtered != 0.0 && self.last_filter_active);
+            if guided || evading {
                 self.stall_since = 0.0;
             } else if e < self.stall_best - cfg.stall_progress {
                 self.stall_best = e;
@@ -588,6 +604,7 @@ impl ReactiveController {
         }
         // Exact layer of the velocity filter: the links' own geometry.
         if exact_on && let Some(lc) = self.exact.as_ref() {
+            let policy_on = cfg.exact_policy != 0.0;
             let fd = cfg.self_filter_distance;
             if fd > 0.0 {
                 for &(la, lb) in &self.exact_pairs {
@@ -613,6 +630,13 @@ impl ReactiveController {
                             .sum::<f64>();
                     }
                     info.self_clearance = info.self_clearance.min(c.distance);
+                    if policy_on && c.distance < cfg.self_distance {
+                        // The self barrier on the exact distance (see
+                        // `exact_policy`).
+                        let (acc, m) = self_barrier.eval(c.distance, dot(&self.row));
+                        sys.add_row(&self.row, m, acc);
+                        info.active_avoidance += 1;
+                    }
                     self.filter_rows.extend_from_slice(&self.row);
                     self.filter_bounds
                         .push(-(c.distance - cfg.self_hold).max(0.0) / dt);
@@ -658,6 +682,14 @@ impl ReactiveController {
                         }
                         let vo = core.world.point_velocity(part.object, &c.point_b);
                         info.world_clearance = info.world_clearance.min(c.distance);
+                        if policy_on {
+                            // The world barrier on the exact distance (see
+                            // `exact_policy`), the obstacle's motion included.
+                            let dd = dot(&self.row) - n.dot(&vo);
+                            let (acc, m) = world_barrier.eval(c.distance, dd);
+                            sys.add_row(&self.row, m, acc);
+                            info.active_avoidance += 1;
+                        }
                         self.filter_rows.extend_from_slice(&self.row);
                         self.filter_bounds
                             .push(n.dot(&vo) - (c.distance - cfg.collision_hold).max(0.0) / dt);
@@ -803,7 +835,7 @@ impl ReactiveController {
         info.guidance = status;
         info.guidance_plans = self.guidance.plans;
         info.waypoints_remaining = self.waypoints.len();
-        Ok(self.core.integrate(
+        let out = self.core.integrate(
             q,
             qd,
             &mut qdd,
@@ -813,20 +845,26 @@ impl ReactiveController {
             cfg.default_velocity_limit,
             Some((&self.filter_rows, &self.filter_bounds)),
             &mut info,
-        ))
+        );
+        self.last_filter_active = out.info.filter_active;
+        Ok(out)
     }
 }
 
 /// The link pairs the exact layer of the velocity filter watches: the
-/// checker's self-collision link pairs, plus the pairs that only a sampled
-/// never-in-contact analysis (reason `Never` in the checker's matrix, as
-/// `AnalyzeCollisions::analyze` records it) excluded while the model's own
-/// matrix (adjacent, rigid and SRDF pairs, and pairs confirmed always in
-/// contact: `automatic_acm`, the planner's and the judges') still checks
-/// them. A statistical "never" says nothing about the configurations a
-/// controller visits; the exact layer is cheap (a bounding-ball test per
-/// pair), so it keeps the checker's full matrix. Only pairs of links with
-/// exact geometry, at least one of them moved by the controlled joints.
+/// checker's self-collision link pairs, plus every pair that only the
+/// sampled analysis (`AnalyzeCollisions::analyze`: reasons `Never` and
+/// `Always` in the checker's matrix) excluded. That analysis only looks at
+/// pairs the checker's own matrix (SRDF, adjacent and rigid pairs: the
+/// judges' and the planner's) still checks, and it samples the *spheres*:
+/// a statistical "never" says nothing about the configurations a
+/// controller visits, and spheres "always" overlapping say nothing about
+/// the links (the Panda's `panda_link5` and `panda_link7` spheres overlap
+/// in every sample while the links are about 12 mm apart, and an episode
+/// of the benchmark pressed them 1.6 mm into contact). The exact layer is
+/// cheap (a bounding-ball test per pair), so it keeps the checker's full
+/// matrix. Only pairs of links with exact geometry, at least one of them
+/// moved by the controlled joints.
 fn exact_link_pairs(
     checker: &CollisionChecker,
     lc: &LinkClearance,
@@ -834,16 +872,13 @@ fn exact_link_pairs(
 ) -> Vec<(usize, usize)> {
     let model = checker.model();
     let mut pairs: Vec<(usize, usize)> = checked.to_vec();
-    if let Ok((model_acm, _)) = ferrobot_collision::acm::automatic_acm(model, checker.spheres()) {
-        let never: Vec<(usize, usize)> = checker
+    pairs.extend(
+        checker
             .allowed_collisions()
             .pairs()
-            .filter(|&(_, _, reason)| reason == "Never")
-            .map(|(a, b, _)| (a.min(b), a.max(b)))
-            .filter(|&(a, b)| !model_acm.is_allowed(a, b))
-            .collect();
-        pairs.extend(never);
-    }
+            .filter(|&(_, _, reason)| reason == "Never" || reason == "Always")
+            .map(|(a, b, _)| (a.min(b), a.max(b))),
+    );
     let moved = |l: usize| {
         model
             .path_to(l)

@@ -674,3 +674,50 @@ fn exact_filter_keeps_uncovered_links_off_obstacles() {
     // tests/test_reactive.py (the UR5's spherized model, judged with coal).
     assert!(worst_off.is_finite());
 }
+
+#[test]
+fn exact_layer_watches_every_pair_of_the_unanalysed_matrix() {
+    // The judges of benches/reactive.py and the planner check every link
+    // pair the model's own matrix (SRDF, adjacent links) checks; the
+    // controller's sphere pairs drop those a sampled analysis of the
+    // spheres found never or always touching (panda_link5-panda_link7,
+    // whose spheres always overlap, among them: an episode of the benchmark
+    // pressed the links 1.6 mm into contact). The exact layer must watch
+    // every one of them.
+    let (model, spheres, acm) = panda();
+    let base = AllowedCollisions::from_model(&model);
+    let lc = LinkClearance::new(model.clone()).unwrap();
+    let ck =
+        CollisionChecker::new(model.clone(), spheres, acm.clone(), CollisionWorld::new()).unwrap();
+    let ctl = ReactiveController::new(&ck, None, ReactiveConfig::default()).unwrap();
+    let watched = ctl.exact_link_pairs();
+    let (l5, l7) = (
+        model.link("panda_link5").unwrap(),
+        model.link("panda_link7").unwrap(),
+    );
+    let key = (l5.min(l7), l5.max(l7));
+    assert!(acm.is_allowed(l5, l7), "the analysis drops link5-link7");
+    assert!(!base.is_allowed(l5, l7));
+    assert!(watched.contains(&key), "{watched:?}");
+    let moved = |l: usize| {
+        model
+            .path_to(l)
+            .into_iter()
+            .any(|j| model.joints()[j].kind.is_movable())
+    };
+    let n = model.links().len();
+    let mut expected = 0;
+    for a in 0..n {
+        for b in a + 1..n {
+            if base.is_allowed(a, b)
+                || !(lc.has_geometry(a) && lc.has_geometry(b))
+                || !(moved(a) || moved(b))
+            {
+                continue;
+            }
+            expected += 1;
+            assert!(watched.contains(&(a, b)), "pair {a}-{b} not watched");
+        }
+    }
+    assert!(expected >= 20, "{expected}");
+}

@@ -322,6 +322,10 @@ result_class! {
         guidance: String,
         /// Guidance plan attempts for the current target.
         guidance_plans: usize,
+        /// Rows in the velocity filter this step (sphere pairs and exact link pairs, self and world).
+        filtered: usize,
+        /// Whether the velocity filter changed the commanded velocity this step (the arm held at a hold).
+        filter_active: bool,
     }
 }
 
@@ -341,6 +345,8 @@ impl PyControlStepInfo {
             waypoints_remaining: info.waypoints_remaining,
             guidance: info.guidance.name().to_string(),
             guidance_plans: info.guidance_plans,
+            filtered: info.filtered,
+            filter_active: info.filter_active,
         }
     }
 }
