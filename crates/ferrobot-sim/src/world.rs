@@ -8,8 +8,9 @@ use ferrobot_model::AllowedCollisions;
 use ferrobot_model::RobotModel;
 use nalgebra::{Isometry3, Vector3};
 use rapier3d::prelude::{
-    ColliderBuilder, ColliderHandle, FrictionModel, IntegrationParameters, PhysicsPipeline,
-    RigidBodyBuilder, RigidBodyHandle, SharedShape,
+    ActiveHooks, ColliderBuilder, ColliderHandle, FrictionModel, Group, IntegrationParameters,
+    InteractionGroups, InteractionTestMode, PhysicsPipeline, RigidBodyBuilder, RigidBodyHandle,
+    SharedShape,
 };
 
 use crate::convert::{from_pose, from_vec, pose_is_finite, to_pose, to_vec};
@@ -390,11 +391,58 @@ impl World {
         for (a, b, _) in acm.pairs() {
             self.filter.allowed.insert((index, a.min(b), a.max(b)));
         }
+        if index == 0 {
+            self.use_collision_groups(&model, &acm);
+        }
         let mut robot = robot;
         robot.latency.clock = self.time;
         self.robots.push(robot);
         self.initial = None;
         Ok(index)
+    }
+
+    /// Replaces the contact-filter hook of the first robot's colliders by
+    /// collision groups when it has at most 31 links with collision geometry:
+    /// one group bit per such link, each link's filter without the bits of
+    /// the links the allowed-collision matrix excludes (and its own); bit 31
+    /// stays in every filter, so a link always meets what holds every bit. Pairs
+    /// filtered by groups are dropped by the broad phase, and robot pairs
+    /// without a hook keep Rapier's contact recycling. Everything else (the
+    /// ground, objects, later robots) keeps every group bit, so it meets
+    /// every link as before; later robots keep the hook, which also lets
+    /// their links meet the first robot's (the hook passes pairs of two
+    /// robots), so the result is exactly the matrix's for any number of robots.
+    fn use_collision_groups(&mut self, model: &RobotModel, acm: &AllowedCollisions) {
+        let links = model.links();
+        let colliding: Vec<usize> = (0..links.len())
+            .filter(|&l| !links[l].collisions.is_empty())
+            .collect();
+        if colliding.len() > 31 {
+            return;
+        }
+        let mut bit = vec![None; links.len()];
+        for (k, &l) in colliding.iter().enumerate() {
+            bit[l] = Some(1u32 << k);
+        }
+        let mut filter: Vec<u32> = bit.iter().map(|b| !b.unwrap_or(0)).collect();
+        for (a, b, _) in acm.pairs() {
+            if let (Some(ba), Some(bb)) = (bit[a], bit[b]) {
+                filter[a] &= !bb;
+                filter[b] &= !ba;
+            }
+        }
+        for (_, c) in self.state.colliders.iter_mut() {
+            if let Some((0, l)) = robot_link_of(c.user_data)
+                && let Some(b) = bit[l]
+            {
+                c.set_collision_groups(InteractionGroups::new(
+                    Group::from_bits_truncate(b),
+                    Group::from_bits_truncate(filter[l]),
+                    InteractionTestMode::And,
+                ));
+                c.set_active_hooks(ActiveHooks::empty());
+            }
+        }
     }
 
     /// Objects in the order they were added.
@@ -645,5 +693,77 @@ impl World {
             .map(|c| crate::hooks::seg_of(c.user_data))
             .and_then(|id| self.labels.iter().find(|l| l.id == id))
             .map_or_else(|| "?".into(), |l| l.name.clone())
+    }
+}
+
+#[cfg(test)]
+mod collision_group_tests {
+    use super::*;
+
+    /// Whether two colliders can make contacts: their groups, then the hook
+    /// when either collider asks for it (as Rapier's narrow phase decides).
+    fn can_touch(
+        w: &World,
+        a: &rapier3d::geometry::Collider,
+        b: &rapier3d::geometry::Collider,
+    ) -> bool {
+        if !a.collision_groups().test(b.collision_groups()) {
+            return false;
+        }
+        let hooked =
+            (a.active_hooks() | b.active_hooks()).contains(ActiveHooks::FILTER_CONTACT_PAIRS);
+        if !hooked {
+            return true;
+        }
+        let (ra, la) = robot_link_of(a.user_data).unwrap_or((usize::MAX, 0));
+        let (rb, lb) = robot_link_of(b.user_data).unwrap_or((usize::MAX - 1, 0));
+        !(ra == rb && (la == lb || w.filter.allowed.contains(&(ra, la.min(lb), la.max(lb)))))
+    }
+
+    /// The first robot's groups and a second robot's hook give exactly the
+    /// allowed-collision matrix (read from the model, not from the groups):
+    /// no contact for a disabled pair or within one link, contact for every
+    /// other pair of one robot, between the two robots, and with the ground.
+    #[test]
+    fn groups_and_hook_give_exactly_the_allowed_collision_matrix() {
+        let model = Arc::new(ferrobot_model::robots::panda().unwrap());
+        let acm = AllowedCollisions::from_model(&model);
+        let mut w = World::new(WorldConfig::default()).unwrap();
+        w.add_robot(model.clone(), &RobotOptions::new("a")).unwrap();
+        let mut second = RobotOptions::new("b");
+        second.pose = Isometry3::translation(1.0, 0.0, 0.0);
+        w.add_robot(model.clone(), &second).unwrap();
+        let colliders: Vec<_> = w.state.colliders.iter().map(|(_, c)| c).collect();
+        let first_grouped = colliders
+            .iter()
+            .filter(|c| matches!(robot_link_of(c.user_data), Some((0, _))))
+            .all(|c| c.active_hooks().is_empty());
+        assert!(
+            first_grouped,
+            "the first robot's colliders still use the hook"
+        );
+        let mut checked = 0;
+        for (i, a) in colliders.iter().enumerate() {
+            for b in &colliders[i + 1..] {
+                let expected = match (robot_link_of(a.user_data), robot_link_of(b.user_data)) {
+                    (Some((ra, la)), Some((rb, lb))) if ra == rb => {
+                        la != lb
+                            && !acm
+                                .pairs()
+                                .any(|(x, y, _)| (x, y) == (la, lb) || (x, y) == (lb, la))
+                    }
+                    _ => true,
+                };
+                assert_eq!(
+                    can_touch(&w, a, b),
+                    expected,
+                    "{:?} {:?}",
+                    robot_link_of(a.user_data),
+                    robot_link_of(b.user_data)
+                );
+                checked += 1;
+            }
+        }
+        assert!(checked > 100);
     }
 }
