@@ -67,9 +67,15 @@ def test_mass_matrix_matches_pinocchio_crba(which):
     r = w.add_robot(model)
     lo, hi = np.array(model.lower_limits), np.array(model.upper_limits)
     rng = np.random.default_rng(7)
+    # The stepped configurations are free of self-collision (ferrobot's sphere model, which
+    # encloses the links): a contact within the step pushes the mimic finger off its coupled value
+    # (measured: 1.65 mm), while the reference holds it there.
+    free = ferrobot.CollisionChecker(model)
     checked = 0
     for k in range(40):
         q = lo + rng.random(model.num_dof) * (hi - lo)
+        while k % 2 and free.in_collision(q):
+            q = lo + rng.random(model.num_dof) * (hi - lo)
         r.set_joint_positions(q)
         if k % 2:
             # After a step with the arm moving: the matrix of the new pose.
