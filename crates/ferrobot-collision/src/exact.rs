@@ -14,16 +14,20 @@
 //! Where a mesh's hull is too coarse (some point of the hull's surface lies
 //! more than [`HULL_EXCESS`] from the mesh, e.g. the UR3's upper arm, whose
 //! hull fills the hollow of its shoulder), a contact of the hulls is
-//! re-decided on the mesh itself ([`refine`]): its triangles (parry's
+//! re-decided on the mesh itself (`refine`): its triangles (parry's
 //! `TriMesh` and its BVH, traversed together with the other part's) against
-//! the other part's triangles or primitive. The surfaces are apart only if
-//! no triangle pair is within the margin; the solids are then apart unless
-//! one lies inside the other, which is ruled out when its hull reaches
-//! further than the other's hull along one of a few directions, and
-//! otherwise reported as a contact. So the mesh stage only ever turns a
-//! hull contact into "free" when the meshes' surfaces are apart and neither
-//! solid can hold the other: it stays conservative with respect to the
-//! mesh, also for meshes that are not closed.
+//! the other part's triangles (its mesh, or its hull's faces), with exact
+//! triangle-triangle distances. The surfaces are apart only if no triangle
+//! pair is within the margin; the solids are then apart unless one lies
+//! inside the other, which is ruled out by the hull's planes (a mesh in a
+//! hull) or when one hull reaches further than the other along one of 26
+//! directions, and otherwise reported as a contact. Against a primitive
+//! (box, sphere, cylinder, capsule) the hulls' verdict stands. So the mesh
+//! stage only turns a hull contact into "free" when the surfaces are apart
+//! and neither solid can hold the other: it stays conservative with respect
+//! to the mesh, also for meshes that are not closed. No decomposition is
+//! computed, so nothing needs caching: building the BVH and measuring the
+//! hull's excess take milliseconds per link.
 //!
 //! The second stage is cheap because most lanes never reach GJK:
 //!
