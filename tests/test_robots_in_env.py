@@ -235,7 +235,7 @@ def test_self_collision_matches_the_meshes(name):
 
     model, _, checker = setup(name)
     truth = MeshTruth(name, model, checker)
-    qs = random_q(model, 150, seed=11)
+    qs = random_q(model, 100, seed=11)  # about 10% (UR10) to 30% (UR3) touch
     ours = checker.in_collision_batch(qs)
     for q, flagged in zip(qs, ours, strict=True):
         gap, pair = truth.min_distance(q)
@@ -243,7 +243,7 @@ def test_self_collision_matches_the_meshes(name):
             assert flagged, f"{name}: meshes of {pair} touch (coal) at {q}, ferrobot: free"
         elif gap > 5e-3:
             assert not flagged, f"{name}: meshes {gap * 1e3:.1f} mm apart at {q}: {checker.explain(q)}"
-    assert 0.1 < ours.mean() < 0.5  # both verdicts occur in the sample
+    assert 0.05 < ours.mean() < 0.5  # both verdicts occur in the sample
 
 
 def test_pybullet_panda_self_collision_matches_pybullet():
