@@ -11,6 +11,24 @@
 //! stage cannot miss a contact either). World collisions stay sphere-only.
 //! Attached objects have no exact shape: spheres decide.
 //!
+//! Where a mesh's hull is too coarse (some point of the hull's surface lies
+//! more than [`HULL_EXCESS`] from the mesh, e.g. the UR3's upper arm, whose
+//! hull fills the hollow of its shoulder), a contact of the hulls is
+//! re-decided on the mesh itself (`refine`): its triangles (parry's
+//! `TriMesh` and its BVH, traversed together with the other part's) against
+//! the other part's triangles (its mesh, or its hull's faces), with exact
+//! triangle-triangle distances. The surfaces are apart only if no triangle
+//! pair is within the margin; the solids are then apart unless one lies
+//! inside the other, which is ruled out by the hull's planes (a mesh in a
+//! hull) or when one hull reaches further than the other along one of 26
+//! directions, and otherwise reported as a contact. Against a primitive
+//! (box, sphere, cylinder, capsule) the hulls' verdict stands. So the mesh
+//! stage only turns a hull contact into "free" when the surfaces are apart
+//! and neither solid can hold the other: it stays conservative with respect
+//! to the mesh, also for meshes that are not closed. No decomposition is
+//! computed, so nothing needs caching: building the BVH and measuring the
+//! hull's excess take milliseconds per link.
+//!
 //! The second stage is cheap because most lanes never reach GJK:
 //!
 //! 1. Each part carries an oriented bounding box (in its lane frame, padded
@@ -32,11 +50,13 @@ use std::sync::Arc;
 
 use ferrobot_model::{Link, Shape};
 use nalgebra::{Isometry3, Matrix3, Point3, SymmetricEigen, UnitQuaternion, Vector3};
+use parry3d::bounding_volume::BoundingVolume;
 use parry3d::math::{Mat3, Pose, Rot3, Vector};
+use parry3d::query::PointQuery;
 use parry3d::query::details::{
     distance_support_map_support_map, intersection_test_support_map_support_map,
 };
-use parry3d::shape::{Ball, Capsule, Cuboid, Cylinder, SupportMap};
+use parry3d::shape::{Ball, Capsule, Cuboid, Cylinder, SupportMap, TriMesh};
 
 use crate::compiled::Frame32;
 use crate::kernel::LaneFrame;
@@ -46,6 +66,16 @@ use wide::f32x8;
 /// Padding (m) added to every box half extent, far above the `f32`
 /// rounding of the lane arithmetic at robot scale (about 1e-7 m).
 const BOX_PAD: f64 = 1e-5;
+/// A mesh part whose convex hull's surface lies further than this (m) from
+/// the mesh somewhere (the hull-to-mesh Hausdorff distance, measured at the
+/// centroid and edge midpoints of every hull face) keeps its triangles, and
+/// hull contacts are re-decided on them ([`refine`]). Below it the hull is
+/// at most this much larger than the mesh and decides alone.
+pub const HULL_EXCESS: f64 = 2e-3;
+/// Triangles closer than this (m, plus the margin) count as touching in
+/// [`refine`]: far above the `f32` rounding of the relative pose and of
+/// GJK on robot-sized parts, so rounding never turns a contact into a gap.
+const TOUCH: f32 = 1e-5;
 /// Added to the absolute rotation entries of the separating-axis test, so
 /// nearly parallel edges never produce a false separating axis.
 const AXIS_EPS: f32 = 1e-5;
@@ -60,6 +90,8 @@ struct Hull {
     planes: Vec<(Vector3<f64>, f64)>,
     /// Vertices.
     points: Vec<Vector>,
+    /// Triangles of the hull's surface (three vertices each).
+    faces: Vec<[Vector; 3]>,
 }
 
 impl Hull {
@@ -87,6 +119,7 @@ impl Hull {
                 Some((n, n.dot(&a)))
             })
             .collect();
+        let faces = tris.iter().map(|t| t.map(|v| raw[v as usize])).collect();
         let packs = points
             .chunks(8)
             .map(|c| {
@@ -98,6 +131,7 @@ impl Hull {
             packs,
             planes,
             points,
+            faces,
         })
     }
 
@@ -231,20 +265,41 @@ struct Part {
     /// The same spheres eight to a pack (x, y, z, radius lanes; padding
     /// lanes NaN, which never overlap), for the one-lane test.
     inner_packs: Vec<[f32x8; 4]>,
+    /// The mesh itself (part frame), where its hull is too coarse
+    /// ([`HULL_EXCESS`]): hull contacts are re-decided on it.
+    fine: Option<Arc<TriMesh>>,
+    /// The hull's faces as a mesh (hull parts without `fine`), standing
+    /// for the part when the other part of a pair keeps its mesh.
+    hull_faces: Option<Arc<TriMesh>>,
 }
 
 /// At most this many inner spheres per part.
 const INNER: usize = 16;
 
 impl Part {
-    fn new(pose: Isometry3<f64>, obb: Obb, shape: Convex) -> Self {
+    fn new(pose: Isometry3<f64>, obb: Obb, shape: Convex, fine: Option<Arc<TriMesh>>) -> Self {
         let mut part = Self {
             pose: Frame32::from_iso(&pose),
             obb,
             shape,
             inner: Vec::new(),
             inner_packs: Vec::new(),
+            hull_faces: None,
+            fine,
         };
+        if let (Convex::Hull(h), None) = (&part.shape, &part.fine) {
+            let v: Vec<Vector> = h.faces.iter().flatten().copied().collect();
+            let t: Vec<[u32; 3]> = (0..h.faces.len() as u32)
+                .map(|k| [3 * k, 3 * k + 1, 3 * k + 2])
+                .collect();
+            part.hull_faces = TriMesh::new(v, t).ok().map(Arc::new);
+        }
+        if part.fine.is_some() {
+            // Spheres inscribed in the hull may lie outside the mesh (in
+            // the hollows that make the hull coarse), and an open mesh has
+            // no inside to test them against: none, the mesh decides.
+            return part;
+        }
         // Candidates on a grid over the box, largest inscribed first, kept
         // when not mostly inside one already kept.
         let n = 13;
@@ -320,6 +375,13 @@ impl std::fmt::Debug for ExactBody {
 }
 
 impl ExactBody {
+    /// How many parts keep their mesh because its hull is too coarse
+    /// ([`HULL_EXCESS`]): hull contacts of those are re-decided on the
+    /// triangles.
+    pub fn refined_parts(&self) -> usize {
+        self.parts.iter().filter(|p| p.fine.is_some()).count()
+    }
+
     /// Every part's inscribed spheres (body lane frame: centre, radius):
     /// two bodies whose inscribed spheres overlap are confirmed touching by
     /// [`confirm`] for any margin.
@@ -341,11 +403,13 @@ impl ExactBody {
                     at,
                     Obb::new(centre, &rot, h),
                     Convex::Cuboid(Cuboid::new(Vector::new(h.x as f32, h.y as f32, h.z as f32))),
+                    None,
                 ),
                 Shape::Sphere { radius } => Part::new(
                     at,
                     Obb::new(centre, &rot, &Vector3::repeat(*radius)),
                     Convex::Ball(Ball::new(*radius as f32)),
+                    None,
                 ),
                 Shape::Cylinder {
                     radius,
@@ -360,6 +424,7 @@ impl ExactBody {
                         at * turn,
                         Obb::new(centre, &rot, &Vector3::new(*radius, *radius, *half_height)),
                         Convex::Cylinder(Cylinder::new(*half_height as f32, *radius as f32)),
+                        None,
                     )
                 }
                 Shape::Capsule {
@@ -377,6 +442,7 @@ impl ExactBody {
                         Vector::new(0.0, 0.0, *half_height as f32),
                         *radius as f32,
                     )),
+                    None,
                 ),
                 Shape::PointCloud(_) => return None,
                 Shape::Mesh(_) | Shape::ConvexDecomposition(_) | Shape::ConvexHull(_) => {
@@ -412,7 +478,13 @@ impl ExactBody {
                             obb = pca;
                         }
                     }
-                    Part::new(at, obb, Convex::Hull(Arc::new(hull)))
+                    let fine = match &g.shape {
+                        Shape::Mesh(m) | Shape::ConvexDecomposition(m) => {
+                            coarse_hull_mesh(&hull, pts, m.triangles())
+                        }
+                        _ => None,
+                    };
+                    Part::new(at, obb, Convex::Hull(Arc::new(hull)), fine)
                 }
             };
             parts.push(part);
@@ -421,6 +493,195 @@ impl ExactBody {
             parts: parts.into(),
         })
     }
+}
+
+/// The mesh `(vertices, triangles)` as a parry `TriMesh` if its `hull` is
+/// too coarse: some hull face's centroid or edge midpoint lies more than
+/// [`HULL_EXCESS`] from the mesh's surface. None when the hull is tight
+/// enough or the mesh cannot be built (the hull then decides alone, which
+/// is conservative).
+fn coarse_hull_mesh(
+    hull: &Hull,
+    vertices: Vec<Vector>,
+    triangles: &[[u32; 3]],
+) -> Option<Arc<TriMesh>> {
+    if triangles.is_empty() {
+        return None;
+    }
+    let mesh = TriMesh::new(vertices, triangles.to_vec()).ok()?;
+    let far = |p: Vector| {
+        let proj = mesh.project_local_point(p, false);
+        (proj.point - p).length() as f64 > HULL_EXCESS
+    };
+    let coarse = hull.faces.iter().any(|[a, b, c]| {
+        far((*a + *b + *c) / 3.0)
+            || far((*a + *b) / 2.0)
+            || far((*b + *c) / 2.0)
+            || far((*c + *a) / 2.0)
+    });
+    coarse.then(|| Arc::new(mesh))
+}
+
+/// Whether the solid of part `inner` (posed by `pos` in the frame of part
+/// `outer`) may lie inside the solid of `outer`. False when `inner`'s hull
+/// reaches further than `outer`'s hull (which contains `outer`) along one
+/// of 26 directions: then some point of `inner` is outside `outer`.
+fn may_hold(outer: &Convex, inner: &Convex, pos: &Pose, reach: f32) -> bool {
+    for x in -1i8..=1 {
+        for y in -1i8..=1 {
+            for z in -1i8..=1 {
+                if (x, y, z) == (0, 0, 0) {
+                    continue;
+                }
+                let d = Vector::new(x as f32, y as f32, z as f32).normalize();
+                let o = outer.local_support_point(d).dot(d);
+                let i = inner.support_point(pos, d).dot(d);
+                if i > o + reach {
+                    return false;
+                }
+            }
+        }
+    }
+    true
+}
+
+/// Re-decides a contact of the hulls of parts `a` and `b` (`b` posed by
+/// `pos12` in `a`'s frame) where at least one keeps its mesh: whether the
+/// meshes (triangles; the other part's hull faces where it has no mesh)
+/// come within `margin` (0: touch). Conservative: "apart" only when no
+/// triangle pair is within the margin plus [`TOUCH`] (exact triangle
+/// distances, not GJK, which misjudges flat triangles by millimetres) and
+/// neither solid may hold the other (a mesh inside the other part's hull
+/// is found by its first vertex and the hull's planes, a solid inside a
+/// mesh is ruled out by [`may_hold`]). A primitive other part keeps the
+/// hulls' verdict: contact.
+fn refine(a: &Part, b: &Part, pos12: &Pose, margin: f32) -> bool {
+    let reach = margin + TOUCH;
+    let (Some(ma), Some(mb)) = (a.surface(), b.surface()) else {
+        return true;
+    };
+    let surfaces = ma
+        .bvh()
+        .leaf_pairs(mb.bvh(), |n1, n2| {
+            n1.aabb()
+                .loosened(reach)
+                .intersects(&n2.aabb().transform_by(pos12))
+        })
+        .any(|(i, j)| {
+            let (ta, tb) = (ma.triangle(i), mb.triangle(j));
+            let ta = [ta.a, ta.b, ta.c];
+            let tb = [tb.a, tb.b, tb.c].map(|p| pos12 * p);
+            !beyond_plane(&ta, &tb, reach)
+                && !beyond_plane(&tb, &ta, reach)
+                && triangles_within(&ta, &tb, reach)
+        });
+    // Whether `inner`'s solid (its surface `m`, posed by `pos` in outer's
+    // frame) may lie inside `outer`'s.
+    let inside = |outer: &Part, inner: &Part, pos: &Pose, m: &TriMesh| match outer.fine {
+        None => {
+            let p = pos * m.vertices()[0];
+            let p = Vector3::new(p.x as f64, p.y as f64, p.z as f64);
+            outer.shape.depth(&p) > -(reach as f64)
+        }
+        Some(_) => may_hold(&outer.shape, &inner.shape, pos, reach),
+    };
+    surfaces || inside(a, b, pos12, mb) || inside(b, a, &pos12.inverse(), ma)
+}
+
+impl Part {
+    /// The triangles standing for this part in [`refine`]: its mesh, else
+    /// its hull's faces. None for primitives.
+    fn surface(&self) -> Option<&TriMesh> {
+        self.fine.as_deref().or(self.hull_faces.as_deref())
+    }
+}
+
+/// Whether triangles `a` and `b` (same frame) are closer than `reach`:
+/// an edge of one piercing the other, else the smallest of the vertex to
+/// triangle and edge to edge distances (exact for disjoint triangles).
+fn triangles_within(a: &[Vector; 3], b: &[Vector; 3], reach: f32) -> bool {
+    let edges = |t: &[Vector; 3]| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])];
+    let pierces = |t: &[Vector; 3], (p, q): (Vector, Vector)| {
+        // Moller-Trumbore on the segment p -> q.
+        let (e1, e2, dir) = (t[1] - t[0], t[2] - t[0], q - p);
+        let h = dir.cross(e2);
+        let det = e1.dot(h);
+        if det.abs() < 1e-20 {
+            return false;
+        }
+        let f = 1.0 / det;
+        let s = p - t[0];
+        let u = f * s.dot(h);
+        let qv = s.cross(e1);
+        let v = f * dir.dot(qv);
+        let w = f * e2.dot(qv);
+        (0.0..=1.0).contains(&u) && v >= 0.0 && u + v <= 1.0 && (0.0..=1.0).contains(&w)
+    };
+    if edges(a).into_iter().any(|e| pierces(b, e)) || edges(b).into_iter().any(|e| pierces(a, e)) {
+        return true;
+    }
+    let ta = parry3d::shape::Triangle::new(a[0], a[1], a[2]);
+    let tb = parry3d::shape::Triangle::new(b[0], b[1], b[2]);
+    let near = |t: &parry3d::shape::Triangle, p: Vector| t.distance_to_local_point(p, true) < reach;
+    if a.iter().any(|&p| near(&tb, p)) || b.iter().any(|&p| near(&ta, p)) {
+        return true;
+    }
+    edges(a).into_iter().any(|ea| {
+        edges(b)
+            .into_iter()
+            .any(|eb| segments_distance(ea, eb) < reach)
+    })
+}
+
+/// The distance between segments `a` and `b` (the clamped closest-points
+/// construction for two segments).
+fn segments_distance((p1, q1): (Vector, Vector), (p2, q2): (Vector, Vector)) -> f32 {
+    let (d1, d2, r) = (q1 - p1, q2 - p2, p1 - p2);
+    let (a, e, f) = (d1.dot(d1), d2.dot(d2), d2.dot(r));
+    let eps = 1e-20;
+    let (s, t) = if a <= eps && e <= eps {
+        (0.0, 0.0)
+    } else if a <= eps {
+        (0.0, (f / e).clamp(0.0, 1.0))
+    } else {
+        let c = d1.dot(r);
+        if e <= eps {
+            ((-c / a).clamp(0.0, 1.0), 0.0)
+        } else {
+            let b = d1.dot(d2);
+            let denom = a * e - b * b;
+            let mut s = if denom > eps {
+                ((b * f - c * e) / denom).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            let mut t = (b * s + f) / e;
+            if t < 0.0 {
+                t = 0.0;
+                s = (-c / a).clamp(0.0, 1.0);
+            } else if t > 1.0 {
+                t = 1.0;
+                s = ((b - c) / a).clamp(0.0, 1.0);
+            }
+            (s, t)
+        }
+    };
+    ((p1 + d1 * s) - (p2 + d2 * t)).length()
+}
+
+/// Whether every point of `other` lies more than `reach` to one side of
+/// the plane of triangle `t` (then the triangles are more than `reach`
+/// apart): a cheap rejection before GJK. False for a degenerate `t`.
+#[inline]
+fn beyond_plane(t: &[Vector; 3], other: &[Vector; 3], reach: f32) -> bool {
+    let n = (t[1] - t[0]).cross(t[2] - t[0]);
+    let len = n.length();
+    if len <= 1e-12 {
+        return false;
+    }
+    let n = n / len;
+    let d = other.map(|p| n.dot(p - t[0]));
+    d.iter().all(|&x| x > reach) || d.iter().all(|&x| x < -reach)
 }
 
 /// A box's centre and axes in the base frame, on every lane.
@@ -633,11 +894,14 @@ pub fn confirm<L: Lanes>(
                 bits &= bits - 1;
                 let pos12 = relative(&part_pose(fa, i, &pa.pose), &part_pose(fb, i, &pb.pose));
                 let (sa, sb) = (&pa.shape, &pb.shape);
-                let hit = if margin > 0.0 {
+                let mut hit = if margin > 0.0 {
                     distance_support_map_support_map(&pos12, sa, sb) < margin
                 } else {
                     intersection_test_support_map_support_map(&pos12, sa, sb)
                 };
+                if hit && (pa.fine.is_some() || pb.fine.is_some()) {
+                    hit = refine(pa, pb, &pos12, margin);
+                }
                 if hit {
                     out |= 1 << i;
                 }
@@ -650,6 +914,161 @@ pub fn confirm<L: Lanes>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A U: three boxes (one triangle soup), the slot between the arms
+    /// 0.06 wide and open towards +z.
+    fn u_mesh() -> (Vec<Vector>, Vec<[u32; 3]>) {
+        let boxes = [
+            ([0.0, 0.0, -0.04], [0.1, 0.05, 0.02]),
+            ([-0.08, 0.0, 0.02], [0.02, 0.05, 0.08]),
+            ([0.08, 0.0, 0.02], [0.02, 0.05, 0.08]),
+        ];
+        let (mut v, mut t) = (Vec::new(), Vec::new());
+        for (c, h) in boxes {
+            let b = v.len() as u32;
+            for k in 0..8 {
+                let s = |i: usize| if k >> i & 1 == 1 { 1.0 } else { -1.0 };
+                v.push(Vector::new(
+                    c[0] + s(0) * h[0],
+                    c[1] + s(1) * h[1],
+                    c[2] + s(2) * h[2],
+                ));
+            }
+            for f in [
+                [0, 2, 1],
+                [1, 2, 3],
+                [4, 5, 6],
+                [5, 7, 6],
+                [0, 1, 4],
+                [1, 5, 4],
+                [2, 6, 3],
+                [3, 6, 7],
+                [0, 4, 2],
+                [2, 4, 6],
+                [1, 3, 5],
+                [3, 7, 5],
+            ] {
+                t.push(f.map(|i| b + i));
+            }
+        }
+        (v, t)
+    }
+
+    fn mesh_part(v: Vec<Vector>, t: &[[u32; 3]]) -> Part {
+        let hull = Hull::new(&v).unwrap();
+        let fine = coarse_hull_mesh(&hull, v, t);
+        let obb = Obb::new(
+            Vector3::zeros(),
+            &Matrix3::identity(),
+            &Vector3::repeat(0.2),
+        );
+        Part::new(
+            Isometry3::identity(),
+            obb,
+            Convex::Hull(Arc::new(hull)),
+            fine,
+        )
+    }
+
+    /// A convex mesh (a box) keeps its hull; the U (hull 2.3 cm beyond
+    /// the mesh at the slot) keeps its triangles and has no inner spheres.
+    #[test]
+    fn only_coarse_hulls_are_refined() {
+        let (v, t) = u_mesh();
+        let part = mesh_part(v.clone(), &t);
+        assert!(part.fine.is_some() && part.inner.is_empty());
+        let (bv, bt) = (v[..8].to_vec(), t[..12].to_vec());
+        let part = mesh_part(bv, &bt);
+        assert!(part.fine.is_none() && !part.inner.is_empty());
+    }
+
+    /// The U against a 4 cm cube mesh (convex: it keeps its hull) moved
+    /// along x and z, against the exact distance of axis-aligned boxes:
+    /// every contact is reported, also the cube inside an arm's solid; a
+    /// cube in the slot (where the hulls overlap) is free unless the U's
+    /// hull may hold it; within a margin, touching.
+    #[test]
+    fn mesh_against_hull_matches_box_distances() {
+        let (v, t) = u_mesh();
+        let u = mesh_part(v.clone(), &t);
+        let h = Vector::new(0.02, 0.02, 0.02);
+        let cube_v: Vec<Vector> = (0..8)
+            .map(|k| {
+                let s = |i: usize| if k >> i & 1 == 1 { 1.0 } else { -1.0 };
+                Vector::new(s(0) * h.x, s(1) * h.y, s(2) * h.z)
+            })
+            .collect();
+        let cube = mesh_part(cube_v, &t[..12]);
+        assert!(cube.fine.is_none() && cube.hull_faces.is_some());
+        let boxes = [
+            (Vector::new(0.0, 0.0, -0.04), Vector::new(0.1, 0.05, 0.02)),
+            (Vector::new(-0.08, 0.0, 0.02), Vector::new(0.02, 0.05, 0.08)),
+            (Vector::new(0.08, 0.0, 0.02), Vector::new(0.02, 0.05, 0.08)),
+        ];
+        let (mut free, mut hit) = (0, 0);
+        for i in 0..=48 {
+            for k in 0..=30 {
+                let c = Vector::new(-0.144 + 0.006 * i as f32, 0.0, -0.04 + 0.006 * k as f32);
+                let d = boxes
+                    .iter()
+                    .map(|(bc, bh)| {
+                        let gap = ((c - *bc).abs() - *bh - h).max(Vector::ZERO);
+                        gap.length()
+                    })
+                    .fold(f32::INFINITY, f32::min);
+                let pos = Pose::from_translation(c);
+                let got = refine(&u, &cube, &pos, 0.0);
+                if d <= 0.0 {
+                    assert!(got, "{c:?}: boxes touch, refine says apart");
+                    hit += 1;
+                } else if d > 1e-4 && !may_hold(&u.shape, &cube.shape, &pos, TOUCH) {
+                    assert!(!got, "{c:?}: {d} m apart, refine says touch");
+                    free += usize::from(c.x.abs() < 0.06 && c.z < 0.1);
+                }
+                if d < 0.004 {
+                    assert!(refine(&u, &cube, &pos, 0.005), "{c:?}: {d} m < margin");
+                }
+            }
+        }
+        assert!(free > 5 && hit > 100, "{free} {hit}");
+    }
+
+    /// Mesh against mesh at random poses, against parry's TriMesh-TriMesh
+    /// distance: a contact is always reported; "apart" is answered
+    /// whenever the meshes are apart and neither hull can hold the other.
+    #[test]
+    fn mesh_against_mesh_matches_parry() {
+        let (v, t) = u_mesh();
+        let a = mesh_part(v.clone(), &t);
+        let b = mesh_part(v.iter().map(|p| *p * 0.5).collect(), &t);
+        let ra = TriMesh::new(v.clone(), t.clone()).unwrap();
+        let rb = TriMesh::new(v.iter().map(|p| *p * 0.5).collect(), t).unwrap();
+        let (mut apart, mut touch) = (0, 0);
+        for k in 0..600 {
+            let f = |s: f32| ((k as f32 * s).sin() * 43758.547).fract();
+            let axis = Vector::new(f(1.1) - 0.5, f(2.3) - 0.5, f(3.7) - 0.5 + 1e-3).normalize();
+            let rot = Rot3::from_axis_angle(axis, 6.3 * f(7.9));
+            let pos = Pose::from_parts(
+                Vector::new(0.2 * f(4.1) - 0.1, 0.1 * f(5.3) - 0.05, 0.2 * f(6.7) - 0.1),
+                rot,
+            );
+            let d = parry3d::query::distance(&Pose::IDENTITY, &ra, &pos, &rb)
+                .unwrap()
+                .distance;
+            let got = refine(&a, &b, &pos, 0.0);
+            if d <= 0.0 {
+                assert!(got, "{k}: meshes touch, refine says apart");
+                touch += 1;
+            } else if d > 5e-3
+                && !may_hold(&a.shape, &b.shape, &pos, TOUCH)
+                && !may_hold(&b.shape, &a.shape, &pos.inverse(), TOUCH)
+            {
+                assert!(!got, "{k}: meshes {d} m apart, refine says touch");
+                apart += 1;
+            }
+        }
+        assert!(apart > 50 && touch > 50, "{apart} {touch}");
+    }
 
     /// The packed scan finds the furthest vertex of a hull with many
     /// coplanar vertices (against a plain scan of the input points).
