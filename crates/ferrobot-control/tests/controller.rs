@@ -491,7 +491,10 @@ fn guidance_plans_out_of_a_local_minimum() {
         let (mut q, mut qd) = (q0.clone(), vec![0.0; q0.len()]);
         let mut seen = Vec::new();
         let mut lowest = f64::INFINITY;
-        for _ in 0..1200 {
+        // 24 s of controller time: enough for the three plans' stalls and the
+        // final one that exhausts the budget (with the faster IK of plan23c the
+        // last stall came just after 12 s).
+        for _ in 0..2400 {
             let out = ctl.step(&q, &qd, 0.01).unwrap();
             if seen.last() != Some(&out.info.guidance) {
                 seen.push(out.info.guidance);
