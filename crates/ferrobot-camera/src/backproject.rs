@@ -47,6 +47,28 @@ pub fn backproject<D: Copy + Into<f64>>(
     intrinsics: &Intrinsics,
     mut keep: impl FnMut(&Point3<f64>) -> bool,
 ) -> Result<BackProjected, CameraError> {
+    let mut out = BackProjected::default();
+    for_each_point(depth, intrinsics, |v, u, p| {
+        if keep(&p) {
+            out.points.push(p);
+            out.pixels.push((v, u));
+        }
+    })?;
+    Ok(out)
+}
+
+/// Calls `f(row, column, point)` for every pixel of a depth image with a
+/// reading, in row-major order, with the point [`backproject`] gives for it
+/// (the same formula and policy; bit for bit the same point): for consumers
+/// that reduce the cloud as it is made (a voxel grid) instead of storing
+/// every point. Returns the first bad depth's error (row-major), after
+/// `f` has seen the pixels before it; the checks of the intrinsics and the
+/// image size come before any call.
+pub fn for_each_point<D: Copy + Into<f64>>(
+    depth: &[D],
+    intrinsics: &Intrinsics,
+    mut f: impl FnMut(usize, usize, Point3<f64>),
+) -> Result<(), CameraError> {
     intrinsics.validate()?;
     let (w, h) = (intrinsics.width, intrinsics.height);
     if depth.len() != w * h {
@@ -56,22 +78,24 @@ pub fn backproject<D: Copy + Into<f64>>(
         )));
     }
     let scale = intrinsics.depth_scale;
-    let mut out = BackProjected::default();
+    // (u - cx) / fx per column and (v - cy) / fy per row, computed once:
+    // the same operations in the same order as `Intrinsics::unproject`.
+    let cols: Vec<f64> = (0..w)
+        .map(|u| (u as f64 - intrinsics.cx) / intrinsics.fx)
+        .collect();
     for (v, row) in depth.chunks_exact(w).enumerate() {
-        for (u, &d) in row.iter().enumerate() {
+        let b = (v as f64 - intrinsics.cy) / intrinsics.fy;
+        for (u, (&d, &a)) in row.iter().zip(&cols).enumerate() {
             let d: f64 = d.into();
             if d > 0.0 && d < f64::INFINITY {
-                let p = intrinsics.unproject(u as f64, v as f64, d / scale);
-                if keep(&p) {
-                    out.points.push(p);
-                    out.pixels.push((v, u));
-                }
+                let z = d / scale;
+                f(v, u, Point3::new(a * z, b * z, z));
             } else if !is_missing(d) {
                 return Err(bad_depth(d, v, u));
             }
         }
     }
-    Ok(out)
+    Ok(())
 }
 
 fn bad_depth(d: f64, row: usize, col: usize) -> CameraError {

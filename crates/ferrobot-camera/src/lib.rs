@@ -16,7 +16,7 @@ pub mod conventions;
 mod error;
 mod intrinsics;
 
-pub use backproject::{BackProjected, backproject, is_missing};
+pub use backproject::{BackProjected, backproject, for_each_point, is_missing};
 pub use conventions::{
     Convention, camera_to_world, convert_pose, look_at, opencv_to_opengl, opengl_to_opencv,
 };

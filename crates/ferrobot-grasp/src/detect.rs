@@ -5,7 +5,7 @@ use nalgebra::{Point3, Vector3};
 use rayon::prelude::*;
 
 use crate::approaches::hands_with_clear_approaches;
-use crate::backproject::{Intrinsics, Workspace, backproject};
+use crate::backproject::{Intrinsics, Workspace};
 use crate::candidates::{Obstacles, SearchParams, body_collides, body_sweep_box, hands_at_seed};
 use crate::error::{GraspError, Result, positive};
 use crate::grasp::{Grasp, GraspGroup};
@@ -15,7 +15,7 @@ use crate::nms::nms_filtered;
 use crate::normals::SurfaceCloud;
 use crate::plane::find_support_plane;
 use crate::seeds::spread_seeds;
-use crate::voxel::voxel_downsample;
+use crate::voxel::{voxel_downsample, voxel_downsample_depth};
 
 /// Options of [`detect`]. Frame-dependent options (`viewpoint`,
 /// `approach_direction`) are in the cloud's frame; the defaults suit a cloud
@@ -261,9 +261,24 @@ fn detect_with(
         .iter()
         .map(|&i| seedable.is_none_or(|s| s[i]))
         .collect();
+    detect_voxels(&centroids, &ds_labels, &ds_seedable, opts, accept)
+}
+
+/// Detection on a voxel-downsampled cloud (`opts` checked): the voxel
+/// centroids, each voxel's label and whether it may be a seed.
+fn detect_voxels(
+    centroids: &[Point3<f64>],
+    ds_labels: &[i32],
+    ds_seedable: &[bool],
+    opts: &DetectOptions,
+    accept: &dyn Fn(&Grasp) -> bool,
+) -> Result<GraspGroup> {
+    if centroids.is_empty() {
+        return Ok(GraspGroup::default());
+    }
     let plane = if opts.support_plane {
         find_support_plane(
-            &centroids,
+            centroids,
             opts.plane_threshold,
             0.2,
             200,
@@ -275,8 +290,8 @@ fn detect_with(
     };
     let mass_centres = if opts.torque_scale > 0.0 {
         mass_centres(
-            &centroids,
-            &ds_labels,
+            centroids,
+            ds_labels,
             plane.as_ref(),
             opts.plane_threshold,
             opts.voxel_size,
@@ -472,11 +487,26 @@ pub fn detect_rgbd(
             "object_id needs a segmentation mask".into(),
         ));
     }
-    let bp = backproject(depth, intrinsics, workspace)?;
+    // The same errors, in the same order, as back-projecting the image and
+    // then detecting on its cloud: the workspace, the image, then options.
+    if let Err(e) = opts.validate() {
+        if let Some(w) = workspace {
+            w.validate()?;
+        }
+        ferrobot_camera::for_each_point(depth, intrinsics, |_, _, _| {})?;
+        return Err(e);
+    }
+    // The voxel grid straight from the pixels (the ~300k-point cloud is never
+    // stored); each voxel takes the label of its first pixel, as the cloud's
+    // first point in the voxel gave it.
+    let (centroids, first) = voxel_downsample_depth(depth, intrinsics, workspace, opts.voxel_size)?;
     match mask {
-        None => detect(&bp.points, None, None, opts),
+        None => {
+            let n = centroids.len();
+            detect_voxels(&centroids, &vec![-1; n], &vec![true; n], opts, &|_| true)
+        }
         Some(m) => {
-            let labels: Vec<i32> = bp.pixels.iter().map(|&(r, c)| m[r * width + c]).collect();
+            let labels: Vec<i32> = first.iter().map(|&i| m[i]).collect();
             let seedable: Vec<bool> = labels
                 .iter()
                 .map(|&l| l != 0 && object_id.is_none_or(|o| o == l))
@@ -486,7 +516,7 @@ pub fn detect_rgbd(
                 !opts.occlusion
                     || !hidden_by_another_object(g, &opts.gripper, depth, m, intrinsics, margin)
             };
-            detect_with(&bp.points, Some(&labels), Some(&seedable), opts, &hidden)
+            detect_voxels(&centroids, &labels, &seedable, opts, &hidden)
         }
     }
 }
@@ -534,4 +564,179 @@ fn hidden_by_another_object(
             z.is_finite() && z > 0.0 && p.z > z + margin && mask[i] != g.object_id
         })
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::backproject::backproject;
+
+    /// A ray-cast frame in the camera's frame: a table (plane facing the
+    /// camera, 0.6 m away, seen obliquely) with spheres of labels 1-3
+    /// resting on it (two touching), a strip of missing depth (0) and one of
+    /// rays that hit nothing (+inf); labels 0 on the table. The spheres
+    /// stand on the table where the image centre's ray meets it.
+    fn frame(width: usize, height: usize, f: f64) -> (Vec<f64>, Vec<i32>, Intrinsics) {
+        let k = Intrinsics::new(
+            width,
+            height,
+            f,
+            f,
+            width as f64 / 2.0 - 0.5,
+            height as f64 / 2.0 - 0.5,
+        )
+        .unwrap();
+        let n = Vector3::new(0.0, -0.6, -0.8);
+        let foot = |x: f64, y: f64| {
+            // A point on the table under (x, y) of the image centre's ray.
+            let p = Vector3::new(x, y, 0.75);
+            p - n * (n.dot(&p) + 0.6)
+        };
+        let spheres = [
+            (foot(0.0, 0.0) + n * 0.03, 0.03, 1),
+            (foot(0.06, 0.0) + n * 0.03, 0.03, 2),
+            (foot(-0.09, 0.05) + n * 0.025, 0.025, 3),
+        ];
+        let (mut depth, mut mask) = (vec![0.0; width * height], vec![0; width * height]);
+        for v in 0..height {
+            for u in 0..width {
+                let i = v * width + u;
+                if u < 4 {
+                    continue; // missing depth (0)
+                }
+                let d = Vector3::new((u as f64 - k.cx) / k.fx, (v as f64 - k.cy) / k.fy, 1.0);
+                let mut best = (f64::INFINITY, 0);
+                if n.dot(&d) < 0.0 && v + 6 < height {
+                    best = (-0.6 / n.dot(&d), 0);
+                }
+                for (c, r, label) in spheres {
+                    // |t d - c|² = r²: the nearer root.
+                    let (a, b, cc) = (d.dot(&d), -2.0 * d.dot(&c), c.dot(&c) - r * r);
+                    let disc = b * b - 4.0 * a * cc;
+                    if disc >= 0.0 {
+                        let t = (-b - disc.sqrt()) / (2.0 * a);
+                        if t > 0.0 && t < best.0 {
+                            best = (t, label);
+                        }
+                    }
+                }
+                depth[i] = best.0; // +inf where the ray hits nothing
+                mask[i] = best.1;
+            }
+        }
+        (depth, mask, k)
+    }
+
+    /// What `detect_rgbd` did before the voxel grid was built from the
+    /// pixels: back-project the whole cloud, label every point by its
+    /// pixel, and detect on the cloud.
+    fn reference(
+        depth: &[f64],
+        k: &Intrinsics,
+        mask: Option<&[i32]>,
+        object_id: Option<i32>,
+        workspace: Option<&Workspace>,
+        opts: &DetectOptions,
+    ) -> Result<GraspGroup> {
+        let bp = backproject(depth, k, workspace)?;
+        match mask {
+            None => detect(&bp.points, None, None, opts),
+            Some(m) => {
+                let labels: Vec<i32> = bp.pixels.iter().map(|&(r, c)| m[r * k.width + c]).collect();
+                let seedable: Vec<bool> = labels
+                    .iter()
+                    .map(|&l| l != 0 && object_id.is_none_or(|o| o == l))
+                    .collect();
+                let margin = body_margin(opts.voxel_size);
+                let hidden = |g: &Grasp| -> bool {
+                    !opts.occlusion
+                        || !hidden_by_another_object(g, &opts.gripper, depth, m, k, margin)
+                };
+                detect_with(&bp.points, Some(&labels), Some(&seedable), opts, &hidden)
+            }
+        }
+    }
+
+    #[test]
+    fn rgbd_detection_equals_the_back_projected_cloud_path() {
+        let (depth, mask, k) = frame(320, 240, 300.0);
+        let opts = DetectOptions {
+            num_seeds: 48,
+            ..DetectOptions::default()
+        };
+        let ws = Workspace([-0.12, 0.2, -0.3, 0.3, 0.0, 0.75]);
+        let mut total = 0;
+        for threads in [1, 2] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            for (m, oid, w) in [
+                (Some(&mask[..]), Some(1), None),
+                (Some(&mask[..]), None, None),
+                (Some(&mask[..]), Some(3), Some(&ws)),
+                (None, None, None),
+            ] {
+                let got = pool
+                    .install(|| detect_rgbd(&depth, &k, m, oid, w, &opts))
+                    .unwrap();
+                let want = pool
+                    .install(|| reference(&depth, &k, m, oid, w, &opts))
+                    .unwrap();
+                // Bit for bit: the same grasps, scores and order.
+                assert_eq!(
+                    got,
+                    want,
+                    "mask {} object {oid:?} workspace {w:?}",
+                    m.is_some()
+                );
+                total += got.len();
+            }
+        }
+        assert!(total > 20, "{total} grasps: the frame should give grasps");
+    }
+
+    #[test]
+    fn rgbd_errors_are_those_of_the_cloud_path() {
+        let (mut depth, mask, k) = frame(64, 48, 60.0);
+        let bad = DetectOptions {
+            voxel_size: -1.0,
+            ..DetectOptions::default()
+        };
+        let ok = DetectOptions::default();
+        let both = |d: &[f64], o: &DetectOptions, w: Option<&Workspace>| {
+            (
+                detect_rgbd(d, &k, Some(&mask), None, w, o),
+                reference(d, &k, Some(&mask), None, w, o),
+            )
+        };
+        let (a, b) = both(&depth, &bad, None);
+        assert!(matches!(a, Err(GraspError::InvalidArgument(_))));
+        assert_eq!(a, b);
+        let flipped = Workspace([1.0, 0.0, -1.0, 1.0, 0.0, 1.0]);
+        let (a, b) = both(&depth, &bad, Some(&flipped));
+        assert_eq!(a, b);
+        assert!(matches!(a, Err(GraspError::InvalidArgument(m)) if m.contains("xmin")));
+        depth[100] = f64::NAN;
+        for o in [&bad, &ok] {
+            let (a, b) = both(&depth, o, None);
+            assert!(matches!(&a, Err(GraspError::NonFinite(m)) if m.contains("row 1, column 36")));
+            assert_eq!(a, b);
+        }
+        // A point the voxel grid cannot hold: named by its pixel.
+        depth[100] = 1e300;
+        let a = detect_rgbd(&depth, &k, Some(&mask), None, None, &ok);
+        assert!(
+            matches!(&a, Err(GraspError::InvalidArgument(m)) if m.contains("row 1, column 36")),
+            "{a:?}"
+        );
+        // Nothing within the workspace: no grasps.
+        let far = Workspace([5.0, 6.0, 5.0, 6.0, 5.0, 6.0]);
+        depth[100] = 0.5;
+        assert!(
+            detect_rgbd(&depth, &k, Some(&mask), None, Some(&far), &ok)
+                .unwrap()
+                .is_empty()
+        );
+    }
 }

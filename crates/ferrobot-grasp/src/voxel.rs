@@ -6,6 +6,7 @@ use std::hash::{BuildHasherDefault, Hasher};
 use nalgebra::{Point3, Vector3};
 use rayon::prelude::*;
 
+use crate::backproject::{Intrinsics, Workspace};
 use crate::error::{GraspError, Result, positive};
 
 /// A fast multiply-rotate hasher for integer grid keys (the std SipHash
@@ -123,6 +124,107 @@ pub fn voxel_downsample(
     Ok(all.into_iter().map(|(f, c)| (c, f)).unzip())
 }
 
+/// The voxel grid of a depth image, built straight from its pixels (the
+/// cloud is never stored): what [`voxel_downsample`] gives for the points
+/// of [`crate::backproject()`] with the same `workspace`, bit for bit (each
+/// centroid is the same sum in the same order), with, for each voxel, the
+/// row-major index `row * width + column` of the first pixel that fell in
+/// it instead of the point's index. Errors as those two calls in turn: the
+/// workspace, intrinsics, image size and depth values first (the first bad
+/// depth in row-major order), then a point too far from the origin for the
+/// grid, named by its pixel.
+///
+/// One serial pass over the image: the work per pixel is small and the
+/// pixels of a voxel are mostly neighbours, so the slots of the pixel to
+/// the left and of the one above are reused without hashing; splitting the
+/// keys over threads (as [`voxel_downsample`] does) would make every
+/// thread walk the whole image for half the hashing.
+pub fn voxel_downsample_depth(
+    depth: &[f64],
+    intrinsics: &Intrinsics,
+    workspace: Option<&Workspace>,
+    size: f64,
+) -> Result<(Vec<Point3<f64>>, Vec<usize>)> {
+    if let Some(w) = workspace {
+        w.validate()?;
+    }
+    positive("voxel size", size)?;
+    let inv = 1.0 / size;
+    let width = intrinsics.width;
+    let mut index: GridMap<u64, usize> =
+        GridMap::with_capacity_and_hasher(depth.len() / 16 + 1, Default::default());
+    // (sum, count, first pixel) per voxel, in first-met order.
+    let mut sums: Vec<(Vector3<f64>, u32, usize)> = Vec::new();
+    // Neighbouring pixels mostly share a voxel: the slot of the pixel before
+    // in the row and of the last pixel seen in each column are reused
+    // without hashing (a key's slot never changes; keys use 63 bits, so MAX
+    // is never a key).
+    let (mut last_key, mut last_slot) = (u64::MAX, 0usize);
+    let mut above: Vec<(u64, usize)> = vec![(u64::MAX, 0); width];
+    // The first point that is not finite and the first one off the grid
+    // (the former wins, as the point-cloud path checks it first).
+    let (mut non_finite, mut off) = (None, None);
+    ferrobot_camera::for_each_point(depth, intrinsics, |v, u, p| {
+        if workspace.is_some_and(|w| !w.contains(&p)) {
+            return;
+        }
+        let Some(key) = pack_cell(
+            (p.x * inv).floor(),
+            (p.y * inv).floor(),
+            (p.z * inv).floor(),
+        ) else {
+            if !p.coords.iter().all(|c| c.is_finite()) {
+                non_finite.get_or_insert((p, v, u));
+            } else {
+                off.get_or_insert((p, v, u));
+            }
+            return;
+        };
+        if off.is_some() || non_finite.is_some() {
+            return;
+        }
+        let slot = if key == last_key {
+            last_slot
+        } else {
+            let slot = if above[u].0 == key {
+                above[u].1
+            } else {
+                *index.entry(key).or_insert_with(|| {
+                    sums.push((Vector3::zeros(), 0, v * width + u));
+                    sums.len() - 1
+                })
+            };
+            (last_key, last_slot) = (key, slot);
+            slot
+        };
+        above[u] = (key, slot);
+        sums[slot].0 += p.coords;
+        sums[slot].1 += 1;
+    })?;
+    if let Some((p, v, u)) = non_finite.or(off) {
+        return Err(off_grid(&p, v, u, size));
+    }
+    Ok(sums
+        .into_iter()
+        .map(|(s, n, first)| (Point3::from(s / f64::from(n)), first))
+        .unzip())
+}
+
+/// The error for a point of pixel (`row`, `col`) the grid cannot hold.
+fn off_grid(p: &Point3<f64>, row: usize, col: usize, size: f64) -> GraspError {
+    if p.coords.iter().all(|c| c.is_finite()) {
+        GraspError::InvalidArgument(format!(
+            "voxel grid: the point ({}, {}, {}) of depth pixel (row {row}, column {col}) is more than 2^20 voxels of {size} m from the origin",
+            p.x, p.y, p.z
+        ))
+    } else {
+        GraspError::NonFinite(format!(
+            "depth pixel (row {row}, column {col}) back-projects to a non-finite point ({}, {}, {})",
+            p.x, p.y, p.z
+        ))
+    }
+}
+
 /// Which of `parts` parts a voxel key belongs to (a multiplicative hash, so
 /// neighbouring voxels spread over the parts).
 fn part_of(key: u64, parts: u64) -> u64 {
@@ -196,6 +298,48 @@ mod tests {
                 let (s, n, f) = serial[key];
                 assert_eq!(first[k], f);
                 assert_eq!(c[k], Point3::from(s / f64::from(n)));
+            }
+        }
+    }
+
+    #[test]
+    fn depth_grid_equals_the_back_projected_cloud() {
+        // A rough surface with missing pixels: the grid built from the
+        // pixels gives the centroids (bit for bit) and first points of
+        // back-projecting then downsampling, on any number of threads.
+        let k = Intrinsics::new(97, 61, 80.0, 75.0, 48.0, 30.5).unwrap();
+        let mut state = 99u64;
+        let depth: Vec<f64> = (0..97 * 61)
+            .map(|i| {
+                state = state
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                let r = (state >> 11) as f64 / (1u64 << 53) as f64;
+                match i % 37 {
+                    0 => 0.0,
+                    5 => f64::INFINITY,
+                    _ => 0.4 + 0.002 * (i % 97) as f64 + 0.03 * r,
+                }
+            })
+            .collect();
+        let ws = Workspace([-0.1, 0.3, -0.2, 0.2, 0.0, 1.0]);
+        for w in [None, Some(&ws)] {
+            let bp = crate::backproject::backproject(&depth, &k, w).unwrap();
+            let (want, first) = voxel_downsample(&bp.points, 0.01).unwrap();
+            let want_px: Vec<usize> = first
+                .iter()
+                .map(|&i| bp.pixels[i].0 * k.width + bp.pixels[i].1)
+                .collect();
+            for threads in [1, 2, 3] {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap();
+                let (c, px) = pool
+                    .install(|| voxel_downsample_depth(&depth, &k, w, 0.01))
+                    .unwrap();
+                assert_eq!(c, want);
+                assert_eq!(px, want_px);
             }
         }
     }
