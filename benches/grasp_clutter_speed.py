@@ -19,7 +19,9 @@ Each ``--build`` (default: the installed ferrobot, named ``current``) runs in it
 ``ferrobot`` package and extension). The builds take turns, ``--rounds`` times, each turn timing
 ``--runs`` detections per frame after one warm-up; printed per build and frame: the median over all
 runs of the wall time and of the CPU time of the worker process (all threads), and the number of
-grasps. Target: <= 30 ms per frame on 2 cores for single objects (issue 18).
+grasps; and whether the grasp arrays (float64, every value, in order) of all builds and rounds are
+identical per frame (a SHA-1 of each worker's last detection). Target: <= 30 ms per frame on 2 cores for
+single objects (issue 18); ``benches/grasp_wall_time.py`` times the wall clock on an idle machine.
 """
 
 from __future__ import annotations
@@ -77,6 +79,10 @@ def mesh_frame():
 
 
 def worker(runs: int) -> int:
+    import hashlib
+
+    import numpy as np
+
     import ferrobot.grasp as fg
 
     res = {}
@@ -89,7 +95,8 @@ def worker(runs: int) -> int:
             gg = fg.detect_from_rgbd(depth, fx, fy, cx, cy, 1.0, **kw)
             wall.append(time.perf_counter() - t0)
             cpu.append(time.process_time() - c0)
-        res[name] = {"wall": wall, "cpu": cpu, "grasps": len(gg)}
+        digest = hashlib.sha1(np.ascontiguousarray(gg.grasp_group_array, dtype=np.float64).tobytes()).hexdigest()
+        res[name] = {"wall": wall, "cpu": cpu, "grasps": len(gg), "sha1": digest}
     print(json.dumps(res))
     return 0
 
@@ -106,7 +113,7 @@ def main() -> int:
         return worker(args.runs)
     builds = [tuple(b.split("=", 1)) for b in args.build] or [("current", "")]
     load0 = os.getloadavg()
-    acc = {name: {f: {"wall": [], "cpu": [], "grasps": 0} for f in FRAMES} for name, _ in builds}
+    acc = {name: {f: {"wall": [], "cpu": [], "grasps": 0, "sha1": set()} for f in FRAMES} for name, _ in builds}
     for r in range(args.rounds):
         for name, path in builds:
             env = dict(os.environ)
@@ -123,6 +130,7 @@ def main() -> int:
                 acc[name][f]["wall"] += v["wall"]
                 acc[name][f]["cpu"] += v["cpu"]
                 acc[name][f]["grasps"] = v["grasps"]
+                acc[name][f]["sha1"].add(v["sha1"])
         print(f"round {r + 1}/{args.rounds} done, load {os.getloadavg()[0]:.2f}", file=sys.stderr)
     load1 = os.getloadavg()
     print(f"cores {os.cpu_count()}, load {load0[0]:.2f} -> {load1[0]:.2f}")
@@ -135,8 +143,13 @@ def main() -> int:
             w, c = statistics.median(a["wall"]) * 1e3, statistics.median(a["cpu"]) * 1e3
             summary.setdefault(name, {})[f] = {"median_wall_ms": w, "median_cpu_ms": c, "grasps": a["grasps"]}
             cells.append(f"{w:10.1f} / {c:6.1f}  {a['grasps']:4d}")
-        print(f"{f:12s} " + " ".join(f"{c:>34s}" for c in cells))
+        digests = set().union(*(acc[name][f]["sha1"] for name, _ in builds))
+        same = "identical" if len(digests) == 1 else f"DIFFER ({len(digests)} distinct)"
+        print(f"{f:12s} " + " ".join(f"{c:>34s}" for c in cells) + f"   grasp arrays: {same}")
     if args.json:
+        for name, _ in builds:
+            for f in FRAMES:
+                acc[name][f]["sha1"] = sorted(acc[name][f]["sha1"])
         args.json.write_text(json.dumps({"load": [load0, load1], "summary": summary, "raw": acc}, indent=1))
     return 0
 

@@ -459,7 +459,11 @@ fn segment_meets_box(
 }
 
 /// Detects grasps in a depth image: back-projects it (see
-/// [`backproject`]), crops to `workspace`, and seeds on the masked pixels.
+/// [`crate::backproject()`]), crops to `workspace`, and seeds on the masked
+/// pixels. The same grasps as [`detect`] on the back-projected cloud (with
+/// each point's label and seed flag from its pixel), but the pixels go
+/// straight into the voxel grid ([`voxel_downsample_depth`]): the full
+/// cloud is never stored.
 /// `mask` (one label per pixel, row-major) marks objects with non-zero
 /// labels, which become the grasps' object ids; with `object_id` only that
 /// label is seeded. Without a mask every point is seeded and ids are -1.

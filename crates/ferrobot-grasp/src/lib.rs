@@ -2,7 +2,8 @@
 //!
 //! The pipeline ([`detect::detect`]): an RGB-D frame is back-projected to a
 //! point cloud ([`backproject`]), cropped to a workspace, voxel-downsampled
-//! ([`voxel`]), given normals from a kd-tree neighbourhood ([`normals`]);
+//! ([`voxel`]; [`detect::detect_rgbd`] puts the pixels straight into the
+//! voxel grid), given normals from a kd-tree neighbourhood ([`normals`]);
 //! hands are searched in the local frame of seed points over approach
 //! rotations ([`candidates`]), checked for collision with the gripper's
 //! geometry ([`gripper`]), scored by two-contact force closure at a friction
