@@ -305,7 +305,7 @@ def execute_push(state: State, w, hand_model, plan, names: list, settled: dict, 
     base[:3, 3] -= shift
     rot = base[:3, :3]
     q_start = np.array([0.0, 0.0, 0.05])
-    q_end = q_start + rot.T @ (plan.distance * plan.direction)
+    q_end = q_start + rot.T @ (plan.travel * plan.direction)
     q_up = q_end - np.array([0.0, 0.0, 0.10])
     robot = w.add_robot(hand_model, ge.pose7(base), name="hand", q=np.zeros(5))
     slide, fingers = robot.dof_names[:3], robot.dof_names[3:]
@@ -326,6 +326,7 @@ def execute_push(state: State, w, hand_model, plan, names: list, settled: dict, 
         "target": target,
         "direction": plan.direction.tolist(),
         "distance": plan.distance,
+        "travel": plan.travel,
         "tilt": plan.tilt,
         "tip_start": plan.tip_start.tolist(),
         "target_moved": moved.get(target, 0.0),

@@ -145,11 +145,14 @@ def test_push_moves_a_box_away_from_a_bin_wall_in_the_simulator(tmp_path):
     rec = bench.execute_push(state, w, hand_model, plan, ["box"], {}, ids)
     after = state.poses["box"]
     moved = after[:3, 3] - before[:3, 3]
-    # Hand-checked: the closed fingers start clearance + margin (9 mm) short of the box's face, behind the
-    # fingers' half extent along the push (1 cm), so the box moves the push distance less about 1 cm
-    # (a little less if it slid back, a little more if it slid on): within [d - 2 cm, d + 0.5 cm].
+    # Hand-checked: the closed fingers start the gap travel - distance (margin 4 mm + clearance 5 mm, plus the
+    # lean over the box's top when tilted) short of the box's face and travel the distance beyond it, so the
+    # box moves the distance, give or take: the simulated finger meshes (pybullet_data's) reach up to ~5 mm
+    # beyond the description's boxes (earlier contact), the box slides on while the hand decelerates, and
+    # finger compliance and contact slip lose some: within [d - 1 cm, d + 1.5 cm].
     along = float(moved @ plan.direction)
-    assert plan.distance - 0.02 <= along <= plan.distance + 0.005, (along, plan.distance)
+    assert plan.travel - plan.distance >= 0.009 - 1e-9
+    assert plan.distance - 0.01 <= along <= plan.distance + 0.015, (along, plan.distance)
     assert abs(float(moved @ np.array([-plan.direction[1], plan.direction[0], 0.0]))) < 0.015
     assert abs(moved[2]) < 0.003  # still on the floor, upright
     assert rec["target"] == "box" and rec["target_moved"] == pytest.approx(np.linalg.norm(moved), abs=1e-9)
@@ -157,9 +160,8 @@ def test_push_moves_a_box_away_from_a_bin_wall_in_the_simulator(tmp_path):
 
 def test_no_push_when_the_box_touches_the_wall():
     pytest.importorskip("pybullet_data")
-    bench, w, state, frame, depth, cam_pose, ids, _ = _box_near_wall_scene(gap=0.002)
+    bench, w, state, frame, depth, cam_pose, ids, y0 = _box_near_wall_scene(gap=0.002)
     plan = bench.plan_scene_push(state, w, frame, depth, cam_pose, ids)
-    # No finger fits between the box and the wall; a push from elsewhere may move it along or into the wall,
-    # never into it: any plan must keep the box inside the bin.
+    # No finger fits in the 2 mm between the box and the wall: no push starts there, none goes into the wall.
     if plan is not None:
-        assert plan.direction[1] > -0.5
+        assert plan.tip_start[1] > y0 - 0.025 and plan.direction[1] > -0.5

@@ -79,7 +79,9 @@ class Heightmap:
 @dataclass
 class PushPlan:
     """A planned push: the hand-link poses (4x4, world) above the start, at the start and at the end, the
-    push direction (unit, world, horizontal) and distance (m), the fingertip (TCP) start point (world)."""
+    push direction (unit, world, horizontal), the object's intended displacement ``distance`` and the hand's
+    ``travel`` along it (m: the displacement plus the gap the fingers start from), the fingertip (TCP)
+    start point (world)."""
 
     target: int
     pre: np.ndarray
@@ -87,6 +89,7 @@ class PushPlan:
     end: np.ndarray
     direction: np.ndarray
     distance: float
+    travel: float
     tip_start: np.ndarray
     tilt: float
     score: float
@@ -249,8 +252,12 @@ def plan_push(
 
     step = 0.008  # surface point spacing and sweep step: below a bin wall's thickness (1.2 cm)
     samples = _hand_samples(gripper, step, margin)
-    # fingertip heights above the support: at most 60 % of the object's height (the push must meet it)
-    heights = sorted({min(h, max(0.003 + margin, 0.6 * top)) for h in tip_heights})
+    # Fingertip heights above the support: at most 60 % of the object's height (the push must meet it), and
+    # the fingers grown by the margin clear of the support by 3 mm; an object too flat for both is not pushed.
+    lowest = 0.003 + margin
+    if 0.6 * top < lowest:
+        return None
+    heights = sorted({max(lowest, min(h, 0.6 * top)) for h in tip_heights})
     # The target's footprint must not run into anything taller than itself (walls) when pushed.
     tall = (hm.height > top + 0.01) | ((hm.height < 0) & (view is None))
     tcp = np.asarray(gripper.tcp, dtype=float)
@@ -280,13 +287,15 @@ def plan_push(
             if any(_collides(hm, body + tip - t * a, None, unknown_height, view) for t in np.arange(0.0, 0.0501, step)):
                 continue
             # the push: the longest free stretch along d, the target ignored
+            # The hand travels the object's displacement plus the gap it starts from (standoff - half).
+            gap = standoff - half
             free_to = 0.0
-            for t in np.arange(step, distances[0] + 1e-9, step):
+            for t in np.arange(step, distances[0] + gap + 1e-9, step):
                 if _collides(hm, body + tip + t * d, target, unknown_height, view):
                     break
                 free_to = t
             for dist in distances:
-                if dist > free_to + 1e-9:
+                if dist + gap > free_to + 1e-9:
                     continue
                 i2, j2, inside = hm.cells(foot + dist * d[:2])
                 if not inside.all() or tall[i2, j2].any():
@@ -299,7 +308,7 @@ def plan_push(
                     start[:3, 3] = tip - rot @ tcp
                     pre, end = start.copy(), start.copy()
                     pre[:3, 3] -= 0.05 * a
-                    end[:3, 3] += dist * d
-                    best = PushPlan(target, pre, start, end, d, dist, tip, float(tilt), score)
+                    end[:3, 3] += (dist + gap) * d
+                    best = PushPlan(target, pre, start, end, d, dist, dist + gap, tip, float(tilt), score)
                 break
     return best
