@@ -352,6 +352,50 @@ def failure_stage(res: dict, diag: dict, target: str | None, after: dict, z0: di
     return "held, not lifted"
 
 
+def run_hand(
+    w, hand_model, base, steps, finger, names, settled, z0, target, picture_dir=None, picture_tag=""
+) -> tuple[dict, dict, object, float]:
+    """Executes a grasp schedule with the floating hand in ``w`` (fingers starting at ``finger``); returns the
+    ferrobot judgement (success, lifted, opening, clean, stage and diagnostics), the objects' final poses,
+    the hand robot and the final opening."""
+    q_start = np.array([0, 0, 0, finger, finger])
+    robot = w.add_robot(hand_model, ge.pose7(base), name="hand", q=q_start)
+    slide, fingers = robot.dof_names[:3], robot.dof_names[3:]
+    robot.set_drive_gains(stiffness=[2.0e4] * 3, damping=[1.0e3] * 3, joint_names=slide)
+    robot.set_gripper(["panda_finger_joint1", "panda_finger_joint2"], [ge.OPEN, ge.OPEN], [0.0, 0.0])
+    robot.set_joint_position_targets(q_start)
+    closing = False
+    diag: dict = {}
+    k_close = -1
+    n_close = int(round(ge.CLOSE_S / DT))
+    for k, (tgt, force) in enumerate(steps):
+        robot.set_joint_position_targets(tgt[:3], joint_names=slide)
+        if force > 0 and not closing:
+            q = robot.joint_positions
+            diag["approach_error"] = float(ge.PREGRASP - q[2])
+            diag["pushed"] = {n: float(np.linalg.norm(w.get_object_pose(n)[:3, 3] - settled[n][:3, 3])) for n in names}
+            if picture_dir is not None:
+                save_picture(w, picture_dir / f"{picture_tag}_grasp.png")
+            robot.close_gripper(force=force)
+            closing = True
+            k_close = k
+        elif force == 0:
+            robot.set_joint_position_targets(tgt[3:], joint_names=fingers)
+        w.step(1)
+        if closing and k == k_close + n_close - 1:
+            q = robot.joint_positions
+            diag["closed_opening"] = float(q[3] + q[4])
+    q = robot.joint_positions
+    opening = float(q[3] + q[4])
+    after = {n: w.get_object_pose(n) for n in names}
+    lifted = [n for n in names if after[n][2, 3] - z0[n] >= ge.MIN_RISE]
+    success = bool(lifted) and opening > ge.MIN_OPENING
+    res = {"success": success, "lifted": lifted, "opening": opening, "clean": success and len(lifted) == 1}
+    res["stage"] = failure_stage(res, diag, target, after, z0)
+    res.update(diag)
+    return res, after, robot, opening
+
+
 def attempt(
     state: State,
     hand_model,
@@ -361,6 +405,7 @@ def attempt(
     picture_tag: str = "",
     preshape_margin: float | None = PRESHAPE_MARGIN,
     push: bool = True,
+    paired: bool = False,
 ) -> dict:
     """One perceive-grasp-lift attempt; updates ``state`` (removes lifted and lost objects). The fingers
     approach open to the grasp's width plus ``preshape_margin`` (None: fully open). With ``push``, a frame
@@ -424,13 +469,6 @@ def attempt(
     steps = bin_schedule(base, finger) if state.spec.bin is not None else table_schedule(base, finger)
     rec["hand_base"] = base.tolist()
     rec["settled"] = {n: ge.pose7(settled[n]) for n in names}
-    q_start = np.array([0, 0, 0, finger, finger])
-    robot = w.add_robot(hand_model, ge.pose7(base), name="hand", q=q_start)
-    slide, fingers = robot.dof_names[:3], robot.dof_names[3:]
-    robot.set_drive_gains(stiffness=[2.0e4] * 3, damping=[1.0e3] * 3, joint_names=slide)
-    robot.set_gripper(["panda_finger_joint1", "panda_finger_joint2"], [ge.OPEN, ge.OPEN], [0.0, 0.0])
-    robot.set_joint_position_targets(q_start)
-    z0 = {n: settled[n][2, 3] for n in names}
     rec["grasp"] = {
         "position": hand[:3, 3].tolist(),
         "approach": hand[:3, 2].tolist(),
@@ -439,35 +477,24 @@ def attempt(
         "score": float(top.scores[0]),
         "preshape_opening": 2.0 * finger,
     }
-    closing = False
-    diag: dict = {}
-    k_close = -1
-    n_close = int(round(ge.CLOSE_S / DT))
-    for k, (target, force) in enumerate(steps):
-        robot.set_joint_position_targets(target[:3], joint_names=slide)
-        if force > 0 and not closing:
-            q = robot.joint_positions
-            diag["approach_error"] = float(ge.PREGRASP - q[2])
-            diag["pushed"] = {n: float(np.linalg.norm(w.get_object_pose(n)[:3, 3] - settled[n][:3, 3])) for n in names}
-            if picture_dir is not None:
-                save_picture(w, picture_dir / f"{picture_tag}_grasp.png")
-            robot.close_gripper(force=force)
-            closing = True
-            k_close = k
-        elif force == 0:
-            robot.set_joint_position_targets(target[3:], joint_names=fingers)
-        w.step(1)
-        if closing and k == k_close + n_close - 1:
-            q = robot.joint_positions
-            diag["closed_opening"] = float(q[3] + q[4])
-    q = robot.joint_positions
-    opening = float(q[3] + q[4])
-    after = {n: w.get_object_pose(n) for n in names}
-    lifted = [n for n in names if after[n][2, 3] - z0[n] >= ge.MIN_RISE]
-    success = bool(lifted) and opening > ge.MIN_OPENING
-    rec["ferrobot"] = {"success": success, "lifted": lifted, "opening": opening, "clean": success and len(lifted) == 1}
-    rec["ferrobot"]["stage"] = failure_stage(rec["ferrobot"], diag, rec.get("target"), after, z0)
-    rec["ferrobot"].update(diag)
+    z0 = {n: settled[n][2, 3] for n in names}
+    if paired:
+        # The same attempt from the same state with the other pre-shape (fully open <-> pre-shaped): a fresh
+        # world rebuilt and settled as this one (deterministic), judged alike; the scene follows this run.
+        alt = preshape_finger(float(top.widths[0]), None if preshape_margin is not None else PRESHAPE_MARGIN)
+        alt_steps = bin_schedule(base, alt) if state.spec.bin is not None else table_schedule(base, alt)
+        w2 = state.build()
+        clutter.settle(w2, names, max_seconds=SETTLE_S)
+        dev = max(float(np.abs(w2.get_object_pose(n) - settled[n]).max()) for n in names)
+        r2, _, _, _ = run_hand(w2, hand_model, base, alt_steps, alt, names, settled, z0, rec.get("target"))
+        rec["paired"] = {"preshape_opening": 2.0 * alt, "ferrobot": r2, "state_deviation": dev}
+        if pb:
+            rec["paired"]["pybullet"] = pb.run_pile(state, {n: settled[n] for n in names}, base, alt_steps)
+    res, after, robot, opening = run_hand(
+        w, hand_model, base, steps, finger, names, settled, z0, rec.get("target"), picture_dir, picture_tag
+    )
+    rec["ferrobot"] = res
+    lifted, success = res["lifted"], res["success"]
     if pb:
         rec["pybullet"] = pb.run_pile(state, {n: settled[n] for n in names}, base, steps)
     removed = lifted if success else []
@@ -494,6 +521,7 @@ def run_scene(
     picture_dir: Path | None = None,
     preshape_margin: float | None = PRESHAPE_MARGIN,
     push: bool = True,
+    paired: bool = False,
 ) -> dict:
     """Clears one scene; returns its record (counts are read from the simulator's state)."""
     # Settle the drop once in its own world: the first state.
@@ -513,7 +541,7 @@ def run_scene(
     while state.objects and fails < 2 and len(attempts) < 2 * total:
         tag = f"s{spec.seed}_a{len(attempts)}"
         can_push = push and in_row < MAX_PUSHES_IN_ROW
-        rec = attempt(state, hand_model, pb, options, picture_dir, tag, preshape_margin, can_push)
+        rec = attempt(state, hand_model, pb, options, picture_dir, tag, preshape_margin, can_push, paired)
         if "push" in rec:
             pushes.append(rec)
             in_row += 1
@@ -562,6 +590,23 @@ def summarise(scenes: list[dict], use_pybullet: bool) -> dict:
         st = a["ferrobot"].get("stage", a["ferrobot"].get("reason", "?"))
         stages[st] = stages.get(st, 0) + 1
     out["stages"] = stages
+    pa = [a for a in att if "paired" in a]
+    if pa:
+        # Paired A/B: every grasp executed from the same state with both pre-shapes (the scene follows this run's).
+        out["paired"] = {
+            "attempts": len(pa),
+            "preshape_margin_of_this_run": "fully open" if pa[0]["grasp"]["preshape_opening"] >= 0.08 - 1e-9 else "set",
+            "ferrobot": {
+                "this": sum(a["ferrobot"]["success"] for a in pa) / len(pa),
+                "other": sum(a["paired"]["ferrobot"]["success"] for a in pa) / len(pa),
+            },
+            "max_state_deviation": max(a["paired"]["state_deviation"] for a in pa),
+        }
+        if use_pybullet:
+            out["paired"]["pybullet"] = {
+                "this": sum(a["pybullet"]["success"] for a in pa) / len(pa),
+                "other": sum(a["paired"]["pybullet"]["success"] for a in pa) / len(pa),
+            }
     if use_pybullet:
         out["grasp_success"]["pybullet"] = sum(a["pybullet"]["success"] for a in att) / len(att) if att else 0.0
     return out
@@ -585,6 +630,11 @@ def main() -> int:
     )
     ap.add_argument("--no-preshape", action="store_true", help="approach with the fingers fully open")
     ap.add_argument("--no-push", action="store_true", help="no pushes: a frame without a grasp is a failed attempt")
+    ap.add_argument(
+        "--paired",
+        action="store_true",
+        help="also run every grasp from the same state with the other pre-shape (fully open <-> pre-shaped)",
+    )
     ap.add_argument("--option", action="append", default=[], metavar="KEY=VALUE", help="a detection option (JSON)")
     args = ap.parse_args()
     if not 1 <= args.objects_per_scene <= 30:
@@ -610,7 +660,7 @@ def main() -> int:
                 spec = clutter.random_clutter(
                     args.seed + k, args.objects_per_scene, files, bin=args.bin, table_top=TABLE_TOP, center=CENTER
                 )
-                s = run_scene(spec, hand_model, pb, options, args.pictures, preshape, not args.no_push)
+                s = run_scene(spec, hand_model, pb, options, args.pictures, preshape, not args.no_push, args.paired)
                 for p in s["pushes"]:
                     pp = p["push"]
                     print(
@@ -638,7 +688,17 @@ def main() -> int:
                 print(
                     f"scene {k + 1}/{args.scenes}: removed {s['removed']}/{s['objects']} in {len(s['attempts'])} "
                     f"attempts; so far cleared {sm['completion_rate'] * 100:.1f}%, success "
-                    + ", ".join(f"{j} {r * 100:.1f}%" for j, r in sm["grasp_success"].items()),
+                    + ", ".join(f"{j} {r * 100:.1f}%" for j, r in sm["grasp_success"].items())
+                    + (
+                        f"; paired ({sm['paired']['attempts']}): "
+                        + ", ".join(
+                            f"{j} {v['this'] * 100:.1f}% / other {v['other'] * 100:.1f}%"
+                            for j, v in sm["paired"].items()
+                            if isinstance(v, dict)
+                        )
+                        if "paired" in sm
+                        else ""
+                    ),
                     flush=True,
                 )
         finally:
@@ -653,6 +713,7 @@ def main() -> int:
         detect_options=options,
         preshape_margin=preshape,
         push=not args.no_push,
+        paired_run=args.paired,
         cores=os.cpu_count(),
         load_average=ge.load_avg(),
         wall_s=time.perf_counter() - t0,
@@ -663,6 +724,17 @@ def main() -> int:
         f"clean lifts {res['clean_lifts']}, pushes {res['pushes']}"
     )
     print("stages: " + ", ".join(f"{k} {v}" for k, v in sorted(res["stages"].items(), key=lambda kv: -kv[1])))
+    if "paired" in res:
+        pr = res["paired"]
+        print(
+            f"paired ({pr['attempts']} grasps from identical states, "
+            f"max pose deviation {pr['max_state_deviation']:.1e}): "
+            + ", ".join(
+                f"{j} this run {v['this'] * 100:.1f}% / other pre-shape {v['other'] * 100:.1f}%"
+                for j, v in pr.items()
+                if isinstance(v, dict)
+            )
+        )
     for judge, rate in res["grasp_success"].items():
         print(f"grasp success per attempt, {judge:8s}: {rate * 100:.1f}%")
     if res["attempts"]:
