@@ -1,5 +1,6 @@
 """Pre-shaped approaches: the fingers open to the grasp's width plus a margin (not fully open) before the
-approach, through the gripper description's opening map, and the planner checks the approach with them there.
+approach, through the gripper description's opening map, and the planner checks the approach with them there;
+and the push primitive for objects without a grasp (``ferrobot.pipeline.push``), executed in the simulator.
 
 References: the Panda hand's fingers are two prismatic joints sliding in opposite directions along the
 closing axis, so the opening is twice the driver's position (hand derivation); the Robotiq 2F-85's opening
