@@ -166,3 +166,26 @@ def test_no_push_when_the_box_touches_the_wall():
     # No finger fits in the 2 mm between the box and the wall: no push starts there, none goes into the wall.
     if plan is not None:
         assert plan.tip_start[1] > y0 - 0.025 and plan.direction[1] > -0.5
+
+
+def test_push_planner_rejects_bad_input_naming_the_argument():
+    from ferrobot.pipeline import push
+
+    pts = np.array([[0.0, 0.0, 0.41], [0.01, 0.0, 0.42]])
+    lab = np.array([1, 1])
+    g = ferrobot.Gripper.panda_hand()
+    ok = dict(support_z=0.4, bounds=[-0.1, 0.1, -0.1, 0.1])
+    for kw, name in (
+        ({"bounds": [0.1, -0.1, -0.1, 0.1]}, "bounds"),
+        ({"bounds": [0.0, float("nan"), 0.0, 0.1]}, "bounds"),
+        ({"support_z": float("inf")}, "support_z"),
+        ({"num_directions": 0}, "num_directions"),
+        ({"distances": (0.5,)}, "distances"),
+        ({"tilts": (float("nan"),)}, "tilts"),
+        ({"tip_heights": (0.0,)}, "tip_heights"),
+        ({"margin": -0.001}, "margin"),
+    ):
+        with pytest.raises(InvalidArgumentError, match=name):
+            push.plan_push(pts, lab, 1, g, **{**ok, **kw})
+    with pytest.raises(InvalidArgumentError, match="points"):
+        push.plan_push(pts[:, :2], lab, 1, g, **ok)

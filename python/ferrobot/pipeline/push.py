@@ -53,6 +53,12 @@ class Heightmap:
         if not (0.001 <= cell <= 0.05):
             raise InvalidArgumentError(f"cell: {cell} m is outside [0.001, 0.05]")
         b = np.asarray(bounds, dtype=np.float64)
+        if b.shape != (4,) or not np.all(np.isfinite(b)) or b[1] <= b[0] or b[3] <= b[2]:
+            raise InvalidArgumentError(f"bounds: expected finite [xmin, xmax, ymin, ymax] with min < max, got {bounds}")
+        if not math.isfinite(support_z):
+            raise InvalidArgumentError(f"support_z: expected a finite height (m), got {support_z}")
+        if (b[1] - b[0]) * (b[3] - b[2]) / cell**2 > 1e7:
+            raise InvalidArgumentError(f"bounds: {bounds} holds more than 10 million cells of {cell} m")
         nx = max(1, int(math.ceil((b[1] - b[0]) / cell)))
         ny = max(1, int(math.ceil((b[3] - b[2]) / cell)))
         height = np.full((nx, ny), -1.0)
