@@ -487,7 +487,12 @@ def attempt(
         clutter.settle(w2, names, max_seconds=SETTLE_S)
         dev = max(float(np.abs(w2.get_object_pose(n) - settled[n]).max()) for n in names)
         r2, _, _, _ = run_hand(w2, hand_model, base, alt_steps, alt, names, settled, z0, rec.get("target"))
-        rec["paired"] = {"preshape_opening": 2.0 * alt, "ferrobot": r2, "state_deviation": dev}
+        rec["paired"] = {
+            "preshape_opening": 2.0 * alt,
+            "this_run_preshaped": preshape_margin is not None,
+            "ferrobot": r2,
+            "state_deviation": dev,
+        }
         if pb:
             rec["paired"]["pybullet"] = pb.run_pile(state, {n: settled[n] for n in names}, base, alt_steps)
     res, after, robot, opening = run_hand(
@@ -595,7 +600,7 @@ def summarise(scenes: list[dict], use_pybullet: bool) -> dict:
         # Paired A/B: every grasp executed from the same state with both pre-shapes (the scene follows this run's).
         out["paired"] = {
             "attempts": len(pa),
-            "preshape_margin_of_this_run": "fully open" if pa[0]["grasp"]["preshape_opening"] >= 0.08 - 1e-9 else "set",
+            "this_run": "pre-shaped" if pa[0]["paired"].get("this_run_preshaped") else "fully open",
             "ferrobot": {
                 "this": sum(a["ferrobot"]["success"] for a in pa) / len(pa),
                 "other": sum(a["paired"]["ferrobot"]["success"] for a in pa) / len(pa),
