@@ -60,8 +60,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import grasp_eval as ge  # noqa: E402
 
 import ferrobot  # noqa: E402
+import ferrobot.camera  # noqa: E402
 import ferrobot.grasp as fg  # noqa: E402
 from ferrobot.pipeline import clutter  # noqa: E402
+from ferrobot.pipeline import push as push_mod  # noqa: E402
 
 DT = ge.DT
 TABLE_TOP = ge.TABLE_TOP
@@ -69,6 +71,10 @@ CENTER = (0.0, 0.0)
 CAM_DISTANCE, CAM_ELEVATION = 0.7, 60.0
 SETTLE_S = 1.0
 LOST_DROP = 0.05
+#: Most pushes in a row without a successful grasp between them (then a frame without a grasp is a failed attempt).
+MAX_PUSHES_IN_ROW = 3
+#: Opening (m) added to the grasp's width for the fingers' pre-shape before the approach.
+PRESHAPE_MARGIN = 0.01
 
 
 class State:
@@ -185,7 +191,7 @@ class PyBulletClutterJudge(ge.PyBulletJudge):
             p.stepSimulation(physicsClientId=c)
         hand = p.loadURDF(self.hand_urdf, list(base[:3, 3]), ge.xyzw(base), useFixedBase=True, physicsClientId=c)
         joints = list(range(5))
-        for j, q in zip(joints, [0, 0, 0, ge.OPEN, ge.OPEN], strict=True):
+        for j, q in zip(joints, [0, 0, 0, *steps[0][0][3:]], strict=True):
             p.resetJointState(hand, j, q, physicsClientId=c)
         for j in (3, 4):
             p.changeDynamics(hand, j, lateralFriction=1.0, physicsClientId=c)
@@ -209,15 +215,34 @@ class PyBulletClutterJudge(ge.PyBulletJudge):
         return {"success": bool(lifted) and opening > ge.MIN_OPENING, "lifted": lifted, "opening": opening}
 
 
-def bin_schedule(base: np.ndarray) -> list[tuple[np.ndarray, float]]:
+def preshape_finger(width: float, margin: float | None) -> float:
+    """Position of each of the floating hand's finger joints before the approach: the opening ``width`` (the
+    grasp's, m) plus ``margin`` (m), at most the hand's largest opening, through the Panda gripper
+    description's opening map (``Gripper.driver_position``); ``margin`` None: fully open (no pre-shape)."""
+    g = ge.PANDA_HAND
+    if margin is None:
+        return g.driver_position(g.max_opening)
+    return g.driver_position(min(g.max_opening, max(g.min_opening, width + margin)))
+
+
+def table_schedule(base: np.ndarray, finger: float) -> list[tuple[np.ndarray, float]]:
+    """grasp_eval's schedule with the fingers pre-shaped to ``finger`` (each joint's position) for the
+    approach."""
+    steps = ge.hand_schedule(base)
+    n = int(round(ge.APPROACH_S / DT))
+    return [(np.r_[t[:3], finger, finger], f) if k < n else (t, f) for k, (t, f) in enumerate(steps)]
+
+
+def bin_schedule(base: np.ndarray, finger: float = ge.OPEN) -> list[tuple[np.ndarray, float]]:
     """grasp_eval's schedule, but the lift goes back along the approach (as the pick-and-place pipeline's
-    retreat) far enough to rise ``LIFT``: a tilted hand lifted straight up drags along the bin's walls."""
+    retreat) far enough to rise ``LIFT``: a tilted hand lifted straight up drags along the bin's walls.
+    The fingers approach pre-shaped to ``finger`` (each joint's position)."""
     up = max(-float(base[2, 2]), 0.5)  # the approach's downward component
     q_grasp = np.array([0.0, 0.0, ge.PREGRASP])
     q_lift = q_grasp - np.array([0.0, 0.0, ge.LIFT / up])
     steps: list[tuple[np.ndarray, float]] = []
     for q in ge.smooth(np.zeros(3), q_grasp, ge.APPROACH_S):
-        steps.append((np.r_[q, ge.OPEN, ge.OPEN], 0.0))
+        steps.append((np.r_[q, finger, finger], 0.0))
     for _ in range(int(round(ge.CLOSE_S / DT))):
         steps.append((np.r_[q_grasp, 0.0, 0.0], ge.FINGER_FORCE))
     for q in ge.smooth(q_grasp, q_lift, ge.LIFT_S):
@@ -238,6 +263,78 @@ def save_picture(w: ferrobot.World, path: Path) -> None:
     Image.fromarray(rgb).save(path)
 
 
+def plan_scene_push(state: State, w, frame, depth: np.ndarray, cam_pose: np.ndarray, ids: dict):
+    """The best push (``ferrobot.pipeline.push.plan_push``) of any remaining object, on the frame's cloud in
+    the world (instance labels from the segmentation), or None."""
+    intr = ferrobot.camera.Intrinsics(ge.WIDTH, ge.HEIGHT, ge.F, ge.F, ge.CX, ge.CY, 1.0)
+    pts, pix = ferrobot.camera.backproject(depth, intr)
+    pts = fg.transform_points(pts, fg.camera_to_world(cam_pose, "opencv"))
+    labels = np.asarray(frame.segmentation)[pix[:, 0], pix[:, 1]].astype(np.int64)
+    labels = np.where(np.isin(labels, list(ids)), labels, 0)
+    b = state.spec.bin
+    if b is not None:
+        bounds = [b.center[0] - b.inner[0] / 2 - 0.05, b.center[0] + b.inner[0] / 2 + 0.05]
+        bounds += [b.center[1] - b.inner[1] / 2 - 0.05, b.center[1] + b.inner[1] / 2 + 0.05]
+    else:
+        bounds = [CENTER[0] - 0.35, CENTER[0] + 0.35, CENTER[1] - 0.35, CENTER[1] + 0.35]
+    hm = push_mod.Heightmap.from_points(pts, labels, TABLE_TOP, bounds)
+    seg = np.asarray(frame.segmentation)
+    view = push_mod.FreeSpace(
+        depth,
+        np.where(np.isin(seg, list(ids)), seg, 0),
+        ge.F,
+        ge.F,
+        ge.CX,
+        ge.CY,
+        fg.camera_to_world(cam_pose, "opencv"),
+    )
+    best = None
+    for label in ids:
+        plan = push_mod.plan_push(pts, labels, label, ge.PANDA_HAND, TABLE_TOP, bounds, heightmap=hm, view=view)
+        if plan is not None and (best is None or plan.score > best.score):
+            best = plan
+    return best
+
+
+def execute_push(state: State, w, hand_model, plan, names: list, settled: dict, ids: dict) -> dict:
+    """Runs a planned push with the floating hand, fingers closed: down the approach to the start (0.5 s),
+    along the push (1 s), back up the approach 10 cm (0.5 s); the objects' new poses become the state."""
+    # The simulated fingers' tips are TCP_OFFSET from the hand frame (the gripper description's TCP is 0.1034).
+    shift = (ge.TCP_OFFSET - ge.PANDA_HAND.tcp[2]) * plan.pre[:3, 2]
+    base = plan.pre.copy()
+    base[:3, 3] -= shift
+    rot = base[:3, :3]
+    q_start = np.array([0.0, 0.0, 0.05])
+    q_end = q_start + rot.T @ (plan.travel * plan.direction)
+    q_up = q_end - np.array([0.0, 0.0, 0.10])
+    robot = w.add_robot(hand_model, ge.pose7(base), name="hand", q=np.zeros(5))
+    slide, fingers = robot.dof_names[:3], robot.dof_names[3:]
+    robot.set_drive_gains(stiffness=[2.0e4] * 3, damping=[1.0e3] * 3, joint_names=slide)
+    robot.set_joint_position_targets(np.zeros(5))
+    before = {n: w.get_object_pose(n)[:3, 3].copy() for n in names}
+    for a, b_, sec in ((np.zeros(3), q_start, 0.5), (q_start, q_end, 1.0), (q_end, q_up, 0.5)):
+        for q in ge.smooth(a, b_, sec):
+            robot.set_joint_position_targets(q, joint_names=slide)
+            robot.set_joint_position_targets(np.zeros(2), joint_names=fingers)
+            w.step(1)
+    after = {n: w.get_object_pose(n) for n in names}
+    for n in names:
+        state.poses[n] = after[n]
+    target = ids.get(plan.target)
+    moved = {n: float(np.linalg.norm(after[n][:3, 3] - before[n])) for n in names}
+    return {
+        "target": target,
+        "direction": plan.direction.tolist(),
+        "distance": plan.distance,
+        "travel": plan.travel,
+        "tilt": plan.tilt,
+        "tip_start": plan.tip_start.tolist(),
+        "target_moved": moved.get(target, 0.0),
+        "target_displacement": (after[target][:3, 3] - before[target]).tolist() if target in after else None,
+        "others_moved_max": max((v for n, v in moved.items() if n != target), default=0.0),
+    }
+
+
 def failure_stage(res: dict, diag: dict, target: str | None, after: dict, z0: dict) -> str:
     """What an attempt ended with: ``ok``, ``ok (two objects)``, ``blocked on approach`` (the hand stopped
     >= 1 cm short of its grasp pose: a wall or a neighbour), ``closed on nothing``, ``held, not lifted``
@@ -255,10 +352,65 @@ def failure_stage(res: dict, diag: dict, target: str | None, after: dict, z0: di
     return "held, not lifted"
 
 
+def run_hand(
+    w, hand_model, base, steps, finger, names, settled, z0, target, picture_dir=None, picture_tag=""
+) -> tuple[dict, dict, object, float]:
+    """Executes a grasp schedule with the floating hand in ``w`` (fingers starting at ``finger``); returns the
+    ferrobot judgement (success, lifted, opening, clean, stage and diagnostics), the objects' final poses,
+    the hand robot and the final opening."""
+    q_start = np.array([0, 0, 0, finger, finger])
+    robot = w.add_robot(hand_model, ge.pose7(base), name="hand", q=q_start)
+    slide, fingers = robot.dof_names[:3], robot.dof_names[3:]
+    robot.set_drive_gains(stiffness=[2.0e4] * 3, damping=[1.0e3] * 3, joint_names=slide)
+    robot.set_gripper(["panda_finger_joint1", "panda_finger_joint2"], [ge.OPEN, ge.OPEN], [0.0, 0.0])
+    robot.set_joint_position_targets(q_start)
+    closing = False
+    diag: dict = {}
+    k_close = -1
+    n_close = int(round(ge.CLOSE_S / DT))
+    for k, (tgt, force) in enumerate(steps):
+        robot.set_joint_position_targets(tgt[:3], joint_names=slide)
+        if force > 0 and not closing:
+            q = robot.joint_positions
+            diag["approach_error"] = float(ge.PREGRASP - q[2])
+            diag["pushed"] = {n: float(np.linalg.norm(w.get_object_pose(n)[:3, 3] - settled[n][:3, 3])) for n in names}
+            if picture_dir is not None:
+                save_picture(w, picture_dir / f"{picture_tag}_grasp.png")
+            robot.close_gripper(force=force)
+            closing = True
+            k_close = k
+        elif force == 0:
+            robot.set_joint_position_targets(tgt[3:], joint_names=fingers)
+        w.step(1)
+        if closing and k == k_close + n_close - 1:
+            q = robot.joint_positions
+            diag["closed_opening"] = float(q[3] + q[4])
+    q = robot.joint_positions
+    opening = float(q[3] + q[4])
+    after = {n: w.get_object_pose(n) for n in names}
+    lifted = [n for n in names if after[n][2, 3] - z0[n] >= ge.MIN_RISE]
+    success = bool(lifted) and opening > ge.MIN_OPENING
+    res = {"success": success, "lifted": lifted, "opening": opening, "clean": success and len(lifted) == 1}
+    res["stage"] = failure_stage(res, diag, target, after, z0)
+    res.update(diag)
+    return res, after, robot, opening
+
+
 def attempt(
-    state: State, hand_model, pb, options: dict, picture_dir: Path | None = None, picture_tag: str = ""
+    state: State,
+    hand_model,
+    pb,
+    options: dict,
+    picture_dir: Path | None = None,
+    picture_tag: str = "",
+    preshape_margin: float | None = PRESHAPE_MARGIN,
+    push: bool = True,
+    paired: bool = False,
 ) -> dict:
-    """One perceive-grasp-lift attempt; updates ``state`` (removes lifted and lost objects)."""
+    """One perceive-grasp-lift attempt; updates ``state`` (removes lifted and lost objects). The fingers
+    approach open to the grasp's width plus ``preshape_margin`` (None: fully open). With ``push``, a frame
+    without a grasp gets a push of a remaining object instead (``rec["push"]``, no grasp attempt) when one
+    is feasible."""
     t_cpu = time.process_time()
     w = state.build()
     names = list(state.objects)
@@ -287,6 +439,12 @@ def attempt(
     rec["detect_ms"] = (time.perf_counter() - t0) * 1e3
     rec["detect_cpu_ms"] = (time.process_time() - c0) * 1e3
     rec["num_grasps"] = len(gg)
+    if len(gg) == 0 and push:
+        plan = plan_scene_push(state, w, frame, depth, cam_pose, ids)
+        if plan is not None:
+            rec["push"] = execute_push(state, w, hand_model, plan, names, settled, ids)
+            rec["cpu_s"] = time.process_time() - t_cpu
+            return rec
     if len(gg) == 0:
         rec["ferrobot"] = {"success": False, "reason": "no grasp"}
         # Which of the detector's clutter checks left nothing: re-run with each one off.
@@ -307,51 +465,41 @@ def attempt(
     hand = ge.hand_poses(top)[0]
     base = hand.copy()
     base[:3, 3] -= ge.PREGRASP * hand[:3, 2]
-    steps = bin_schedule(base) if state.spec.bin is not None else ge.hand_schedule(base)
+    finger = preshape_finger(float(top.widths[0]), preshape_margin)
+    steps = bin_schedule(base, finger) if state.spec.bin is not None else table_schedule(base, finger)
     rec["hand_base"] = base.tolist()
     rec["settled"] = {n: ge.pose7(settled[n]) for n in names}
-    robot = w.add_robot(hand_model, ge.pose7(base), name="hand", q=np.array([0, 0, 0, ge.OPEN, ge.OPEN]))
-    slide, fingers = robot.dof_names[:3], robot.dof_names[3:]
-    robot.set_drive_gains(stiffness=[2.0e4] * 3, damping=[1.0e3] * 3, joint_names=slide)
-    robot.set_gripper(["panda_finger_joint1", "panda_finger_joint2"], [ge.OPEN, ge.OPEN], [0.0, 0.0])
-    robot.set_joint_position_targets(np.array([0, 0, 0, ge.OPEN, ge.OPEN]))
-    z0 = {n: settled[n][2, 3] for n in names}
     rec["grasp"] = {
         "position": hand[:3, 3].tolist(),
         "approach": hand[:3, 2].tolist(),
         "width": float(top.widths[0]),
         "depth": float(top.depths[0]),
         "score": float(top.scores[0]),
+        "preshape_opening": 2.0 * finger,
     }
-    closing = False
-    diag: dict = {}
-    k_close = -1
-    n_close = int(round(ge.CLOSE_S / DT))
-    for k, (target, force) in enumerate(steps):
-        robot.set_joint_position_targets(target[:3], joint_names=slide)
-        if force > 0 and not closing:
-            q = robot.joint_positions
-            diag["approach_error"] = float(ge.PREGRASP - q[2])
-            diag["pushed"] = {n: float(np.linalg.norm(w.get_object_pose(n)[:3, 3] - settled[n][:3, 3])) for n in names}
-            if picture_dir is not None:
-                save_picture(w, picture_dir / f"{picture_tag}_grasp.png")
-            robot.close_gripper(force=force)
-            closing = True
-            k_close = k
-        elif force == 0:
-            robot.set_joint_position_targets(target[3:], joint_names=fingers)
-        w.step(1)
-        if closing and k == k_close + n_close - 1:
-            q = robot.joint_positions
-            diag["closed_opening"] = float(q[3] + q[4])
-    q = robot.joint_positions
-    opening = float(q[3] + q[4])
-    after = {n: w.get_object_pose(n) for n in names}
-    lifted = [n for n in names if after[n][2, 3] - z0[n] >= ge.MIN_RISE]
-    success = bool(lifted) and opening > ge.MIN_OPENING
-    rec["ferrobot"] = {"success": success, "lifted": lifted, "opening": opening, "clean": success and len(lifted) == 1}
-    rec["ferrobot"]["stage"] = failure_stage(rec["ferrobot"], diag, rec.get("target"), after, z0)
-    rec["ferrobot"].update(diag)
+    z0 = {n: settled[n][2, 3] for n in names}
+    if paired:
+        # The same attempt from the same state with the other pre-shape (fully open <-> pre-shaped): a fresh
+        # world rebuilt and settled as this one (deterministic), judged alike; the scene follows this run.
+        alt = preshape_finger(float(top.widths[0]), None if preshape_margin is not None else PRESHAPE_MARGIN)
+        alt_steps = bin_schedule(base, alt) if state.spec.bin is not None else table_schedule(base, alt)
+        w2 = state.build()
+        clutter.settle(w2, names, max_seconds=SETTLE_S)
+        dev = max(float(np.abs(w2.get_object_pose(n) - settled[n]).max()) for n in names)
+        r2, _, _, _ = run_hand(w2, hand_model, base, alt_steps, alt, names, settled, z0, rec.get("target"))
+        rec["paired"] = {
+            "preshape_opening": 2.0 * alt,
+            "this_run_preshaped": preshape_margin is not None,
+            "ferrobot": r2,
+            "state_deviation": dev,
+        }
+        if pb:
+            rec["paired"]["pybullet"] = pb.run_pile(state, {n: settled[n] for n in names}, base, alt_steps)
+    res, after, robot, opening = run_hand(
+        w, hand_model, base, steps, finger, names, settled, z0, rec.get("target"), picture_dir, picture_tag
+    )
+    rec["ferrobot"] = res
+    lifted, success = res["lifted"], res["success"]
     if pb:
         rec["pybullet"] = pb.run_pile(state, {n: settled[n] for n in names}, base, steps)
     removed = lifted if success else []
@@ -370,7 +518,16 @@ def attempt(
     return rec
 
 
-def run_scene(spec: clutter.ClutterSpec, hand_model, pb, options: dict, picture_dir: Path | None = None) -> dict:
+def run_scene(
+    spec: clutter.ClutterSpec,
+    hand_model,
+    pb,
+    options: dict,
+    picture_dir: Path | None = None,
+    preshape_margin: float | None = PRESHAPE_MARGIN,
+    push: bool = True,
+    paired: bool = False,
+) -> dict:
     """Clears one scene; returns its record (counts are read from the simulator's state)."""
     # Settle the drop once in its own world: the first state.
     w = ferrobot.World(dt=DT)
@@ -385,14 +542,20 @@ def run_scene(spec: clutter.ClutterSpec, hand_model, pb, options: dict, picture_
     state = State(spec)
     state.poses = {n: w.get_object_pose(n) for n in names}
     total = len(names)
-    attempts, fails = [], 0
+    attempts, pushes, fails, in_row = [], [], 0, 0
     while state.objects and fails < 2 and len(attempts) < 2 * total:
         tag = f"s{spec.seed}_a{len(attempts)}"
-        rec = attempt(state, hand_model, pb, options, picture_dir, tag)
+        can_push = push and in_row < MAX_PUSHES_IN_ROW
+        rec = attempt(state, hand_model, pb, options, picture_dir, tag, preshape_margin, can_push, paired)
+        if "push" in rec:
+            pushes.append(rec)
+            in_row += 1
+            continue
         if "ferrobot" not in rec:
             break
         attempts.append(rec)
         fails = 0 if rec["ferrobot"]["success"] else fails + 1
+        in_row = 0 if rec["ferrobot"]["success"] else in_row
     removed = sum(len(a.get("removed", [])) for a in attempts)
     return {
         "seed": spec.seed,
@@ -402,6 +565,7 @@ def run_scene(spec: clutter.ClutterSpec, hand_model, pb, options: dict, picture_
         "lost": total - removed - len(state.objects),
         "final_state": {n: ge.pose7(state.poses[n]) for n in state.objects},
         "attempts": attempts,
+        "pushes": pushes,
         "files": [o.source for o in spec.objects],
     }
 
@@ -419,6 +583,7 @@ def summarise(scenes: list[dict], use_pybullet: bool) -> dict:
         "attempts": len(att),
         "grasp_success": {"ferrobot": sum(a["ferrobot"]["success"] for a in att) / len(att) if att else 0.0},
         "clean_lifts": sum(a["ferrobot"].get("clean", False) for a in att),
+        "pushes": sum(len(s.get("pushes", [])) for s in scenes),
         "attempts_per_removed_object": len(att) / removed if removed else None,
         "median_detection_ms": statistics.median(a["detect_ms"] for a in att) if att else None,
         "median_detection_cpu_ms": statistics.median(a["detect_cpu_ms"] for a in att) if att else None,
@@ -430,6 +595,23 @@ def summarise(scenes: list[dict], use_pybullet: bool) -> dict:
         st = a["ferrobot"].get("stage", a["ferrobot"].get("reason", "?"))
         stages[st] = stages.get(st, 0) + 1
     out["stages"] = stages
+    pa = [a for a in att if "paired" in a]
+    if pa:
+        # Paired A/B: every grasp executed from the same state with both pre-shapes (the scene follows this run's).
+        out["paired"] = {
+            "attempts": len(pa),
+            "this_run": "pre-shaped" if pa[0]["paired"].get("this_run_preshaped") else "fully open",
+            "ferrobot": {
+                "this": sum(a["ferrobot"]["success"] for a in pa) / len(pa),
+                "other": sum(a["paired"]["ferrobot"]["success"] for a in pa) / len(pa),
+            },
+            "max_state_deviation": max(a["paired"]["state_deviation"] for a in pa),
+        }
+        if use_pybullet:
+            out["paired"]["pybullet"] = {
+                "this": sum(a["pybullet"]["success"] for a in pa) / len(pa),
+                "other": sum(a["paired"]["pybullet"]["success"] for a in pa) / len(pa),
+            }
     if use_pybullet:
         out["grasp_success"]["pybullet"] = sum(a["pybullet"]["success"] for a in att) / len(att) if att else 0.0
     return out
@@ -445,10 +627,26 @@ def main() -> int:
     ap.add_argument("--json", type=Path, default=None)
     ap.add_argument("--no-pybullet", action="store_true")
     ap.add_argument("--pictures", type=Path, default=None, help="save a picture of each grasp (hand in place)")
+    ap.add_argument(
+        "--preshape-margin",
+        type=float,
+        default=PRESHAPE_MARGIN,
+        help="opening (m, in [0, 0.08]) added to the grasp's width for the approach (default %(default)s)",
+    )
+    ap.add_argument("--no-preshape", action="store_true", help="approach with the fingers fully open")
+    ap.add_argument("--no-push", action="store_true", help="no pushes: a frame without a grasp is a failed attempt")
+    ap.add_argument(
+        "--paired",
+        action="store_true",
+        help="also run every grasp from the same state with the other pre-shape (fully open <-> pre-shaped)",
+    )
     ap.add_argument("--option", action="append", default=[], metavar="KEY=VALUE", help="a detection option (JSON)")
     args = ap.parse_args()
     if not 1 <= args.objects_per_scene <= 30:
         raise SystemExit("--objects-per-scene: expected 1 to 30")
+    if not 0.0 <= args.preshape_margin <= 0.08:
+        raise SystemExit("--preshape-margin: expected 0 to 0.08 m")
+    preshape = None if args.no_preshape else args.preshape_margin
     options = {}
     for kv in args.option:
         key, _, value = kv.partition("=")
@@ -467,7 +665,16 @@ def main() -> int:
                 spec = clutter.random_clutter(
                     args.seed + k, args.objects_per_scene, files, bin=args.bin, table_top=TABLE_TOP, center=CENTER
                 )
-                s = run_scene(spec, hand_model, pb, options, args.pictures)
+                s = run_scene(spec, hand_model, pb, options, args.pictures, preshape, not args.no_push, args.paired)
+                for p in s["pushes"]:
+                    pp = p["push"]
+                    print(
+                        f"  push: {pp['target']} along {np.round(pp['direction'], 2).tolist()} "
+                        f"by {pp['distance']:.2f} m "
+                        f"(tilt {pp['tilt']:.1f}): moved {pp['target_moved'] * 100:.1f} cm, "
+                        f"others up to {pp['others_moved_max'] * 100:.1f} cm",
+                        flush=True,
+                    )
                 for i, a in enumerate(s["attempts"]):
                     f = a.get("ferrobot", {})
                     g = a.get("grasp", {})
@@ -486,7 +693,17 @@ def main() -> int:
                 print(
                     f"scene {k + 1}/{args.scenes}: removed {s['removed']}/{s['objects']} in {len(s['attempts'])} "
                     f"attempts; so far cleared {sm['completion_rate'] * 100:.1f}%, success "
-                    + ", ".join(f"{j} {r * 100:.1f}%" for j, r in sm["grasp_success"].items()),
+                    + ", ".join(f"{j} {r * 100:.1f}%" for j, r in sm["grasp_success"].items())
+                    + (
+                        f"; paired ({sm['paired']['attempts']}): "
+                        + ", ".join(
+                            f"{j} {v['this'] * 100:.1f}% / other {v['other'] * 100:.1f}%"
+                            for j, v in sm["paired"].items()
+                            if isinstance(v, dict)
+                        )
+                        if "paired" in sm
+                        else ""
+                    ),
                     flush=True,
                 )
         finally:
@@ -499,6 +716,9 @@ def main() -> int:
         bin=args.bin,
         seed=args.seed,
         detect_options=options,
+        preshape_margin=preshape,
+        push=not args.no_push,
+        paired_run=args.paired,
         cores=os.cpu_count(),
         load_average=ge.load_avg(),
         wall_s=time.perf_counter() - t0,
@@ -506,9 +726,20 @@ def main() -> int:
     print(
         f"cleared {res['removed']}/{res['objects']} ({res['completion_rate'] * 100:.1f}%), lost {res['lost']}, "
         f"attempts {res['attempts']} ({res['attempts_per_removed_object'] or float('nan'):.2f} per removed object), "
-        f"clean lifts {res['clean_lifts']}"
+        f"clean lifts {res['clean_lifts']}, pushes {res['pushes']}"
     )
     print("stages: " + ", ".join(f"{k} {v}" for k, v in sorted(res["stages"].items(), key=lambda kv: -kv[1])))
+    if "paired" in res:
+        pr = res["paired"]
+        print(
+            f"paired ({pr['attempts']} grasps from identical states, "
+            f"max pose deviation {pr['max_state_deviation']:.1e}): "
+            + ", ".join(
+                f"{j} this run {v['this'] * 100:.1f}% / other pre-shape {v['other'] * 100:.1f}%"
+                for j, v in pr.items()
+                if isinstance(v, dict)
+            )
+        )
     for judge, rate in res["grasp_success"].items():
         print(f"grasp success per attempt, {judge:8s}: {rate * 100:.1f}%")
     if res["attempts"]:

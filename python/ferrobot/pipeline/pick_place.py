@@ -144,6 +144,11 @@ class PickPlaceConfig:
     #: Distance (m, in [0, 0.05]) the straight part continues past the first configuration clear of
     #: everything (the simulated contact surfaces sit a hair beyond the planner's).
     escape_clearance: float = 0.01
+    #: Opening (m, in [0, 0.05]) added to the chosen grasp's width for the fingers' pre-shape: the gripper
+    #: opens to that width (at most its largest opening) before the pre-grasp motion, and the planner checks
+    #: the pre-grasp, the grasp pose and the approach with the fingers at it (not fully open: open fingers
+    #: meet walls and neighbours the grasp's own fingers clear). None: approach with the gripper fully open.
+    preshape_margin: float | None = 0.01
 
 
 @dataclass
@@ -234,6 +239,9 @@ class Episode:
     q_above: np.ndarray | None = None
     q_place: np.ndarray | None = None
     place_hand: np.ndarray | None = None
+    #: Opening (m) of the fingers for the approach to the chosen grasp (``select``, see
+    #: :attr:`PickPlaceConfig.preshape_margin`).
+    preshape_opening: float | None = None
 
     def scene_shapes(self) -> list[tuple[str, str, tuple, tuple]]:
         """(name, kind, size, colour) of every object of the scene, table and robot mount included."""
@@ -278,6 +286,10 @@ class Recorder:
             self.robot.close_gripper(force=force)
         else:
             self.robot.open_gripper()
+
+    def set_gripper_opening(self, opening: float) -> None:
+        """Opens (or closes) the gripper to ``opening`` (m, within its range): the pre-shape before an approach."""
+        self.robot.set_gripper_opening(opening)
 
     def _frame(self, stage: str) -> None:
         if self.camera is not None and self._since_frame >= self.every:
@@ -415,6 +427,9 @@ class PickPlace:
             v = getattr(self.config, name)
             if not (isinstance(v, (int, float)) and lo <= v <= hi):
                 raise InvalidArgumentError(f"config.{name}: {v!r} m is outside [{lo}, {hi}]")
+        m = self.config.preshape_margin
+        if m is not None and not (isinstance(m, (int, float)) and 0.0 <= m <= 0.05):
+            raise InvalidArgumentError(f"config.preshape_margin: {m!r} m is outside [0, 0.05] (or None)")
         self.model, self.gripper = resolve_robot(model if robot is None else robot, srdf, gripper)
         self.hand_link = self.gripper.hand_link
         self.planner = _core.Planner(self.model)
@@ -436,6 +451,28 @@ class PickPlace:
         self._win_hi = np.where(wide, np.minimum(self.upper, home_arm + math.pi), self.upper)
 
     # -- helpers ---------------------------------------------------------------------------------------------
+
+    def preshape_opening(self, width: float) -> float:
+        """The fingers' opening (m) for the approach to a grasp of ``width`` (m): the width plus
+        ``config.preshape_margin``, within the gripper's range (its largest opening without a margin, or when
+        the episode's recorder has no ``set_gripper_opening``)."""
+        g, m = self.gripper, self.config.preshape_margin
+        # A recorder without a continuous gripper command (datasets record open / closed) approaches open.
+        ep = getattr(self, "episode", None)
+        rec = None if ep is None else ep.recorder
+        if m is None or (rec is not None and not hasattr(rec, "set_gripper_opening")):
+            return float(g.max_opening)
+        return float(min(g.max_opening, max(g.min_opening, width + m)))
+
+    def _set_planner_fingers(self, opening: float) -> None:
+        """The planner checks the robot with the gripper at ``opening`` (m): its locked driver position is
+        set through the gripper description's opening map (the followers mimic it)."""
+        names = list(self.planner.dof_names)
+        if self.gripper.driver not in names:
+            return
+        q = np.asarray(self.planner.locked_positions, dtype=float).copy()
+        q[names.index(self.gripper.driver)] = self.gripper.driver_position(opening)
+        self.planner.locked_positions = q
 
     def _sync(self, ignore: list[str]) -> None:
         """Planner world := the simulation's objects (base frame), without ``ignore`` and attached objects."""
@@ -575,47 +612,65 @@ class PickPlace:
         to_base = transforms.world_to_base(np.eye(4), self.episode.base)
         hands = np.einsum("ij,njk->nik", to_base, hands_world)
         pre = self._ee(self._back(hands, cfg.pregrasp_distance))
-        # Pre-grasp: free of collision with everything, target included.
-        self._sync([])
         # Seeded from home when the window matters (joints of more than a turn), else from random seeds only.
         seeds = np.tile(self.home[self._arm_dofs], (len(pre), 1)) if self._wide.any() else None
-        ik_pre = self._ik(pre, seeds, collision_free=True)
-        # Grasp: the fingers touch the target and come close to the table: both ignored.
-        self._sync([self.episode.spec.target, "table"])
-        ok = np.asarray(ik_pre.success) & np.array([self._in_window(q) for q in ik_pre.q], dtype=bool)
-        tried = 0
-        for j in np.flatnonzero(ok):
-            tried += 1
-            ik_g = self.planner.ik(self._ee(hands[j]), ik_pre.q[j], collision_free=True, num_seeds=8)
-            if not ik_g.success or np.max(np.abs(ik_g.q - ik_pre.q[j])) > 1.0 or not self._in_window(ik_g.q):
+        tried = reachable = 0
+        for j in range(len(order)):
+            # The fingers pre-shaped to this grasp's width (plus the margin) for every check of its approach.
+            opening = self.preshape_opening(float(gw.widths[order[j]]))
+            self._set_planner_fingers(opening)
+            # Pre-grasp: free of collision with everything, target included.
+            self._sync([])
+            ik_pre = self._ik(pre[j : j + 1], None if seeds is None else seeds[j : j + 1], collision_free=True)
+            if not ik_pre.success[0] or not self._in_window(ik_pre.q[0]):
                 continue
-            res = self.planner.plan(ik_pre.q[j], goal_q=ik_g.q, trajectory=False, time_limit=0.2)
+            reachable += 1
+            q_pre = ik_pre.q[0]
+            # Grasp: the fingers touch the target and come close to the table: both ignored.
+            self._sync([self.episode.spec.target, "table"])
+            tried += 1
+            ik_g = self.planner.ik(self._ee(hands[j]), q_pre, collision_free=True, num_seeds=8)
+            if not ik_g.success or np.max(np.abs(ik_g.q - q_pre)) > 1.0 or not self._in_window(ik_g.q):
+                continue
+            res = self.planner.plan(q_pre, goal_q=ik_g.q, trajectory=False, time_limit=0.2)
             if not res.success:
                 continue
             self.episode.choice = order[j]
-            self.episode.q_pre, self.episode.q_grasp = ik_pre.q[j], ik_g.q
+            self.episode.q_pre, self.episode.q_grasp = q_pre, ik_g.q
             self.episode.hand_grasp = hands[j]
+            self.episode.preshape_opening = opening
             g = gw[order[j]]
             return {
                 "candidates": len(order),
-                "reachable_pregrasps": int(ok.sum()),
+                "reachable_pregrasps": reachable,
                 "tried": tried,
                 "grasp_index": int(order[j]),
                 "score": g.score,
                 "rank": float(rank[order[j]]),
                 "off_centre_mm": 1e3 * float(off[order[j]]),
                 "width": g.width,
+                "preshape_opening": opening,
                 "approach_angle_deg": math.degrees(angle[order[j]]),
             }
         raise StageFailure(
             "select",
-            f"none of {len(order)} grasps reachable: {int(ok.sum())} pre-grasps had collision-free IK, "
+            f"none of {len(order)} grasps reachable: {reachable} pre-grasps had collision-free IK, "
             f"{tried} grasp poses tried",
         )
 
     def pick(self) -> None:
         cfg = self.config
-        self._stage("pregrasp", lambda: self._move("pregrasp", self.episode.q_pre, []))
+
+        def pregrasp():
+            # Pre-shape: the fingers open to the grasp's width plus the margin while the arm moves (the planner
+            # checks the motion with them there, see select).
+            opening = self.episode.preshape_opening
+            self._set_planner_fingers(opening)
+            if hasattr(self.episode.recorder, "set_gripper_opening"):
+                self.episode.recorder.set_gripper_opening(opening)
+            return {**self._move("pregrasp", self.episode.q_pre, []), "preshape_opening_mm": 1e3 * opening}
+
+        self._stage("pregrasp", pregrasp)
         self._stage(
             "approach", lambda: self._move("approach", self.episode.q_grasp, [self.episode.spec.target, "table"])
         )
@@ -626,6 +681,7 @@ class PickPlace:
             width = float(self.episode.robot.gripper_opening)
             if width < self.gripper.min_opening + 0.008:
                 raise StageFailure("grasp", f"the fingers closed on nothing (opening {1e3 * width:.1f} mm)")
+            self._set_planner_fingers(min(width, self.gripper.max_opening))
             self._sync([])  # the target must be in the world to be attached
             self.planner.attach_world_object(self.episode.spec.target, self._q())
             return {"opening_mm": 1e3 * width}
@@ -700,6 +756,7 @@ class PickPlace:
             self.episode.recorder.set_gripper(False)
             self.episode.recorder.wait(0.3, "release")
             self.planner.detach(self.episode.spec.target)
+            self._set_planner_fingers(self.gripper.max_opening)
             return {}
 
         self._stage("release", release)
