@@ -64,6 +64,28 @@ pub(super) const OUTCOME_FULL_COMPOSITE: u8 = 5;
 // incremental reconcile needs, so the graph must be rebuilt from scratch (rare).
 pub(super) const OUTCOME_CLEARED_IN_GRAPH: u8 = 6;
 
+/// Whether one collider is on a multibody link and the other on a dynamic
+/// rigid body that is not a link of the same multibody (see
+/// `IntegrationParameters::recycle_multibody_dynamic_contacts`).
+fn multibody_dynamic_pair(
+    co1: &crate::geometry::Collider,
+    co2: &crate::geometry::Collider,
+    bodies: &RigidBodySet,
+    multibody_joints: &MultibodyJointSet,
+) -> bool {
+    let (Some(p1), Some(p2)) = (co1.parent.as_ref(), co2.parent.as_ref()) else {
+        return false;
+    };
+    let link1 = multibody_joints.rigid_body_link(p1.handle);
+    let link2 = multibody_joints.rigid_body_link(p2.handle);
+    match (link1, link2) {
+        (Some(l1), Some(l2)) => l1.multibody != l2.multibody,
+        (Some(_), None) => bodies.get(p2.handle).is_some_and(|rb| rb.is_dynamic()),
+        (None, Some(_)) => bodies.get(p1.handle).is_some_and(|rb| rb.is_dynamic()),
+        (None, None) => false,
+    }
+}
+
 /// The per-pair contact update shared by `NarrowPhase::compute_contacts`'
 /// single-threaded and parallel dispatch paths; returns an `OUTCOME_*` tag.
 #[allow(clippy::too_many_arguments)]
@@ -75,6 +97,8 @@ pub(super) fn process_pair(
     contact_clustering: bool,
     // Contact-recycling drift threshold; `0.0` disables recycling.
     contact_recycle_distance: Real,
+    // See `IntegrationParameters::recycle_multibody_dynamic_contacts`.
+    recycle_multibody_dynamic: bool,
     bodies: &RigidBodySet,
     colliders: &ColliderSet,
     impulse_joints: &ImpulseJointSet,
@@ -121,8 +145,13 @@ pub(super) fn process_pair(
                 | ColliderChanges::POSITION
                 | ColliderChanges::LOCAL_MASS_PROPERTIES;
             let hooks_involved = !(co1.flags.active_hooks | co2.flags.active_hooks).is_empty();
+            let excluded = !recycle_multibody_dynamic
+                && multibody_dynamic_pair(co1, co2, bodies, multibody_joints);
 
-            if ((co1.changes | co2.changes) & !recycle_safe).is_empty() && !hooks_involved {
+            if ((co1.changes | co2.changes) & !recycle_safe).is_empty()
+                && !hooks_involved
+                && !excluded
+            {
                 let pos12 = co1.pos.inv_mul(&co2.pos);
                 // Conservative bound on how far any contact point moved in
                 // the pair's local space since the last full update (chord
