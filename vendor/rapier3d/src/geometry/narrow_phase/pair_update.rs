@@ -832,3 +832,57 @@ pub(super) fn process_pair(
     }
     outcome
 }
+
+#[cfg(all(test, feature = "dim3"))]
+mod multibody_dynamic_pair_tests {
+    use super::multibody_dynamic_pair;
+    use crate::dynamics::{
+        MultibodyJointSet, RevoluteJointBuilder, RigidBodyBuilder, RigidBodyHandle, RigidBodySet,
+    };
+    use crate::geometry::{ColliderBuilder, ColliderHandle, ColliderSet};
+    use crate::math::Vector;
+
+    /// Which pairs `IntegrationParameters::recycle_multibody_dynamic_contacts`
+    /// keeps out of recycling: a link with a dynamic body or with another
+    /// multibody's link, and nothing else.
+    #[test]
+    fn links_against_dynamic_bodies_and_other_multibodies_only() {
+        let mut bodies = RigidBodySet::new();
+        let mut colliders = ColliderSet::new();
+        let mut multibodies = MultibodyJointSet::new();
+        let arm = |bodies: &mut RigidBodySet, multibodies: &mut MultibodyJointSet| {
+            let root = bodies.insert(RigidBodyBuilder::fixed());
+            let l1 = bodies.insert(RigidBodyBuilder::dynamic());
+            let l2 = bodies.insert(RigidBodyBuilder::dynamic());
+            let joint = RevoluteJointBuilder::new(Vector::Z);
+            multibodies.insert(root, l1, joint, true).unwrap();
+            multibodies.insert(l1, l2, joint, true).unwrap();
+            [l1, l2]
+        };
+        let [a1, a2] = arm(&mut bodies, &mut multibodies);
+        let [b1, _] = arm(&mut bodies, &mut multibodies);
+        let object = bodies.insert(RigidBodyBuilder::dynamic());
+        let other = bodies.insert(RigidBodyBuilder::dynamic());
+        let table = bodies.insert(RigidBodyBuilder::fixed());
+        let pusher = bodies.insert(RigidBodyBuilder::kinematic_position_based());
+        let mut co = |b: RigidBodyHandle| -> ColliderHandle {
+            colliders.insert_with_parent(ColliderBuilder::ball(0.1), b, &mut bodies)
+        };
+        let [a1, a2, b1, object, other, table, pusher] =
+            [a1, a2, b1, object, other, table, pusher].map(&mut co);
+        let ground = colliders.insert(ColliderBuilder::ball(0.1));
+        let excluded = |x: ColliderHandle, y: ColliderHandle| {
+            let r = multibody_dynamic_pair(&colliders[x], &colliders[y], &bodies, &multibodies);
+            assert_eq!(
+                r,
+                multibody_dynamic_pair(&colliders[y], &colliders[x], &bodies, &multibodies)
+            );
+            r
+        };
+        assert!(excluded(a2, object)); // a held object
+        assert!(excluded(a1, b1)); // two robots
+        assert!(!excluded(a1, a2)); // one robot's own links
+        assert!(!excluded(a2, table) && !excluded(a2, pusher) && !excluded(a2, ground));
+        assert!(!excluded(object, other) && !excluded(object, table));
+    }
+}
