@@ -30,6 +30,8 @@ impl NarrowPhase {
         contact_clustering: bool,
         // Contact-recycling drift threshold; `0.0` disables recycling.
         contact_recycle_distance: Real,
+        // See `IntegrationParameters::recycle_multibody_dynamic_contacts`.
+        recycle_multibody_dynamic: bool,
         islands: &mut IslandManager,
         bodies: &mut RigidBodySet,
         colliders: &ColliderSet,
@@ -107,6 +109,7 @@ impl NarrowPhase {
                 dt,
                 contact_clustering,
                 contact_recycle_distance,
+                recycle_multibody_dynamic,
                 bodies,
                 colliders,
                 impulse_joints,
@@ -134,6 +137,7 @@ impl NarrowPhase {
                 dt,
                 contact_clustering,
                 contact_recycle_distance,
+                recycle_multibody_dynamic,
                 bodies,
                 colliders,
                 impulse_joints,

@@ -64,6 +64,28 @@ pub(super) const OUTCOME_FULL_COMPOSITE: u8 = 5;
 // incremental reconcile needs, so the graph must be rebuilt from scratch (rare).
 pub(super) const OUTCOME_CLEARED_IN_GRAPH: u8 = 6;
 
+/// Whether one collider is on a multibody link and the other on a dynamic
+/// rigid body that is not a link of the same multibody (see
+/// `IntegrationParameters::recycle_multibody_dynamic_contacts`).
+fn multibody_dynamic_pair(
+    co1: &crate::geometry::Collider,
+    co2: &crate::geometry::Collider,
+    bodies: &RigidBodySet,
+    multibody_joints: &MultibodyJointSet,
+) -> bool {
+    let (Some(p1), Some(p2)) = (co1.parent.as_ref(), co2.parent.as_ref()) else {
+        return false;
+    };
+    let link1 = multibody_joints.rigid_body_link(p1.handle);
+    let link2 = multibody_joints.rigid_body_link(p2.handle);
+    match (link1, link2) {
+        (Some(l1), Some(l2)) => l1.multibody != l2.multibody,
+        (Some(_), None) => bodies.get(p2.handle).is_some_and(|rb| rb.is_dynamic()),
+        (None, Some(_)) => bodies.get(p1.handle).is_some_and(|rb| rb.is_dynamic()),
+        (None, None) => false,
+    }
+}
+
 /// The per-pair contact update shared by `NarrowPhase::compute_contacts`'
 /// single-threaded and parallel dispatch paths; returns an `OUTCOME_*` tag.
 #[allow(clippy::too_many_arguments)]
@@ -75,6 +97,8 @@ pub(super) fn process_pair(
     contact_clustering: bool,
     // Contact-recycling drift threshold; `0.0` disables recycling.
     contact_recycle_distance: Real,
+    // See `IntegrationParameters::recycle_multibody_dynamic_contacts`.
+    recycle_multibody_dynamic: bool,
     bodies: &RigidBodySet,
     colliders: &ColliderSet,
     impulse_joints: &ImpulseJointSet,
@@ -121,8 +145,13 @@ pub(super) fn process_pair(
                 | ColliderChanges::POSITION
                 | ColliderChanges::LOCAL_MASS_PROPERTIES;
             let hooks_involved = !(co1.flags.active_hooks | co2.flags.active_hooks).is_empty();
+            let excluded = !recycle_multibody_dynamic
+                && multibody_dynamic_pair(co1, co2, bodies, multibody_joints);
 
-            if ((co1.changes | co2.changes) & !recycle_safe).is_empty() && !hooks_involved {
+            if ((co1.changes | co2.changes) & !recycle_safe).is_empty()
+                && !hooks_involved
+                && !excluded
+            {
                 let pos12 = co1.pos.inv_mul(&co2.pos);
                 // Conservative bound on how far any contact point moved in
                 // the pair's local space since the last full update (chord
@@ -802,4 +831,58 @@ pub(super) fn process_pair(
         return OUTCOME_FULL_CLEAN;
     }
     outcome
+}
+
+#[cfg(all(test, feature = "dim3"))]
+mod multibody_dynamic_pair_tests {
+    use super::multibody_dynamic_pair;
+    use crate::dynamics::{
+        MultibodyJointSet, RevoluteJointBuilder, RigidBodyBuilder, RigidBodyHandle, RigidBodySet,
+    };
+    use crate::geometry::{ColliderBuilder, ColliderHandle, ColliderSet};
+    use crate::math::Vector;
+
+    /// Which pairs `IntegrationParameters::recycle_multibody_dynamic_contacts`
+    /// keeps out of recycling: a link with a dynamic body or with another
+    /// multibody's link, and nothing else.
+    #[test]
+    fn links_against_dynamic_bodies_and_other_multibodies_only() {
+        let mut bodies = RigidBodySet::new();
+        let mut colliders = ColliderSet::new();
+        let mut multibodies = MultibodyJointSet::new();
+        let arm = |bodies: &mut RigidBodySet, multibodies: &mut MultibodyJointSet| {
+            let root = bodies.insert(RigidBodyBuilder::fixed());
+            let l1 = bodies.insert(RigidBodyBuilder::dynamic());
+            let l2 = bodies.insert(RigidBodyBuilder::dynamic());
+            let joint = RevoluteJointBuilder::new(Vector::Z);
+            multibodies.insert(root, l1, joint, true).unwrap();
+            multibodies.insert(l1, l2, joint, true).unwrap();
+            [l1, l2]
+        };
+        let [a1, a2] = arm(&mut bodies, &mut multibodies);
+        let [b1, _] = arm(&mut bodies, &mut multibodies);
+        let object = bodies.insert(RigidBodyBuilder::dynamic());
+        let other = bodies.insert(RigidBodyBuilder::dynamic());
+        let table = bodies.insert(RigidBodyBuilder::fixed());
+        let pusher = bodies.insert(RigidBodyBuilder::kinematic_position_based());
+        let mut co = |b: RigidBodyHandle| -> ColliderHandle {
+            colliders.insert_with_parent(ColliderBuilder::ball(0.1), b, &mut bodies)
+        };
+        let [a1, a2, b1, object, other, table, pusher] =
+            [a1, a2, b1, object, other, table, pusher].map(&mut co);
+        let ground = colliders.insert(ColliderBuilder::ball(0.1));
+        let excluded = |x: ColliderHandle, y: ColliderHandle| {
+            let r = multibody_dynamic_pair(&colliders[x], &colliders[y], &bodies, &multibodies);
+            assert_eq!(
+                r,
+                multibody_dynamic_pair(&colliders[y], &colliders[x], &bodies, &multibodies)
+            );
+            r
+        };
+        assert!(excluded(a2, object)); // a held object
+        assert!(excluded(a1, b1)); // two robots
+        assert!(!excluded(a1, a2)); // one robot's own links
+        assert!(!excluded(a2, table) && !excluded(a2, pusher) && !excluded(a2, ground));
+        assert!(!excluded(object, other) && !excluded(object, table));
+    }
 }

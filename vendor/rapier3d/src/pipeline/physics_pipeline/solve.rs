@@ -136,6 +136,7 @@ impl PhysicsPipeline {
             } else {
                 0.0
             },
+            integration_parameters.recycle_multibody_dynamic_contacts,
             islands,
             bodies,
             colliders,
