@@ -208,6 +208,19 @@ fn joint_limits_and_velocity_limits_are_respected() {
     }
 }
 
+/// A world with one obstacle, "ball" (a 5 cm sphere), at `start`.
+fn ball_world(start: Vector3<f64>) -> CollisionWorld {
+    let mut world = CollisionWorld::new();
+    world
+        .add_shape(
+            "ball",
+            Shape::Sphere { radius: 0.05 },
+            at(start.x, start.y, start.z),
+        )
+        .unwrap();
+    world
+}
+
 /// Flies the obstacle "ball" of `world` (and of the controller's world)
 /// from `start` along `dir` at `speed` (m/s) through the aim point and on
 /// for 1.2 m in total, over 400 closed-loop steps of 5 ms from rest at
@@ -267,14 +280,7 @@ fn never_enters_obstacles_in_scripted_approaches() {
     for (k, (aim, dir)) in cases.iter().enumerate() {
         let speed = 0.5;
         let start = aim - dir * 0.6;
-        let mut world = CollisionWorld::new();
-        world
-            .add_shape(
-                "ball",
-                Shape::Sphere { radius: 0.05 },
-                at(start.x, start.y, start.z),
-            )
-            .unwrap();
+        let mut world = ball_world(start);
         let ck = checker(world.clone());
         let mut ctl = ReactiveController::new(&ck, None, ReactiveConfig::default()).unwrap();
         let target = model.fk(&q0, None).unwrap();
@@ -639,14 +645,7 @@ fn exact_filter_keeps_uncovered_links_off_obstacles() {
         for (k, (aim, dir)) in cases.iter().enumerate() {
             let speed = 0.5;
             let start = aim - dir * 0.6;
-            let mut world = CollisionWorld::new();
-            world
-                .add_shape(
-                    "ball",
-                    Shape::Sphere { radius: 0.05 },
-                    at(start.x, start.y, start.z),
-                )
-                .unwrap();
+            let mut world = ball_world(start);
             let ck =
                 CollisionChecker::new(model.clone(), small.clone(), acm.clone(), world.clone())
                     .unwrap();
