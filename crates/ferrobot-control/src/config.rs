@@ -127,6 +127,20 @@ config_struct! {
         /// Robot sphere to world obstacle: distance (m) below which the
         /// avoidance policy acts; its metric vanishes at and beyond it, [1e-3, 2].
         collision_distance: 0.25, [1e-3, 2.0],
+        /// Reach (m) of the avoidance metric for an obstacle that is not
+        /// closing in on a sphere; for one closing at speed `v` the reach is
+        /// `collision_near + collision_horizon v`, at most
+        /// `collision_distance`: the metric covers the distance the
+        /// obstacle closes within the horizon. An obstacle moving along
+        /// with the arm (the arm fleeing ahead of it, the target behind it)
+        /// then no longer holds the arm `collision_distance` off and herds
+        /// it away from its path for seconds; it passes at a shorter
+        /// distance, the velocity filter's hold still the hard bound.
+        /// Equal to `collision_distance`: a fixed reach, [1e-3, 2].
+        collision_near: 0.1, [1e-3, 2.0],
+        /// Seconds of closing speed added to `collision_near` (0: the reach
+        /// is always `collision_distance`), [0, 10].
+        collision_horizon: 0.3, [0.0, 10.0],
         /// Repulsive acceleration at contact (m/s²): `gain exp(-d / length)`, [0, 1e4].
         collision_gain: 40.0, [0.0, 1e4],
         /// Decay length (m) of the repulsion, [1e-3, 1].
@@ -247,6 +261,16 @@ config_struct! {
         /// minimum too, and asks for guidance. 0: only joint speed counts
         /// (an arm jittering at a hold never stalls), [0, 1], whole.
         stall_filtered: 1.0, [0.0, 1.0],
+        /// 1: motion counts as evasion (which restarts the stall watch)
+        /// only while a world avoidance policy acts (an obstacle within
+        /// `collision_distance` of the arm at the previous step); motion
+        /// with no obstacle near that does not get `stall_progress` closer
+        /// within `stall_time` is a crawl, not an evasion (a 6-axis arm
+        /// creeping along a near-singular direction, or sliding towards a
+        /// saddle of the attractor, after an obstacle pushed it off its
+        /// path), and asks for guidance. 0: any joint faster than
+        /// `stall_speed` restarts the watch, [0, 1], whole.
+        stall_unforced: 1.0, [0.0, 1.0],
         /// Global guidance (see `crate::guidance`): plan attempts per target
         /// when a step reports `stalled` (a whole number; 0 disables
         /// guidance), [0, 100].
@@ -348,6 +372,7 @@ impl ReactiveConfig {
             ("exact_filter", self.exact_filter),
             ("exact_policy", self.exact_policy),
             ("stall_filtered", self.stall_filtered),
+            ("stall_unforced", self.stall_unforced),
         ] {
             if v.fract() != 0.0 {
                 return Err(ControlError::InvalidArgument(format!(

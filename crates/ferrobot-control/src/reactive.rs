@@ -25,7 +25,11 @@
 //!   `g exp(-d/l) + brake ḋ² / (2 (d - margin))` (the second while
 //!   approaching: the deceleration that stops before the margin), metric
 //!   `μ (1 - d/D)² / (d/D + ε) (1 + max(-ḋ, 0) / v₀)`, which vanishes at
-//!   `D` and grows with approach speed;
+//!   `D` and grows with approach speed; its reach
+//!   `D = min(collision_distance, collision_near + collision_horizon max(-ḋ, 0))`
+//!   covers the distance the obstacle closes within the horizon, so an
+//!   obstacle that is not closing in (passing, receding, or moving along
+//!   with a fleeing arm) acts only within `collision_near`;
 //! * self avoidance, the same per sphere pair of checked link pairs, its
 //!   metric velocity-gated as in RMPflow (`self_rest_weight` of it kept
 //!   when the pair is not approaching): approaches are braked, but a
@@ -68,6 +72,11 @@ pub(crate) struct Barrier {
     pub speed: f64,
     /// Share of the metric kept when not approaching (1: none gated).
     pub rest: f64,
+    /// Reach of the metric when not approaching; it grows by `horizon`
+    /// times the closing speed, up to `reach` (`horizon` 0: always `reach`).
+    pub near: f64,
+    /// Seconds of closing speed added to `near` (see there).
+    pub horizon: f64,
 }
 
 impl Barrier {
@@ -79,7 +88,12 @@ impl Barrier {
         if approach > 0.0 {
             a += self.brake * approach * approach / (2.0 * (d - self.margin).max(1e-3));
         }
-        let s = (d.max(0.0) / self.reach).min(1.0);
+        let reach = if self.horizon > 0.0 {
+            (self.near + self.horizon * approach).min(self.reach)
+        } else {
+            self.reach
+        };
+        let s = (d.max(0.0) / reach).min(1.0);
         let w = (1.0 - s) * (1.0 - s) / (s + self.eps);
         (a, self.metric * w * (self.rest + approach / self.speed))
     }
@@ -221,6 +235,10 @@ pub struct ReactiveController {
     /// Whether the velocity filter changed the previous step's velocity
     /// (the stall watch's `stall_filtered`).
     last_filter_active: bool,
+    /// Whether a world avoidance policy acted at the previous step (an
+    /// obstacle within `collision_distance`; the stall watch's
+    /// `stall_unforced`).
+    last_world_near: bool,
 }
 
 /// One joint's limit-aware coordinate: `dq/du`, the curvature term, `u`,
@@ -290,6 +308,7 @@ impl ReactiveController {
             guided_rest: 0.0,
             guidance,
             last_filter_active: false,
+            last_world_near: false,
         })
     }
 
@@ -462,7 +481,11 @@ impl ReactiveController {
             // Motion the velocity filter shaped (the arm pressed against a
             // hold, sliding or jittering there) is not evasion: only the
             // error's progress resets the watch then.
-            let evading = moving && !(cfg.stall_filtered != 0.0 && self.last_filter_active);
+            // Nor is motion with no obstacle near (`stall_unforced`): a
+            // crawl without progress is a stall too.
+            let evading = moving
+                && !(cfg.stall_filtered != 0.0 && self.last_filter_active)
+                && (cfg.stall_unforced == 0.0 || self.last_world_near);
             if guided || evading {
                 self.stall_since = 0.0;
             } else if e < self.stall_best - cfg.stall_progress {
@@ -487,6 +510,8 @@ impl ReactiveController {
             eps: cfg.collision_metric_eps,
             speed: cfg.collision_speed,
             rest: 1.0,
+            near: cfg.collision_near,
+            horizon: cfg.collision_horizon,
         };
         self.filter_rows.clear();
         self.filter_bounds.clear();
@@ -531,6 +556,7 @@ impl ReactiveController {
             gain: cfg.self_gain,
             metric: cfg.self_metric,
             rest: cfg.self_rest_weight,
+            horizon: 0.0,
             ..world_barrier
         };
         self.exact_cache.clear();
@@ -847,6 +873,7 @@ impl ReactiveController {
             &mut info,
         );
         self.last_filter_active = out.info.filter_active;
+        self.last_world_near = out.info.world_clearance < cfg.collision_distance;
         Ok(out)
     }
 }

@@ -208,6 +208,58 @@ fn joint_limits_and_velocity_limits_are_respected() {
     }
 }
 
+/// A world with one obstacle, "ball" (a 5 cm sphere), at `start`.
+fn ball_world(start: Vector3<f64>) -> CollisionWorld {
+    let mut world = CollisionWorld::new();
+    world
+        .add_shape(
+            "ball",
+            Shape::Sphere { radius: 0.05 },
+            at(start.x, start.y, start.z),
+        )
+        .unwrap();
+    world
+}
+
+/// Flies the obstacle "ball" of `world` (and of the controller's world)
+/// from `start` along `dir` at `speed` (m/s) through the aim point and on
+/// for 1.2 m in total, over 400 closed-loop steps of 5 ms from rest at
+/// `q0`; returns the smallest sphere clearance (the controller's spheres)
+/// and the smallest exact link clearance (`clear`) seen after each step.
+fn fly_ball(
+    ctl: &mut ReactiveController,
+    world: &mut CollisionWorld,
+    clear: &LinkClearance,
+    q0: &[f64],
+    start: Vector3<f64>,
+    dir: Vector3<f64>,
+    speed: f64,
+) -> (f64, f64) {
+    let mut q = q0.to_vec();
+    let mut qd = vec![0.0; q.len()];
+    let dt = 0.005;
+    let mut worst = f64::INFINITY;
+    let mut worst_exact = f64::INFINITY;
+    for i in 0..400 {
+        let t = (i as f64 * dt).min(2.4);
+        let c = start + dir * speed * t;
+        ctl.set_obstacle_pose(
+            "ball",
+            at(c.x, c.y, c.z),
+            Some([dir.x * speed, dir.y * speed, dir.z * speed, 0.0, 0.0, 0.0]),
+        )
+        .unwrap();
+        world.set_pose("ball", at(c.x, c.y, c.z)).unwrap();
+        let out = ctl.step(&q, &qd, dt).unwrap();
+        q = out.q_target;
+        qd = out.qd_target;
+        let (d, ..) = ctl.core().clone().sphere_distances(&q, 10.0).unwrap();
+        worst = worst.min(d.iter().cloned().fold(f64::INFINITY, f64::min));
+        worst_exact = worst_exact.min(clear.clearance(&q, world).unwrap().distance);
+    }
+    (worst, worst_exact)
+}
+
 /// A ball flying at the arm at 0.5 m/s while it holds its pose: the
 /// sphere model never touches it, nor does the exact link geometry.
 #[test]
@@ -228,47 +280,18 @@ fn never_enters_obstacles_in_scripted_approaches() {
     for (k, (aim, dir)) in cases.iter().enumerate() {
         let speed = 0.5;
         let start = aim - dir * 0.6;
-        let mut world = CollisionWorld::new();
-        world
-            .add_shape(
-                "ball",
-                Shape::Sphere { radius: 0.05 },
-                at(start.x, start.y, start.z),
-            )
-            .unwrap();
+        let mut world = ball_world(start);
         let ck = checker(world.clone());
         let mut ctl = ReactiveController::new(&ck, None, ReactiveConfig::default()).unwrap();
         let target = model.fk(&q0, None).unwrap();
         ctl.core_mut().set_target(target, true).unwrap();
-        let mut q = q0.clone();
-        let mut qd = vec![0.0; q.len()];
-        let dt = 0.005;
-        let (d0, ..) = ctl.core().clone().sphere_distances(&q, 10.0).unwrap();
+        let (d0, ..) = ctl.core().clone().sphere_distances(&q0, 10.0).unwrap();
         let start_clear = d0.iter().cloned().fold(f64::INFINITY, f64::min);
         assert!(
             start_clear > 0.25,
             "case {k} starts {start_clear} m from the arm"
         );
-        let mut worst = f64::INFINITY;
-        let mut worst_exact = f64::INFINITY;
-        for i in 0..400 {
-            // The ball flies through the aim point and on for 1.2 m in total.
-            let t = (i as f64 * dt).min(2.4);
-            let c = start + dir * speed * t;
-            ctl.set_obstacle_pose(
-                "ball",
-                at(c.x, c.y, c.z),
-                Some([dir.x * speed, dir.y * speed, dir.z * speed, 0.0, 0.0, 0.0]),
-            )
-            .unwrap();
-            world.set_pose("ball", at(c.x, c.y, c.z)).unwrap();
-            let out = ctl.step(&q, &qd, dt).unwrap();
-            q = out.q_target;
-            qd = out.qd_target;
-            let (d, ..) = ctl.core().clone().sphere_distances(&q, 10.0).unwrap();
-            worst = worst.min(d.iter().cloned().fold(f64::INFINITY, f64::min));
-            worst_exact = worst_exact.min(clear.clearance(&q, &world).unwrap().distance);
-        }
+        let (worst, worst_exact) = fly_ball(&mut ctl, &mut world, &clear, &q0, start, *dir, speed);
         assert!(worst > 0.0, "case {k}: spheres reached {worst}");
         assert!(worst_exact > 0.0, "case {k}: links reached {worst_exact}");
     }
@@ -622,14 +645,7 @@ fn exact_filter_keeps_uncovered_links_off_obstacles() {
         for (k, (aim, dir)) in cases.iter().enumerate() {
             let speed = 0.5;
             let start = aim - dir * 0.6;
-            let mut world = CollisionWorld::new();
-            world
-                .add_shape(
-                    "ball",
-                    Shape::Sphere { radius: 0.05 },
-                    at(start.x, start.y, start.z),
-                )
-                .unwrap();
+            let mut world = ball_world(start);
             let ck =
                 CollisionChecker::new(model.clone(), small.clone(), acm.clone(), world.clone())
                     .unwrap();
@@ -641,25 +657,7 @@ fn exact_filter_keeps_uncovered_links_off_obstacles() {
             ctl.core_mut()
                 .set_target(model.fk(&q0, None).unwrap(), true)
                 .unwrap();
-            let mut q = q0.clone();
-            let mut qd = vec![0.0; q.len()];
-            let dt = 0.005;
-            let mut worst = f64::INFINITY;
-            for i in 0..400 {
-                let t = (i as f64 * dt).min(2.4);
-                let c = start + dir * speed * t;
-                ctl.set_obstacle_pose(
-                    "ball",
-                    at(c.x, c.y, c.z),
-                    Some([dir.x * speed, dir.y * speed, dir.z * speed, 0.0, 0.0, 0.0]),
-                )
-                .unwrap();
-                world.set_pose("ball", at(c.x, c.y, c.z)).unwrap();
-                let out = ctl.step(&q, &qd, dt).unwrap();
-                q = out.q_target;
-                qd = out.qd_target;
-                worst = worst.min(clear.clearance(&q, &world).unwrap().distance);
-            }
+            let (_, worst) = fly_ball(&mut ctl, &mut world, &clear, &q0, start, *dir, speed);
             if exact == 1.0 {
                 assert!(
                     worst > 0.0,
