@@ -1078,10 +1078,10 @@ mod tests {
                 );
             }
         }
-        assert_eq!(
-            winding_number(part.fine.as_deref().unwrap(), &Vector3::new(0.0, 0.0, 0.05)),
-            0.0
-        );
+        // In the slot: outside (0); in an arm: inside (1 in absolute value).
+        let m = part.fine.as_deref().unwrap();
+        assert!(winding_number(m, &Vector3::new(0.0, 0.0, 0.05)).abs() < 1e-6);
+        assert!((winding_number(m, &Vector3::new(0.08, 0.0, 0.05)).abs() - 1.0).abs() < 1e-6);
         let (bv, bt) = (v[..8].to_vec(), t[..12].to_vec());
         let part = mesh_part(bv, &bt);
         assert!(part.fine.is_none() && !part.inner.is_empty());

@@ -123,6 +123,10 @@ const AUTO_MAX_COUNT: usize = 1024;
 const BOUNDED_GRID: usize = 40_000;
 /// Most samples of the set cover of the bounded automatic model per link.
 const BOUNDED_SEARCH_SAMPLES: usize = 12_000;
+/// Most solves of the bounded automatic model of a link whose mesh inside
+/// is a voxel flood fill (each lowering the depth of centres whose sphere
+/// was measured sticking out further than the bound).
+const BOUNDED_ROUNDS: usize = 5;
 /// Counts solved below and above a link's growth-bound allocation.
 const WINDOW_BELOW: usize = 1;
 const WINDOW_ABOVE: usize = 2;
@@ -2497,7 +2501,70 @@ impl Problem {
     /// within `tol - delta_dense` of a sphere, so every surface point within
     /// `tol`. None when more than `cap` spheres would be needed.
     fn solve_bounded(&self, alpha: f64, cap: usize) -> Option<Solution> {
-        let (cands, cand_d) = self.bounded_candidates(alpha);
+        let (cands, mut cand_d) = self.bounded_candidates(alpha);
+        if self.geom.solids.iter().all(Solid::exact_inside) {
+            return self.bounded_once(alpha, cap, &cands, &cand_d, &HashMap::new());
+        }
+        // A mesh whose inside is a voxel flood fill: depth is the distance
+        // to the triangles, too large where a sealed crack or hole lets the
+        // outside in. Every sphere is probed; a centre whose sphere sticks
+        // out further than `alpha` gets its depth lowered by the excess,
+        // and the cover is solved again.
+        let mut lowered: HashMap<[u64; 3], f64> = HashMap::new();
+        let key = |c: &Point3<f64>| [c.x.to_bits(), c.y.to_bits(), c.z.to_bits()];
+        let mut best = None;
+        for _ in 0..BOUNDED_ROUNDS {
+            let sol = self.bounded_once(alpha, cap, &cands, &cand_d, &lowered)?;
+            let excess: Vec<(Point3<f64>, f64)> = sol
+                .spheres
+                .par_iter()
+                .filter_map(|s| {
+                    let e = self.sphere_excess(s, 400);
+                    (e > alpha + 1e-4).then_some((s.center, e - alpha))
+                })
+                .collect();
+            best = Some(sol);
+            if excess.is_empty() {
+                break;
+            }
+            for (c, e) in excess {
+                *lowered.entry(key(&c)).or_insert(0.0) += e + 1e-4;
+            }
+            for (c, d) in cands.iter().zip(cand_d.iter_mut()) {
+                if let Some(e) = lowered.get(&key(c)) {
+                    *d = self.geom.depth(c) - e;
+                }
+            }
+        }
+        best
+    }
+
+    /// How far the sphere `s` sticks out of the geometry, measured on `n`
+    /// Fibonacci points of its surface.
+    fn sphere_excess(&self, s: &Sphere, n: usize) -> f64 {
+        let golden = PI * (3.0 - 5f64.sqrt());
+        (0..n)
+            .map(|i| {
+                let z = 1.0 - (2.0 * i as f64 + 1.0) / n as f64;
+                let rho = (1.0 - z * z).max(0.0).sqrt();
+                let t = golden * i as f64;
+                let u = Vector3::new(rho * t.cos(), rho * t.sin(), z);
+                -self.geom.depth(&(s.center + u * s.radius))
+            })
+            .fold(0.0, f64::max)
+    }
+
+    /// One solve of [`Self::solve_bounded`] with candidate depths `cand_d`
+    /// and, for centres taken from the dense samples, the depth reductions
+    /// `lowered` (keyed by the centre's bits).
+    fn bounded_once(
+        &self,
+        alpha: f64,
+        cap: usize,
+        cands: &[Point3<f64>],
+        cand_d: &[f64],
+        lowered: &HashMap<[u64; 3], f64>,
+    ) -> Option<Solution> {
         // The set cover runs on more samples than the count searches (fewer
         // gaps left for the dense repair).
         let search = if self.fit.len() <= BOUNDED_SEARCH_SAMPLES {
@@ -2513,7 +2580,7 @@ impl Problem {
             }
         };
         let samples = CoverSamples::new(&self.fit, search);
-        let chosen = self.greedy_over(&samples, &cands, &cand_d, alpha, cap)?;
+        let chosen = self.greedy_over(&samples, cands, cand_d, alpha, cap)?;
         let mut centres: Vec<Point3<f64>> = chosen.iter().map(|&i| cands[i]).collect();
         let mut depths: Vec<f64> = chosen.iter().map(|&i| cand_d[i]).collect();
         let slack = self.tol - self.delta_dense;
@@ -2533,14 +2600,18 @@ impl Problem {
                 return None;
             }
             let u = self.dense[first];
-            let du = self.geom.depth(&u);
+            let du = self.geom.depth(&u)
+                - lowered
+                    .get(&[u.x.to_bits(), u.y.to_bits(), u.z.to_bits()])
+                    .copied()
+                    .unwrap_or(0.0);
             // Candidates holding `u`: the sample itself and the candidate
             // centres reaching it; the one holding the most open samples.
             let mut best = (0usize, u, du);
             let tries = std::iter::once((u, du)).chain(
                 cands
                     .iter()
-                    .zip(&cand_d)
+                    .zip(cand_d)
                     .filter(|(c, d)| holds(c, **d, &u))
                     .map(|(c, d)| (*c, *d)),
             );
