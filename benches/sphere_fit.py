@@ -24,9 +24,10 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent / "tests"))
 
-import ferrobot  # noqa: E402
 import robots_in_env as env  # noqa: E402
 import sphere_truth  # noqa: E402
+
+import ferrobot  # noqa: E402
 
 SHARED = HERE.parent.parent / "shared" / "robots"
 
@@ -72,7 +73,8 @@ def main() -> None:
     args = ap.parse_args()
     os.environ.setdefault("FERROBOT_CACHE_DIR", tempfile.mkdtemp(prefix="ferrobot-spherefit-"))
     rows = []
-    print(f"{'robot':<16} {'spheres':>7} {'build s':>8} {'protr mm':>9} {'any mm':>7} {'own mm':>7} {'coverage':>9} {'gap mm':>7}  worst link")
+    head = f"{'robot':<16} {'spheres':>7} {'build s':>8} {'protr mm':>9} {'any mm':>7} {'own mm':>7}"
+    print(f"{head} {'coverage':>9} {'gap mm':>7}  worst link")
     for name in args.robots or default:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")

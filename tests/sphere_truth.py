@@ -195,7 +195,7 @@ def measure_link(
     area = np.array([e.area for e in elements])
     counts = rng.multinomial(samples, area / area.sum())
     pts = []
-    for k, (e, m) in enumerate(zip(elements, counts)):
+    for k, (e, m) in enumerate(zip(elements, counts, strict=True)):
         if m == 0:
             continue
         q = e.sample(int(m), rng)
