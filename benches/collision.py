@@ -1,6 +1,6 @@
 """Collision-check throughput for the Panda in the MotionBenchMaker dev scenes.
 
-    python benches/collision.py [--spheres spherized|automatic] [--n 100000] [--scenes 20] [--json FILE]
+    python benches/collision.py [--spheres spherized|automatic|default] [--n 100000] [--scenes 20] [--json FILE]
 
 For each scene (every N-th of the 200 problems, ``--scenes`` in all): configuration checks per
 second on one thread and on all cores (``in_collision_batch``), the latency of one
@@ -8,6 +8,8 @@ second on one thread and on all cores (``in_collision_batch``), the latency of o
 random motions of up to 0.3 rad per joint). Prints medians over scenes. Also reports, for every
 problem, whether its start and goal are valid (collision-free) under the sphere model.
 Targets (2-core machine): >= 10 million checks/s on 2 cores; one check < 200 ns.
+Sphere models: ``spherized`` (MotionBenchMaker's 59 spheres), ``automatic`` (the spherizer with a
+budget of 59), ``default`` (``SphereModel.automatic(model)``, what checkers and planners use).
 """
 
 from __future__ import annotations
@@ -36,6 +38,8 @@ def load_panda(which: str):
     )
     if which == "automatic":
         spheres = ferrobot.SphereModel.automatic(model, total_budget=59)
+    elif which == "default":
+        spheres = ferrobot.SphereModel.automatic(model)
     else:
         spheres = ferrobot.SphereModel.from_spherized_urdf(model, SHARED / "robots/panda/panda_spherized.urdf")
     return model, spheres
@@ -92,7 +96,7 @@ def _timed(fn) -> float:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--spheres", choices=["spherized", "automatic"], default="spherized")
+    ap.add_argument("--spheres", choices=["spherized", "automatic", "default"], default="spherized")
     ap.add_argument("--n", type=int, default=100_000)
     ap.add_argument("--scenes", type=int, default=20)
     ap.add_argument("--json", default=None)

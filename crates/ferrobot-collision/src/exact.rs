@@ -27,7 +27,15 @@
 //! and neither solid can hold the other: it stays conservative with respect
 //! to the mesh, also for meshes that are not closed. No decomposition is
 //! computed, so nothing needs caching: building the BVH and measuring the
-//! hull's excess take milliseconds per link.
+//! hull's excess take milliseconds per link. Two things keep deep contacts
+//! cheap: such parts get inscribed spheres too (step 2 below), centred
+//! where the mesh's generalized winding number is at least
+//! [`INSIDE_WINDING`] in absolute value (inside; closed meshes give 0 or
+//! ±1) and not reaching its surface, so an overlap of two inscribed spheres
+//! decides a contact without GJK or triangles; and each part remembers the
+//! triangle pair that touched last for each other part (a hint tested
+//! first: consecutive checks along a motion touch at the same place), which
+//! changes the time, never the answer.
 //!
 //! The second stage is cheap because most lanes never reach GJK:
 //!
@@ -47,6 +55,7 @@
 //! eight-lane kernels answer identically.
 
 use std::sync::Arc;
+use std::sync::atomic::{AtomicU32, AtomicU64, Ordering::Relaxed};
 
 use ferrobot_model::{Link, Shape};
 use nalgebra::{Isometry3, Matrix3, Point3, SymmetricEigen, UnitQuaternion, Vector3};
@@ -268,6 +277,13 @@ struct Part {
     /// The mesh itself (part frame), where its hull is too coarse
     /// ([`HULL_EXCESS`]): hull contacts are re-decided on it.
     fine: Option<Arc<TriMesh>>,
+    /// Identifies the part in other parts' [`Part::hint`]s.
+    uid: u32,
+    /// The last triangle pair [`refine`] found touching, as the other
+    /// part's `uid` (high 20 bits) and the two triangle indices (22 bits
+    /// each): tested first by the next `refine` of the same pair (a hint
+    /// only: the answer is the same without it).
+    hint: Arc<AtomicU64>,
     /// The hull's faces as a mesh (hull parts without `fine`), standing
     /// for the part when the other part of a pair keeps its mesh.
     hull_faces: Option<Arc<TriMesh>>,
@@ -275,6 +291,36 @@ struct Part {
 
 /// At most this many inner spheres per part.
 const INNER: usize = 16;
+/// At most this many candidate inner spheres of a mesh part are tested
+/// for lying inside the mesh ([`winding_number`]).
+const INNER_TESTS: usize = 48;
+/// A point whose winding number about a mesh is at least this (in
+/// absolute value) is inside it. A closed mesh gives exactly 0 outside and
+/// ±1 inside; small holes change it by their solid angle over 4π.
+const INSIDE_WINDING: f64 = 0.9;
+/// The bits of a part's `uid` kept in hints.
+const UID_MASK: u64 = (1 << 20) - 1;
+/// The bits of a triangle index kept in hints.
+const TRI_MASK: u64 = (1 << 22) - 1;
+/// The next part `uid`.
+static NEXT_UID: AtomicU32 = AtomicU32::new(0);
+
+/// The generalized winding number of mesh `m` about point `p` (mesh
+/// frame): the triangles' signed solid angles over 4π (Van Oosterom and
+/// Strackee's formula), 1 or -1 inside a closed mesh (by its orientation),
+/// 0 outside.
+fn winding_number(m: &TriMesh, p: &Vector3<f64>) -> f64 {
+    let v = |q: Vector| Vector3::new(q.x as f64, q.y as f64, q.z as f64) - p;
+    let mut sum = 0.0;
+    for t in m.triangles() {
+        let (a, b, c) = (v(t.a), v(t.b), v(t.c));
+        let (la, lb, lc) = (a.norm(), b.norm(), c.norm());
+        let det = a.dot(&b.cross(&c));
+        let den = la * lb * lc + a.dot(&b) * lc + b.dot(&c) * la + c.dot(&a) * lb;
+        sum += 2.0 * det.atan2(den);
+    }
+    sum / (4.0 * std::f64::consts::PI)
+}
 
 impl Part {
     fn new(pose: Isometry3<f64>, obb: Obb, shape: Convex, fine: Option<Arc<TriMesh>>) -> Self {
@@ -286,6 +332,8 @@ impl Part {
             inner_packs: Vec::new(),
             hull_faces: None,
             fine,
+            uid: NEXT_UID.fetch_add(1, Relaxed) & UID_MASK as u32,
+            hint: Arc::new(AtomicU64::new(u64::MAX)),
         };
         if let (Convex::Hull(h), None) = (&part.shape, &part.fine) {
             let v: Vec<Vector> = h.faces.iter().flatten().copied().collect();
@@ -293,12 +341,6 @@ impl Part {
                 .map(|k| [3 * k, 3 * k + 1, 3 * k + 2])
                 .collect();
             part.hull_faces = TriMesh::new(v, t).ok().map(Arc::new);
-        }
-        if part.fine.is_some() {
-            // Spheres inscribed in the hull may lie outside the mesh (in
-            // the hollows that make the hull coarse), and an open mesh has
-            // no inside to test them against: none, the mesh decides.
-            return part;
         }
         // Candidates on a grid over the box, largest inscribed first, kept
         // when not mostly inside one already kept.
@@ -322,7 +364,15 @@ impl Part {
                         + axes(2) * f(k, obb.h[2]);
                     let local = pose.inverse_transform_point(&Point3::from(p));
                     // Shrunk for f32 rounding: inner spheres must be inside.
-                    let r = part.shape.depth(&local.coords) - BOX_PAD;
+                    let mut r = part.shape.depth(&local.coords) - BOX_PAD;
+                    if let (Some(m), true) = (&part.fine, r > 0.0) {
+                        // Within the hull: the distance to the mesh's
+                        // surface (whether inside the mesh is tested
+                        // below, for the spheres kept).
+                        let l = Vector::new(local.x as f32, local.y as f32, local.z as f32);
+                        let proj = m.project_local_point(l, false);
+                        r = r.min((proj.point - l).length() as f64 - BOX_PAD);
+                    }
                     if r > 0.0 {
                         cands.push((p, r));
                     }
@@ -331,11 +381,25 @@ impl Part {
         }
         cands.sort_by(|a, b| b.1.total_cmp(&a.1));
         let mut kept: Vec<(Vector3<f64>, f64)> = Vec::new();
+        let mut tested = 0;
         for (p, r) in cands {
             if kept.len() == INNER || kept.first().is_some_and(|k| r < 0.2 * k.1) {
                 break;
             }
             if kept.iter().all(|(q, s)| (p - q).norm() > 0.7 * s.max(r)) {
+                if let Some(m) = &part.fine {
+                    // A mesh part: only centres inside the mesh (the
+                    // sphere then lies inside, as it does not reach the
+                    // surface). Bounded work per part.
+                    if tested == INNER_TESTS {
+                        break;
+                    }
+                    tested += 1;
+                    let local = pose.inverse_transform_point(&Point3::from(p));
+                    if winding_number(m, &local.coords).abs() < INSIDE_WINDING {
+                        continue;
+                    }
+                }
                 kept.push((p, r));
             }
         }
@@ -560,21 +624,40 @@ fn refine(a: &Part, b: &Part, pos12: &Pose, margin: f32) -> bool {
     let (Some(ma), Some(mb)) = (a.surface(), b.surface()) else {
         return true;
     };
-    let surfaces = ma
+    let touch = |i: u32, j: u32| {
+        let (ta, tb) = (ma.triangle(i), mb.triangle(j));
+        let ta = [ta.a, ta.b, ta.c];
+        let tb = [tb.a, tb.b, tb.c].map(|p| pos12 * p);
+        !beyond_plane(&ta, &tb, reach)
+            && !beyond_plane(&tb, &ta, reach)
+            && triangles_within(&ta, &tb, reach)
+    };
+    // The pair that touched last time first (pairs move little between
+    // consecutive checks of a motion).
+    let hint = a.hint.load(Relaxed);
+    if hint >> 44 == u64::from(b.uid) {
+        let (i, j) = (((hint >> 22) & TRI_MASK) as u32, (hint & TRI_MASK) as u32);
+        if (i as usize) < ma.num_triangles() && (j as usize) < mb.num_triangles() && touch(i, j) {
+            return true;
+        }
+    }
+    let found = ma
         .bvh()
         .leaf_pairs(mb.bvh(), |n1, n2| {
             n1.aabb()
                 .loosened(reach)
                 .intersects(&n2.aabb().transform_by(pos12))
         })
-        .any(|(i, j)| {
-            let (ta, tb) = (ma.triangle(i), mb.triangle(j));
-            let ta = [ta.a, ta.b, ta.c];
-            let tb = [tb.a, tb.b, tb.c].map(|p| pos12 * p);
-            !beyond_plane(&ta, &tb, reach)
-                && !beyond_plane(&tb, &ta, reach)
-                && triangles_within(&ta, &tb, reach)
-        });
+        .find(|&(i, j)| touch(i, j));
+    if let Some((i, j)) = found {
+        if u64::from(i) <= TRI_MASK && u64::from(j) <= TRI_MASK {
+            a.hint.store(
+                u64::from(b.uid) << 44 | u64::from(i) << 22 | u64::from(j),
+                Relaxed,
+            );
+        }
+        return true;
+    }
     // Whether `inner`'s solid (its surface `m`, posed by `pos` in outer's
     // frame) may lie inside `outer`'s.
     let inside = |outer: &Part, inner: &Part, pos: &Pose, m: &TriMesh| match outer.fine {
@@ -585,7 +668,7 @@ fn refine(a: &Part, b: &Part, pos12: &Pose, margin: f32) -> bool {
         }
         Some(_) => may_hold(&outer.shape, &inner.shape, pos, reach),
     };
-    surfaces || inside(a, b, pos12, mb) || inside(b, a, &pos12.inverse(), ma)
+    inside(a, b, pos12, mb) || inside(b, a, &pos12.inverse(), ma)
 }
 
 impl Part {
@@ -971,12 +1054,34 @@ mod tests {
     }
 
     /// A convex mesh (a box) keeps its hull; the U (hull 2.3 cm beyond
-    /// the mesh at the slot) keeps its triangles and has no inner spheres.
+    /// the mesh at the slot) keeps its triangles, and its inner spheres lie
+    /// inside its solid (the union of its three boxes, checked on points of
+    /// each sphere's surface), none in the slot.
     #[test]
     fn only_coarse_hulls_are_refined() {
         let (v, t) = u_mesh();
         let part = mesh_part(v.clone(), &t);
-        assert!(part.fine.is_some() && part.inner.is_empty());
+        assert!(part.fine.is_some() && !part.inner.is_empty());
+        let in_box = |p: Vector, k: usize| {
+            (0..3).all(|a| (p[a] - v[8 * k][a]) * (p[a] - v[8 * k + 7][a]) <= 0.0)
+        };
+        for (c, r) in &part.inner {
+            for i in 0..200 {
+                let z = 1.0 - (2.0 * i as f32 + 1.0) / 200.0;
+                let rho = (1.0 - z * z).max(0.0).sqrt();
+                let a = 2.399_963 * i as f32;
+                let p = Vector::new(c[0], c[1], c[2])
+                    + Vector::new(rho * a.cos(), rho * a.sin(), z) * *r;
+                assert!(
+                    (0..3).any(|k| in_box(p, k)),
+                    "inner sphere {c:?} {r} reaches {p:?}"
+                );
+            }
+        }
+        // In the slot: outside (0); in an arm: inside (1 in absolute value).
+        let m = part.fine.as_deref().unwrap();
+        assert!(winding_number(m, &Vector3::new(0.0, 0.0, 0.05)).abs() < 1e-6);
+        assert!((winding_number(m, &Vector3::new(0.08, 0.0, 0.05)).abs() - 1.0).abs() < 1e-6);
         let (bv, bt) = (v[..8].to_vec(), t[..12].to_vec());
         let part = mesh_part(bv, &bt);
         assert!(part.fine.is_none() && !part.inner.is_empty());

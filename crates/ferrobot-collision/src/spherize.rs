@@ -39,12 +39,28 @@
 //!    tolerance, are dropped. As every surface point is within the lattice's
 //!    covering radius of a held sample, the continuous surface is covered
 //!    within the tolerance, not only the samples.
-//! 6. *Counts*: without a budget, the smallest count whose measured maximum
-//!    protrusion is at most [`AUTO_MAX_PROTRUSION`]. With a robot budget,
+//! 6. *Counts*: without a budget, the bounded model below. With a robot budget,
 //!    a common growth bound gives a first split; each link is then solved
 //!    for counts around it and the split minimising the worst measured
 //!    protrusion is chosen (leftover spheres go to the links sticking out
 //!    most).
+//!
+//! *Bounded automatic model* (no budget, the default every checker and
+//! planner uses): every sphere sticks out of the geometry by at most
+//! [`AUTO_MAX_PROTRUSION`] (1 cm) by construction. A sphere centred at `c`,
+//! whose depth `d(c)` (a lower bound of the distance from `c` to the outside
+//! of the geometry) is known, with radius at most `d(c) + α`, lies within `α`
+//! of the ball of radius `d(c)` around `c`, which the geometry holds. So the
+//! candidate centres (a grid inside the geometry about `α / 2` apart, plus
+//! surface points) get radius `d + α`, a greedy set cover of up to
+//! 12,000 surface samples picks among them, the samples of the dense lattice
+//! left uncovered get more spheres (greedily), spheres whose dense samples
+//! others hold are dropped, and every sphere shrinks to the dense samples
+//! only it holds. Coverage is as in step 5. More spheres than the step-3
+//! model (about 3-4 times on primitive robots, whose sharp edges need many),
+//! in exchange for the bound. Should a link need more than 1,024 spheres
+//! (or `max_per_link`), it falls back to the count search with the same
+//! target, which does not guarantee it.
 //!
 //! Links whose collision geometry is already spheres keep them as they are
 //! (see [`given_spheres`]).
@@ -80,10 +96,10 @@ use rayon::prelude::*;
 use crate::error::{CollisionError, Result};
 use crate::sphere::Sphere;
 
-/// The largest protrusion (m) the automatic sphere count aims for: without
-/// a budget, a link gets the smallest count whose measured maximum
-/// protrusion is at most this (or the per-link cap).
-pub const AUTO_MAX_PROTRUSION: f64 = 0.02;
+/// The largest protrusion (m) of the automatic model: without a budget,
+/// every sphere sticks out of its link's geometry by at most this (see the
+/// bounded model in the [module documentation](self)).
+pub const AUTO_MAX_PROTRUSION: f64 = 0.01;
 
 /// Most fitting samples per link (the spacing grows beyond).
 const MAX_FIT_SAMPLES: usize = 20_000;
@@ -101,7 +117,16 @@ const SURFACE_CANDIDATES: usize = 250;
 /// Meshes with more connected components than this are one solid.
 const MAX_COMPONENTS: usize = 16;
 /// Most spheres per link of the automatic count (without `max_per_link`).
-const AUTO_MAX_COUNT: usize = 256;
+const AUTO_MAX_COUNT: usize = 1024;
+/// Most grid points evaluated for the candidate centres of the bounded
+/// automatic model (see `Problem::solve_bounded`).
+const BOUNDED_GRID: usize = 40_000;
+/// Most samples of the set cover of the bounded automatic model per link.
+const BOUNDED_SEARCH_SAMPLES: usize = 12_000;
+/// Most solves of the bounded automatic model of a link whose mesh inside
+/// is a voxel flood fill (each lowering the depth of centres whose sphere
+/// was measured sticking out further than the bound).
+const BOUNDED_ROUNDS: usize = 5;
 /// Counts solved below and above a link's growth-bound allocation.
 const WINDOW_BELOW: usize = 1;
 const WINDOW_ABOVE: usize = 2;
@@ -120,8 +145,8 @@ pub struct SpherizeOptions {
     /// Total sphere budget for the robot, split among links (by the count
     /// each needs for equal protrusion) to minimise the worst protrusion;
     /// every link with geometry gets at least one sphere. `None` (the
-    /// default): each link gets an automatic count, the smallest whose
-    /// maximum protrusion is at most [`AUTO_MAX_PROTRUSION`] (2 cm). Only
+    /// default): each link gets the bounded automatic model, every sphere
+    /// sticking out by at most [`AUTO_MAX_PROTRUSION`] (1 cm). Only
     /// [`spherize_robot`] reads it.
     pub total_budget: Option<usize>,
     /// Per-link cap on the sphere count, or `None` (default).
@@ -193,8 +218,8 @@ pub struct LinkSphereReport {
 /// frame). Empty geometry (or geometry without area) gives no spheres.
 ///
 /// `budget` caps the sphere count (the fewest-protrusion cover with at most
-/// that many spheres is returned); `None` picks the count automatically (the
-/// smallest whose maximum protrusion is at most [`AUTO_MAX_PROTRUSION`]).
+/// that many spheres is returned); `None` gives the bounded automatic model
+/// (every sphere sticks out by at most [`AUTO_MAX_PROTRUSION`]).
 /// `options.max_per_link` caps both; `options.total_budget` is not read.
 ///
 /// Fails on invalid options, `budget == Some(0)`, or invalid shapes
@@ -1659,6 +1684,61 @@ struct Solution {
     max: f64,
 }
 
+/// Surface samples for the greedy set cover: f32 columns in Morton order,
+/// with the bounding box of every 64 consecutive samples.
+struct CoverSamples {
+    sx: Vec<f32>,
+    sy: Vec<f32>,
+    sz: Vec<f32>,
+    /// Bounding boxes (lo, hi) of each 64 samples.
+    blocks: Vec<[f32; 6]>,
+}
+
+impl CoverSamples {
+    /// The points `pts[i]` for `i` in `idx`.
+    fn new(pts: &[Point3<f64>], mut idx: Vec<usize>) -> Self {
+        // Morton order: blocks of 64 consecutive samples are compact.
+        let (blo, bhi) = bounds(idx.iter().map(|&i| pts[i]));
+        let ext_s = (bhi - blo).max().max(1e-12);
+        let morton = |p: &Point3<f64>| {
+            let q = (p - blo) / ext_s * 1023.0;
+            let spread = |v: f64| {
+                let mut x = (v.clamp(0.0, 1023.0) as u64) & 0x3ff;
+                x = (x | (x << 16)) & 0x0300_00ff;
+                x = (x | (x << 8)) & 0x0300_f00f;
+                x = (x | (x << 4)) & 0x030c_30c3;
+                (x | (x << 2)) & 0x0924_9249
+            };
+            spread(q.x) | (spread(q.y) << 1) | (spread(q.z) << 2)
+        };
+        idx.sort_by_key(|&i| (morton(&pts[i]), i));
+        let blocks = idx
+            .chunks(64)
+            .map(|c| {
+                let (lo, hi) = bounds(c.iter().map(|&i| pts[i]));
+                [
+                    lo.x as f32,
+                    lo.y as f32,
+                    lo.z as f32,
+                    hi.x as f32,
+                    hi.y as f32,
+                    hi.z as f32,
+                ]
+            })
+            .collect();
+        Self {
+            sx: idx.iter().map(|&i| pts[i].x as f32).collect(),
+            sy: idx.iter().map(|&i| pts[i].y as f32).collect(),
+            sz: idx.iter().map(|&i| pts[i].z as f32).collect(),
+            blocks,
+        }
+    }
+
+    fn len(&self) -> usize {
+        self.sx.len()
+    }
+}
+
 struct Problem {
     name: String,
     geom: LinkGeom,
@@ -1666,12 +1746,8 @@ struct Problem {
     /// Covering radius of the dense lattice.
     delta_dense: f64,
     fit: Vec<Point3<f64>>,
-    /// Coarse samples for the set cover, as f32 columns.
-    sx: Vec<f32>,
-    sy: Vec<f32>,
-    sz: Vec<f32>,
-    /// Bounding boxes (lo, hi) of each 64 coarse samples.
-    blocks: Vec<[f32; 6]>,
+    /// Coarse samples for the set cover.
+    cover: CoverSamples,
     dense: Vec<Point3<f64>>,
     verify: Vec<Point3<f64>>,
     cands: Vec<Point3<f64>>,
@@ -1727,39 +1803,7 @@ impl Problem {
                 cell *= 1.15;
             }
         };
-        // Morton order: blocks of 64 consecutive samples are compact.
-        let mut search = search;
-        let (blo, bhi) = bounds(search.iter().map(|&i| fit[i]));
-        let ext_s = (bhi - blo).max().max(1e-12);
-        let morton = |p: &Point3<f64>| {
-            let q = (p - blo) / ext_s * 1023.0;
-            let spread = |v: f64| {
-                let mut x = (v.clamp(0.0, 1023.0) as u64) & 0x3ff;
-                x = (x | (x << 16)) & 0x0300_00ff;
-                x = (x | (x << 8)) & 0x0300_f00f;
-                x = (x | (x << 4)) & 0x030c_30c3;
-                (x | (x << 2)) & 0x0924_9249
-            };
-            spread(q.x) | (spread(q.y) << 1) | (spread(q.z) << 2)
-        };
-        search.sort_by_key(|&i| (morton(&fit[i]), i));
-        let blocks = search
-            .chunks(64)
-            .map(|c| {
-                let (lo, hi) = bounds(c.iter().map(|&i| fit[i]));
-                [
-                    lo.x as f32,
-                    lo.y as f32,
-                    lo.z as f32,
-                    hi.x as f32,
-                    hi.y as f32,
-                    hi.z as f32,
-                ]
-            })
-            .collect();
-        let sx = search.iter().map(|&i| fit[i].x as f32).collect();
-        let sy = search.iter().map(|&i| fit[i].y as f32).collect();
-        let sz = search.iter().map(|&i| fit[i].z as f32).collect();
+        let cover = CoverSamples::new(&fit, search);
 
         // Candidates: interior grid points, then a subset of surface points.
         let ext = (geom.hi - geom.lo).map(|e| e.max(delta_fit));
@@ -1804,10 +1848,7 @@ impl Problem {
             tol: options.tolerance,
             delta_dense,
             fit,
-            sx,
-            sy,
-            sz,
-            blocks,
+            cover,
             dense,
             verify,
             cands,
@@ -1837,7 +1878,7 @@ impl Problem {
     fn max_dist2_search(&self, c: &Point3<f64>) -> f64 {
         let (cx, cy, cz) = (c.x as f32, c.y as f32, c.z as f32);
         let mut m = 0.0f32;
-        for ((x, y), z) in self.sx.iter().zip(&self.sy).zip(&self.sz) {
+        for ((x, y), z) in self.cover.sx.iter().zip(&self.cover.sy).zip(&self.cover.sz) {
             let (dx, dy, dz) = (x - cx, y - cy, z - cz);
             m = m.max(dx * dx + dy * dy + dz * dz);
         }
@@ -1848,13 +1889,25 @@ impl Problem {
     /// `depth + alpha`: the chosen candidates, or `None` when they would be
     /// more than `limit` or some sample cannot be covered.
     fn greedy(&self, alpha: f64, limit: usize) -> Option<Vec<usize>> {
-        let n = self.sx.len();
+        self.greedy_over(&self.cover, &self.cands, &self.cand_d, alpha, limit)
+    }
+
+    /// [`Self::greedy`] over the candidate centres `cands` of depths `cand_d`.
+    fn greedy_over(
+        &self,
+        samples: &CoverSamples,
+        cands: &[Point3<f64>],
+        cand_d: &[f64],
+        alpha: f64,
+        limit: usize,
+    ) -> Option<Vec<usize>> {
+        let n = samples.len();
         let words = n.div_ceil(64);
         let mut rows: Vec<u64> = Vec::new();
         let mut ids: Vec<usize> = Vec::new();
         let mut union = vec![0u64; words];
         let mut row = vec![0u64; words];
-        for (ci, (c, d)) in self.cands.iter().zip(&self.cand_d).enumerate() {
+        for (ci, (c, d)) in cands.iter().zip(cand_d).enumerate() {
             let r = d + alpha;
             if r <= 0.0 {
                 continue;
@@ -1862,7 +1915,7 @@ impl Problem {
             let r2 = ((r * (1.0 + 1e-6) + 1e-9) as f32).powi(2);
             let (cx, cy, cz) = (c.x as f32, c.y as f32, c.z as f32);
             let mut any = 0u64;
-            for ((w, word), b) in row.iter_mut().enumerate().zip(&self.blocks) {
+            for ((w, word), b) in row.iter_mut().enumerate().zip(&samples.blocks) {
                 let start = w * 64;
                 let end = (start + 64).min(n);
                 let (mut dmin, mut dmax) = (0.0f32, 0.0f32);
@@ -1887,7 +1940,7 @@ impl Problem {
                 }
                 let mut bits = 0u64;
                 for (b, i) in (start..end).enumerate() {
-                    let (dx, dy, dz) = (self.sx[i] - cx, self.sy[i] - cy, self.sz[i] - cz);
+                    let (dx, dy, dz) = (samples.sx[i] - cx, samples.sy[i] - cy, samples.sz[i] - cz);
                     bits |= u64::from(dx * dx + dy * dy + dz * dz <= r2) << b;
                 }
                 *word = bits;
@@ -2383,12 +2436,286 @@ impl Problem {
         Solution { spheres, max }
     }
 
-    /// The smallest count whose measured maximum protrusion is at most
-    /// [`AUTO_MAX_PROTRUSION`] (binary search below the greedy count at that
-    /// bound), within `cap`; the least protruding try when none is.
+    /// Candidate centres for [`Self::solve_bounded`] with growth `alpha`:
+    /// the fitting candidates, every coarse (set-cover) sample, and a grid
+    /// inside the geometry with a step of about `alpha / 2` (at most
+    /// [`BOUNDED_GRID`] points evaluated), with their depths.
+    fn bounded_candidates(&self, alpha: f64) -> (Vec<Point3<f64>>, Vec<f64>) {
+        let mut cands = self.cands.clone();
+        let mut cand_d = self.cand_d.clone();
+        let ext = self.geom.hi - self.geom.lo;
+        let mut step = (0.5 * alpha).max(self.delta_dense);
+        let count = |step: f64| ext.map(|e| (e / step).ceil() as usize + 1);
+        while {
+            let n = count(step);
+            n.x * n.y * n.z > BOUNDED_GRID
+        } {
+            step *= 1.1;
+        }
+        let n = count(step);
+        let centre = nalgebra::center(&self.geom.lo, &self.geom.hi);
+        let grid: Vec<Point3<f64>> = (0..n.x * n.y * n.z)
+            .map(|idx| {
+                let (i, j, k) = (idx / (n.y * n.z), (idx / n.z) % n.y, idx % n.z);
+                let off = Vector3::new(i as f64, j as f64, k as f64)
+                    - (n.cast::<f64>() - Vector3::repeat(1.0)) * 0.5;
+                centre + off * step
+            })
+            .collect();
+        let inside: Vec<(Point3<f64>, f64)> = grid
+            .par_iter()
+            .filter_map(|p| {
+                // A point further from every shape's box than the growth
+                // cannot be a useful centre.
+                let d = self.geom.depth(p);
+                (d > 0.0).then_some((*p, d))
+            })
+            .collect();
+        for (p, d) in inside {
+            cands.push(p);
+            cand_d.push(d);
+        }
+        // Surface points (for thin or open geometry), about alpha / 2 apart.
+        let surface: Vec<(Point3<f64>, f64)> = voxel_subset(&self.fit, 0.5 * alpha)
+            .into_par_iter()
+            .map(|i| (self.fit[i], self.geom.depth(&self.fit[i])))
+            .collect();
+        for (p, d) in surface {
+            cands.push(p);
+            cand_d.push(d);
+        }
+        (cands, cand_d)
+    }
+
+    /// Spheres that each stick out of the geometry by at most `alpha`, by
+    /// construction: every sphere is centred at a point `c` of depth `d(c)`
+    /// (a lower bound of the distance from `c` to the outside of the
+    /// geometry, negative outside) with radius at most `d(c) + alpha`, so
+    /// every point of it lies within `alpha` of the ball of radius `d(c)`
+    /// around `c`, which the geometry holds. A greedy set cover of the
+    /// coarse samples picks the centres, uncovered samples of the dense
+    /// lattice get more spheres (greedily, the dense samples themselves
+    /// being candidates), then every sphere shrinks, most protruding first,
+    /// to the dense samples only it holds (and is dropped if there are
+    /// none). Coverage is that of [`Self::finalize`]: every dense sample
+    /// within `tol - delta_dense` of a sphere, so every surface point within
+    /// `tol`. None when more than `cap` spheres would be needed.
+    fn solve_bounded(&self, alpha: f64, cap: usize) -> Option<Solution> {
+        let (cands, mut cand_d) = self.bounded_candidates(alpha);
+        if self.geom.solids.iter().all(Solid::exact_inside) {
+            return self.bounded_once(alpha, cap, &cands, &cand_d, &HashMap::new());
+        }
+        // A mesh whose inside is a voxel flood fill: depth is the distance
+        // to the triangles, too large where a sealed crack or hole lets the
+        // outside in. Every sphere is probed; a centre whose sphere sticks
+        // out further than `alpha` gets its depth lowered by the excess,
+        // and the cover is solved again.
+        let mut lowered: HashMap<[u64; 3], f64> = HashMap::new();
+        let key = |c: &Point3<f64>| [c.x.to_bits(), c.y.to_bits(), c.z.to_bits()];
+        let mut best = None;
+        for _ in 0..BOUNDED_ROUNDS {
+            let sol = self.bounded_once(alpha, cap, &cands, &cand_d, &lowered)?;
+            let excess: Vec<(Point3<f64>, f64)> = sol
+                .spheres
+                .par_iter()
+                .filter_map(|s| {
+                    let e = self.sphere_excess(s, 400);
+                    (e > alpha + 1e-4).then_some((s.center, e - alpha))
+                })
+                .collect();
+            best = Some(sol);
+            if excess.is_empty() {
+                break;
+            }
+            for (c, e) in excess {
+                *lowered.entry(key(&c)).or_insert(0.0) += e + 1e-4;
+            }
+            for (c, d) in cands.iter().zip(cand_d.iter_mut()) {
+                if let Some(e) = lowered.get(&key(c)) {
+                    *d = self.geom.depth(c) - e;
+                }
+            }
+        }
+        best
+    }
+
+    /// How far the sphere `s` sticks out of the geometry, measured on `n`
+    /// Fibonacci points of its surface.
+    fn sphere_excess(&self, s: &Sphere, n: usize) -> f64 {
+        let golden = PI * (3.0 - 5f64.sqrt());
+        (0..n)
+            .map(|i| {
+                let z = 1.0 - (2.0 * i as f64 + 1.0) / n as f64;
+                let rho = (1.0 - z * z).max(0.0).sqrt();
+                let t = golden * i as f64;
+                let u = Vector3::new(rho * t.cos(), rho * t.sin(), z);
+                -self.geom.depth(&(s.center + u * s.radius))
+            })
+            .fold(0.0, f64::max)
+    }
+
+    /// One solve of [`Self::solve_bounded`] with candidate depths `cand_d`
+    /// and, for centres taken from the dense samples, the depth reductions
+    /// `lowered` (keyed by the centre's bits).
+    fn bounded_once(
+        &self,
+        alpha: f64,
+        cap: usize,
+        cands: &[Point3<f64>],
+        cand_d: &[f64],
+        lowered: &HashMap<[u64; 3], f64>,
+    ) -> Option<Solution> {
+        // The set cover runs on more samples than the count searches (fewer
+        // gaps left for the dense repair).
+        let search = if self.fit.len() <= BOUNDED_SEARCH_SAMPLES {
+            (0..self.fit.len()).collect()
+        } else {
+            let mut cell = (self.geom.area / BOUNDED_SEARCH_SAMPLES as f64).sqrt();
+            loop {
+                let s = voxel_subset(&self.fit, cell);
+                if s.len() <= BOUNDED_SEARCH_SAMPLES {
+                    break s;
+                }
+                cell *= 1.1;
+            }
+        };
+        let samples = CoverSamples::new(&self.fit, search);
+        let chosen = self.greedy_over(&samples, cands, cand_d, alpha, cap)?;
+        let mut centres: Vec<Point3<f64>> = chosen.iter().map(|&i| cands[i]).collect();
+        let mut depths: Vec<f64> = chosen.iter().map(|&i| cand_d[i]).collect();
+        let slack = self.tol - self.delta_dense;
+        let holds = |c: &Point3<f64>, d: f64, p: &Point3<f64>| {
+            (p - c).norm_squared() <= (d + alpha + slack).max(0.0).powi(2)
+        };
+        // Dense samples no sphere holds, repaired greedily.
+        let mut open: Vec<usize> = (0..self.dense.len())
+            .into_par_iter()
+            .filter(|&i| {
+                let p = &self.dense[i];
+                !centres.iter().zip(&depths).any(|(c, &d)| holds(c, d, p))
+            })
+            .collect();
+        while let Some(&first) = open.first() {
+            if centres.len() >= cap {
+                return None;
+            }
+            let u = self.dense[first];
+            let du = self.geom.depth(&u)
+                - lowered
+                    .get(&[u.x.to_bits(), u.y.to_bits(), u.z.to_bits()])
+                    .copied()
+                    .unwrap_or(0.0);
+            // Candidates holding `u`: the sample itself and the candidate
+            // centres reaching it; the one holding the most open samples.
+            let mut best = (0usize, u, du);
+            let tries = std::iter::once((u, du)).chain(
+                cands
+                    .iter()
+                    .zip(cand_d)
+                    .filter(|(c, d)| holds(c, **d, &u))
+                    .map(|(c, d)| (*c, *d)),
+            );
+            for (c, d) in tries {
+                let n = open
+                    .iter()
+                    .filter(|&&i| holds(&c, d, &self.dense[i]))
+                    .count();
+                if n > best.0 {
+                    best = (n, c, d);
+                }
+            }
+            let (_, c, d) = best;
+            open.retain(|&i| !holds(&c, d, &self.dense[i]));
+            centres.push(c);
+            depths.push(d);
+        }
+        // Radii: d + alpha, then shrunk to what only each sphere holds.
+        let k = centres.len();
+        let mut radii: Vec<f64> = depths.iter().map(|d| (d + alpha).max(0.0)).collect();
+        let dist = |i: usize, j: usize| (self.dense[i] - centres[j]).norm();
+        let holders = |alive: &[bool], radii: &[f64]| -> Vec<u16> {
+            (0..self.dense.len())
+                .into_par_iter()
+                .map(|i| {
+                    (0..k)
+                        .filter(|&j| alive[j] && dist(i, j) <= radii[j] + slack)
+                        .count()
+                        .min(u16::MAX as usize) as u16
+                })
+                .collect()
+        };
+        // Spheres whose dense samples the others hold too (at full radius):
+        // dropped, those holding fewest first.
+        let mut alive = vec![true; k];
+        let mut count = holders(&alive, &radii);
+        let held: Vec<Vec<usize>> = (0..k)
+            .into_par_iter()
+            .map(|j| {
+                (0..self.dense.len())
+                    .filter(|&i| dist(i, j) <= radii[j] + slack)
+                    .collect()
+            })
+            .collect();
+        let mut by_size: Vec<usize> = (0..k).collect();
+        by_size.sort_by_key(|&j| (held[j].len(), j));
+        for j in by_size {
+            if held[j].iter().all(|&i| count[i] >= 2) {
+                alive[j] = false;
+                for &i in &held[j] {
+                    count[i] -= 1;
+                }
+            }
+        }
+        drop(held);
+        let mut order: Vec<usize> = (0..k).filter(|&j| alive[j]).collect();
+        order.sort_by(|&a, &b| {
+            (radii[b] - depths[b])
+                .total_cmp(&(radii[a] - depths[a]))
+                .then(a.cmp(&b))
+        });
+        for &j in &order {
+            let r = radii[j];
+            let needed = (0..self.dense.len())
+                .into_par_iter()
+                .filter(|&i| count[i] == 1 && dist(i, j) <= r + slack)
+                .map(|i| dist(i, j))
+                .reduce(|| f64::NEG_INFINITY, f64::max);
+            let new_r = if needed == f64::NEG_INFINITY {
+                alive[j] = false;
+                f64::NEG_INFINITY
+            } else {
+                (needed - slack).max(0.0).min(r)
+            };
+            count.par_iter_mut().enumerate().for_each(|(i, c)| {
+                let d = dist(i, j);
+                if d <= r + slack && d > new_r + slack {
+                    *c -= 1;
+                }
+            });
+            radii[j] = new_r;
+        }
+        let spheres: Vec<Sphere> = centres
+            .iter()
+            .zip(&radii)
+            .zip(&alive)
+            .filter(|(_, a)| **a)
+            .map(|((c, &r), _)| Sphere::new(*c, r.max(1e-9)))
+            .collect();
+        let (_, max) = self.protrusion(&spheres, DECISION_PROBES);
+        Some(Solution { spheres, max })
+    }
+
+    /// The bounded model ([`Self::solve_bounded`] at
+    /// [`AUTO_MAX_PROTRUSION`]); if that needs more than `cap` spheres, the
+    /// smallest count whose measured maximum protrusion is at most the
+    /// target (binary search below the greedy count at that bound), within
+    /// `cap`; the least protruding try when none is.
     fn solve_auto(&self, cap: Option<usize>) -> Solution {
         let cap = cap.unwrap_or(AUTO_MAX_COUNT).max(1);
         let target = AUTO_MAX_PROTRUSION;
+        if let Some(s) = self.solve_bounded(target, cap) {
+            return s;
+        }
         let mut k = self
             .greedy_logged(target, cap)
             .map_or(cap, |s| s.len())

@@ -27,7 +27,7 @@ use crate::sphere::Sphere;
 use crate::spherize::{LinkSphereReport, SpherizeOptions};
 
 /// Changes whenever the spherizer's output for the same input changes.
-pub const CACHE_VERSION: u64 = 1;
+pub const CACHE_VERSION: u64 = 2;
 
 /// Most entries kept in memory (whole robots).
 const MEMORY_ENTRIES: usize = 64;
