@@ -29,7 +29,9 @@
 //! with the margin grown by the motion bound over `w / 2`; an interval that
 //! fails is split in two (the margin halves), until its midpoint collides
 //! with no growth (a collision) or the bound falls below the `f32`
-//! allowance ([`MAX_LEVELS`]) or the work exceeds [`CHECKS_PER_INTERVAL`]. Free motions with clearance need a few
+//! allowance ([`MAX_LEVELS`]) or the work exceeds [`CHECKS_PER_INTERVAL`].
+//! The checker applies the grown margins to world contacts only; self pairs
+//! are checked at the samples (see that method). Free motions with clearance need a few
 //! refinements where they pass close to an obstacle; grazing ones are
 //! reported as colliding.
 

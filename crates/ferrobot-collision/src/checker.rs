@@ -232,6 +232,9 @@ pub struct CollisionChecker {
     /// DOF ([`crate::certify::displacement_rates`]), for
     /// [`CollisionChecker::curve_certified_until`].
     rates: Arc<crate::certify::Rates>,
+    /// The robot without self pairs: the grown-margin checks of
+    /// [`CollisionChecker::curve_certified_until`] certify world contacts.
+    world_only: Arc<CompiledRobot>,
 }
 
 impl CollisionChecker {
@@ -253,6 +256,8 @@ impl CollisionChecker {
     pub fn with_model(shared: Arc<RobotCollisionModel>, world: CollisionWorld) -> Self {
         let compiled_world = CompiledWorld::new(&world);
         let mut checker = Self {
+            // Set by `update_static` below.
+            world_only: shared.compile(&[], true, 0.0),
             robot: shared.compile(&[], true, 0.0),
             shared,
             attached: Vec::new(),
@@ -318,6 +323,12 @@ impl CollisionChecker {
     fn update_static(&mut self) {
         self.grid = Default::default();
         let model = &self.shared.model;
+        let mut world_only = CompiledRobot::clone(&self.robot);
+        world_only.pairs.clear();
+        world_only.pair_maps.clear();
+        world_only.collide_maps.clear();
+        world_only.pair_reach.clear();
+        self.world_only = Arc::new(world_only);
         self.rates = Arc::new(crate::certify::displacement_rates(
             &self.robot,
             &model.lower_limits(),
@@ -734,9 +745,13 @@ impl CollisionChecker {
     }
 
     /// Whether every configuration of the curve `point(u)`, `u` in
-    /// `[0, 1]` (model DOF order, written into the slice), is free with
-    /// every sphere grown by `tube` (m) on top of the margin, *continuously*,
-    /// not only at samples (see [`crate::certify`]). `rate[d]` bounds
+    /// `[0, 1]` (model DOF order, written into the slice), is free of the
+    /// world with every sphere grown by `tube` (m) on top of the margin,
+    /// *continuously*, not only at samples (see [`crate::certify`]); and free
+    /// of self-collision at samples (the midpoints of the `steps`
+    /// intervals): self pairs that stay in near-contact over a motion (links
+    /// whose exact geometry touches where their spheres overlap) could not
+    /// be certified with a margin. `rate[d]` bounds
     /// `|dq_d/du|` over the curve (0 for DOFs that do not move); the curve
     /// is first cut into `steps` equal intervals (e.g. so that no DOF moves
     /// more than the motion-check resolution over one), each certified by
@@ -777,11 +792,12 @@ impl CollisionChecker {
             let scratch = &mut slot.as_mut().expect("set above").1;
             // Flags of up to eight configurations (row-major in `qs`) at
             // `margin`.
-            let mut check = |qs: &[f64], margin: f64, out: &mut [bool]| {
+            // `world`: the robot without self pairs (grown-margin checks).
+            let mut check = |qs: &[f64], margin: f64, out: &mut [bool], world: bool| {
                 *tested += out.len();
                 crate::dispatch::check_packs(
                     self.simd,
-                    &self.robot,
+                    if world { &self.world_only } else { &self.robot },
                     &self.compiled_world,
                     grid,
                     qs,
@@ -806,7 +822,7 @@ impl CollisionChecker {
                         point(u, &mut q);
                         qs.extend_from_slice(&q);
                     }
-                    check(&qs, base, &mut flags[..chunk.len()]);
+                    check(&qs, base, &mut flags[..chunk.len()], false);
                     if flags[..chunk.len()].iter().any(|&f| f) {
                         return Some(false);
                     }
@@ -819,7 +835,7 @@ impl CollisionChecker {
             let mut next = Vec::new();
             let mut checked = 0usize;
             let budget = steps.saturating_mul(CHECKS_PER_INTERVAL);
-            for _ in 0..MAX_LEVELS {
+            for level in 0..MAX_LEVELS {
                 if starts.is_empty() {
                     return Some(true);
                 }
@@ -838,7 +854,15 @@ impl CollisionChecker {
                         qs.extend_from_slice(&q);
                     }
                     let n = chunk.len();
-                    check(&qs, grown, &mut flags[..n]);
+                    if level == 0 {
+                        // Self-collision at the samples (midpoints
+                        // `resolution` apart), with the world.
+                        check(&qs, base, &mut flags[..n], false);
+                        if flags[..n].iter().any(|&f| f) {
+                            return Some(false);
+                        }
+                    }
+                    check(&qs, grown, &mut flags[..n], true);
                     if !flags[..n].iter().any(|&f| f) {
                         continue;
                     }
@@ -849,7 +873,7 @@ impl CollisionChecker {
                     for &i in &failed {
                         sub.extend_from_slice(&qs[i * dof..(i + 1) * dof]);
                     }
-                    check(&sub, base, &mut flags[..failed.len()]);
+                    check(&sub, base, &mut flags[..failed.len()], false);
                     if flags[..failed.len()].iter().any(|&f| f) {
                         return Some(false);
                     }
