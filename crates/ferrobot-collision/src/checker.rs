@@ -26,6 +26,12 @@ use crate::spherize::{SpherizeOptions, spherize_link};
 use crate::world::{CollisionWorld, WorldObject, check_shape};
 use crate::world_grid::WorldGrid;
 
+/// Margin (m) above the checker's margin up to which the world grid's
+/// candidate lists serve certifying checks
+/// ([`CollisionChecker::curve_certified_until`]); larger margins test the
+/// obstacles without the lists (same answers, slower).
+const CERTIFY_REACH: f64 = 0.02;
+
 /// An object attached to a robot link (a grasped part, a tool).
 #[derive(Debug, Clone)]
 pub struct Attached {
@@ -222,6 +228,13 @@ pub struct CollisionChecker {
     grid: std::sync::OnceLock<Option<Arc<WorldGrid>>>,
     /// Instruction set of the kernels (see [`crate::dispatch`]).
     simd: SimdLevel,
+    /// Per body, per DOF: how far the body's spheres move per unit of the
+    /// DOF ([`crate::certify::displacement_rates`]), for
+    /// [`CollisionChecker::curve_certified_until`].
+    rates: Arc<crate::certify::Rates>,
+    /// The robot without self pairs: the grown-margin checks of
+    /// [`CollisionChecker::curve_certified_until`] certify world contacts.
+    world_only: Arc<CompiledRobot>,
 }
 
 impl CollisionChecker {
@@ -243,6 +256,8 @@ impl CollisionChecker {
     pub fn with_model(shared: Arc<RobotCollisionModel>, world: CollisionWorld) -> Self {
         let compiled_world = CompiledWorld::new(&world);
         let mut checker = Self {
+            // Set by `update_static` below.
+            world_only: shared.compile(&[], true, 0.0),
             robot: shared.compile(&[], true, 0.0),
             shared,
             attached: Vec::new(),
@@ -255,6 +270,7 @@ impl CollisionChecker {
             exact_self: true,
             grid: Default::default(),
             simd: crate::dispatch::level(),
+            rates: Default::default(),
         };
         checker.id = NEXT_ID.fetch_add(1, Ordering::Relaxed);
         checker.update_static();
@@ -306,6 +322,18 @@ impl CollisionChecker {
     /// Tests the bodies fixed to the base against the world once.
     fn update_static(&mut self) {
         self.grid = Default::default();
+        let model = &self.shared.model;
+        let mut world_only = CompiledRobot::clone(&self.robot);
+        world_only.pairs.clear();
+        world_only.pair_maps.clear();
+        world_only.collide_maps.clear();
+        world_only.pair_reach.clear();
+        self.world_only = Arc::new(world_only);
+        self.rates = Arc::new(crate::certify::displacement_rates(
+            &self.robot,
+            &model.lower_limits(),
+            &model.upper_limits(),
+        ));
         let mut only_static = CompiledRobot::clone(&self.robot);
         only_static.bodies.retain(|b| b.frame == 0);
         only_static.pairs.clear();
@@ -470,8 +498,14 @@ impl CollisionChecker {
     fn world_grid(&self) -> Option<&WorldGrid> {
         self.grid
             .get_or_init(|| {
-                WorldGrid::for_robot(&self.robot, &self.compiled_world, self.margin as f32)
-                    .map(Arc::new)
+                // Candidate lists also cover the margins of certifying
+                // checks (up to CERTIFY_REACH above the margin).
+                WorldGrid::for_robot(
+                    &self.robot,
+                    &self.compiled_world,
+                    (self.margin + CERTIFY_REACH) as f32,
+                )
+                .map(Arc::new)
             })
             .as_deref()
     }
@@ -698,6 +732,161 @@ impl CollisionChecker {
                 deadline,
                 scratch,
             )
+        })
+    }
+
+    /// A bound (m) on how far any point of the robot's spheres moves (for a
+    /// self pair: the two bodies together) between configurations whose
+    /// DOF `d` differs by at most `delta[d]` (model DOF order): see
+    /// [`crate::certify`]. Infinite when a DOF that moves has no finite
+    /// bound (a prismatic joint without limits between it and a body).
+    pub fn motion_margin(&self, delta: &[f64]) -> f64 {
+        crate::certify::motion_margin(&self.robot, &self.rates, delta)
+    }
+
+    /// Whether every configuration of the curve `point(u)`, `u` in
+    /// `[0, 1]` (model DOF order, written into the slice), is free of the
+    /// world with every sphere grown by `tube` (m) on top of the margin,
+    /// *continuously*, not only at samples (see [`crate::certify`]); and free
+    /// of self-collision at samples (the midpoints of the `steps`
+    /// intervals): self pairs that stay in near-contact over a motion (links
+    /// whose exact geometry touches where their spheres overlap) could not
+    /// be certified with a margin. `rate[d]` bounds
+    /// `|dq_d/du|` over the curve (0 for DOFs that do not move); the curve
+    /// is first cut into `steps` equal intervals (e.g. so that no DOF moves
+    /// more than the motion-check resolution over one), each certified by
+    /// its midpoint with the margin grown by what the robot can move over
+    /// half an interval, and split where that fails. `Some(false)` when a
+    /// configuration collides (or the curve cannot be proven free within
+    /// [`crate::certify::MAX_LEVELS`] halvings or
+    /// [`crate::certify::CHECKS_PER_INTERVAL`] configurations per starting
+    /// interval: it passes within micrometres of a collision); `None` when
+    /// `deadline` passed first.
+    /// Curves along which a moving DOF has no finite displacement bound
+    /// (see [`CollisionChecker::motion_margin`]) are checked at the samples
+    /// of the `steps` intervals only (the motion check's guarantee). The
+    /// configurations checked are added to `tested`.
+    pub fn curve_certified_until(
+        &self,
+        point: &mut dyn FnMut(f64, &mut [f64]),
+        rate: &[f64],
+        steps: usize,
+        tube: f64,
+        deadline: Option<Instant>,
+        tested: &mut usize,
+    ) -> Option<bool> {
+        use crate::certify::{CERTIFY_SLACK, CHECKS_PER_INTERVAL, MAX_LEVELS};
+        if self.static_hit {
+            return Some(false);
+        }
+        let dof = self.shared.model.num_dof();
+        let steps = steps.max(1);
+        let per_u = self.motion_margin(rate);
+        let grid = self.world_grid();
+        let mut q = vec![0.0; dof];
+        MOTION_SCRATCH.with(|cell| {
+            let mut slot = cell.borrow_mut();
+            if slot.as_ref().is_none_or(|(id, _)| *id != self.id) {
+                *slot = Some((self.id, Scratch::new(&self.robot)));
+            }
+            let scratch = &mut slot.as_mut().expect("set above").1;
+            // Flags of up to eight configurations (row-major in `qs`) at
+            // `margin`.
+            // `world`: the robot without self pairs (grown-margin checks).
+            let mut check = |qs: &[f64], margin: f64, out: &mut [bool], world: bool| {
+                *tested += out.len();
+                crate::dispatch::check_packs(
+                    self.simd,
+                    if world { &self.world_only } else { &self.robot },
+                    &self.compiled_world,
+                    grid,
+                    qs,
+                    dof,
+                    margin as f32,
+                    out,
+                    scratch,
+                )
+            };
+            let base = self.margin + tube;
+            let mut qs = Vec::with_capacity(8 * dof);
+            let mut flags = [false; 8];
+            if !per_u.is_finite() {
+                // No continuous bound: the samples at the interval ends.
+                let us: Vec<f64> = (0..=steps).map(|k| k as f64 / steps as f64).collect();
+                for (c, chunk) in us.chunks(8).enumerate() {
+                    if c % 64 == 63 && deadline.is_some_and(|d| Instant::now() >= d) {
+                        return None;
+                    }
+                    qs.clear();
+                    for &u in chunk {
+                        point(u, &mut q);
+                        qs.extend_from_slice(&q);
+                    }
+                    check(&qs, base, &mut flags[..chunk.len()], false);
+                    if flags[..chunk.len()].iter().any(|&f| f) {
+                        return Some(false);
+                    }
+                }
+                return Some(true);
+            }
+            // Intervals of the current level: their starts, all `width` wide.
+            let mut width = 1.0 / steps as f64;
+            let mut starts: Vec<f64> = (0..steps).map(|k| k as f64 * width).collect();
+            let mut next = Vec::new();
+            let mut checked = 0usize;
+            let budget = steps.saturating_mul(CHECKS_PER_INTERVAL);
+            for level in 0..MAX_LEVELS {
+                if starts.is_empty() {
+                    return Some(true);
+                }
+                let grown = base + per_u * 0.5 * width + CERTIFY_SLACK;
+                for (c, chunk) in starts.chunks(8).enumerate() {
+                    if c % 64 == 63 && deadline.is_some_and(|d| Instant::now() >= d) {
+                        return None;
+                    }
+                    checked += chunk.len();
+                    if checked > budget {
+                        return Some(false);
+                    }
+                    qs.clear();
+                    for &u0 in chunk {
+                        point(u0 + 0.5 * width, &mut q);
+                        qs.extend_from_slice(&q);
+                    }
+                    let n = chunk.len();
+                    if level == 0 {
+                        // Self-collision at the samples (midpoints
+                        // `resolution` apart), with the world.
+                        check(&qs, base, &mut flags[..n], false);
+                        if flags[..n].iter().any(|&f| f) {
+                            return Some(false);
+                        }
+                    }
+                    check(&qs, grown, &mut flags[..n], true);
+                    if !flags[..n].iter().any(|&f| f) {
+                        continue;
+                    }
+                    // Not proven: a collision at the midpoint itself ends
+                    // it, otherwise the interval is split.
+                    let failed: Vec<usize> = (0..n).filter(|&i| flags[i]).collect();
+                    let mut sub = Vec::with_capacity(failed.len() * dof);
+                    for &i in &failed {
+                        sub.extend_from_slice(&qs[i * dof..(i + 1) * dof]);
+                    }
+                    check(&sub, base, &mut flags[..failed.len()], false);
+                    if flags[..failed.len()].iter().any(|&f| f) {
+                        return Some(false);
+                    }
+                    for &i in &failed {
+                        next.push(chunk[i]);
+                        next.push(chunk[i] + 0.5 * width);
+                    }
+                }
+                std::mem::swap(&mut starts, &mut next);
+                next.clear();
+                width *= 0.5;
+            }
+            Some(starts.is_empty())
         })
     }
 

@@ -9,6 +9,7 @@
 
 pub mod acm;
 pub mod body_centres;
+pub mod certify;
 pub mod checker;
 pub mod compiled;
 pub mod dispatch;

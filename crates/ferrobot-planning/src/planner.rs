@@ -591,33 +591,47 @@ impl Planner {
         // RRT-Connect, shortcutting, the check at the final resolution and
         // the trajectory's dense re-check all give up when it passes.
         let deadline = began + opts.rrt.time_limit;
-        // Search and shortcut at the coarse resolution, then check the
-        // final edges at the fine one; a path that fails there (rare) is
-        // searched again at the fine resolution.
-        let coarse = opts.rrt.resolution * opts.coarse_factor;
-        let mut attempt = self.find_path(space, start, goals, opts, coarse, deadline, &mut times);
+        // Search and shortcut at the coarse resolution, then certify the
+        // final edges continuously (every configuration free, not only the
+        // samples; see `ferrobot_collision::certify`); a path that fails
+        // there (rare) is searched again with certified edges.
+        let coarse = opts.rrt.resolution * opts.coarse_factor.max(1.0);
+        let mut attempt = self.find_path(
+            space, start, goals, opts, coarse, false, deadline, &mut times,
+        );
         let mut unchecked = false;
-        if opts.coarse_factor > 1.0
-            && let (Ok(path), _) = &attempt
-        {
+        let mut tubes = Vec::new();
+        if let (Ok(path), _) = &attempt {
             let t = Instant::now();
-            let mut fine = Edges::new(&self.checker, space, opts.rrt.resolution).until(deadline);
-            let ok = path.windows(2).all(|w| fine.valid(&w[0], &w[1]));
+            let certified = self.certify_path(space, path, opts.rrt.resolution, deadline);
             times.simplify += t.elapsed().as_secs_f64();
-            if fine.timed_out() {
-                // The path was found at the coarse resolution only: it is
-                // not returned unchecked.
-                unchecked = true;
-            } else if !ok {
-                attempt = self.find_path(
-                    space,
-                    start,
-                    goals,
-                    opts,
-                    opts.rrt.resolution,
-                    deadline,
-                    &mut times,
-                );
+            match certified {
+                // The path was found at samples only: it is not returned
+                // uncertified.
+                None => unchecked = true,
+                Some(Some(flags)) => tubes = flags,
+                Some(None) => {
+                    attempt = self.find_path(
+                        space,
+                        start,
+                        goals,
+                        opts,
+                        opts.rrt.resolution,
+                        true,
+                        deadline,
+                        &mut times,
+                    );
+                    if let (Ok(path), _) = &attempt {
+                        let t = Instant::now();
+                        match self.certify_path(space, path, opts.rrt.resolution, deadline) {
+                            Some(Some(flags)) => tubes = flags,
+                            // Its edges were certified by the search: only
+                            // the deadline can stop this.
+                            _ => unchecked = true,
+                        }
+                        times.simplify += t.elapsed().as_secs_f64();
+                    }
+                }
             }
         }
         let (found, stats) = attempt;
@@ -628,7 +642,7 @@ impl Planner {
                     PlanStatus::Timeout,
                     format!(
                         "a path was found at the coarse resolution {coarse} but the time limit \
-                         ({} s) passed while checking it at the resolution {}",
+                         ({} s) passed while certifying it free (intervals of the resolution {})",
                         opts.rrt.time_limit.as_secs_f64(),
                         opts.rrt.resolution
                     ),
@@ -662,7 +676,7 @@ impl Planner {
                 .limits
                 .scaled(opts.velocity_scale, opts.acceleration_scale)
                 .expect("scales validated by the caller");
-            let out = self.smooth(space, &path, &limits, opts, deadline);
+            let out = self.smooth(space, &path, &tubes, &limits, opts, deadline);
             stops = out.fell_back;
             times.fit = out.fit;
             times.recheck = out.recheck;
@@ -706,6 +720,7 @@ impl Planner {
         goals: &[Vec<f64>],
         opts: &PlanOptions,
         resolution: f64,
+        certified: bool,
         deadline: Instant,
         times: &mut StageTimes,
     ) -> (
@@ -717,12 +732,22 @@ impl Planner {
             resolution,
             ..opts.rrt.clone()
         };
-        let (found, stats) = rrt_connect_until(&self.checker, space, start, goals, &rrt, deadline);
+        let (found, stats) = rrt_connect_until(
+            &self.checker,
+            space,
+            start,
+            goals,
+            &rrt,
+            deadline,
+            certified,
+        );
         times.planning += t0.elapsed().as_secs_f64();
         let t1 = Instant::now();
         let found = found.map(|path| {
             if opts.simplify_path {
-                let mut edges = Edges::new(&self.checker, space, resolution).until(deadline);
+                let mut edges = Edges::new(&self.checker, space, resolution)
+                    .until(deadline)
+                    .certified(certified);
                 let mut rng = SmallRng::seed_from_u64(opts.rrt.seed ^ 0x5EED);
                 simplify(&mut edges, path, &opts.simplify, &mut rng)
             } else {
@@ -740,12 +765,16 @@ impl Planner {
         &self,
         space: &ActiveSpace,
         path: &[Vec<f64>],
+        tubes: &[bool],
         limits: &KinematicLimits,
         opts: &PlanOptions,
         deadline: Instant,
     ) -> Smoothed {
         let mut out = Smoothed::default();
         let mut waypoints = path.to_vec();
+        // Per waypoint segment: certified with the tube of the re-check's
+        // skipping tolerance (split segments keep their parent's flag).
+        let mut tubes = tubes.to_vec();
         let polyline = |out: &mut Smoothed, timed_out: bool| {
             let t = Instant::now();
             let traj = parametrize_polyline(path, limits);
@@ -770,7 +799,7 @@ impl Planner {
                 space,
                 &traj,
                 opts.rrt.resolution,
-                Some(&waypoints),
+                Some((&waypoints, &tubes)),
                 Some(deadline),
                 &mut out.samples,
             );
@@ -796,6 +825,8 @@ impl Planner {
                         .map(|(a, b)| 0.5 * (a + b))
                         .collect();
                     waypoints.insert(seg + 1, mid);
+                    let flag = tubes[seg];
+                    tubes.insert(seg + 1, flag);
                     out.refinements += 1;
                 }
             }
@@ -807,10 +838,11 @@ impl Planner {
         }
     }
 
-    /// Samples `traj` so that no joint moves more than `resolution` between
-    /// samples and returns the waypoint segment of the first colliding one.
-    /// Samples are checked in chunks (bounded memory at any resolution,
-    /// early exit at the first collision).
+    /// Certifies `traj` free continuously, from intervals over which no
+    /// joint moves more than `resolution` (see
+    /// [`ferrobot_collision::certify`]), and returns the waypoint segment of
+    /// the first piece that is not (it collides or passes within
+    /// micrometres of a collision); early exit at the first such piece.
     pub fn first_collision(&self, traj: &Trajectory, resolution: f64) -> Option<usize> {
         // Without a deadline there is always an answer.
         self.first_collision_in(&self.space, traj, resolution, None)
@@ -838,67 +870,120 @@ impl Planner {
         self.first_collision_counted(space, traj, resolution, None, deadline, &mut 0)
     }
 
+    /// The joint-space tube (max norm, rad or m) around a path's segments
+    /// that [`Planner::certify_path`] tries to certify: the trajectory
+    /// pieces within it of their segment are not checked again.
+    fn tube_margin(&self, space: &ActiveSpace, resolution: f64) -> f64 {
+        let mut delta = vec![0.0; self.model().num_dof()];
+        for &d in &space.dofs {
+            delta[d] = recheck::SKIP_DEVIATION * resolution;
+        }
+        self.checker.motion_margin(&delta)
+    }
+
+    /// Certifies every edge of `path` free continuously (intervals of
+    /// `resolution`, see [`ferrobot_collision::certify`]): per edge,
+    /// whether the tube of [`recheck::SKIP_DEVIATION`] x `resolution` around
+    /// it was certified too (`Some(Some(flags))`), `Some(None)` when an edge
+    /// is not free, `None` when `deadline` passed first.
+    fn certify_path(
+        &self,
+        space: &ActiveSpace,
+        path: &[Vec<f64>],
+        resolution: f64,
+        deadline: Instant,
+    ) -> Option<Option<Vec<bool>>> {
+        let tube = self.tube_margin(space, resolution);
+        let (a, b) = (&mut space.locked.clone(), &mut space.locked.clone());
+        let mut flags = Vec::with_capacity(path.len().saturating_sub(1));
+        for w in path.windows(2) {
+            space.expand_into(&w[0], a);
+            space.expand_into(&w[1], b);
+            let certify = |tube| {
+                crate::rrt::certify_segment(&self.checker, a, b, resolution, tube, Some(deadline))
+            };
+            let flag = match (tube.is_finite(), certify(tube)) {
+                (true, Some(true)) => true,
+                (_, None) => return None,
+                _ => match certify(0.0)? {
+                    true => false,
+                    false => return Some(None),
+                },
+            };
+            flags.push(flag);
+        }
+        Some(Some(flags))
+    }
+
     /// [`Planner::first_collision_in`] adding the configurations it tested
-    /// to `tested`. With `verified` (the waypoints `traj` was fitted
-    /// through, every segment already checked free at `resolution`), the
-    /// pieces within [`crate::recheck::SKIP_DEVIATION`] of their segment are
-    /// skipped and the others checked furthest first ([`crate::recheck`]).
+    /// to `tested`. Every piece of the trajectory is certified free
+    /// continuously ([`ferrobot_collision::certify`]: intervals over which
+    /// no joint moves more than `resolution`, each proven free with the
+    /// spheres grown by what the robot can move over it, split where that
+    /// fails). With `verified` (the waypoints `traj` was fitted through and,
+    /// per segment, whether the tube of [`crate::recheck::SKIP_DEVIATION`] x
+    /// `resolution` around it was certified), the pieces within that tube
+    /// of such a segment are skipped and the others checked furthest first
+    /// ([`crate::recheck`]).
     fn first_collision_counted(
         &self,
         space: &ActiveSpace,
         traj: &Trajectory,
         resolution: f64,
-        verified: Option<&[Vec<f64>]>,
+        verified: Option<(&[Vec<f64>], &[bool])>,
         deadline: Option<Instant>,
         tested: &mut usize,
     ) -> std::result::Result<Option<usize>, TimedOut> {
-        // Checked on the calling thread, in chunks: early exit soon after
-        // a collision, and no hand-off to the rayon pool (whose threads,
-        // on a busy machine, wake late: milliseconds for a few hundred
-        // configurations).
-        const CHUNK: usize = 256;
         let dim = traj.dim();
         let n = self.model().num_dof();
-        let all = recheck::pieces(traj, resolution, verified);
-        let order = if verified.is_some() {
-            recheck::to_check(&all, resolution)
-        } else {
-            all
-        };
-        let mut configs = Vec::with_capacity(CHUNK * n);
-        let mut seg_of = Vec::with_capacity(CHUNK);
-        let mut hits = vec![false; CHUNK];
-        let mut flush = |configs: &mut Vec<f64>, seg_of: &mut Vec<usize>| -> Option<usize> {
-            if seg_of.is_empty() {
-                return None;
+        let all = recheck::pieces(traj, resolution, verified.map(|v| v.0));
+        let order = match verified {
+            Some((_, tubes)) => {
+                let mut order = recheck::to_check(&all, resolution);
+                // Pieces near a segment whose tube was not certified are
+                // checked too, unless they lie on it (up to rounding).
+                order.extend(all.iter().filter(|p| {
+                    p.deviation <= recheck::SKIP_DEVIATION * resolution
+                        && p.deviation > recheck::ON_SEGMENT
+                        && !tubes
+                            .get(traj.segment_of[p.interval])
+                            .copied()
+                            .unwrap_or(false)
+                }));
+                order
             }
-            let hits = &mut hits[..seg_of.len()];
-            *tested += seg_of.len();
-            self.checker.in_collision_batch_serial_into(configs, hits);
-            let found = hits.iter().position(|&h| h).map(|k| seg_of[k]);
-            configs.clear();
-            seg_of.clear();
-            found
+            None => all,
         };
         let mut q = vec![0.0; dim];
-        let mut full = space.locked.clone();
+        let mut rate = vec![0.0; n];
         for piece in &order {
-            for s in recheck::sample_times(piece) {
-                traj.position_on(piece.interval, s, &mut q);
-                space.expand_into(&q, &mut full);
-                configs.extend_from_slice(&full);
-                seg_of.push(traj.segment_of[piece.interval]);
-                if seg_of.len() == CHUNK {
-                    if let Some(seg) = flush(&mut configs, &mut seg_of) {
-                        return Ok(Some(seg));
-                    }
-                    if deadline.is_some_and(|d| Instant::now() >= d) {
-                        return Err(TimedOut);
-                    }
-                }
+            let len = piece.s1 - piece.s0;
+            for (&d, v) in space.dofs.iter().zip(recheck::joint_speeds(
+                traj,
+                piece.interval,
+                piece.s0,
+                piece.s1,
+            )) {
+                // |dq/du| over the piece, u in [0, 1].
+                rate[d] = v * len * (1.0 + 1e-9) + 1e-12;
+            }
+            let mut point = |u: f64, full: &mut [f64]| {
+                traj.position_on(piece.interval, piece.s0 + len * u, &mut q);
+                space.expand_into(&q, full);
+            };
+            match self.checker.curve_certified_until(
+                &mut point,
+                &rate,
+                piece.steps,
+                0.0,
+                deadline,
+                tested,
+            ) {
+                Some(true) => {}
+                Some(false) => return Ok(Some(traj.segment_of[piece.interval])),
+                None => return Err(TimedOut),
             }
         }
-        debug_assert_eq!(configs.len(), seg_of.len() * n);
-        Ok(flush(&mut configs, &mut seg_of))
+        Ok(None)
     }
 }

@@ -35,6 +35,13 @@ pub const SKIP_DEVIATION: f64 = 0.1;
 /// Added to every deviation bound for rounding (rad or m).
 const ROUNDING: f64 = 1e-10;
 
+/// Pieces whose deviation bound is at most this (rad or m) lie on their
+/// waypoint segment up to rounding (rest-to-rest pieces, straight spline
+/// intervals): a segment certified free (with no tube) covers them, since
+/// the certificates' slack (`ferrobot_collision::certify::CERTIFY_SLACK`,
+/// 2 µm) is far above this times any robot's lever (m per rad).
+pub const ON_SEGMENT: f64 = 1e-9;
+
 /// Samples per piece aimed at (pieces are shorter where the trajectory
 /// bends, so the deviation bound stays tight).
 const SAMPLES_PER_PIECE: f64 = 8.0;
@@ -113,6 +120,16 @@ fn quadratic_max_abs(q: [f64; 3], s0: f64, s1: f64) -> f64 {
         }
     }
     best
+}
+
+/// Largest |velocity| of each joint on `[s0, s1]` of interval `i`.
+pub fn joint_speeds(traj: &Trajectory, i: usize, s0: f64, s1: f64) -> Vec<f64> {
+    (0..traj.dim())
+        .map(|d| {
+            let c = cubic(traj, i, d);
+            quadratic_max_abs([c[1], 2.0 * c[2], 3.0 * c[3]], s0, s1)
+        })
+        .collect()
 }
 
 /// Largest joint speed (max over joints of |velocity|) on `[s0, s1]` of

@@ -103,6 +103,9 @@ pub(crate) struct Edges<'a> {
     b: Vec<f64>,
     deadline: Option<Instant>,
     timed_out: bool,
+    /// Motions are certified free continuously
+    /// ([`CollisionChecker::curve_certified_until`]), not at samples.
+    certified: bool,
     /// Motion checks run.
     pub checks: usize,
 }
@@ -121,8 +124,17 @@ impl<'a> Edges<'a> {
             b: space.locked.clone(),
             deadline: None,
             timed_out: false,
+            certified: false,
             checks: 0,
         }
+    }
+
+    /// The same, certifying every motion continuously (every configuration
+    /// of it free, see [`ferrobot_collision::certify`]) instead of checking
+    /// it at samples `resolution` apart.
+    pub(crate) fn certified(mut self, certified: bool) -> Self {
+        self.certified = certified;
+        self
     }
 
     /// The same, giving up at `deadline`: once it has passed, every motion
@@ -147,10 +159,28 @@ impl<'a> Edges<'a> {
         self.checks += 1;
         self.space.expand_into(q0, &mut self.a);
         self.space.expand_into(q1, &mut self.b);
-        match self
-            .checker
-            .motion_valid_until(&self.a, &self.b, self.resolution, self.deadline)
-        {
+        let answer = if self.certified {
+            // Most motions that collide do so at the samples: the sampled
+            // check finds that cheapest.
+            match self
+                .checker
+                .motion_valid_until(&self.a, &self.b, self.resolution, self.deadline)
+            {
+                Some(true) => certify_segment(
+                    self.checker,
+                    &self.a,
+                    &self.b,
+                    self.resolution,
+                    0.0,
+                    self.deadline,
+                ),
+                other => other,
+            }
+        } else {
+            self.checker
+                .motion_valid_until(&self.a, &self.b, self.resolution, self.deadline)
+        };
+        match answer {
             Some(free) => free,
             None => {
                 self.timed_out = true;
@@ -158,6 +188,31 @@ impl<'a> Edges<'a> {
             }
         }
     }
+}
+
+/// Whether every configuration of the straight motion from `a` to `b`
+/// (full configurations) is free with the spheres grown by `tube` (m),
+/// certified continuously from intervals no longer than `resolution` in any
+/// DOF ([`CollisionChecker::curve_certified_until`]); `None` when
+/// `deadline` passed first.
+pub(crate) fn certify_segment(
+    checker: &CollisionChecker,
+    a: &[f64],
+    b: &[f64],
+    resolution: f64,
+    tube: f64,
+    deadline: Option<Instant>,
+) -> Option<bool> {
+    let delta: Vec<f64> = a.iter().zip(b).map(|(x, y)| (y - x).abs()).collect();
+    let span = delta.iter().copied().fold(0.0, f64::max);
+    // `as` saturates; callers bound the resolution (ranges::RESOLUTION).
+    let steps = ((span / resolution).ceil() as usize).max(1);
+    let mut point = |u: f64, q: &mut [f64]| {
+        for ((o, x), y) in q.iter_mut().zip(a).zip(b) {
+            *o = x + (y - x) * u;
+        }
+    };
+    checker.curve_certified_until(&mut point, &delta, steps, tube, deadline, &mut 0)
 }
 
 /// Why RRT-Connect stopped without a path.
@@ -210,7 +265,7 @@ pub fn rrt_connect(
     opts: &RrtOptions,
 ) -> (Result<Vec<Vec<f64>>, RrtFailure>, RrtStats) {
     let deadline = Instant::now() + opts.time_limit;
-    rrt_connect_until(checker, space, start, goals, opts, deadline)
+    rrt_connect_until(checker, space, start, goals, opts, deadline, false)
 }
 
 /// [`rrt_connect`] with an absolute deadline instead of `opts.time_limit`
@@ -223,9 +278,12 @@ pub(crate) fn rrt_connect_until(
     goals: &[Vec<f64>],
     opts: &RrtOptions,
     deadline: Instant,
+    certified: bool,
 ) -> (Result<Vec<Vec<f64>>, RrtFailure>, RrtStats) {
     let dim = space.len();
-    let mut edges = Edges::new(checker, space, opts.resolution).until(deadline);
+    let mut edges = Edges::new(checker, space, opts.resolution)
+        .until(deadline)
+        .certified(certified);
     let mut stats = RrtStats::default();
     for g in goals {
         if edges.valid(start, g) {

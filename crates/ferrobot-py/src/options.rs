@@ -292,8 +292,9 @@ options_class! {
         /// [1, 10000] (default 4).
         goal_solutions / set_goal_solutions: usize ["int"] => goal_solutions;
         /// The search and shortcutting check motions at `resolution` times
-        /// this factor, the final path at `resolution`; in [1, 1000]
-        /// (default 4).
+        /// this factor; the final path and trajectory are then certified
+        /// free at every configuration (not only at samples) from intervals
+        /// of `resolution`; in [1, 1000] (default 4).
         coarse_factor / set_coarse_factor: f64 ["float"] => coarse_factor;
         /// Times the smooth trajectory is refined where it collided before
         /// stopping at every waypoint, in [0, 64] (default 4).
