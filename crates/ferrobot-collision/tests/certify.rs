@@ -6,50 +6,13 @@
 
 mod common;
 
-use common::{mbm_panda, random_q};
-use ferrobot_collision::{CollisionChecker, CollisionWorld, Shape};
-use nalgebra::Isometry3;
+use common::{mbm_panda, random_q, scattered_world};
+use ferrobot_collision::{CollisionChecker, CollisionWorld};
 use rand::{Rng, SeedableRng, rngs::StdRng};
 
 /// Many small obstacles around the arm (as in the scene classes' clutter).
 fn crowded_world(seed: u64, n: usize) -> CollisionWorld {
-    let mut rng = StdRng::seed_from_u64(seed);
-    let mut world = CollisionWorld::new();
-    for i in 0..n {
-        let p = loop {
-            let p: [f64; 3] = [
-                rng.random_range(-0.8..0.8),
-                rng.random_range(-0.8..0.8),
-                rng.random_range(-0.1..1.1),
-            ];
-            if p[0].hypot(p[1]) > 0.35 {
-                break p;
-            }
-        };
-        let h = nalgebra::Vector3::new(
-            rng.random_range(0.01..0.04),
-            rng.random_range(0.01..0.04),
-            rng.random_range(0.01..0.04),
-        );
-        let rot = nalgebra::UnitQuaternion::from_euler_angles(
-            rng.random_range(-3.0..3.0),
-            rng.random_range(-3.0..3.0),
-            rng.random_range(-3.0..3.0),
-        );
-        let pose = Isometry3::from_parts(nalgebra::Translation3::new(p[0], p[1], p[2]), rot);
-        let shape = match i % 3 {
-            0 => Shape::Box { half_extents: h },
-            1 => Shape::Sphere { radius: h.x },
-            _ => Shape::Cylinder {
-                radius: h.x,
-                half_height: h.y,
-            },
-        };
-        world
-            .add(&format!("o{i}"), pose, vec![(shape, Isometry3::identity())])
-            .unwrap();
-    }
-    world
+    scattered_world(seed, n, 0.8, -0.1..1.1, 0.01..0.04, 3)
 }
 
 fn certify(checker: &CollisionChecker, a: &[f64], b: &[f64], resolution: f64) -> bool {

@@ -138,48 +138,7 @@ fn single_path_with_grid_agrees_with_batch_kernel_in_every_dev_scene_kind() {
 /// A cage of many small boxes around the arm's workspace plus clutter inside
 /// it (hundreds of obstacles, many close to the arm).
 fn cage_world(seed: u64, n: usize) -> CollisionWorld {
-    let mut rng = StdRng::seed_from_u64(seed);
-    let mut world = CollisionWorld::new();
-    for i in 0..n {
-        // Clear of the base link (which would make every configuration collide).
-        let p = loop {
-            let p: [f64; 3] = [
-                rng.random_range(-0.9..0.9),
-                rng.random_range(-0.9..0.9),
-                rng.random_range(-0.2..1.2),
-            ];
-            if p[0].hypot(p[1]) > 0.35 {
-                break p;
-            }
-        };
-        let h = nalgebra::Vector3::new(
-            rng.random_range(0.01..0.06),
-            rng.random_range(0.01..0.06),
-            rng.random_range(0.01..0.06),
-        );
-        let rot = nalgebra::UnitQuaternion::from_euler_angles(
-            rng.random_range(-3.0..3.0),
-            rng.random_range(-3.0..3.0),
-            rng.random_range(-3.0..3.0),
-        );
-        let pose = Isometry3::from_parts(nalgebra::Translation3::new(p[0], p[1], p[2]), rot);
-        let shape = match i % 4 {
-            0 => Shape::Box { half_extents: h },
-            1 => Shape::Sphere { radius: h.x },
-            2 => Shape::Cylinder {
-                radius: h.x,
-                half_height: h.y,
-            },
-            _ => Shape::Capsule {
-                radius: h.x,
-                half_height: h.y,
-            },
-        };
-        world
-            .add(&format!("o{i}"), pose, vec![(shape, Isometry3::identity())])
-            .unwrap();
-    }
-    world
+    common::scattered_world(seed, n, 0.9, -0.2..1.2, 0.01..0.06, 4)
 }
 
 #[test]

@@ -108,3 +108,59 @@ pub fn hulls(model: &RobotModel) -> Vec<Vec<(Isometry3<f64>, ConvexPolyhedron)>>
         })
         .collect()
 }
+
+/// Obstacles scattered around the arm (clear of the base link, which would
+/// make every configuration collide): `n` boxes, spheres, cylinders and, with
+/// `kinds == 4`, capsules in turn, at random poses with centres in
+/// `[-half_span, half_span]²` x `z`, and half-sizes drawn from `size`. The
+/// crowded worlds of the grid and certification tests.
+pub fn scattered_world(
+    seed: u64,
+    n: usize,
+    half_span: f64,
+    z: std::ops::Range<f64>,
+    size: std::ops::Range<f64>,
+    kinds: usize,
+) -> CollisionWorld {
+    let mut rng = StdRng::seed_from_u64(seed);
+    let mut world = CollisionWorld::new();
+    for i in 0..n {
+        let p = loop {
+            let p: [f64; 3] = [
+                rng.random_range(-half_span..half_span),
+                rng.random_range(-half_span..half_span),
+                rng.random_range(z.clone()),
+            ];
+            if p[0].hypot(p[1]) > 0.35 {
+                break p;
+            }
+        };
+        let h = nalgebra::Vector3::new(
+            rng.random_range(size.clone()),
+            rng.random_range(size.clone()),
+            rng.random_range(size.clone()),
+        );
+        let rot = nalgebra::UnitQuaternion::from_euler_angles(
+            rng.random_range(-3.0..3.0),
+            rng.random_range(-3.0..3.0),
+            rng.random_range(-3.0..3.0),
+        );
+        let pose = Isometry3::from_parts(nalgebra::Translation3::new(p[0], p[1], p[2]), rot);
+        let shape = match i % kinds {
+            0 => Shape::Box { half_extents: h },
+            1 => Shape::Sphere { radius: h.x },
+            2 => Shape::Cylinder {
+                radius: h.x,
+                half_height: h.y,
+            },
+            _ => Shape::Capsule {
+                radius: h.x,
+                half_height: h.y,
+            },
+        };
+        world
+            .add(&format!("o{i}"), pose, vec![(shape, Isometry3::identity())])
+            .unwrap();
+    }
+    world
+}
