@@ -48,7 +48,9 @@ def decode_png(data: bytes) -> np.ndarray:
     return raw[:, 1:].reshape(h, w, 3)
 
 
-@pytest.mark.parametrize("seed", [2, 3, 4])
+# Seed 67: the released box follows a finger while the hand backs out of contact, so the retreat re-checks the
+# executed state and backs out further (before: "start in collision" at the planned retreat).
+@pytest.mark.parametrize("seed", [2, 3, 4, 67])
 def test_episode_places_the_target(pp, seed):
     spec = random_scene(seed)
     before = {o.name: np.array(o.pose[:3]) for o in spec.objects}

@@ -768,6 +768,16 @@ class PickPlace:
             hand = self._hand_base()
             back_dir = -(hand[:3, :3] @ np.asarray(self.gripper.approach, dtype=float))
             esc = self._escape("retreat", back_dir, cfg.retreat_distance)
+            # The released object can follow the fingers (friction, tipping) while the hand backs out, so the
+            # executed state is checked again: still touching, the hand backs out further along the same line
+            # (within the retreat distance).
+            moved = esc["escape_distance_mm"]
+            while 0.0 < moved < 1e3 * cfg.retreat_distance - 1e-6 and self._touching("retreat", self._q()):
+                more = self._escape("retreat", back_dir, cfg.retreat_distance - 1e-3 * moved)
+                if more["escape_distance_mm"] <= 0.0:
+                    break
+                moved += more["escape_distance_mm"]
+                esc = {**more, "escape_distance_mm": moved}
             if esc["escape_distance_mm"] >= 1e3 * cfg.retreat_distance - 1e-6:
                 return {**esc, "retreat": "back along the approach"}
             back = self._back(hand, cfg.retreat_distance)
