@@ -19,7 +19,7 @@ import pytest
 import ferrobot
 from ferrobot.cli import main as cli
 from ferrobot.errors import InvalidArgumentError
-from ferrobot.pipeline import STAGES, TABLE_TOP, Episode, PickPlace, random_scene
+from ferrobot.pipeline import STAGES, TABLE_TOP, Episode, PickPlace, PickPlaceConfig, random_scene
 from ferrobot.pipeline.images import encode_png
 from ferrobot.pipeline.report import grasp_image, write_episode
 from ferrobot.pipeline.viewer import viewer_data
@@ -48,9 +48,7 @@ def decode_png(data: bytes) -> np.ndarray:
     return raw[:, 1:].reshape(h, w, 3)
 
 
-# Seed 67: the released box follows a finger while the hand backs out of contact, so the retreat re-checks the
-# executed state and backs out further (before: "start in collision" at the planned retreat).
-@pytest.mark.parametrize("seed", [2, 3, 4, 67])
+@pytest.mark.parametrize("seed", [2, 3, 4])
 def test_episode_places_the_target(pp, seed):
     spec = random_scene(seed)
     before = {o.name: np.array(o.pose[:3]) for o in spec.objects}
@@ -86,6 +84,16 @@ def test_episode_places_the_target(pp, seed):
     q = ep.recorder.arrays()["positions"]
     assert q.shape[1] == ep.robot.num_dof and len(q) > 100
     assert (q >= pp.model.lower_limits - 0.01).all() and (q <= pp.model.upper_limits + 0.01).all()
+
+
+def test_retreat_backs_out_while_the_released_object_follows():
+    # Pre-shaped, seed 67: the released box follows a finger while the hand backs out of contact; the retreat
+    # re-checks the executed state and backs out further (before: "start in collision" at the planned retreat).
+    pp = PickPlace(PickPlaceConfig(preshape_margin=0.01))
+    result = pp.run(random_scene(67))
+    assert result.success, (result.failed_stage, result.reason)
+    retreat = next(s for s in result.stages if s.name == "retreat")
+    assert retreat.ok
 
 
 def test_stage_failures_are_reported_not_raised(pp):

@@ -38,7 +38,7 @@ def _stage(result, name: str):
 
 
 def test_panda_approaches_with_the_fingers_at_the_grasp_width_plus_margin():
-    pp = PickPlace(robot="panda")
+    pp = PickPlace(PickPlaceConfig(preshape_margin=0.01), robot="panda")
     result = pp.run(random_scene(seed=3))
     assert result.success, result.reason
     width = _stage(result, "select").detail["width"]
@@ -56,7 +56,7 @@ def test_panda_approaches_with_the_fingers_at_the_grasp_width_plus_margin():
 
 
 def test_2f85_approaches_with_the_pads_at_the_grasp_width_plus_margin():
-    pp = PickPlace(robot="ur5e")
+    pp = PickPlace(PickPlaceConfig(preshape_margin=0.01), robot="ur5e")
     result = pp.run(random_scene(seed=3))
     assert result.success, result.reason
     g, model = pp.gripper, pp.model
