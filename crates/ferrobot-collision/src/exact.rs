@@ -30,7 +30,7 @@
 //! hull's excess take milliseconds per link. Two things keep deep contacts
 //! cheap: such parts get inscribed spheres too (step 2 below), centred
 //! where the mesh's generalized winding number is at least
-//! [`INSIDE_WINDING`] in absolute value (inside; closed meshes give 0 or
+//! `INSIDE_WINDING` in absolute value (inside; closed meshes give 0 or
 //! ±1) and not reaching its surface, so an overlap of two inscribed spheres
 //! decides a contact without GJK or triangles; and each part remembers the
 //! triangle pair that touched last for each other part (a hint tested
@@ -78,7 +78,7 @@ const BOX_PAD: f64 = 1e-5;
 /// A mesh part whose convex hull's surface lies further than this (m) from
 /// the mesh somewhere (the hull-to-mesh Hausdorff distance, measured at the
 /// centroid and edge midpoints of every hull face) keeps its triangles, and
-/// hull contacts are re-decided on them ([`refine`]). Below it the hull is
+/// hull contacts are re-decided on them (`refine`). Below it the hull is
 /// at most this much larger than the mesh and decides alone.
 pub const HULL_EXCESS: f64 = 2e-3;
 /// Triangles closer than this (m, plus the margin) count as touching in

@@ -235,7 +235,7 @@ pub fn cols_to_frame(m: &Cols) -> LaneFrame<f32> {
     ]
 }
 
-/// `m` applied to point `p`: the same operations per row as [`apply`], so
+/// `m` applied to point `p`: the same operations per row as `apply`, so
 /// the result equals `apply(&cols_to_frame(m), p)` bit for bit (fourth
 /// lane 0).
 #[inline(always)]

@@ -5,7 +5,7 @@
 //! another link between the arm and its target, a joint limit on the way)
 //! it comes to rest away from the target. The controller watches its
 //! progress (`stall_*` gains of [`crate::ReactiveConfig`]) and, when a step
-//! reports `stalled`, [`Guidance`] asks ferrobot's planner for a
+//! reports `stalled`, `Guidance` asks ferrobot's planner for a
 //! collision-free path to a collision-free IK solution of the target, on the
 //! obstacles' poses at that moment, and hands it to the controller as
 //! joint-space waypoints (followed in the limit-aware coordinates with every

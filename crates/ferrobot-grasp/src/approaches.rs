@@ -4,7 +4,7 @@
 //! about the seed's inward normal and tilts it a little about the closing
 //! axis. Next to a bin wall, in a corner or between tall neighbours none of
 //! those hands may leave room for the hand's housing (the body the fingers
-//! slide in, [`GripperGeometry::body_box`], much longer along the closing
+//! slide in, [`GripperGeometry::body_box`](crate::gripper::GripperGeometry::body_box), much longer along the closing
 //! axis than the fingers), and the object gets no grasp at all although a
 //! person would reach it: from above, the housing turned along the wall and
 //! leaning away from it.

@@ -72,7 +72,7 @@ const PLANE_TOLERANCE: f64 = 0.001;
 /// Fewest (x, z) cells of a finger pad the object must reach.
 const MIN_CONTACT_CELLS: usize = 4;
 
-/// Shallowest plane-limited depth tried (see [`plane_limited_depth`]):
+/// Shallowest plane-limited depth tried (see `plane_limited_depth`):
 /// fingertips must reach at least this far past the seed.
 pub const MIN_PLANE_DEPTH: f64 = 0.005;
 

@@ -1,7 +1,7 @@
 //! Analytic 6-DoF parallel-jaw grasp detection for ferrobot.
 //!
 //! The pipeline ([`detect::detect`]): an RGB-D frame is back-projected to a
-//! point cloud ([`backproject`]), cropped to a workspace, voxel-downsampled
+//! point cloud ([`backproject()`]), cropped to a workspace, voxel-downsampled
 //! ([`voxel`]; [`detect::detect_rgbd`] puts the pixels straight into the
 //! voxel grid), given normals from a kd-tree neighbourhood ([`normals`]);
 //! hands are searched in the local frame of seed points over approach

@@ -7,7 +7,7 @@ use rand::rngs::SmallRng;
 
 use crate::rrt::Edges;
 
-/// Options of [`simplify`].
+/// Options of `simplify`.
 #[derive(Debug, Clone)]
 pub struct SimplifyOptions {
     /// Random shortcut attempts at most.

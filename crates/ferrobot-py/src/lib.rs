@@ -1,7 +1,7 @@
 //! `ferrobot._core`: the Python bindings of ferrobot's Rust crates.
 //!
 //! Every entry point converts Rust errors to `ferrobot.errors` exceptions and
-//! catches panics ([`errors::guard`]); heavy work releases the GIL.
+//! catches panics (`errors::guard`); heavy work releases the GIL.
 
 mod arrays;
 mod batch;
