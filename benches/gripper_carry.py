@@ -39,17 +39,20 @@ def _cartesian(planner, hand_to_ee, start_hand, offsets, seed):
     return np.array(out)
 
 
-def carry(robot: str = "panda", speed: float = 1.0, distance: float = 0.5, force: float = 40.0) -> dict:
-    """Runs the carry on a bundled robot; returns drift figures (m) and whether the box was held."""
+def box_between_fingers(robot: str):
+    """A bundled robot at its first named state with the gripper open and a ``BOX`` of ``MASS`` between the
+    fingers, centred on the TCP (its ``BOX[0]`` side along the closing axis), on a fixed stand; stepped 24
+    times. Returns ``(model, gripper, world, sim_robot, q, box_pose)``: ``q`` the robot's joint positions,
+    ``box_pose`` the 4x4 pose the box was placed at (world frame)."""
     model = ferrobot.robots.bundled(robot)
     gripper = ferrobot.Gripper.from_model(model)
     world = ferrobot.World()
-    robot_ = world.add_robot(model, [0, 0, 0, 1, 0, 0, 0])
-    robot_.use_gripper(gripper)
-    q = robot_.joint_positions
+    sim = world.add_robot(model, [0, 0, 0, 1, 0, 0, 0])
+    sim.use_gripper(gripper)
+    q = sim.joint_positions
     q[model.dof_names.index(gripper.driver)] = gripper.open_position
-    robot_.set_joint_positions(q)
-    robot_.set_joint_position_targets(q)
+    sim.set_joint_positions(q)
+    sim.set_joint_position_targets(q)
     hand = model.fk(q, gripper.hand_link)
     # Box between the fingers: centred on the TCP, its 50 mm side along the closing axis.
     rot = hand[:3, :3] @ np.column_stack(
@@ -64,6 +67,12 @@ def carry(robot: str = "panda", speed: float = 1.0, distance: float = 0.5, force
     bottom = centre[2] - BOX[2] / 2
     world.add_box("stand", (0.03, 0.03, 0.1), [centre[0], centre[1], bottom - 0.05, 1, 0, 0, 0], fixed=True)
     world.step(24)
+    return model, gripper, world, sim, q, pose
+
+
+def carry(robot: str = "panda", speed: float = 1.0, distance: float = 0.5, force: float = 40.0) -> dict:
+    """Runs the carry on a bundled robot; returns drift figures (m) and whether the box was held."""
+    model, gripper, world, robot_, q, _ = box_between_fingers(robot)
     robot_.close_gripper(force=force)
     world.step(int(0.5 / world.dt))
     planner = ferrobot.Planner(model)

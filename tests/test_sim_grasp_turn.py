@@ -19,14 +19,17 @@ motion left relative to the hand is the contact compliance under these few newto
 from __future__ import annotations
 
 import math
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 import ferrobot
 
-BOX = (0.05, 0.04, 0.06)  # closing, other, approach (m)
-MASS = 0.5
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benches"))
+import gripper_carry  # noqa: E402  (the grasp set-up: a box between the open fingers, on a stand)
+
 STEP = 0.005  # IK and trajectory sample period (s)
 
 
@@ -40,26 +43,8 @@ def _turn_drift(robot: str, turn_deg: float, distance: float = 0.3, duration: fl
     through the box while moving ``distance`` along y (cosine profile over ``duration``); returns the
     largest displacement (m) of the box's centre in the hand frame, sampled every 20 ms and at the end,
     and the cosine between the box's closing axis at the end and its start axis turned by ``turn_deg``."""
-    model = ferrobot.robots.bundled(robot)
-    gripper = ferrobot.Gripper.from_model(model)
-    world = ferrobot.World()
-    sim = world.add_robot(model, [0, 0, 0, 1, 0, 0, 0])
-    sim.use_gripper(gripper)
-    q = sim.joint_positions
-    q[model.dof_names.index(gripper.driver)] = gripper.open_position
-    sim.set_joint_positions(q)
-    sim.set_joint_position_targets(q)
-    hand = model.fk(q, gripper.hand_link)
-    rot = hand[:3, :3] @ np.column_stack(
-        [gripper.closing, np.cross(gripper.approach, gripper.closing), gripper.approach]
-    )
-    centre = hand[:3, :3] @ gripper.tcp + hand[:3, 3]
-    pose = np.eye(4)
-    pose[:3, :3], pose[:3, 3] = rot, centre
-    world.add_box("box", BOX, [*centre, *ferrobot.transforms.matrix_to_pose(pose)[3:]], mass=MASS, friction=0.9)
-    bottom = centre[2] - BOX[2] / 2
-    world.add_box("stand", (0.03, 0.03, 0.1), [centre[0], centre[1], bottom - 0.05, 1, 0, 0, 0], fixed=True)
-    world.step(24)
+    model, gripper, world, sim, q, box_pose = gripper_carry.box_between_fingers(robot)
+    rot, centre = box_pose[:3, :3], box_pose[:3, 3]
     sim.close_gripper(force=40.0)
     world.step(int(0.5 / world.dt))
 
