@@ -93,13 +93,12 @@ pub fn tilted(
 }
 
 /// The observed obstacle points within `r` of `p` (from the cloud and the
-/// housing's far obstacles) as offsets from `p`, nearest the line through
-/// `p` along `u` first (the likeliest to be in a housing: tests stop at
-/// the first point inside), and whether each counts as another object for
-/// a seed labelled `own` (all do when the seed is unlabelled). The hidden
-/// points under observed ones are left out: a housing coming from the
-/// camera's side meets the observed surface first (the housing check after
-/// the search is against every point).
+/// housing's far obstacles) as offsets from `p`, each with its squared
+/// distance from the line through `p` along `u` and whether it counts as
+/// another object for a seed labelled `own` (all do when the seed is
+/// unlabelled), unordered. The hidden points under observed ones are left
+/// out: a housing coming from the camera's side meets the observed surface
+/// first (the housing check after the search is against every point).
 fn obstacles_near(
     cloud: &SurfaceCloud,
     extra: Option<&Obstacles>,
@@ -107,7 +106,7 @@ fn obstacles_near(
     u: &Vector3<f64>,
     r: f64,
     own: i32,
-) -> (Vec<Vector3<f64>>, Vec<bool>) {
+) -> Vec<(f64, Vector3<f64>, bool)> {
     let mut found: Vec<(f64, Vector3<f64>, bool)> = Vec::new();
     let off_axis = |v: &Vector3<f64>| (v - u * v.dot(u)).norm_squared();
     for i in cloud.within(p, r) {
@@ -126,8 +125,7 @@ fn obstacles_near(
             found.push((off_axis(&v), v, true));
         }
     }
-    found.sort_by(|a, b| a.0.total_cmp(&b.0));
-    found.into_iter().map(|(_, v, o)| (v, o)).unzip()
+    found
 }
 
 /// Hand orientations at `seed` whose housing clears the walls and
@@ -155,10 +153,22 @@ pub fn clear_approaches(
     let dmax = sp.depths.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     let xfar = (dmin - back).abs().max((dmax - front).abs());
     let r = (xfar * xfar + hy * hy + hz * hz).sqrt();
-    let (pts, other) = obstacles_near(cloud, extra, &p, &u, r, cloud.labels[seed]);
-    if pts.is_empty() {
+    let mut found = obstacles_near(cloud, extra, &p, &u, r, cloud.labels[seed]);
+    // Out in the open (no other object's point within reach of a housing
+    // along `u` turned any way about it, at any depth: the cylinder of
+    // radius half the housing's length about the seed's axis): the
+    // seed-normal search is enough.
+    let near = found.iter().any(|(_, q, o)| {
+        let x = q.dot(&u);
+        *o && x >= dmin - back && x <= dmax - front && (q - u * x).norm_squared() <= hy * hy
+    });
+    if !near {
         return Vec::new();
     }
+    // Nearest the seed's axis first: the likeliest to be in a housing, so
+    // that `blocked` stops early (its result does not depend on the order).
+    found.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+    let pts: Vec<Vector3<f64>> = found.into_iter().map(|(_, v, _)| v).collect();
     // Bit k of the result: the housing at depth sp.depths[k] holds a point
     // or a corner of it dips below the support plane.
     let all = (1u32 << sp.depths.len().min(31)) - 1;
@@ -203,17 +213,6 @@ pub fn clear_approaches(
             e1 * phi.cos() + e2 * phi.sin()
         })
         .collect();
-    // Out in the open (no other object's point within reach of a housing
-    // along `u` turned any way about it, at any depth: the cylinder of
-    // radius half the housing's length about the seed's axis): the
-    // seed-normal search is enough.
-    let near = pts.iter().zip(&other).any(|(q, &o)| {
-        let x = q.dot(&u);
-        o && x >= dmin - back && x <= dmax - front && (q - u * x).norm_squared() <= hy * hy
-    });
-    if !near {
-        return Vec::new();
-    }
     let mut out = Vec::new();
     for y0 in &axes {
         'tilts: for &(ta, tb) in &TILTS {
@@ -267,6 +266,10 @@ pub fn hands_with_clear_approaches(
     }
     out
 }
+
+#[cfg(test)]
+#[path = "approaches_reference.rs"]
+pub(crate) mod reference;
 
 #[cfg(test)]
 mod tests {

@@ -17,10 +17,10 @@
 use nalgebra::{Matrix3, Point3, Vector3};
 
 use crate::grasp::Grasp;
-use crate::gripper::{GripperGeometry, Region, body_margin};
+use crate::gripper::{GripperGeometry, body_margin};
 use crate::normals::SurfaceCloud;
 use crate::plane::Plane;
-use crate::quality::{contact_from_profile, friction_needed, lever_arm, score, torque_factor};
+use crate::quality::{contacts_from_profile, friction_needed, lever_arm, score, torque_factor};
 
 /// Parameters of the hand search.
 #[derive(Debug, Clone)]
@@ -174,12 +174,16 @@ struct SlotScratch {
     lo_y: Vec<f64>,
     hi_y: Vec<f64>,
     on_edge: Vec<(f64, f64)>,
+    /// Per slot point of a hand, its strip (see [`evaluate`]).
+    strip_of: Vec<u32>,
 }
 
 impl SlotScratch {
-    fn new(layout: &SlotLayout) -> Self {
+    /// For hands of up to `n` points.
+    fn new(layout: &SlotLayout, n: usize) -> Self {
         let cells = (layout.edges.len() - 1) * layout.nbins;
         Self {
+            strip_of: vec![0; n],
             strip_lo: vec![f64::INFINITY; cells],
             strip_hi: vec![f64::NEG_INFINITY; cells],
             lo_y: vec![f64::INFINITY; layout.nbins],
@@ -254,18 +258,21 @@ pub fn hands_in_frame(
     }
     let n = sx.len();
     let layout = SlotLayout::new(sp);
-    let mut bins = SlotScratch::new(&layout);
+    let mut bins = SlotScratch::new(&layout, n);
     let mut out = Vec::new();
-    // Every hand's points are gathered into these (cleared per hand; the
-    // slot points are compacted to the front of `slot`, which is never
-    // shrunk: a hand uses the first `in_slot`).
-    let mut local: Vec<Vector3<f64>> = Vec::with_capacity(n);
-    let mut foreign: Vec<bool> = Vec::with_capacity(n);
-    let mut slot: Vec<(f64, f64)> = vec![(0.0, 0.0); n];
+    let mut local = LocalPoints::new(n);
+    // The x, y and y-bin of the points that can be in a finger slot at
+    // some depth, in the neighbours' order (a hand uses the first
+    // `in_slot`).
+    let (mut slot_x, mut slot_y, mut slot_bin) = (vec![0.0; n], vec![0.0; n], vec![0u32; n]);
+    // Per point, its y and z for the current closing axis, and the bin of
+    // its y in the finger-slot layout.
     let (mut ky, mut kz) = (vec![0.0; n], vec![0.0; n]);
-    // Per point of the current hand: its hand-frame x and z, and 1 when it
-    // is inside the hand's slab (padded to whole words of 8 flags, the
-    // padding never set).
+    let mut ybin = vec![0u32; n];
+    // Per point of the current hand: its hand-frame x and z, and flags:
+    // [`IN_HAND`] when it is inside the hand's slab, plus [`IN_SLOT`] when
+    // it can also be in a finger slot (padded to whole words of 8 flags,
+    // the padding never set).
     let (mut lxs, mut lzs) = (vec![0.0; n], vec![0.0; n]);
     let mut flags = vec![0u8; n.div_ceil(8) * 8];
     let slot_h = g.height / 2.0;
@@ -275,21 +282,22 @@ pub fn hands_in_frame(
         let (s, c) = phi.sin_cos();
         let y = t0 * c + b0 * s;
         let z0 = b0 * c - t0 * s;
-        for i in 0..n {
-            ky[i] = c * sy[i] + s * sz[i];
-            kz[i] = -s * sy[i] + c * sz[i];
+        for ((ky, kz), (&sy, &sz)) in ky.iter_mut().zip(kz.iter_mut()).zip(sy.iter().zip(&sz)) {
+            *ky = c * sy + s * sz;
+            *kz = -s * sy + c * sz;
+        }
+        for (b, &y) in ybin.iter_mut().zip(&ky) {
+            *b = layout.index(y) as u32;
         }
         for &tilt in &sp.approach_tilts {
             // Approach a0 turned by tilt about y: a = cos·a0 - sin·z0, z = sin·a0 + cos·z0.
             let (st, ct) = tilt.sin_cos();
             let a = a0 * ct - z0 * st;
             let z = a0 * st + z0 * ct;
-            // The hand-frame x and z of every point and whether it is
-            // inside the slab (a loop without branches or scattered
-            // stores, which the compiler vectorises); then the points
-            // inside are gathered, in order, skipping 8 flags at a time.
-            local.clear();
-            foreign.clear();
+            // The hand-frame x and z of every point, whether it is inside
+            // the slab and whether it can be in a finger slot (a loop
+            // without branches or scattered stores, which the compiler
+            // vectorises).
             for ((((lx_out, lz_out), flag), (&x, &kz)), &ky) in lxs
                 .iter_mut()
                 .zip(lzs.iter_mut())
@@ -301,37 +309,46 @@ pub fn hands_in_frame(
                 let lx = ct * x - st * kz;
                 *lx_out = lx;
                 *lz_out = lz;
-                *flag = u8::from(
-                    (lz.abs() <= half_h) & (lx >= x_lo) & (lx <= x_hi) & (ky.abs() <= y_max),
-                );
+                let inside =
+                    (lz.abs() <= half_h) & (lx >= x_lo) & (lx <= x_hi) & (ky.abs() <= y_max);
+                let slotted = (lx >= layout.x_lo)
+                    & (lx <= layout.x_hi)
+                    & (lz.abs() <= slot_h)
+                    & (ky.abs() <= layout.reach_y);
+                *flag = u8::from(inside) | (u8::from(inside & slotted) << 1);
             }
+            // The slot points, in order, skipping 8 flags at a time; the
+            // hand's other points are gathered only if a depth gets as far
+            // as the collision test (most hands fail on the object's width
+            // first).
             let mut in_slot = 0;
             for (w, bytes) in flags.chunks_exact(8).enumerate() {
-                let mut word = u64::from_le_bytes(bytes.try_into().expect("8 flags"));
+                let mut word =
+                    u64::from_le_bytes(bytes.try_into().expect("8 flags")) & 0x0202_0202_0202_0202;
                 while word != 0 {
-                    let b = word.trailing_zeros() as usize / 8;
-                    word &= !(0xff << (8 * b));
-                    let i = 8 * w + b;
-                    let (lx, ly, lz) = (lxs[i], ky[i], lzs[i]);
-                    local.push(Vector3::new(lx, ly, lz));
-                    foreign.push(sf[i]);
-                    // Branch-free compaction of the points that can be in
-                    // a finger slot at some depth.
-                    slot[in_slot] = (lx, ly);
-                    let slotted = (lx >= layout.x_lo)
-                        & (lx <= layout.x_hi)
-                        & (lz.abs() <= slot_h)
-                        & (ly.abs() <= layout.reach_y);
-                    in_slot += usize::from(slotted);
+                    let i = 8 * w + word.trailing_zeros() as usize / 8;
+                    word &= word - 1;
+                    slot_x[in_slot] = lxs[i];
+                    slot_y[in_slot] = ky[i];
+                    slot_bin[in_slot] = ybin[i];
+                    in_slot += 1;
                 }
             }
+            local.len = None;
             let r = Matrix3::from_columns(&[a, y, z]);
             let hand = HandPoints {
-                local: &local,
-                foreign: &foreign,
-                slot: &slot[..in_slot],
+                flags: &flags,
+                lx: &lxs,
+                ly: &ky,
+                lz: &lzs,
+                foreign: &sf,
+                slot_x: &slot_x[..in_slot],
+                slot_y: &slot_y[..in_slot],
+                slot_bin: &slot_bin[..in_slot],
             };
-            if let Some(g) = evaluate(cloud, &p, &r, &hand, &layout, &mut bins, seed, sp) {
+            if let Some(g) = evaluate(
+                cloud, &p, &r, &hand, &mut local, &layout, &mut bins, seed, sp,
+            ) {
                 out.push(g);
             }
         }
@@ -339,25 +356,83 @@ pub fn hands_in_frame(
     out
 }
 
-/// The points of one hand (hand frame): `local` those with
-/// |z| <= height / 2 + margin inside the hand's reach, `foreign` whether
-/// each belongs to another object than the seed's, `slot` the (x, y) of
-/// those that can be in a finger slot at some depth (in `local`'s order).
+/// Flag of a point inside a hand's slab (|z| <= height / 2 + margin, within
+/// the hand's reach along x and y): it may collide or be grasped.
+const IN_HAND: u8 = 1;
+
+/// The hand-frame coordinates of every neighbour of one hand (one array
+/// per axis, [`IN_HAND`] set in `flags` for those in the hand's slab),
+/// `foreign` whether each belongs to another object than the seed's, and
+/// `slot_*` the x, y and y-bin ([`SlotLayout::index`]) of the slab points
+/// that can be in a finger slot at some depth (in the neighbours' order).
 struct HandPoints<'a> {
-    local: &'a [Vector3<f64>],
+    flags: &'a [u8],
+    lx: &'a [f64],
+    ly: &'a [f64],
+    lz: &'a [f64],
     foreign: &'a [bool],
-    slot: &'a [(f64, f64)],
+    slot_x: &'a [f64],
+    slot_y: &'a [f64],
+    slot_bin: &'a [u32],
+}
+
+/// The points of one hand's slab, gathered in the neighbours' order (one
+/// array per axis), when a hand first needs them.
+struct LocalPoints {
+    x: Vec<f64>,
+    y: Vec<f64>,
+    z: Vec<f64>,
+    foreign: Vec<bool>,
+    /// How many are gathered for the current hand; None: not yet.
+    len: Option<usize>,
+}
+
+impl LocalPoints {
+    fn new(n: usize) -> Self {
+        Self {
+            x: vec![0.0; n],
+            y: vec![0.0; n],
+            z: vec![0.0; n],
+            foreign: vec![false; n],
+            len: None,
+        }
+    }
+
+    /// Gathers `hand`'s slab points (once per hand); returns their count.
+    fn gather(&mut self, hand: &HandPoints) -> usize {
+        if let Some(len) = self.len {
+            return len;
+        }
+        let mut m = 0;
+        for (w, bytes) in hand.flags.chunks_exact(8).enumerate() {
+            let mut word = u64::from_le_bytes(bytes.try_into().expect("8 flags"))
+                & (0x0101_0101_0101_0101 * u64::from(IN_HAND));
+            while word != 0 {
+                let i = 8 * w + word.trailing_zeros() as usize / 8;
+                word &= word - 1;
+                self.x[m] = hand.lx[i];
+                self.y[m] = hand.ly[i];
+                self.z[m] = hand.lz[i];
+                self.foreign[m] = hand.foreign[i];
+                m += 1;
+            }
+        }
+        self.len = Some(m);
+        m
+    }
 }
 
 /// The first (deepest) collision-free hand of orientation `r` at `p`
-/// holding `hand`'s points; `layout` is the finger-slot binning and `bins`
-/// scratch space reused across hands.
+/// holding `hand`'s points (gathered into `local` when first needed);
+/// `layout` is the finger-slot binning and `bins` scratch space reused
+/// across hands.
 #[allow(clippy::too_many_arguments)]
 fn evaluate(
     cloud: &SurfaceCloud,
     p: &Point3<f64>,
     r: &Matrix3<f64>,
     hand: &HandPoints,
+    local: &mut LocalPoints,
     layout: &SlotLayout,
     bins: &mut SlotScratch,
     seed: usize,
@@ -366,7 +441,7 @@ fn evaluate(
     let g = &sp.gripper;
     let m = margin(sp);
     let pad = g.clearance + m;
-    let (local, foreign, slot) = (hand.local, hand.foreign, hand.slot);
+    let (slot_x, slot_y) = (hand.slot_x, hand.slot_y);
     // The object's interval along y around the seed (y = 0): bins of half
     // the largest gap a finger cannot use; a run of occupied bins is one
     // object (an empty bin is a gap a finger may use: collision decides).
@@ -385,27 +460,37 @@ fn evaluate(
         lo_y,
         hi_y,
         on_edge,
+        strip_of,
     } = bins;
     strip_lo.fill(f64::INFINITY);
     strip_hi.fill(f64::NEG_INFINITY);
     on_edge.clear();
-    for &(x, y) in slot {
+    // The strip holding each x: the first j with x < edges[j + 1] (edges
+    // ascend), none past the last edge; counted one edge at a time over
+    // all the points (a loop the compiler vectorises).
+    let strip_of = &mut strip_of[..slot_x.len()];
+    strip_of.fill(0);
+    for &e in &edges[1..] {
+        for (j, &x) in strip_of.iter_mut().zip(slot_x) {
+            *j += u32::from(e <= x);
+        }
+    }
+    for ((&x, &y), (&j, &b)) in slot_x
+        .iter()
+        .zip(slot_y)
+        .zip(strip_of.iter().zip(hand.slot_bin))
+    {
         // Slot points lie within [edges[0], edges[strips]], or in front of
         // edges[0] for the plane-limited depth only (scanned directly).
         if x < edges[0] {
             continue;
         }
-        // The strip holding x: the first j with x < edges[j + 1] (edges
-        // ascend), none past the last edge.
-        let j = edges[1..]
-            .iter()
-            .map(|&e| usize::from(e <= x))
-            .sum::<usize>();
+        let j = j as usize;
         if j == strips || x == edges[j] {
             on_edge.push((x, y));
             continue;
         }
-        let k = j * nbins + layout.index(y);
+        let k = j * nbins + b as usize;
         strip_lo[k] = strip_lo[k].min(y);
         strip_hi[k] = strip_hi[k].max(y);
     }
@@ -443,7 +528,7 @@ fn evaluate(
                 }
             }
         } else {
-            for &(x, y) in slot {
+            for (&x, &y) in slot_x.iter().zip(slot_y) {
                 if x >= base && x <= depth {
                     let k = layout.index(y);
                     lo_y[k] = lo_y[k].min(y);
@@ -467,10 +552,8 @@ fn evaluate(
             continue;
         }
         let yc = (ymin + ymax) / 2.0;
-        let (collision, closing) = g.collision_and_closing(local, depth, width, yc, m);
-        if collision || closing == 0 {
-            continue;
-        }
+        // The support plane first (a few corners), then the points: a hand
+        // must pass both, so the order changes nothing but the work.
         if let Some(plane) = &sp.plane {
             let [f1, f2, palm] = g.boxes(depth, width, yc);
             let below = [f1, f2, palm, g.body_box(depth, yc)]
@@ -489,17 +572,41 @@ fn evaluate(
                 continue;
             }
         }
-        if sp.single_object
-            && local
-                .iter()
-                .zip(foreign)
-                .filter(|(q, f)| **f && g.region(q, depth, width, yc, m) == Region::Closing)
-                .count()
-                >= MAX_FOREIGN_POINTS
-        {
+        let n = local.gather(hand);
+        let (collision, closing) = g.collision_and_closing_xyz(
+            &local.x[..n],
+            &local.y[..n],
+            &local.z[..n],
+            depth,
+            width,
+            yc,
+            m,
+        );
+        if collision || closing == 0 {
             continue;
         }
-        return score_hand(cloud, p, r, local, seed, depth, width, yc, sp);
+        // The points in the closing region ([`Region::Closing`](crate::gripper::Region::Closing) of
+        // `GripperGeometry::region`, the same comparisons without branches)
+        // in order, and how many of them belong to another object.
+        let (half, base) = (width / 2.0, depth - g.finger_depth);
+        let (hz, x_in, y_in) = (g.height / 2.0, base + m, half - m);
+        let mut inside = Vec::new();
+        let mut foreign_inside = 0;
+        for (((&x, &y), &z), &f) in local.x[..n]
+            .iter()
+            .zip(&local.y[..n])
+            .zip(&local.z[..n])
+            .zip(&local.foreign[..n])
+        {
+            if (z.abs() <= hz) & (x >= x_in) & (x <= depth) & ((y - yc).abs() < y_in) {
+                inside.push(Vector3::new(x, y, z));
+                foreign_inside += usize::from(f);
+            }
+        }
+        if sp.single_object && foreign_inside >= MAX_FOREIGN_POINTS {
+            continue;
+        }
+        return score_hand(cloud, p, r, &inside, seed, depth, width, yc, sp);
     }
     None
 }
@@ -578,7 +685,7 @@ fn score_hand(
     cloud: &SurfaceCloud,
     p: &Point3<f64>,
     r: &Matrix3<f64>,
-    local: &[Vector3<f64>],
+    inside: &[Vector3<f64>],
     seed: usize,
     depth: f64,
     width: f64,
@@ -586,15 +693,7 @@ fn score_hand(
     sp: &SearchParams,
 ) -> Option<Grasp> {
     let g = &sp.gripper;
-    let m = margin(sp);
-    let mut inside: Vec<Vector3<f64>> = Vec::new();
-    for q in local {
-        if g.region(q, depth, width, yc, m) == Region::Closing {
-            inside.push(*q);
-        }
-    }
-    let left = contact_from_profile(&inside, -1.0, sp.voxel_size)?;
-    let right = contact_from_profile(&inside, 1.0, sp.voxel_size)?;
+    let (left, right) = contacts_from_profile(inside, sp.voxel_size)?;
     // Enough of each finger pad must touch the object (not a tip).
     if left.cells.min(right.cells) < MIN_CONTACT_CELLS {
         return None;
@@ -971,6 +1070,116 @@ mod tests {
             total += found;
         }
         assert!(total > 200, "{total} hands compared");
+    }
+
+    #[test]
+    fn wall_approaches_match_the_reference() {
+        // Touching objects of three labels on a table with its hidden
+        // volume, and a 32 x 32 x 12 cm bin around them (walls of label 0):
+        // at every 1/40 of the seeds, the orientations of the wall
+        // approaches equal those of the former code (`main` at bec4c63),
+        // and the hands searched in them and at the seed's normal equal
+        // those of the exhaustive reference, bit for bit, in order.
+        let eye = Point3::new(-0.35, -0.25, 0.45);
+        let step = 0.0025;
+        let mut raw = Vec::new();
+        table_points(0.2, step, &mut raw);
+        box_faces(
+            Vector3::new(-0.02, -0.03, 0.0),
+            Vector3::new(0.02, 0.03, 0.06),
+            0.2,
+            &eye,
+            step,
+            1,
+            &mut raw,
+        );
+        box_faces(
+            Vector3::new(0.03, -0.02, 0.0),
+            Vector3::new(0.07, 0.02, 0.012),
+            -0.3,
+            &eye,
+            step,
+            2,
+            &mut raw,
+        );
+        cylinder_faces(
+            Point3::new(-0.01, 0.065, 0.0),
+            0.025,
+            0.09,
+            &eye,
+            step,
+            3,
+            &mut raw,
+        );
+        for (lo, hi) in [
+            ([-0.17, -0.17, 0.0], [-0.16, 0.17, 0.12]),
+            ([0.16, -0.17, 0.0], [0.17, 0.17, 0.12]),
+            ([-0.16, -0.17, 0.0], [0.16, -0.16, 0.12]),
+            ([-0.16, 0.16, 0.0], [0.16, 0.17, 0.12]),
+        ] {
+            box_faces(
+                Vector3::from(lo),
+                Vector3::from(hi),
+                0.0,
+                &eye,
+                step,
+                0,
+                &mut raw,
+            );
+        }
+        let (cloud, seeds, plane) = scene_cloud(raw, eye, true);
+        let defaults = DetectOptions::default();
+        let sp = SearchParams {
+            gripper: defaults.gripper,
+            depths: defaults.depths.clone(),
+            num_rotations: defaults.num_rotations,
+            approach_tilts: defaults.approach_tilts.clone(),
+            voxel_size: defaults.voxel_size,
+            friction: defaults.friction,
+            approach_direction: -Vector3::z(),
+            plane,
+            mass_centres: Vec::new(),
+            torque_scale: defaults.torque_scale,
+            single_object: true,
+        };
+        let far = Obstacles::new(vec![Point3::new(0.0, 0.3, 0.05)]);
+        let (mut with_walls, mut hands) = (0, 0);
+        for &s in seeds.iter().step_by(seeds.len().div_ceil(40)) {
+            for extra in [None, Some(&far)] {
+                let new = crate::approaches::clear_approaches(&cloud, extra, s, &sp);
+                let old = crate::approaches::reference::clear_approaches(&cloud, extra, s, &sp);
+                assert_eq!(new.len(), old.len(), "seed {s}");
+                for (a, b) in new.iter().zip(&old) {
+                    assert_eq!(
+                        (a.approach, a.closing, &a.depths),
+                        (b.approach, b.closing, &b.depths),
+                        "seed {s}"
+                    );
+                }
+                with_walls += usize::from(!new.is_empty());
+                let fast = crate::approaches::hands_with_clear_approaches(&cloud, extra, s, &sp);
+                let mut exhaustive = reference::hands_at_seed(&cloud, s, &sp);
+                for ap in old {
+                    let one = SearchParams {
+                        depths: ap.depths,
+                        num_rotations: 1,
+                        approach_tilts: vec![0.0],
+                        ..sp.clone()
+                    };
+                    exhaustive.extend(reference::hands_in_frame(
+                        &cloud,
+                        s,
+                        ap.approach,
+                        ap.closing,
+                        &one,
+                    ));
+                }
+                assert_eq!(fast, exhaustive, "seed {s}");
+                hands += fast.len();
+            }
+        }
+        assert!(with_walls > 5, "{with_walls} seeds with wall approaches");
+        assert!(hands > 20, "{hands} hands compared");
     }
 
     #[test]

@@ -15,9 +15,19 @@ use crate::normals::SurfaceCloud;
 
 /// All scored collision-free hands at `seed` (score > 0 only).
 pub fn hands_at_seed(cloud: &SurfaceCloud, seed: usize, sp: &SearchParams) -> Vec<Grasp> {
+    hands_in_frame(cloud, seed, -cloud.normal(seed), cloud.tangent(seed), sp)
+}
+
+/// [`hands_at_seed`] with approach `a0` and closing axis `t0` in place of
+/// the seed's inward normal and tangent.
+pub fn hands_in_frame(
+    cloud: &SurfaceCloud,
+    seed: usize,
+    a0: Vector3<f64>,
+    t0: Vector3<f64>,
+    sp: &SearchParams,
+) -> Vec<Grasp> {
     let p = cloud.points[seed];
-    let a0 = -cloud.normal(seed);
-    let t0 = cloud.tangent(seed);
     let b0 = a0.cross(&t0);
     let max_depth = sp.depths.iter().copied().fold(0.0, f64::max);
     let nb = cloud.within(&p, sp.gripper.reach(max_depth));
@@ -277,7 +287,12 @@ fn evaluate(
         {
             continue;
         }
-        return score_hand(cloud, p, r, local, seed, depth, width, yc, sp);
+        let inside: Vec<Vector3<f64>> = local
+            .iter()
+            .filter(|q| g.region(q, depth, width, yc, m) == Region::Closing)
+            .copied()
+            .collect();
+        return score_hand(cloud, p, r, &inside, seed, depth, width, yc, sp);
     }
     None
 }

@@ -208,6 +208,48 @@ impl GripperGeometry {
         (false, closing)
     }
 
+    /// [`Self::collision_and_closing`] on points stored one array per axis
+    /// (`xs`, `ys`, `zs`, equal lengths): the same tests in the same blocks
+    /// of 32, in a loop the compiler vectorises.
+    #[allow(clippy::too_many_arguments)]
+    pub fn collision_and_closing_xyz(
+        &self,
+        xs: &[f64],
+        ys: &[f64],
+        zs: &[f64],
+        depth: f64,
+        width: f64,
+        yc: f64,
+        margin: f64,
+    ) -> (bool, usize) {
+        let half = width / 2.0;
+        let base = depth - self.finger_depth;
+        let hz = self.height / 2.0;
+        let back = base - self.finger_width - self.approach_distance - margin;
+        let outer_y = half + self.finger_width + margin;
+        let (hz_out, x_out, x_solid, y_solid) =
+            (hz + margin, depth + margin, base + margin, half - margin);
+        let mut closing = 0usize;
+        for ((bx, by), bz) in xs.chunks(32).zip(ys.chunks(32)).zip(zs.chunks(32)) {
+            let mut hit = false;
+            let mut inside_n = 0usize;
+            for ((&x, &y), &z) in bx.iter().zip(by).zip(bz) {
+                let y = (y - yc).abs();
+                let z = z.abs();
+                let outer = (z <= hz_out) & (x <= x_out) & (y <= outer_y) & (x >= back);
+                let solid = (x < x_solid) | (y >= y_solid);
+                hit |= outer & solid;
+                let inside = (z <= hz) & (x >= x_solid) & (x <= depth) & (y < y_solid);
+                inside_n += usize::from(inside);
+            }
+            closing += inside_n;
+            if hit {
+                return (true, closing);
+            }
+        }
+        (false, closing)
+    }
+
     /// The hand's solid boxes as (min, max) corners in the gripper frame:
     /// left finger, right finger, and palm with the approach corridor.
     pub fn boxes(&self, depth: f64, width: f64, yc: f64) -> [(Vector3<f64>, Vector3<f64>); 3] {
@@ -319,5 +361,36 @@ mod tests {
             (false, all_closing)
         );
         assert!(g.collision_and_closing(&pts, depth, width, yc, m).0);
+        // The per-axis variant: the same verdict and count point by point
+        // and over every prefix length around the blocks of 32 (the count
+        // returned with a collision is that of the blocks read so far).
+        let axis = |v: &[Vector3<f64>], k: usize| v.iter().map(|p| p[k]).collect::<Vec<f64>>();
+        for p in &pts {
+            let one = std::slice::from_ref(p);
+            assert_eq!(
+                g.collision_and_closing_xyz(&[p.x], &[p.y], &[p.z], depth, width, yc, m),
+                g.collision_and_closing(one, depth, width, yc, m),
+                "{p:?}"
+            );
+        }
+        for v in [&free, &pts] {
+            let (xs, ys, zs) = (axis(v, 0), axis(v, 1), axis(v, 2));
+            for len in [0, 1, 31, 32, 33, 64, 65, 1000, v.len()] {
+                let len = len.min(v.len());
+                assert_eq!(
+                    g.collision_and_closing_xyz(
+                        &xs[..len],
+                        &ys[..len],
+                        &zs[..len],
+                        depth,
+                        width,
+                        yc,
+                        m
+                    ),
+                    g.collision_and_closing(&v[..len], depth, width, yc, m),
+                    "{len}"
+                );
+            }
+        }
     }
 }

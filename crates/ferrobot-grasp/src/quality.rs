@@ -42,36 +42,100 @@ pub fn contact_from_profile(points: &[Vector3<f64>], side: f64, cell: f64) -> Op
     if points.is_empty() {
         return None;
     }
-    // A dense grid over the points' (x, z) bounds: one slot per cell.
-    let (mut x0, mut z0, mut x1, mut z1) = (
-        f64::INFINITY,
-        f64::INFINITY,
-        f64::NEG_INFINITY,
-        f64::NEG_INFINITY,
-    );
+    let cells = ProfileCells::new(points, cell);
+    let mut grid: Vec<Option<Vector3<f64>>> = vec![None; cells.len()];
     for p in points {
-        x0 = x0.min(p.x);
-        x1 = x1.max(p.x);
-        z0 = z0.min(p.z);
-        z1 = z1.max(p.z);
-    }
-    let nx = ((x1 - x0) / cell).floor() as usize + 1;
-    let nz = ((z1 - z0) / cell).floor() as usize + 1;
-    let mut grid: Vec<Option<Vector3<f64>>> = vec![None; nx * nz];
-    for p in points {
-        let ix = (((p.x - x0) / cell).floor() as usize).min(nx - 1);
-        let iz = (((p.z - z0) / cell).floor() as usize).min(nz - 1);
-        let slot = &mut grid[ix * nz + iz];
-        match slot {
-            Some(e) if side * p.y <= side * e.y => {}
-            _ => *slot = Some(*p),
-        }
+        keep_nearest(&mut grid[cells.index(p)], p, side);
     }
     let ext: Vec<Vector3<f64>> = grid.into_iter().flatten().collect();
+    Some(fit_contact(&ext, side, cell))
+}
+
+/// The contacts of both fingers, (side -1, side +1): the same as two calls
+/// of [`contact_from_profile`], bit for bit, with one pass over the points.
+/// None for no points.
+pub fn contacts_from_profile(points: &[Vector3<f64>], cell: f64) -> Option<(Contact, Contact)> {
+    if points.is_empty() {
+        return None;
+    }
+    let cells = ProfileCells::new(points, cell);
+    let mut grid: Vec<[Option<Vector3<f64>>; 2]> = vec![[None; 2]; cells.len()];
+    for p in points {
+        let [left, right] = &mut grid[cells.index(p)];
+        keep_nearest(left, p, -1.0);
+        keep_nearest(right, p, 1.0);
+    }
+    let mut ext: Vec<Vector3<f64>> = Vec::with_capacity(grid.len());
+    ext.extend(grid.iter().filter_map(|c| c[0]));
+    let left = fit_contact(&ext, -1.0, cell);
+    ext.clear();
+    ext.extend(grid.iter().filter_map(|c| c[1]));
+    Some((left, fit_contact(&ext, 1.0, cell)))
+}
+
+/// A dense grid of `cell`-sized (x, z) cells over the points' bounds, laid
+/// from their smallest x and z (see [`contact_from_profile`]).
+struct ProfileCells {
+    x0: f64,
+    z0: f64,
+    nx: usize,
+    nz: usize,
+    cell: f64,
+}
+
+impl ProfileCells {
+    fn new(points: &[Vector3<f64>], cell: f64) -> Self {
+        let (mut x0, mut z0, mut x1, mut z1) = (
+            f64::INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NEG_INFINITY,
+        );
+        for p in points {
+            x0 = x0.min(p.x);
+            x1 = x1.max(p.x);
+            z0 = z0.min(p.z);
+            z1 = z1.max(p.z);
+        }
+        let nx = ((x1 - x0) / cell).floor() as usize + 1;
+        let nz = ((z1 - z0) / cell).floor() as usize + 1;
+        Self {
+            x0,
+            z0,
+            nx,
+            nz,
+            cell,
+        }
+    }
+
+    fn len(&self) -> usize {
+        self.nx * self.nz
+    }
+
+    /// The cell of `p`.
+    fn index(&self, p: &Vector3<f64>) -> usize {
+        let ix = (((p.x - self.x0) / self.cell).floor() as usize).min(self.nx - 1);
+        let iz = (((p.z - self.z0) / self.cell).floor() as usize).min(self.nz - 1);
+        ix * self.nz + iz
+    }
+}
+
+/// Keeps in `slot` the point nearest the finger on `side` (the first of
+/// equals).
+fn keep_nearest(slot: &mut Option<Vector3<f64>>, p: &Vector3<f64>, side: f64) {
+    match slot {
+        Some(e) if side * p.y <= side * e.y => {}
+        _ => *slot = Some(*p),
+    }
+}
+
+/// The contact face fitted to the profile points `ext` (one per cell, the
+/// grid's order) of the finger on `side`.
+fn fit_contact(ext: &[Vector3<f64>], side: f64, cell: f64) -> Contact {
     let n = ext.len();
     let mean = ext.iter().sum::<Vector3<f64>>() / n as f64;
     let (mut sxx, mut szz, mut sxz, mut sxy, mut szy) = (0.0, 0.0, 0.0, 0.0, 0.0);
-    for p in &ext {
+    for p in ext {
         let d = p - mean;
         sxx += d.x * d.x;
         szz += d.z * d.z;
@@ -107,12 +171,12 @@ pub fn contact_from_profile(points: &[Vector3<f64>], side: f64, cell: f64) -> Op
         / n as f64)
         .sqrt()
         / (1.0 + b * b + c * c).sqrt();
-    Some(Contact {
+    Contact {
         point: mean,
         normal,
         cells: n,
         residual,
-    })
+    }
 }
 
 /// The smallest friction coefficient at which the two contacts are in force
@@ -186,6 +250,59 @@ mod tests {
             cells: 1,
             residual: 0.0,
         }
+    }
+
+    #[test]
+    fn both_contacts_at_once_equal_one_side_at_a_time() {
+        // Bit for bit, on profiles with ties in y within a cell (the first
+        // point of equals is kept), signed zeros, one point, one row of
+        // cells and a scattered cloud.
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut rand = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut sets: Vec<Vec<Vector3<f64>>> = vec![
+            vec![Vector3::new(0.01, 0.0, 0.0)],
+            vec![Vector3::new(0.0, -0.0, 0.0), Vector3::new(0.0, 0.0, 0.001)],
+            (0..12)
+                .map(|i| Vector3::new(0.004 * i as f64, 0.02, 0.0))
+                .collect(),
+        ];
+        for _ in 0..40 {
+            let n = 1 + (rand() * 300.0) as usize;
+            sets.push(
+                (0..n)
+                    .map(|_| {
+                        // y on a coarse grid so that cells hold equal y.
+                        let y = (rand() * 8.0).floor() * 0.005 - 0.02;
+                        Vector3::new(rand() * 0.05 - 0.01, y, rand() * 0.02 - 0.01)
+                    })
+                    .collect(),
+            );
+        }
+        for (k, pts) in sets.iter().enumerate() {
+            for cell in [0.005, 0.003] {
+                let (l, r) = contacts_from_profile(pts, cell).unwrap();
+                let l1 = contact_from_profile(pts, -1.0, cell).unwrap();
+                let r1 = contact_from_profile(pts, 1.0, cell).unwrap();
+                for (a, b) in [(l, l1), (r, r1)] {
+                    assert_eq!(a.cells, b.cells, "set {k}");
+                    for (x, y) in a
+                        .point
+                        .iter()
+                        .chain(a.normal.iter())
+                        .chain([&a.residual])
+                        .zip(b.point.iter().chain(b.normal.iter()).chain([&b.residual]))
+                    {
+                        assert_eq!(x.to_bits(), y.to_bits(), "set {k}");
+                    }
+                }
+            }
+        }
+        assert!(contacts_from_profile(&[], 0.005).is_none());
     }
 
     #[test]
