@@ -265,10 +265,24 @@ pub fn hands_in_frame(
     // some depth, in the neighbours' order (a hand uses the first
     // `in_slot`).
     let (mut slot_x, mut slot_y, mut slot_bin) = (vec![0.0; n], vec![0.0; n], vec![0u32; n]);
-    // Per point, its y and z for the current closing axis, and the bin of
-    // its y in the finger-slot layout.
+    // Per point, its y and z for the current closing axis.
     let (mut ky, mut kz) = (vec![0.0; n], vec![0.0; n]);
-    let mut ybin = vec![0u32; n];
+    // The points that can be in the slab of some tilt about the current
+    // closing axis, in order: seed-frame x, y and z for the closing axis,
+    // the bin of that y in the finger-slot layout, and whether each is
+    // foreign.
+    let (mut rx, mut ry, mut rz) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+    let (mut ybin, mut rf) = (vec![0u32; n], vec![false; n]);
+    // A tilt t keeps |sin t·x + cos t·z| <= half_h, so |z| <= (half_h +
+    // smax·|x|) / cmin over every tilt (cmin > 0); grown a little so that
+    // rounding never drops a point the exact test per tilt would keep.
+    let z_reach = |x: f64| {
+        if cmin > 0.0 {
+            (half_h + smax * x.abs()) / cmin * (1.0 + 1e-9) + 1e-12
+        } else {
+            f64::INFINITY
+        }
+    };
     // Per point of the current hand: its hand-frame x and z, and flags:
     // [`IN_HAND`] when it is inside the hand's slab, plus [`IN_SLOT`] when
     // it can also be in a finger slot (padded to whole words of 8 flags,
@@ -282,13 +296,37 @@ pub fn hands_in_frame(
         let (s, c) = phi.sin_cos();
         let y = t0 * c + b0 * s;
         let z0 = b0 * c - t0 * s;
-        for ((ky, kz), (&sy, &sz)) in ky.iter_mut().zip(kz.iter_mut()).zip(sy.iter().zip(&sz)) {
+        for (((ky, kz), flag), ((&sy, &sz), &x)) in ky
+            .iter_mut()
+            .zip(kz.iter_mut())
+            .zip(flags.iter_mut())
+            .zip(sy.iter().zip(&sz).zip(&sx))
+        {
             *ky = c * sy + s * sz;
             *kz = -s * sy + c * sz;
+            *flag = u8::from((ky.abs() <= y_max) & (kz.abs() <= z_reach(x)));
         }
-        for (b, &y) in ybin.iter_mut().zip(&ky) {
+        // Only those can be in any hand about this axis (the per-tilt test
+        // below includes |y| <= y_max and |z| <= half_h): compacted, in
+        // order, for the tilts.
+        let mut nr = 0;
+        for (w, bytes) in flags.chunks_exact(8).enumerate() {
+            let mut word = u64::from_le_bytes(bytes.try_into().expect("8 flags"));
+            while word != 0 {
+                let i = 8 * w + word.trailing_zeros() as usize / 8;
+                word &= word - 1;
+                rx[nr] = sx[i];
+                ry[nr] = ky[i];
+                rz[nr] = kz[i];
+                rf[nr] = sf[i];
+                nr += 1;
+            }
+        }
+        for (b, &y) in ybin[..nr].iter_mut().zip(&ry) {
             *b = layout.index(y) as u32;
         }
+        let words = nr.div_ceil(8) * 8;
+        flags[nr..words].fill(0);
         for &tilt in &sp.approach_tilts {
             // Approach a0 turned by tilt about y: a = cos·a0 - sin·z0, z = sin·a0 + cos·z0.
             let (st, ct) = tilt.sin_cos();
@@ -298,12 +336,12 @@ pub fn hands_in_frame(
             // the slab and whether it can be in a finger slot (a loop
             // without branches or scattered stores, which the compiler
             // vectorises).
-            for ((((lx_out, lz_out), flag), (&x, &kz)), &ky) in lxs
+            for ((((lx_out, lz_out), flag), (&x, &kz)), &ky) in lxs[..nr]
                 .iter_mut()
                 .zip(lzs.iter_mut())
                 .zip(flags.iter_mut())
-                .zip(sx.iter().zip(kz.iter()))
-                .zip(ky.iter())
+                .zip(rx.iter().zip(rz.iter()))
+                .zip(ry.iter())
             {
                 let lz = st * x + ct * kz;
                 let lx = ct * x - st * kz;
@@ -315,21 +353,21 @@ pub fn hands_in_frame(
                     & (lx <= layout.x_hi)
                     & (lz.abs() <= slot_h)
                     & (ky.abs() <= layout.reach_y);
-                *flag = u8::from(inside) | (u8::from(inside & slotted) << 1);
+                *flag = u8::from(inside) * IN_HAND | u8::from(inside & slotted) * IN_SLOT;
             }
             // The slot points, in order, skipping 8 flags at a time; the
             // hand's other points are gathered only if a depth gets as far
             // as the collision test (most hands fail on the object's width
             // first).
             let mut in_slot = 0;
-            for (w, bytes) in flags.chunks_exact(8).enumerate() {
-                let mut word =
-                    u64::from_le_bytes(bytes.try_into().expect("8 flags")) & 0x0202_0202_0202_0202;
+            for (w, bytes) in flags[..words].chunks_exact(8).enumerate() {
+                let mut word = u64::from_le_bytes(bytes.try_into().expect("8 flags"))
+                    & (0x0101_0101_0101_0101 * u64::from(IN_SLOT));
                 while word != 0 {
                     let i = 8 * w + word.trailing_zeros() as usize / 8;
                     word &= word - 1;
                     slot_x[in_slot] = lxs[i];
-                    slot_y[in_slot] = ky[i];
+                    slot_y[in_slot] = ry[i];
                     slot_bin[in_slot] = ybin[i];
                     in_slot += 1;
                 }
@@ -337,11 +375,11 @@ pub fn hands_in_frame(
             local.len = None;
             let r = Matrix3::from_columns(&[a, y, z]);
             let hand = HandPoints {
-                flags: &flags,
+                flags: &flags[..words],
                 lx: &lxs,
-                ly: &ky,
+                ly: &ry,
                 lz: &lzs,
-                foreign: &sf,
+                foreign: &rf,
                 slot_x: &slot_x[..in_slot],
                 slot_y: &slot_y[..in_slot],
                 slot_bin: &slot_bin[..in_slot],
@@ -359,6 +397,9 @@ pub fn hands_in_frame(
 /// Flag of a point inside a hand's slab (|z| <= height / 2 + margin, within
 /// the hand's reach along x and y): it may collide or be grasped.
 const IN_HAND: u8 = 1;
+
+/// Flag of a slab point that can be in a finger slot at some depth.
+const IN_SLOT: u8 = 2;
 
 /// The hand-frame coordinates of every neighbour of one hand (one array
 /// per axis, [`IN_HAND`] set in `flags` for those in the hand's slab),

@@ -59,9 +59,12 @@ pub fn contacts_from_profile(points: &[Vector3<f64>], cell: f64) -> Option<(Cont
         return None;
     }
     let cells = ProfileCells::new(points, cell);
+    // The cells first (a loop without branches the compiler vectorises),
+    // then per cell the y of the points kept so far for each side.
+    let at: Vec<usize> = points.iter().map(|p| cells.index(p)).collect();
     let mut grid: Vec<[Option<Vector3<f64>>; 2]> = vec![[None; 2]; cells.len()];
-    for p in points {
-        let [left, right] = &mut grid[cells.index(p)];
+    for (p, &k) in points.iter().zip(&at) {
+        let [left, right] = &mut grid[k];
         keep_nearest(left, p, -1.0);
         keep_nearest(right, p, 1.0);
     }
