@@ -353,7 +353,7 @@ pub fn hands_in_frame(
                     & (lx <= layout.x_hi)
                     & (lz.abs() <= slot_h)
                     & (ky.abs() <= layout.reach_y);
-                *flag = u8::from(inside) * IN_HAND | u8::from(inside & slotted) * IN_SLOT;
+                *flag = (u8::from(inside) * IN_HAND) | (u8::from(inside & slotted) * IN_SLOT);
             }
             // The slot points, in order, skipping 8 flags at a time; the
             // hand's other points are gathered only if a depth gets as far
