@@ -60,6 +60,9 @@ pub const TILTS: [(f64, f64); 12] = [
     (0.9, 0.6),
 ];
 
+/// Points per block of the housing test in [`clear_approaches`].
+const BLOCK: usize = 64;
+
 /// One hand orientation for the search: approach `approach`, closing axis
 /// `closing` (unit, perpendicular), and the fingertip depths (a subset of
 /// the search's, deepest first) at which its housing is clear.
@@ -168,11 +171,25 @@ pub fn clear_approaches(
     // Nearest the seed's axis first: the likeliest to be in a housing, so
     // that `blocked` stops early (its result does not depend on the order).
     found.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
-    let pts: Vec<Vector3<f64>> = found.into_iter().map(|(_, v, _)| v).collect();
+    // One array per axis, and each depth's window of x for the housing.
+    let (qx, qy, qz): (Vec<f64>, Vec<f64>, Vec<f64>) = (
+        found.iter().map(|f| f.1.x).collect(),
+        found.iter().map(|f| f.1.y).collect(),
+        found.iter().map(|f| f.1.z).collect(),
+    );
+    let windows: Vec<(f64, f64)> = sp
+        .depths
+        .iter()
+        .take(31)
+        .map(|&d| (d - back, d - front))
+        .collect();
     // Bit k of the result: the housing at depth sp.depths[k] holds a point
-    // or a corner of it dips below the support plane.
+    // or a corner of it dips below the support plane. The points are
+    // tested in blocks (loops the compiler vectorises; nalgebra's dot
+    // product order), stopping once every depth is blocked.
     let all = (1u32 << sp.depths.len().min(31)) - 1;
-    let blocked = |a: &Vector3<f64>, y: &Vector3<f64>| -> u32 {
+    let (mut xs, mut across) = ([0.0; BLOCK], [false; BLOCK]);
+    let mut blocked = |a: &Vector3<f64>, y: &Vector3<f64>| -> u32 {
         let z = a.cross(y);
         let mut hit = 0u32;
         if let Some(pl) = &sp.plane {
@@ -188,18 +205,28 @@ pub fn clear_approaches(
                 }
             }
         }
-        for q in &pts {
-            if q.dot(y).abs() > hy || q.dot(&z).abs() > hz {
-                continue;
-            }
-            let x = q.dot(a);
-            for (k, &d) in sp.depths.iter().enumerate().take(31) {
-                if x >= d - back && x <= d - front {
-                    hit |= 1 << k;
-                }
-            }
+        for ((bx, by), bz) in qx.chunks(BLOCK).zip(qy.chunks(BLOCK)).zip(qz.chunks(BLOCK)) {
             if hit == all {
                 break;
+            }
+            for ((((x_out, inside), &qx), &qy), &qz) in
+                xs.iter_mut().zip(across.iter_mut()).zip(bx).zip(by).zip(bz)
+            {
+                let dy = qx * y.x + qy * y.y + qz * y.z;
+                let dz = qx * z.x + qy * z.y + qz * z.z;
+                *x_out = qx * a.x + qy * a.y + qz * a.z;
+                *inside = (dy.abs() <= hy) & (dz.abs() <= hz);
+            }
+            let len = bx.len();
+            for (k, &(lo, hi)) in windows.iter().enumerate() {
+                if hit & (1 << k) == 0
+                    && xs[..len]
+                        .iter()
+                        .zip(&across[..len])
+                        .fold(false, |any, (&x, &o)| any | (o & (x >= lo) & (x <= hi)))
+                {
+                    hit |= 1 << k;
+                }
             }
         }
         hit
