@@ -292,11 +292,20 @@ def scene_observation(state: State, frame, depth: np.ndarray, cam_pose: np.ndarr
     return pts, labels, bounds, hm, view
 
 
+#: A slide that moved its object less than this (m) is not tried on that object again (the same frame would
+#: give the same plan).
+SLIDE_STUCK = 0.005
+
+
 def plan_scene_slide(state: State, frame, depth: np.ndarray, cam_pose: np.ndarray, ids: dict):
-    """The best slide along a wall (``ferrobot.pipeline.slide.plan_slide``) of any remaining object, or None."""
+    """The best slide along a wall (``ferrobot.pipeline.slide.plan_slide``) of any remaining object, or None;
+    objects whose last slide moved them less than ``SLIDE_STUCK`` are skipped."""
     pts, labels, bounds, hm, view = scene_observation(state, frame, depth, cam_pose, ids)
+    stuck = getattr(state, "slide_stuck", set())
     best = None
     for label in ids:
+        if ids[label] in stuck:
+            continue
         plan = slide_mod.plan_slide(pts, labels, label, ge.PANDA_HAND, TABLE_TOP, bounds, heightmap=hm, view=view)
         if plan is not None and (best is None or plan.score > best.score):
             best = plan
@@ -538,6 +547,8 @@ def attempt(
             splan = plan_scene_slide(state, frame, depth, cam_pose, ids)
             if splan is not None:
                 rec["push"] = execute_slide(state, w, hand_model, splan, names, ids)
+                if rec["push"]["target_moved"] < SLIDE_STUCK:
+                    state.slide_stuck = getattr(state, "slide_stuck", set()) | {rec["push"]["target"]}
                 rec["cpu_s"] = time.process_time() - t_cpu
                 return rec
     if len(gg) == 0:

@@ -11,21 +11,22 @@ and the pressing force on top as well.)
 
 :func:`plan_slide` works on the same observations as :func:`ferrobot.pipeline.push.plan_push` (a
 :class:`~ferrobot.pipeline.push.Heightmap` of the labelled cloud and the camera's
-:class:`~ferrobot.pipeline.push.FreeSpace`). A *wall* of the target is a column taller than the target's top
-by 1 cm (a bin wall or a taller neighbour) within ``wall_gap`` of its footprint on one of ``num_directions``
-horizontal sides (n: the direction from the wall to the object). For each such wall and each way along it
-(t, perpendicular to n), the closed fingers start ``margin + clearance`` off the object's face on the +n
-side, at a fingertip height of at most 75 % of the object's height, at a few places along that face, the
-hand upright or leaning (back from the wall, or along t), the closing axis along t or along n. The motion
-has three legs: down the approach to the start (5 cm; the hand's solids clear of everything observed, the
-target included); towards the wall by the standoff plus ``press`` (the hand's drive is position-controlled:
-the fingers stop at the object's face and press it against the wall with the drive's stiffness times the
-overlap; the hand is checked to the face plus ``reach``); then along t by the slide distance (both legs
-clear of everything but the target). The object's footprint moved along t (half a cell off the wall it
-slides on) must not run into anything taller than its top plus 1 cm. Among the feasible slides, the one
-leaving the object the most free room on both sides along the wall wins (its smaller gap along t to the next
-obstacle: the housing needs room along the wall), then the one pressing nearest the face's middle, the
-least tilted. Nothing is simulated here: the plan is hand poses (world frame) for an executor.
+:class:`~ferrobot.pipeline.push.FreeSpace`). A *wall* of the target is a column taller than the target's top by 1 cm
+(a bin wall or a taller neighbour), within ``wall_gap`` of its footprint (or up to ``hidden_gap`` further with only
+unobserved columns in between: the floor a wall hides from the camera) on one of ``num_directions`` horizontal sides
+(n: the direction from the wall to the object). For each such wall and each way along it (t, perpendicular to n),
+the closed fingers start ``margin + clearance`` off the object's face on the +n side, at a fingertip height of at
+most 75 % of the object's height, at a few places along that face, the hand upright or leaning (back from the wall,
+or along t), the closing axis along t or along n. The motion has three legs: down the approach to the start (5 cm;
+the hand's solids clear of everything observed and of the target's columns, the space the target alone hides from
+the camera counting as free: the fingers go down beside its far side); towards the wall by the standoff plus
+``press`` (the hand's drive is position- controlled: the fingers stop at the object's face and press it against the
+wall with the drive's stiffness times the overlap; the hand is checked to the face plus ``reach``); then along t by
+the slide distance (both legs clear of everything but the target). The object's footprint moved along t (half a cell
+off the wall it slides on) must not run into anything taller than its top plus 1 cm. Among the feasible slides, the
+one leaving the object the most free room on both sides along the wall wins (its smaller gap along t to the next
+obstacle: the housing needs room along the wall), then the one pressing nearest the face's middle, the least tilted.
+Nothing is simulated here: the plan is hand poses (world frame) for an executor.
 """
 
 from __future__ import annotations
@@ -78,6 +79,18 @@ def _room_along(hm: Heightmap, foot: np.ndarray, obstacle: np.ndarray, t: np.nda
     return limit
 
 
+def _descent_collides(hm: Heightmap, pts: np.ndarray, target: int, unknown_height: float, view) -> bool:
+    """Whether hand points ``pts`` (M, 3, world) going down beside the target collide: with anything but the
+    target as :func:`ferrobot.pipeline.push._collides` sees it, the space the target hides from the camera
+    counting as free (its own shadow, where the fingers go down beside its far side), and with the target's
+    own columns (2.5D: solid from the support to its highest observed point)."""
+    if _collides(hm, pts, target, unknown_height, view):
+        return True
+    i, j, inside = hm.cells(pts[:, :2])
+    mine = inside & (hm.label[i, j] == target)
+    return bool(np.any(mine & (pts[:, 2] - hm.support_z < hm.height[i, j])))
+
+
 def plan_slide(
     points,
     labels,
@@ -89,6 +102,7 @@ def plan_slide(
     cell: float = 0.005,
     num_directions: int = 8,
     wall_gap: float = 0.03,
+    hidden_gap: float = 0.06,
     distances=(0.12, 0.10, 0.08, 0.06, 0.04),
     press: float = 0.02,
     reach: float = 0.005,
@@ -109,7 +123,9 @@ def plan_slide(
     (m): how far past the face the hand is checked for collisions (the object stops the fingers); ``leans``
     (rad): the hand's tilt along the wall (positive: its top towards +t), ``tilts`` (rad): its tilt back from
     the wall; a slide must leave the object at least ``min_gain`` more room (its smaller gap along the wall)
-    than it has. Ranges: ``num_directions`` 4-64, ``wall_gap`` in (0, 0.1] m, ``distances`` in (0, 0.3] m,
+    than it has; ``hidden_gap`` (m): how much further a wall may stand with only unobserved columns between it
+    and the object. Ranges: ``num_directions`` 4-64, ``wall_gap`` in (0, 0.1] m, ``hidden_gap`` in [0, 0.1] m,
+    ``distances`` in (0, 0.3] m,
     ``press`` in [0, 0.04] m, ``reach`` in [0, ``press``], ``tilts`` in [0, 1.2] rad, ``leans`` in
     [-1.2, 1.2] rad, ``tip_heights`` in [0.003, 0.1] m, ``margin`` and ``clearance`` in [0, 0.02] m,
     ``min_gain`` in [0, 0.2] m."""
@@ -117,6 +133,8 @@ def plan_slide(
         raise InvalidArgumentError(f"num_directions: {num_directions} is outside [4, 64]")
     if not 0.0 < wall_gap <= 0.1:
         raise InvalidArgumentError(f"wall_gap: {wall_gap} m is outside (0, 0.1]")
+    if not 0.0 <= hidden_gap <= 0.1:
+        raise InvalidArgumentError(f"hidden_gap: {hidden_gap} m is outside [0, 0.1]")
     distances = sorted((float(d) for d in distances), reverse=True)
     if not distances or not all(0 < d <= 0.3 for d in distances):
         raise InvalidArgumentError(f"distances: expected values in (0, 0.3] m, got {distances}")
@@ -158,16 +176,21 @@ def plan_slide(
     tcp = np.asarray(gripper.tcp, dtype=float)
     up = np.array([0.0, 0.0, 1.0])
     step = 0.008
+    descent = np.arange(0.0, 0.0501, step)
     best: SlidePlan | None = None
     for k in range(int(num_directions)):
         ang = 2 * math.pi * k / num_directions
         n = np.array([math.cos(ang), math.sin(ang), 0.0])  # from the wall into the bin
-        # The wall: a tall cell within wall_gap of the footprint on its -n side.
+        # The wall: a tall cell within wall_gap of the footprint on its -n side, or further (up to hidden_gap
+        # more) with nothing but unobserved columns in between (the floor a wall hides from the camera, where
+        # the object's hidden side may reach).
         wall_at = None
-        for g in np.arange(hm.cell / 2, wall_gap + 1e-9, hm.cell / 2):
+        for g in np.arange(hm.cell / 2, wall_gap + hidden_gap + 1e-9, hm.cell / 2):
             i, j, inside = hm.cells(foot - g * n[:2])
             if (~inside).any() or tall[i, j].any():
                 wall_at = g
+                break
+            if g > wall_gap and ((hm.height[i, j] >= 0) & (hm.label[i, j] != target)).any():
                 break
         if wall_at is None:
             continue
@@ -210,14 +233,14 @@ def plan_slide(
                 # thickness; along t the other one.
                 half = f.height / 2 if across else f.thickness
                 half_t = f.thickness if across else f.height / 2
-                # The face where the fingers meet it: the object's cells within the fingers' width, which must
-                # reach within 1 cm of its front and stand above the fingertips (irregular outlines: the
-                # bounding face is not where every part of the object is).
+                # The face where the fingers meet it: the front of the object's cells within the fingers' width
+                # (irregular outlines: the bounding face is not where every part of the object is), which must
+                # stand above the fingertips.
                 band = np.abs(st - a_t) <= half_t
                 if not band.any():
                     continue
                 face = float(sn[band].max())
-                if face < sn.max() - 0.01 or 0.75 * float(hm.height[ii[band], jj[band]].max()) < tip_z:
+                if 0.75 * float(hm.height[ii[band], jj[band]].max()) < tip_z:
                     continue
                 standoff = half + margin + clearance + max(0.0, top - tip_z) * math.tan(tilt)
                 base_xy = a_t * t[:2] + (face + standoff) * n[:2]
@@ -229,9 +252,7 @@ def plan_slide(
                 c = c / np.linalg.norm(c)
                 rg = np.column_stack([a, c, np.cross(a, c)])
                 body = samples @ rg.T
-                if any(
-                    _collides(hm, body + tip - s * a, None, unknown_height, view) for s in np.arange(0.0, 0.0501, step)
-                ):
+                if any(_descent_collides(hm, body + tip - s * a, target, unknown_height, view) for s in descent):
                     continue
                 # The fingers meet the face after the standoff's gap; the press beyond it is the drive's overlap,
                 # which the object (held by the wall) takes: the hand is checked to the face plus ``reach``.
