@@ -292,6 +292,8 @@ def scene_observation(state: State, frame, depth: np.ndarray, cam_pose: np.ndarr
     return pts, labels, bounds, hm, view
 
 
+#: Stiffness (N/m) of the floating hand's drive while it presses and slides (stiff, 2e4, otherwise).
+SLIDE_STIFFNESS = 2.0e3
 #: A slide that moved its object less than this (m) is not tried on that object again (the same frame would
 #: give the same plan).
 SLIDE_STUCK = 0.005
@@ -330,7 +332,15 @@ def execute_slide(state: State, w, hand_model, plan, names: list, ids: dict, on_
     robot.set_joint_position_targets(np.zeros(5))
     before = {n: w.get_object_pose(n)[:3, 3].copy() for n in names}
     legs = ((np.zeros(3), q_start, 0.5), (q_start, q_pressed, 0.5), (q_pressed, q_end, 1.5), (q_end, q_up, 0.5))
-    for a, b_, sec in legs:
+    for leg, (a, b_, sec) in enumerate(legs):
+        # Press and slide with a soft drive: the press force is its stiffness times the overlap past the face
+        # (SLIDE_STIFFNESS x plan.press: about 40 N), not the stiff drive's hundreds of newtons, which squeeze
+        # rounded objects out from under the fingers.
+        if leg in (1, 3):
+            k = SLIDE_STIFFNESS if leg == 1 else 2.0e4
+            robot.set_drive_gains(
+                stiffness=[k] * 3, damping=[2.0 * (k * 1.0) ** 0.5 if leg == 1 else 1.0e3] * 3, joint_names=slide
+            )
         for q in ge.smooth(a, b_, sec):
             robot.set_joint_position_targets(q, joint_names=slide)
             robot.set_joint_position_targets(np.zeros(2), joint_names=fingers)
