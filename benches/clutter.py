@@ -24,7 +24,10 @@ Each attempt (the setting of VGN's clutter removal, with grasp_eval's floating P
 - success: an object rose >= 8 cm and the fingers did not close on nothing; objects that rose are removed
   (a clean lift removes exactly one); objects pushed off the table or out of the bin are lost (not
   cleared); the scene ends when no object remains or after 2 failed attempts in a row, or after 2 K
-  attempts.
+  attempts;
+- a frame without a grasp gets a push of some object into free space instead (``ferrobot.pipeline.push``,
+  ``--no-push``) or, in a bin when no push exists, a slide of an object along the wall it lies at
+  (``ferrobot.pipeline.slide``, ``--no-slide``); at most 3 in a row, not counted as grasp attempts.
 
 The **PyBullet judge** replays every attempt: the same objects (each the same convex parts, as OBJ files)
 at the poses they settled to in ferrobot, the same hand URDF, base pose and joint targets per step, and the
