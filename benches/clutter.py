@@ -297,6 +297,8 @@ def scene_observation(state: State, frame, depth: np.ndarray, cam_pose: np.ndarr
 
 #: Stiffness (N/m) of the floating hand's drive while it presses and slides (stiff, 2e4, otherwise).
 SLIDE_STIFFNESS = 2.0e3
+#: Duration (s) of the slide leg.
+SLIDE_S = 1.5
 #: A slide that moved its object less than this (m) is not tried on that object again (the same frame would
 #: give the same plan).
 SLIDE_STUCK = 0.005
@@ -334,7 +336,7 @@ def execute_slide(state: State, w, hand_model, plan, names: list, ids: dict, on_
     robot.set_drive_gains(stiffness=[2.0e4] * 3, damping=[1.0e3] * 3, joint_names=slide)
     robot.set_joint_position_targets(np.zeros(5))
     before = {n: w.get_object_pose(n)[:3, 3].copy() for n in names}
-    legs = ((np.zeros(3), q_start, 0.5), (q_start, q_pressed, 0.5), (q_pressed, q_end, 1.5), (q_end, q_up, 0.5))
+    legs = ((np.zeros(3), q_start, 0.5), (q_start, q_pressed, 0.5), (q_pressed, q_end, SLIDE_S), (q_end, q_up, 0.5))
     for leg, (a, b_, sec) in enumerate(legs):
         # Press and slide with a soft drive: the press force is its stiffness times the overlap past the face
         # (SLIDE_STIFFNESS x plan.press: about 40 N), not the stiff drive's hundreds of newtons, which squeeze
