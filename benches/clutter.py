@@ -24,7 +24,10 @@ Each attempt (the setting of VGN's clutter removal, with grasp_eval's floating P
 - success: an object rose >= 8 cm and the fingers did not close on nothing; objects that rose are removed
   (a clean lift removes exactly one); objects pushed off the table or out of the bin are lost (not
   cleared); the scene ends when no object remains or after 2 failed attempts in a row, or after 2 K
-  attempts.
+  attempts;
+- a frame without a grasp gets a push of some object into free space instead (``ferrobot.pipeline.push``,
+  ``--no-push``) or, in a bin when no push exists, a slide of an object along the wall it lies at
+  (``ferrobot.pipeline.slide``, ``--no-slide``); at most 3 in a row, not counted as grasp attempts.
 
 The **PyBullet judge** replays every attempt: the same objects (each the same convex parts, as OBJ files)
 at the poses they settled to in ferrobot, the same hand URDF, base pose and joint targets per step, and the
@@ -64,6 +67,7 @@ import ferrobot.camera  # noqa: E402
 import ferrobot.grasp as fg  # noqa: E402
 from ferrobot.pipeline import clutter  # noqa: E402
 from ferrobot.pipeline import push as push_mod  # noqa: E402
+from ferrobot.pipeline import slide as slide_mod  # noqa: E402
 
 DT = ge.DT
 TABLE_TOP = ge.TABLE_TOP
@@ -263,6 +267,113 @@ def save_picture(w: ferrobot.World, path: Path) -> None:
     Image.fromarray(rgb).save(path)
 
 
+def scene_observation(state: State, frame, depth: np.ndarray, cam_pose: np.ndarray, ids: dict):
+    """The frame's cloud in the world with instance labels (0: not an object), the heightmap's bounds (the bin
+    or the table around the pile), the heightmap and the camera's free space, for the push and slide planners."""
+    intr = ferrobot.camera.Intrinsics(ge.WIDTH, ge.HEIGHT, ge.F, ge.F, ge.CX, ge.CY, 1.0)
+    pts, pix = ferrobot.camera.backproject(depth, intr)
+    pts = fg.transform_points(pts, fg.camera_to_world(cam_pose, "opencv"))
+    labels = np.asarray(frame.segmentation)[pix[:, 0], pix[:, 1]].astype(np.int64)
+    labels = np.where(np.isin(labels, list(ids)), labels, 0)
+    b = state.spec.bin
+    if b is not None:
+        bounds = [b.center[0] - b.inner[0] / 2 - 0.05, b.center[0] + b.inner[0] / 2 + 0.05]
+        bounds += [b.center[1] - b.inner[1] / 2 - 0.05, b.center[1] + b.inner[1] / 2 + 0.05]
+    else:
+        bounds = [CENTER[0] - 0.35, CENTER[0] + 0.35, CENTER[1] - 0.35, CENTER[1] + 0.35]
+    hm = push_mod.Heightmap.from_points(pts, labels, TABLE_TOP, bounds)
+    seg = np.asarray(frame.segmentation)
+    view = push_mod.FreeSpace(
+        depth,
+        np.where(np.isin(seg, list(ids)), seg, 0),
+        ge.F,
+        ge.F,
+        ge.CX,
+        ge.CY,
+        fg.camera_to_world(cam_pose, "opencv"),
+    )
+    return pts, labels, bounds, hm, view
+
+
+#: Stiffness (N/m) of the floating hand's drive while it presses and slides (stiff, 2e4, otherwise).
+SLIDE_STIFFNESS = 2.0e3
+#: Duration (s) of the slide leg.
+SLIDE_S = 1.5
+#: A slide that moved its object less than this (m) is not tried on that object again (the same frame would
+#: give the same plan).
+SLIDE_STUCK = 0.005
+
+
+def plan_scene_slide(state: State, frame, depth: np.ndarray, cam_pose: np.ndarray, ids: dict):
+    """The best slide along a wall (``ferrobot.pipeline.slide.plan_slide``) of any remaining object, or None;
+    objects whose last slide moved them less than ``SLIDE_STUCK`` are skipped."""
+    pts, labels, bounds, hm, view = scene_observation(state, frame, depth, cam_pose, ids)
+    stuck = getattr(state, "slide_stuck", set())
+    best = None
+    for label in ids:
+        if ids[label] in stuck:
+            continue
+        plan = slide_mod.plan_slide(pts, labels, label, ge.PANDA_HAND, TABLE_TOP, bounds, heightmap=hm, view=view)
+        if plan is not None and (best is None or plan.score > best.score):
+            best = plan
+    return best
+
+
+def execute_slide(state: State, w, hand_model, plan, names: list, ids: dict, on_step=None) -> dict:
+    """Runs a planned slide with the floating hand, fingers closed: down the approach to the start (0.5 s),
+    towards the wall by the press leg (0.5 s), along the wall (1.5 s), back up the approach 10 cm (0.5 s); the
+    objects' new poses become the state. ``on_step(robot)``, if given, is called after every step."""
+    shift = (ge.TCP_OFFSET - ge.PANDA_HAND.tcp[2]) * plan.pre[:3, 2]
+    base = plan.pre.copy()
+    base[:3, 3] -= shift
+    rot = base[:3, :3]
+    q_start = np.array([0.0, 0.0, 0.05])
+    q_pressed = q_start + rot.T @ (plan.pressed[:3, 3] - plan.start[:3, 3])
+    q_end = q_start + rot.T @ (plan.end[:3, 3] - plan.start[:3, 3])
+    q_up = q_end - np.array([0.0, 0.0, 0.10])
+    robot = w.add_robot(hand_model, ge.pose7(base), name="hand", q=np.zeros(5))
+    slide, fingers = robot.dof_names[:3], robot.dof_names[3:]
+    robot.set_drive_gains(stiffness=[2.0e4] * 3, damping=[1.0e3] * 3, joint_names=slide)
+    robot.set_joint_position_targets(np.zeros(5))
+    before = {n: w.get_object_pose(n)[:3, 3].copy() for n in names}
+    legs = ((np.zeros(3), q_start, 0.5), (q_start, q_pressed, 0.5), (q_pressed, q_end, SLIDE_S), (q_end, q_up, 0.5))
+    for leg, (a, b_, sec) in enumerate(legs):
+        # Press and slide with a soft drive: the press force is its stiffness times the overlap past the face
+        # (SLIDE_STIFFNESS x plan.press: about 40 N), not the stiff drive's hundreds of newtons, which squeeze
+        # rounded objects out from under the fingers.
+        if leg in (1, 3):
+            k = SLIDE_STIFFNESS if leg == 1 else 2.0e4
+            robot.set_drive_gains(
+                stiffness=[k] * 3, damping=[2.0 * (k * 1.0) ** 0.5 if leg == 1 else 1.0e3] * 3, joint_names=slide
+            )
+        for q in ge.smooth(a, b_, sec):
+            robot.set_joint_position_targets(q, joint_names=slide)
+            robot.set_joint_position_targets(np.zeros(2), joint_names=fingers)
+            w.step(1)
+            if on_step is not None:
+                on_step(robot)
+    after = {n: w.get_object_pose(n) for n in names}
+    for n in names:
+        state.poses[n] = after[n]
+    target = ids.get(plan.target)
+    moved = {n: float(np.linalg.norm(after[n][:3, 3] - before[n])) for n in names}
+    return {
+        "kind": "slide",
+        "target": target,
+        "direction": plan.direction.tolist(),
+        "normal": plan.normal.tolist(),
+        "distance": plan.distance,
+        "press": plan.press,
+        "tilt": plan.tilt,
+        "lean": plan.lean,
+        "room": plan.room,
+        "tip_start": plan.tip_start.tolist(),
+        "target_moved": moved.get(target, 0.0),
+        "target_displacement": (after[target][:3, 3] - before[target]).tolist() if target in after else None,
+        "others_moved_max": max((v for n, v in moved.items() if n != target), default=0.0),
+    }
+
+
 def plan_scene_push(state: State, w, frame, depth: np.ndarray, cam_pose: np.ndarray, ids: dict):
     """The best push (``ferrobot.pipeline.push.plan_push``) of any remaining object, on the frame's cloud in
     the world (instance labels from the segmentation), or None."""
@@ -406,11 +517,13 @@ def attempt(
     preshape_margin: float | None = PRESHAPE_MARGIN,
     push: bool = True,
     paired: bool = False,
+    slide: bool = True,
 ) -> dict:
     """One perceive-grasp-lift attempt; updates ``state`` (removes lifted and lost objects). The fingers
     approach open to the grasp's width plus ``preshape_margin`` (None: fully open). With ``push``, a frame
     without a grasp gets a push of a remaining object instead (``rec["push"]``, no grasp attempt) when one
-    is feasible."""
+    is feasible; in a bin, with ``slide``, when no push is, a slide of an object along a wall
+    (``rec["push"]["kind"] == "slide"``)."""
     t_cpu = time.process_time()
     w = state.build()
     names = list(state.objects)
@@ -445,6 +558,14 @@ def attempt(
             rec["push"] = execute_push(state, w, hand_model, plan, names, settled, ids)
             rec["cpu_s"] = time.process_time() - t_cpu
             return rec
+        if slide and state.spec.bin is not None:
+            splan = plan_scene_slide(state, frame, depth, cam_pose, ids)
+            if splan is not None:
+                rec["push"] = execute_slide(state, w, hand_model, splan, names, ids)
+                if rec["push"]["target_moved"] < SLIDE_STUCK:
+                    state.slide_stuck = getattr(state, "slide_stuck", set()) | {rec["push"]["target"]}
+                rec["cpu_s"] = time.process_time() - t_cpu
+                return rec
     if len(gg) == 0:
         rec["ferrobot"] = {"success": False, "reason": "no grasp"}
         # Which of the detector's clutter checks left nothing: re-run with each one off.
@@ -527,8 +648,10 @@ def run_scene(
     preshape_margin: float | None = PRESHAPE_MARGIN,
     push: bool = True,
     paired: bool = False,
+    slide: bool = True,
 ) -> dict:
-    """Clears one scene; returns its record (counts are read from the simulator's state)."""
+    """Clears one scene; returns its record (counts are read from the simulator's state). ``slide``: bins
+    only (slides along a wall when neither a grasp nor a push is found)."""
     # Settle the drop once in its own world: the first state.
     w = ferrobot.World(dt=DT)
     w.add_box(
@@ -546,7 +669,7 @@ def run_scene(
     while state.objects and fails < 2 and len(attempts) < 2 * total:
         tag = f"s{spec.seed}_a{len(attempts)}"
         can_push = push and in_row < MAX_PUSHES_IN_ROW
-        rec = attempt(state, hand_model, pb, options, picture_dir, tag, preshape_margin, can_push, paired)
+        rec = attempt(state, hand_model, pb, options, picture_dir, tag, preshape_margin, can_push, paired, slide)
         if "push" in rec:
             pushes.append(rec)
             in_row += 1
@@ -584,6 +707,7 @@ def summarise(scenes: list[dict], use_pybullet: bool) -> dict:
         "grasp_success": {"ferrobot": sum(a["ferrobot"]["success"] for a in att) / len(att) if att else 0.0},
         "clean_lifts": sum(a["ferrobot"].get("clean", False) for a in att),
         "pushes": sum(len(s.get("pushes", [])) for s in scenes),
+        "slides": sum(p["push"].get("kind") == "slide" for s in scenes for p in s.get("pushes", [])),
         "attempts_per_removed_object": len(att) / removed if removed else None,
         "median_detection_ms": statistics.median(a["detect_ms"] for a in att) if att else None,
         "median_detection_cpu_ms": statistics.median(a["detect_cpu_ms"] for a in att) if att else None,
@@ -636,6 +760,9 @@ def main() -> int:
     ap.add_argument("--no-preshape", action="store_true", help="approach with the fingers fully open")
     ap.add_argument("--no-push", action="store_true", help="no pushes: a frame without a grasp is a failed attempt")
     ap.add_argument(
+        "--no-slide", action="store_true", help="bins: no slides along a wall when neither a grasp nor a push is found"
+    )
+    ap.add_argument(
         "--paired",
         action="store_true",
         help="also run every grasp from the same state with the other pre-shape (fully open <-> pre-shaped)",
@@ -665,11 +792,21 @@ def main() -> int:
                 spec = clutter.random_clutter(
                     args.seed + k, args.objects_per_scene, files, bin=args.bin, table_top=TABLE_TOP, center=CENTER
                 )
-                s = run_scene(spec, hand_model, pb, options, args.pictures, preshape, not args.no_push, args.paired)
+                s = run_scene(
+                    spec,
+                    hand_model,
+                    pb,
+                    options,
+                    args.pictures,
+                    preshape,
+                    not args.no_push,
+                    args.paired,
+                    not args.no_slide,
+                )
                 for p in s["pushes"]:
                     pp = p["push"]
                     print(
-                        f"  push: {pp['target']} along {np.round(pp['direction'], 2).tolist()} "
+                        f"  {pp.get('kind', 'push')}: {pp['target']} along {np.round(pp['direction'], 2).tolist()} "
                         f"by {pp['distance']:.2f} m "
                         f"(tilt {pp['tilt']:.1f}): moved {pp['target_moved'] * 100:.1f} cm, "
                         f"others up to {pp['others_moved_max'] * 100:.1f} cm",
@@ -718,6 +855,7 @@ def main() -> int:
         detect_options=options,
         preshape_margin=preshape,
         push=not args.no_push,
+        slide=not args.no_slide,
         paired_run=args.paired,
         cores=os.cpu_count(),
         load_average=ge.load_avg(),
@@ -726,7 +864,7 @@ def main() -> int:
     print(
         f"cleared {res['removed']}/{res['objects']} ({res['completion_rate'] * 100:.1f}%), lost {res['lost']}, "
         f"attempts {res['attempts']} ({res['attempts_per_removed_object'] or float('nan'):.2f} per removed object), "
-        f"clean lifts {res['clean_lifts']}, pushes {res['pushes']}"
+        f"clean lifts {res['clean_lifts']}, pushes {res['pushes']} (slides {res['slides']})"
     )
     print("stages: " + ", ".join(f"{k} {v}" for k, v in sorted(res["stages"].items(), key=lambda kv: -kv[1])))
     if "paired" in res:
