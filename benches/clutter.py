@@ -75,6 +75,9 @@ LOST_DROP = 0.05
 MAX_PUSHES_IN_ROW = 3
 #: Opening (m) added to the grasp's width for the fingers' pre-shape before the approach.
 PRESHAPE_MARGIN = 0.01
+#: Largest force (N) of the PyBullet judge's gear constraint between the coupled fingers (well above the
+#: 2 x 20 N squeeze, so it holds them equal as the ferrobot mimic coupling does).
+GEAR_FORCE = 1000.0
 
 
 class State:
@@ -147,10 +150,13 @@ def part_files(o: clutter.ClutterObject, tmp: Path, cache: dict) -> tuple[list[s
 class PyBulletClutterJudge(ge.PyBulletJudge):
     """Replays an attempt on the whole pile in PyBullet."""
 
-    def __init__(self, hand_urdf: str, tmp: Path):
+    def __init__(self, hand_urdf: str, tmp: Path, coupled: bool = False):
         super().__init__(hand_urdf)
         self.tmp = tmp
         self.parts: dict = {}
+        #: Whether the fingers are geared together (``grasp_eval.hand_files(coupled=True)``): PyBullet ignores
+        #: ``<mimic>``, so a gear constraint keeps the two finger joints equal.
+        self.coupled = coupled
 
     def run_pile(self, state: State, poses: dict, base: np.ndarray, steps) -> dict:
         p, c = self.p, self.cid
@@ -195,6 +201,11 @@ class PyBulletClutterJudge(ge.PyBulletJudge):
             p.resetJointState(hand, j, q, physicsClientId=c)
         for j in (3, 4):
             p.changeDynamics(hand, j, lateralFriction=1.0, physicsClientId=c)
+        if self.coupled:
+            gear = p.createConstraint(
+                hand, 3, hand, 4, p.JOINT_GEAR, [1, 0, 0], [0, 0, 0], [0, 0, 0], physicsClientId=c
+            )
+            p.changeConstraint(gear, gearRatio=-1, erp=0.2, maxForce=GEAR_FORCE, physicsClientId=c)
         z0 = {n: p.getBasePositionAndOrientation(b, physicsClientId=c)[0][2] for n, b in ids.items()}
         for target, _force in steps:
             p.setJointMotorControlArray(
@@ -206,13 +217,19 @@ class PyBulletClutterJudge(ge.PyBulletJudge):
                 physicsClientId=c,
             )
             p.stepSimulation(physicsClientId=c)
-        opening = sum(p.getJointState(hand, j, physicsClientId=c)[0] for j in (3, 4))
+        fingers = [p.getJointState(hand, j, physicsClientId=c)[0] for j in (3, 4)]
+        opening = sum(fingers)
         lifted = [
             n
             for n, b in ids.items()
             if p.getBasePositionAndOrientation(b, physicsClientId=c)[0][2] - z0[n] >= ge.MIN_RISE
         ]
-        return {"success": bool(lifted) and opening > ge.MIN_OPENING, "lifted": lifted, "opening": opening}
+        return {
+            "success": bool(lifted) and opening > ge.MIN_OPENING,
+            "lifted": lifted,
+            "opening": opening,
+            "fingers": fingers,
+        }
 
 
 def preshape_finger(width: float, margin: float | None) -> float:
@@ -307,15 +324,15 @@ def execute_push(state: State, w, hand_model, plan, names: list, settled: dict, 
     q_start = np.array([0.0, 0.0, 0.05])
     q_end = q_start + rot.T @ (plan.travel * plan.direction)
     q_up = q_end - np.array([0.0, 0.0, 0.10])
-    robot = w.add_robot(hand_model, ge.pose7(base), name="hand", q=np.zeros(5))
+    robot = w.add_robot(hand_model, ge.pose7(base), name="hand", q=np.zeros(hand_model.num_dof))
     slide, fingers = robot.dof_names[:3], robot.dof_names[3:]
     robot.set_drive_gains(stiffness=[2.0e4] * 3, damping=[1.0e3] * 3, joint_names=slide)
-    robot.set_joint_position_targets(np.zeros(5))
+    robot.set_joint_position_targets(np.zeros(hand_model.num_dof))
     before = {n: w.get_object_pose(n)[:3, 3].copy() for n in names}
     for a, b_, sec in ((np.zeros(3), q_start, 0.5), (q_start, q_end, 1.0), (q_end, q_up, 0.5)):
         for q in ge.smooth(a, b_, sec):
             robot.set_joint_position_targets(q, joint_names=slide)
-            robot.set_joint_position_targets(np.zeros(2), joint_names=fingers)
+            robot.set_joint_position_targets(np.zeros(len(fingers)), joint_names=fingers)
             w.step(1)
     after = {n: w.get_object_pose(n) for n in names}
     for n in names:
@@ -358,11 +375,19 @@ def run_hand(
     """Executes a grasp schedule with the floating hand in ``w`` (fingers starting at ``finger``); returns the
     ferrobot judgement (success, lifted, opening, clean, stage and diagnostics), the objects' final poses,
     the hand robot and the final opening."""
-    q_start = np.array([0, 0, 0, finger, finger])
+    # A coupled hand (``grasp_eval.hand_files(coupled=True)``) has one finger DOF, the second finger its mimic:
+    # the driver squeezes with twice the per-finger force (each finger gets ``force``).
+    coupled = hand_model.num_dof == 4
+    nf = 1 if coupled else 2
+    q_start = np.r_[0.0, 0.0, 0.0, [finger] * nf]
     robot = w.add_robot(hand_model, ge.pose7(base), name="hand", q=q_start)
     slide, fingers = robot.dof_names[:3], robot.dof_names[3:]
     robot.set_drive_gains(stiffness=[2.0e4] * 3, damping=[1.0e3] * 3, joint_names=slide)
-    robot.set_gripper(["panda_finger_joint1", "panda_finger_joint2"], [ge.OPEN, ge.OPEN], [0.0, 0.0])
+    robot.set_gripper(fingers, [ge.OPEN] * nf, [0.0] * nf)
+
+    def hand_opening(q):
+        return float(2.0 * q[3] if coupled else q[3] + q[4])
+
     robot.set_joint_position_targets(q_start)
     closing = False
     diag: dict = {}
@@ -376,17 +401,17 @@ def run_hand(
             diag["pushed"] = {n: float(np.linalg.norm(w.get_object_pose(n)[:3, 3] - settled[n][:3, 3])) for n in names}
             if picture_dir is not None:
                 save_picture(w, picture_dir / f"{picture_tag}_grasp.png")
-            robot.close_gripper(force=force)
+            robot.close_gripper(force=force * (2 if coupled else 1))
             closing = True
             k_close = k
         elif force == 0:
-            robot.set_joint_position_targets(tgt[3:], joint_names=fingers)
+            robot.set_joint_position_targets(tgt[3 : 3 + nf], joint_names=fingers)
         w.step(1)
         if closing and k == k_close + n_close - 1:
             q = robot.joint_positions
-            diag["closed_opening"] = float(q[3] + q[4])
+            diag["closed_opening"] = hand_opening(q)
     q = robot.joint_positions
-    opening = float(q[3] + q[4])
+    opening = hand_opening(q)
     after = {n: w.get_object_pose(n) for n in names}
     lifted = [n for n in names if after[n][2, 3] - z0[n] >= ge.MIN_RISE]
     success = bool(lifted) and opening > ge.MIN_OPENING
@@ -406,6 +431,7 @@ def attempt(
     preshape_margin: float | None = PRESHAPE_MARGIN,
     push: bool = True,
     paired: bool = False,
+    mj_judge=None,
 ) -> dict:
     """One perceive-grasp-lift attempt; updates ``state`` (removes lifted and lost objects). The fingers
     approach open to the grasp's width plus ``preshape_margin`` (None: fully open). With ``push``, a frame
@@ -456,6 +482,8 @@ def attempt(
             save_picture(w, picture_dir / f"{picture_tag}_nograsp.png")
         if pb:
             rec["pybullet"] = {"success": False, "reason": "no grasp"}
+        if mj_judge is not None:
+            rec["mujoco"] = {"success": False, "reason": "no grasp"}
         for n in names:
             state.poses[n] = settled[n]
         rec["cpu_s"] = time.process_time() - t_cpu
@@ -502,6 +530,8 @@ def attempt(
     lifted, success = res["lifted"], res["success"]
     if pb:
         rec["pybullet"] = pb.run_pile(state, {n: settled[n] for n in names}, base, steps)
+    if mj_judge is not None:
+        rec["mujoco"] = mj_judge.run_pile(state, {n: settled[n] for n in names}, base, steps, part_files)
     removed = lifted if success else []
     for n in names:
         if n in removed:
@@ -527,6 +557,7 @@ def run_scene(
     preshape_margin: float | None = PRESHAPE_MARGIN,
     push: bool = True,
     paired: bool = False,
+    mj_judge=None,
 ) -> dict:
     """Clears one scene; returns its record (counts are read from the simulator's state)."""
     # Settle the drop once in its own world: the first state.
@@ -546,7 +577,7 @@ def run_scene(
     while state.objects and fails < 2 and len(attempts) < 2 * total:
         tag = f"s{spec.seed}_a{len(attempts)}"
         can_push = push and in_row < MAX_PUSHES_IN_ROW
-        rec = attempt(state, hand_model, pb, options, picture_dir, tag, preshape_margin, can_push, paired)
+        rec = attempt(state, hand_model, pb, options, picture_dir, tag, preshape_margin, can_push, paired, mj_judge)
         if "push" in rec:
             pushes.append(rec)
             in_row += 1
@@ -614,6 +645,17 @@ def summarise(scenes: list[dict], use_pybullet: bool) -> dict:
             }
     if use_pybullet:
         out["grasp_success"]["pybullet"] = sum(a["pybullet"]["success"] for a in att) / len(att) if att else 0.0
+    mj = [a for a in att if "mujoco" in a]
+    if mj:
+        out["grasp_success"]["mujoco"] = sum(a["mujoco"]["success"] for a in mj) / len(mj)
+        # Per attempt, which judges lift it: the disagreements between ferrobot and PyBullet, settled by MuJoCo.
+        votes: dict[str, int] = {}
+        for a in mj:
+            key = "/".join(
+                f"{j}:{'ok' if a[j]['success'] else 'fail'}" for j in ("ferrobot", "pybullet", "mujoco") if j in a
+            )
+            votes[key] = votes.get(key, 0) + 1
+        out["judges"] = votes
     return out
 
 
@@ -640,6 +682,17 @@ def main() -> int:
         action="store_true",
         help="also run every grasp from the same state with the other pre-shape (fully open <-> pre-shaped)",
     )
+    ap.add_argument(
+        "--independent-fingers",
+        action="store_true",
+        help="the hand's two fingers on independent joints (before table18e); default: geared together as the "
+        "real Panda hand's",
+    )
+    ap.add_argument(
+        "--mujoco",
+        action="store_true",
+        help="also replay every grasp in MuJoCo (benches/mujoco_judge.py), a third judge",
+    )
     ap.add_argument("--option", action="append", default=[], metavar="KEY=VALUE", help="a detection option (JSON)")
     args = ap.parse_args()
     if not 1 <= args.objects_per_scene <= 30:
@@ -658,14 +711,22 @@ def main() -> int:
     t0 = time.perf_counter()
     scenes = []
     with tempfile.TemporaryDirectory() as tmp:
-        urdf, hand_model = ge.hand_files(Path(tmp))
-        pb = None if args.no_pybullet else PyBulletClutterJudge(urdf, Path(tmp))
+        coupled = not args.independent_fingers
+        urdf, hand_model = ge.hand_files(Path(tmp), coupled=coupled)
+        pb = None if args.no_pybullet else PyBulletClutterJudge(urdf, Path(tmp), coupled=coupled)
+        mj_judge = None
+        if args.mujoco:
+            import mujoco_judge
+
+            mj_judge = mujoco_judge.MuJoCoClutterJudge(Path(tmp), coupled=coupled)
         try:
             for k in range(args.scenes):
                 spec = clutter.random_clutter(
                     args.seed + k, args.objects_per_scene, files, bin=args.bin, table_top=TABLE_TOP, center=CENTER
                 )
-                s = run_scene(spec, hand_model, pb, options, args.pictures, preshape, not args.no_push, args.paired)
+                s = run_scene(
+                    spec, hand_model, pb, options, args.pictures, preshape, not args.no_push, args.paired, mj_judge
+                )
                 for p in s["pushes"]:
                     pp = p["push"]
                     print(
@@ -685,7 +746,8 @@ def main() -> int:
                         f"width {g.get('width', float('nan')):.3f}, depth {g.get('depth', float('nan')):.3f}, "
                         f"approach error {f.get('approach_error', float('nan')):.3f}, "
                         f"closed {f.get('closed_opening', float('nan')):.4f}"
-                        + (f", pybullet {a['pybullet'].get('success')}" if "pybullet" in a else ""),
+                        + (f", pybullet {a['pybullet'].get('success')}" if "pybullet" in a else "")
+                        + (f", mujoco {a['mujoco'].get('success')}" if "mujoco" in a else ""),
                         flush=True,
                     )
                 scenes.append(s)
@@ -719,6 +781,7 @@ def main() -> int:
         preshape_margin=preshape,
         push=not args.no_push,
         paired_run=args.paired,
+        coupled_fingers=not args.independent_fingers,
         cores=os.cpu_count(),
         load_average=ge.load_avg(),
         wall_s=time.perf_counter() - t0,
@@ -742,6 +805,11 @@ def main() -> int:
         )
     for judge, rate in res["grasp_success"].items():
         print(f"grasp success per attempt, {judge:8s}: {rate * 100:.1f}%")
+    if "judges" in res:
+        print(
+            "judges per attempt: "
+            + ", ".join(f"{k} {v}" for k, v in sorted(res["judges"].items(), key=lambda kv: -kv[1]))
+        )
     if res["attempts"]:
         print(
             f"detection per {ge.WIDTH}x{ge.HEIGHT} frame: median {res['median_detection_ms']:.1f} ms wall, "
