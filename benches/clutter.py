@@ -18,7 +18,9 @@ Each attempt (the setting of VGN's clutter removal, with grasp_eval's floating P
   instance masks), every pixel (neighbours, bin walls, table) an obstacle, the world's -z as the preferred
   approach; the top-scored grasp is executed (no grasp: a failed attempt);
 - the floating Panda hand of ``benches/grasp_eval.py`` (pybullet_data's hand and finger meshes on three
-  driven slides) runs pre-grasp 5 cm back, approach, close (20 N per finger), lift 10 cm, hold 2 s; in a
+  driven slides; the two fingers geared together as the real Panda's, the second a mimic of the first,
+  ``--independent-fingers`` for two free finger joints) runs pre-grasp 5 cm back, approach, close (20 N
+  per finger), lift 10 cm, hold 2 s; in a
   bin the lift goes back along the approach until the hand has risen 10 cm (a tilted hand lifted straight
   up drags along the walls);
 - success: an object rose >= 8 cm and the fingers did not close on nothing; objects that rose are removed
@@ -28,8 +30,11 @@ Each attempt (the setting of VGN's clutter removal, with grasp_eval's floating P
 
 The **PyBullet judge** replays every attempt: the same objects (each the same convex parts, as OBJ files)
 at the poses they settled to in ferrobot, the same hand URDF, base pose and joint targets per step, and the
-same success test. The sequence of the scene follows ferrobot's outcome; PyBullet's success rate is per
-attempt.
+same success test (the fingers geared by a gear constraint: PyBullet ignores ``<mimic>``). The sequence of
+the scene follows ferrobot's outcome; PyBullet's success rate is per attempt. ``--mujoco`` adds a third
+judge, MuJoCo (``benches/mujoco_judge.py``), replaying alike; it contacts the exact convex parts without a
+margin, where PyBullet's convex shapes keep one (measured: fingers stop 2.1 mm short of a box's faces each),
+and the JSON counts per attempt which judges lift it (``judges``).
 
 Each attempt is printed with its stage (``ok``, ``no grasp`` with the number of grasps the detector returns
 with each of its clutter checks off (four more detections, counted in the attempt's CPU time), ``blocked on
@@ -158,7 +163,9 @@ class PyBulletClutterJudge(ge.PyBulletJudge):
         #: ``<mimic>``, so a gear constraint keeps the two finger joints equal.
         self.coupled = coupled
 
-    def run_pile(self, state: State, poses: dict, base: np.ndarray, steps) -> dict:
+    def run_pile(self, state: State, poses: dict, base: np.ndarray, steps, on_step=None) -> dict:
+        """Replays ``steps`` on the pile at ``poses``; ``on_step(k, hand, ids)`` (optional) is called after each
+        step with the hand's and the objects' PyBullet body ids (for per-step logs)."""
         p, c = self.p, self.cid
         p.resetSimulation(physicsClientId=c)
         p.setGravity(0, 0, -9.81, physicsClientId=c)
@@ -207,7 +214,7 @@ class PyBulletClutterJudge(ge.PyBulletJudge):
             )
             p.changeConstraint(gear, gearRatio=-1, erp=0.2, maxForce=GEAR_FORCE, physicsClientId=c)
         z0 = {n: p.getBasePositionAndOrientation(b, physicsClientId=c)[0][2] for n, b in ids.items()}
-        for target, _force in steps:
+        for k, (target, _force) in enumerate(steps):
             p.setJointMotorControlArray(
                 hand,
                 joints,
@@ -217,6 +224,8 @@ class PyBulletClutterJudge(ge.PyBulletJudge):
                 physicsClientId=c,
             )
             p.stepSimulation(physicsClientId=c)
+            if on_step is not None:
+                on_step(k, hand, ids)
         fingers = [p.getJointState(hand, j, physicsClientId=c)[0] for j in (3, 4)]
         opening = sum(fingers)
         lifted = [
