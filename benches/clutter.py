@@ -16,20 +16,29 @@ Each attempt (the setting of VGN's clutter removal, with grasp_eval's floating P
   the table, renders depth and segmentation;
 - ``detect_from_rgbd`` runs once on the whole frame, grasps sought on the remaining objects' pixels (the
   instance masks), every pixel (neighbours, bin walls, table) an obstacle, the world's -z as the preferred
-  approach; the top-scored grasp is executed (no grasp: a failed attempt);
+  approach, on a table fingertip depths of 4, 3 and 2 cm or the deepest the table allows (``TABLE_DEPTHS``);
+  the top-scored grasp is executed (no grasp: a failed attempt);
 - the floating Panda hand of ``benches/grasp_eval.py`` (pybullet_data's hand and finger meshes on three
-  driven slides) runs pre-grasp 5 cm back, approach, close (20 N per finger), lift 10 cm, hold 2 s; in a
+  driven slides; the two fingers geared together as the real Panda's, the second a mimic of the first,
+  ``--independent-fingers`` for two free finger joints) runs pre-grasp 5 cm back, approach, close (20 N
+  per finger), lift 10 cm, hold 2 s; in a
   bin the lift goes back along the approach until the hand has risen 10 cm (a tilted hand lifted straight
   up drags along the walls);
 - success: an object rose >= 8 cm and the fingers did not close on nothing; objects that rose are removed
   (a clean lift removes exactly one); objects pushed off the table or out of the bin are lost (not
   cleared); the scene ends when no object remains or after 2 failed attempts in a row, or after 2 K
-  attempts.
+  attempts;
+- a frame without a grasp gets a push of some object into free space instead (``ferrobot.pipeline.push``,
+  ``--no-push``) or, in a bin when no push exists, a slide of an object along the wall it lies at
+  (``ferrobot.pipeline.slide``, ``--no-slide``); at most 3 in a row, not counted as grasp attempts.
 
 The **PyBullet judge** replays every attempt: the same objects (each the same convex parts, as OBJ files)
 at the poses they settled to in ferrobot, the same hand URDF, base pose and joint targets per step, and the
-same success test. The sequence of the scene follows ferrobot's outcome; PyBullet's success rate is per
-attempt.
+same success test (the fingers geared by a gear constraint: PyBullet ignores ``<mimic>``). The sequence of
+the scene follows ferrobot's outcome; PyBullet's success rate is per attempt. ``--mujoco`` adds a third
+judge, MuJoCo (``benches/mujoco_judge.py``), replaying alike; it contacts the exact convex parts without a
+margin, where PyBullet's convex shapes keep one (measured: fingers stop 2.1 mm short of a box's faces each),
+and the JSON counts per attempt which judges lift it (``judges``).
 
 Each attempt is printed with its stage (``ok``, ``no grasp`` with the number of grasps the detector returns
 with each of its clutter checks off (four more detections, counted in the attempt's CPU time), ``blocked on
@@ -64,6 +73,7 @@ import ferrobot.camera  # noqa: E402
 import ferrobot.grasp as fg  # noqa: E402
 from ferrobot.pipeline import clutter  # noqa: E402
 from ferrobot.pipeline import push as push_mod  # noqa: E402
+from ferrobot.pipeline import slide as slide_mod  # noqa: E402
 
 DT = ge.DT
 TABLE_TOP = ge.TABLE_TOP
@@ -75,6 +85,15 @@ LOST_DROP = 0.05
 MAX_PUSHES_IN_ROW = 3
 #: Opening (m) added to the grasp's width for the fingers' pre-shape before the approach.
 PRESHAPE_MARGIN = 0.01
+#: Fingertip depths (m) the detector tries on a table, deepest first (``DetectOptions.depths``; its default adds
+#: 0.015): without the 15 mm hands, the support plane's limit supplies the deepest depth the table allows
+#: wherever 2 cm does not fit (``candidates::plane_limited_depth``). Shallow grasps are the marginal ones: on the
+#: coupled hand's runs 15 mm hands lifted 78 % (ferrobot) / 83 % (MuJoCo), hands >= 17.5 mm deep 96 % / 89 %
+#: (BENCHMARKS.md, "Table clearing: who is right about slipped out"). Bins keep the detector's default.
+TABLE_DEPTHS = (0.04, 0.03, 0.02)
+#: Largest force (N) of the PyBullet judge's gear constraint between the coupled fingers (well above the
+#: 2 x 20 N squeeze, so it holds them equal as the ferrobot mimic coupling does).
+GEAR_FORCE = 1000.0
 
 
 class State:
@@ -147,12 +166,17 @@ def part_files(o: clutter.ClutterObject, tmp: Path, cache: dict) -> tuple[list[s
 class PyBulletClutterJudge(ge.PyBulletJudge):
     """Replays an attempt on the whole pile in PyBullet."""
 
-    def __init__(self, hand_urdf: str, tmp: Path):
+    def __init__(self, hand_urdf: str, tmp: Path, coupled: bool = False):
         super().__init__(hand_urdf)
         self.tmp = tmp
         self.parts: dict = {}
+        #: Whether the fingers are geared together (``grasp_eval.hand_files(coupled=True)``): PyBullet ignores
+        #: ``<mimic>``, so a gear constraint keeps the two finger joints equal.
+        self.coupled = coupled
 
-    def run_pile(self, state: State, poses: dict, base: np.ndarray, steps) -> dict:
+    def run_pile(self, state: State, poses: dict, base: np.ndarray, steps, on_step=None) -> dict:
+        """Replays ``steps`` on the pile at ``poses``; ``on_step(k, hand, ids)`` (optional) is called after each
+        step with the hand's and the objects' PyBullet body ids (for per-step logs)."""
         p, c = self.p, self.cid
         p.resetSimulation(physicsClientId=c)
         p.setGravity(0, 0, -9.81, physicsClientId=c)
@@ -195,8 +219,13 @@ class PyBulletClutterJudge(ge.PyBulletJudge):
             p.resetJointState(hand, j, q, physicsClientId=c)
         for j in (3, 4):
             p.changeDynamics(hand, j, lateralFriction=1.0, physicsClientId=c)
+        if self.coupled:
+            gear = p.createConstraint(
+                hand, 3, hand, 4, p.JOINT_GEAR, [1, 0, 0], [0, 0, 0], [0, 0, 0], physicsClientId=c
+            )
+            p.changeConstraint(gear, gearRatio=-1, erp=0.2, maxForce=GEAR_FORCE, physicsClientId=c)
         z0 = {n: p.getBasePositionAndOrientation(b, physicsClientId=c)[0][2] for n, b in ids.items()}
-        for target, _force in steps:
+        for k, (target, _force) in enumerate(steps):
             p.setJointMotorControlArray(
                 hand,
                 joints,
@@ -206,13 +235,21 @@ class PyBulletClutterJudge(ge.PyBulletJudge):
                 physicsClientId=c,
             )
             p.stepSimulation(physicsClientId=c)
-        opening = sum(p.getJointState(hand, j, physicsClientId=c)[0] for j in (3, 4))
+            if on_step is not None:
+                on_step(k, hand, ids)
+        fingers = [p.getJointState(hand, j, physicsClientId=c)[0] for j in (3, 4)]
+        opening = sum(fingers)
         lifted = [
             n
             for n, b in ids.items()
             if p.getBasePositionAndOrientation(b, physicsClientId=c)[0][2] - z0[n] >= ge.MIN_RISE
         ]
-        return {"success": bool(lifted) and opening > ge.MIN_OPENING, "lifted": lifted, "opening": opening}
+        return {
+            "success": bool(lifted) and opening > ge.MIN_OPENING,
+            "lifted": lifted,
+            "opening": opening,
+            "fingers": fingers,
+        }
 
 
 def preshape_finger(width: float, margin: float | None) -> float:
@@ -263,6 +300,113 @@ def save_picture(w: ferrobot.World, path: Path) -> None:
     Image.fromarray(rgb).save(path)
 
 
+def scene_observation(state: State, frame, depth: np.ndarray, cam_pose: np.ndarray, ids: dict):
+    """The frame's cloud in the world with instance labels (0: not an object), the heightmap's bounds (the bin
+    or the table around the pile), the heightmap and the camera's free space, for the push and slide planners."""
+    intr = ferrobot.camera.Intrinsics(ge.WIDTH, ge.HEIGHT, ge.F, ge.F, ge.CX, ge.CY, 1.0)
+    pts, pix = ferrobot.camera.backproject(depth, intr)
+    pts = fg.transform_points(pts, fg.camera_to_world(cam_pose, "opencv"))
+    labels = np.asarray(frame.segmentation)[pix[:, 0], pix[:, 1]].astype(np.int64)
+    labels = np.where(np.isin(labels, list(ids)), labels, 0)
+    b = state.spec.bin
+    if b is not None:
+        bounds = [b.center[0] - b.inner[0] / 2 - 0.05, b.center[0] + b.inner[0] / 2 + 0.05]
+        bounds += [b.center[1] - b.inner[1] / 2 - 0.05, b.center[1] + b.inner[1] / 2 + 0.05]
+    else:
+        bounds = [CENTER[0] - 0.35, CENTER[0] + 0.35, CENTER[1] - 0.35, CENTER[1] + 0.35]
+    hm = push_mod.Heightmap.from_points(pts, labels, TABLE_TOP, bounds)
+    seg = np.asarray(frame.segmentation)
+    view = push_mod.FreeSpace(
+        depth,
+        np.where(np.isin(seg, list(ids)), seg, 0),
+        ge.F,
+        ge.F,
+        ge.CX,
+        ge.CY,
+        fg.camera_to_world(cam_pose, "opencv"),
+    )
+    return pts, labels, bounds, hm, view
+
+
+#: Stiffness (N/m) of the floating hand's drive while it presses and slides (stiff, 2e4, otherwise).
+SLIDE_STIFFNESS = 2.0e3
+#: Duration (s) of the slide leg.
+SLIDE_S = 1.5
+#: A slide that moved its object less than this (m) is not tried on that object again (the same frame would
+#: give the same plan).
+SLIDE_STUCK = 0.005
+
+
+def plan_scene_slide(state: State, frame, depth: np.ndarray, cam_pose: np.ndarray, ids: dict):
+    """The best slide along a wall (``ferrobot.pipeline.slide.plan_slide``) of any remaining object, or None;
+    objects whose last slide moved them less than ``SLIDE_STUCK`` are skipped."""
+    pts, labels, bounds, hm, view = scene_observation(state, frame, depth, cam_pose, ids)
+    stuck = getattr(state, "slide_stuck", set())
+    best = None
+    for label in ids:
+        if ids[label] in stuck:
+            continue
+        plan = slide_mod.plan_slide(pts, labels, label, ge.PANDA_HAND, TABLE_TOP, bounds, heightmap=hm, view=view)
+        if plan is not None and (best is None or plan.score > best.score):
+            best = plan
+    return best
+
+
+def execute_slide(state: State, w, hand_model, plan, names: list, ids: dict, on_step=None) -> dict:
+    """Runs a planned slide with the floating hand, fingers closed: down the approach to the start (0.5 s),
+    towards the wall by the press leg (0.5 s), along the wall (1.5 s), back up the approach 10 cm (0.5 s); the
+    objects' new poses become the state. ``on_step(robot)``, if given, is called after every step."""
+    shift = (ge.TCP_OFFSET - ge.PANDA_HAND.tcp[2]) * plan.pre[:3, 2]
+    base = plan.pre.copy()
+    base[:3, 3] -= shift
+    rot = base[:3, :3]
+    q_start = np.array([0.0, 0.0, 0.05])
+    q_pressed = q_start + rot.T @ (plan.pressed[:3, 3] - plan.start[:3, 3])
+    q_end = q_start + rot.T @ (plan.end[:3, 3] - plan.start[:3, 3])
+    q_up = q_end - np.array([0.0, 0.0, 0.10])
+    robot = w.add_robot(hand_model, ge.pose7(base), name="hand", q=np.zeros(hand_model.num_dof))
+    slide, fingers = robot.dof_names[:3], robot.dof_names[3:]
+    robot.set_drive_gains(stiffness=[2.0e4] * 3, damping=[1.0e3] * 3, joint_names=slide)
+    robot.set_joint_position_targets(np.zeros(hand_model.num_dof))
+    before = {n: w.get_object_pose(n)[:3, 3].copy() for n in names}
+    legs = ((np.zeros(3), q_start, 0.5), (q_start, q_pressed, 0.5), (q_pressed, q_end, SLIDE_S), (q_end, q_up, 0.5))
+    for leg, (a, b_, sec) in enumerate(legs):
+        # Press and slide with a soft drive: the press force is its stiffness times the overlap past the face
+        # (SLIDE_STIFFNESS x plan.press: about 40 N), not the stiff drive's hundreds of newtons, which squeeze
+        # rounded objects out from under the fingers.
+        if leg in (1, 3):
+            k = SLIDE_STIFFNESS if leg == 1 else 2.0e4
+            robot.set_drive_gains(
+                stiffness=[k] * 3, damping=[2.0 * (k * 1.0) ** 0.5 if leg == 1 else 1.0e3] * 3, joint_names=slide
+            )
+        for q in ge.smooth(a, b_, sec):
+            robot.set_joint_position_targets(q, joint_names=slide)
+            robot.set_joint_position_targets(np.zeros(len(fingers)), joint_names=fingers)
+            w.step(1)
+            if on_step is not None:
+                on_step(robot)
+    after = {n: w.get_object_pose(n) for n in names}
+    for n in names:
+        state.poses[n] = after[n]
+    target = ids.get(plan.target)
+    moved = {n: float(np.linalg.norm(after[n][:3, 3] - before[n])) for n in names}
+    return {
+        "kind": "slide",
+        "target": target,
+        "direction": plan.direction.tolist(),
+        "normal": plan.normal.tolist(),
+        "distance": plan.distance,
+        "press": plan.press,
+        "tilt": plan.tilt,
+        "lean": plan.lean,
+        "room": plan.room,
+        "tip_start": plan.tip_start.tolist(),
+        "target_moved": moved.get(target, 0.0),
+        "target_displacement": (after[target][:3, 3] - before[target]).tolist() if target in after else None,
+        "others_moved_max": max((v for n, v in moved.items() if n != target), default=0.0),
+    }
+
+
 def plan_scene_push(state: State, w, frame, depth: np.ndarray, cam_pose: np.ndarray, ids: dict):
     """The best push (``ferrobot.pipeline.push.plan_push``) of any remaining object, on the frame's cloud in
     the world (instance labels from the segmentation), or None."""
@@ -307,15 +451,15 @@ def execute_push(state: State, w, hand_model, plan, names: list, settled: dict, 
     q_start = np.array([0.0, 0.0, 0.05])
     q_end = q_start + rot.T @ (plan.travel * plan.direction)
     q_up = q_end - np.array([0.0, 0.0, 0.10])
-    robot = w.add_robot(hand_model, ge.pose7(base), name="hand", q=np.zeros(5))
+    robot = w.add_robot(hand_model, ge.pose7(base), name="hand", q=np.zeros(hand_model.num_dof))
     slide, fingers = robot.dof_names[:3], robot.dof_names[3:]
     robot.set_drive_gains(stiffness=[2.0e4] * 3, damping=[1.0e3] * 3, joint_names=slide)
-    robot.set_joint_position_targets(np.zeros(5))
+    robot.set_joint_position_targets(np.zeros(hand_model.num_dof))
     before = {n: w.get_object_pose(n)[:3, 3].copy() for n in names}
     for a, b_, sec in ((np.zeros(3), q_start, 0.5), (q_start, q_end, 1.0), (q_end, q_up, 0.5)):
         for q in ge.smooth(a, b_, sec):
             robot.set_joint_position_targets(q, joint_names=slide)
-            robot.set_joint_position_targets(np.zeros(2), joint_names=fingers)
+            robot.set_joint_position_targets(np.zeros(len(fingers)), joint_names=fingers)
             w.step(1)
     after = {n: w.get_object_pose(n) for n in names}
     for n in names:
@@ -358,11 +502,19 @@ def run_hand(
     """Executes a grasp schedule with the floating hand in ``w`` (fingers starting at ``finger``); returns the
     ferrobot judgement (success, lifted, opening, clean, stage and diagnostics), the objects' final poses,
     the hand robot and the final opening."""
-    q_start = np.array([0, 0, 0, finger, finger])
+    # A coupled hand (``grasp_eval.hand_files(coupled=True)``) has one finger DOF, the second finger its mimic:
+    # the driver squeezes with twice the per-finger force (each finger gets ``force``).
+    coupled = hand_model.num_dof == 4
+    nf = 1 if coupled else 2
+    q_start = np.r_[0.0, 0.0, 0.0, [finger] * nf]
     robot = w.add_robot(hand_model, ge.pose7(base), name="hand", q=q_start)
     slide, fingers = robot.dof_names[:3], robot.dof_names[3:]
     robot.set_drive_gains(stiffness=[2.0e4] * 3, damping=[1.0e3] * 3, joint_names=slide)
-    robot.set_gripper(["panda_finger_joint1", "panda_finger_joint2"], [ge.OPEN, ge.OPEN], [0.0, 0.0])
+    robot.set_gripper(fingers, [ge.OPEN] * nf, [0.0] * nf)
+
+    def hand_opening(q):
+        return float(2.0 * q[3] if coupled else q[3] + q[4])
+
     robot.set_joint_position_targets(q_start)
     closing = False
     diag: dict = {}
@@ -376,17 +528,17 @@ def run_hand(
             diag["pushed"] = {n: float(np.linalg.norm(w.get_object_pose(n)[:3, 3] - settled[n][:3, 3])) for n in names}
             if picture_dir is not None:
                 save_picture(w, picture_dir / f"{picture_tag}_grasp.png")
-            robot.close_gripper(force=force)
+            robot.close_gripper(force=force * (2 if coupled else 1))
             closing = True
             k_close = k
         elif force == 0:
-            robot.set_joint_position_targets(tgt[3:], joint_names=fingers)
+            robot.set_joint_position_targets(tgt[3 : 3 + nf], joint_names=fingers)
         w.step(1)
         if closing and k == k_close + n_close - 1:
             q = robot.joint_positions
-            diag["closed_opening"] = float(q[3] + q[4])
+            diag["closed_opening"] = hand_opening(q)
     q = robot.joint_positions
-    opening = float(q[3] + q[4])
+    opening = hand_opening(q)
     after = {n: w.get_object_pose(n) for n in names}
     lifted = [n for n in names if after[n][2, 3] - z0[n] >= ge.MIN_RISE]
     success = bool(lifted) and opening > ge.MIN_OPENING
@@ -406,11 +558,14 @@ def attempt(
     preshape_margin: float | None = PRESHAPE_MARGIN,
     push: bool = True,
     paired: bool = False,
+    slide: bool = True,
+    mj_judge=None,
 ) -> dict:
     """One perceive-grasp-lift attempt; updates ``state`` (removes lifted and lost objects). The fingers
     approach open to the grasp's width plus ``preshape_margin`` (None: fully open). With ``push``, a frame
     without a grasp gets a push of a remaining object instead (``rec["push"]``, no grasp attempt) when one
-    is feasible."""
+    is feasible; in a bin, with ``slide``, when no push is, a slide of an object along a wall
+    (``rec["push"]["kind"] == "slide"``)."""
     t_cpu = time.process_time()
     w = state.build()
     names = list(state.objects)
@@ -434,6 +589,8 @@ def attempt(
     depth = np.where(np.isfinite(frame.depth), frame.depth, 0.0)
     opts = dict(options)
     opts.setdefault("approach_direction", tuple(cam_pose[:3, :3].T @ np.array([0.0, 0.0, -1.0])))
+    if state.spec.bin is None:
+        opts.setdefault("depths", list(TABLE_DEPTHS))
     t0, c0 = time.perf_counter(), time.process_time()
     gg = fg.detect_from_rgbd(depth, ge.F, ge.F, ge.CX, ge.CY, scale=1.0, mask=seg, **opts)
     rec["detect_ms"] = (time.perf_counter() - t0) * 1e3
@@ -445,6 +602,14 @@ def attempt(
             rec["push"] = execute_push(state, w, hand_model, plan, names, settled, ids)
             rec["cpu_s"] = time.process_time() - t_cpu
             return rec
+        if slide and state.spec.bin is not None:
+            splan = plan_scene_slide(state, frame, depth, cam_pose, ids)
+            if splan is not None:
+                rec["push"] = execute_slide(state, w, hand_model, splan, names, ids)
+                if rec["push"]["target_moved"] < SLIDE_STUCK:
+                    state.slide_stuck = getattr(state, "slide_stuck", set()) | {rec["push"]["target"]}
+                rec["cpu_s"] = time.process_time() - t_cpu
+                return rec
     if len(gg) == 0:
         rec["ferrobot"] = {"success": False, "reason": "no grasp"}
         # Which of the detector's clutter checks left nothing: re-run with each one off.
@@ -456,6 +621,8 @@ def attempt(
             save_picture(w, picture_dir / f"{picture_tag}_nograsp.png")
         if pb:
             rec["pybullet"] = {"success": False, "reason": "no grasp"}
+        if mj_judge is not None:
+            rec["mujoco"] = {"success": False, "reason": "no grasp"}
         for n in names:
             state.poses[n] = settled[n]
         rec["cpu_s"] = time.process_time() - t_cpu
@@ -502,6 +669,8 @@ def attempt(
     lifted, success = res["lifted"], res["success"]
     if pb:
         rec["pybullet"] = pb.run_pile(state, {n: settled[n] for n in names}, base, steps)
+    if mj_judge is not None:
+        rec["mujoco"] = mj_judge.run_pile(state, {n: settled[n] for n in names}, base, steps, part_files)
     removed = lifted if success else []
     for n in names:
         if n in removed:
@@ -527,8 +696,11 @@ def run_scene(
     preshape_margin: float | None = PRESHAPE_MARGIN,
     push: bool = True,
     paired: bool = False,
+    slide: bool = True,
+    mj_judge=None,
 ) -> dict:
-    """Clears one scene; returns its record (counts are read from the simulator's state)."""
+    """Clears one scene; returns its record (counts are read from the simulator's state). ``slide``: bins
+    only (slides along a wall when neither a grasp nor a push is found)."""
     # Settle the drop once in its own world: the first state.
     w = ferrobot.World(dt=DT)
     w.add_box(
@@ -546,7 +718,9 @@ def run_scene(
     while state.objects and fails < 2 and len(attempts) < 2 * total:
         tag = f"s{spec.seed}_a{len(attempts)}"
         can_push = push and in_row < MAX_PUSHES_IN_ROW
-        rec = attempt(state, hand_model, pb, options, picture_dir, tag, preshape_margin, can_push, paired)
+        rec = attempt(
+            state, hand_model, pb, options, picture_dir, tag, preshape_margin, can_push, paired, slide, mj_judge
+        )
         if "push" in rec:
             pushes.append(rec)
             in_row += 1
@@ -584,6 +758,7 @@ def summarise(scenes: list[dict], use_pybullet: bool) -> dict:
         "grasp_success": {"ferrobot": sum(a["ferrobot"]["success"] for a in att) / len(att) if att else 0.0},
         "clean_lifts": sum(a["ferrobot"].get("clean", False) for a in att),
         "pushes": sum(len(s.get("pushes", [])) for s in scenes),
+        "slides": sum(p["push"].get("kind") == "slide" for s in scenes for p in s.get("pushes", [])),
         "attempts_per_removed_object": len(att) / removed if removed else None,
         "median_detection_ms": statistics.median(a["detect_ms"] for a in att) if att else None,
         "median_detection_cpu_ms": statistics.median(a["detect_cpu_ms"] for a in att) if att else None,
@@ -614,6 +789,17 @@ def summarise(scenes: list[dict], use_pybullet: bool) -> dict:
             }
     if use_pybullet:
         out["grasp_success"]["pybullet"] = sum(a["pybullet"]["success"] for a in att) / len(att) if att else 0.0
+    mj = [a for a in att if "mujoco" in a]
+    if mj:
+        out["grasp_success"]["mujoco"] = sum(a["mujoco"]["success"] for a in mj) / len(mj)
+        # Per attempt, which judges lift it: the disagreements between ferrobot and PyBullet, settled by MuJoCo.
+        votes: dict[str, int] = {}
+        for a in mj:
+            key = "/".join(
+                f"{j}:{'ok' if a[j]['success'] else 'fail'}" for j in ("ferrobot", "pybullet", "mujoco") if j in a
+            )
+            votes[key] = votes.get(key, 0) + 1
+        out["judges"] = votes
     return out
 
 
@@ -636,9 +822,23 @@ def main() -> int:
     ap.add_argument("--no-preshape", action="store_true", help="approach with the fingers fully open")
     ap.add_argument("--no-push", action="store_true", help="no pushes: a frame without a grasp is a failed attempt")
     ap.add_argument(
+        "--no-slide", action="store_true", help="bins: no slides along a wall when neither a grasp nor a push is found"
+    )
+    ap.add_argument(
         "--paired",
         action="store_true",
         help="also run every grasp from the same state with the other pre-shape (fully open <-> pre-shaped)",
+    )
+    ap.add_argument(
+        "--independent-fingers",
+        action="store_true",
+        help="the hand's two fingers on independent joints (before table18e); default: geared together as the "
+        "real Panda hand's",
+    )
+    ap.add_argument(
+        "--mujoco",
+        action="store_true",
+        help="also replay every grasp in MuJoCo (benches/mujoco_judge.py), a third judge",
     )
     ap.add_argument("--option", action="append", default=[], metavar="KEY=VALUE", help="a detection option (JSON)")
     args = ap.parse_args()
@@ -658,18 +858,35 @@ def main() -> int:
     t0 = time.perf_counter()
     scenes = []
     with tempfile.TemporaryDirectory() as tmp:
-        urdf, hand_model = ge.hand_files(Path(tmp))
-        pb = None if args.no_pybullet else PyBulletClutterJudge(urdf, Path(tmp))
+        coupled = not args.independent_fingers
+        urdf, hand_model = ge.hand_files(Path(tmp), coupled=coupled)
+        pb = None if args.no_pybullet else PyBulletClutterJudge(urdf, Path(tmp), coupled=coupled)
+        mj_judge = None
+        if args.mujoco:
+            import mujoco_judge
+
+            mj_judge = mujoco_judge.MuJoCoClutterJudge(Path(tmp), coupled=coupled)
         try:
             for k in range(args.scenes):
                 spec = clutter.random_clutter(
                     args.seed + k, args.objects_per_scene, files, bin=args.bin, table_top=TABLE_TOP, center=CENTER
                 )
-                s = run_scene(spec, hand_model, pb, options, args.pictures, preshape, not args.no_push, args.paired)
+                s = run_scene(
+                    spec,
+                    hand_model,
+                    pb,
+                    options,
+                    args.pictures,
+                    preshape,
+                    not args.no_push,
+                    args.paired,
+                    not args.no_slide,
+                    mj_judge,
+                )
                 for p in s["pushes"]:
                     pp = p["push"]
                     print(
-                        f"  push: {pp['target']} along {np.round(pp['direction'], 2).tolist()} "
+                        f"  {pp.get('kind', 'push')}: {pp['target']} along {np.round(pp['direction'], 2).tolist()} "
                         f"by {pp['distance']:.2f} m "
                         f"(tilt {pp['tilt']:.1f}): moved {pp['target_moved'] * 100:.1f} cm, "
                         f"others up to {pp['others_moved_max'] * 100:.1f} cm",
@@ -685,7 +902,8 @@ def main() -> int:
                         f"width {g.get('width', float('nan')):.3f}, depth {g.get('depth', float('nan')):.3f}, "
                         f"approach error {f.get('approach_error', float('nan')):.3f}, "
                         f"closed {f.get('closed_opening', float('nan')):.4f}"
-                        + (f", pybullet {a['pybullet'].get('success')}" if "pybullet" in a else ""),
+                        + (f", pybullet {a['pybullet'].get('success')}" if "pybullet" in a else "")
+                        + (f", mujoco {a['mujoco'].get('success')}" if "mujoco" in a else ""),
                         flush=True,
                     )
                 scenes.append(s)
@@ -718,7 +936,9 @@ def main() -> int:
         detect_options=options,
         preshape_margin=preshape,
         push=not args.no_push,
+        slide=not args.no_slide,
         paired_run=args.paired,
+        coupled_fingers=not args.independent_fingers,
         cores=os.cpu_count(),
         load_average=ge.load_avg(),
         wall_s=time.perf_counter() - t0,
@@ -726,7 +946,7 @@ def main() -> int:
     print(
         f"cleared {res['removed']}/{res['objects']} ({res['completion_rate'] * 100:.1f}%), lost {res['lost']}, "
         f"attempts {res['attempts']} ({res['attempts_per_removed_object'] or float('nan'):.2f} per removed object), "
-        f"clean lifts {res['clean_lifts']}, pushes {res['pushes']}"
+        f"clean lifts {res['clean_lifts']}, pushes {res['pushes']} (slides {res['slides']})"
     )
     print("stages: " + ", ".join(f"{k} {v}" for k, v in sorted(res["stages"].items(), key=lambda kv: -kv[1])))
     if "paired" in res:
@@ -742,6 +962,11 @@ def main() -> int:
         )
     for judge, rate in res["grasp_success"].items():
         print(f"grasp success per attempt, {judge:8s}: {rate * 100:.1f}%")
+    if "judges" in res:
+        print(
+            "judges per attempt: "
+            + ", ".join(f"{k} {v}" for k, v in sorted(res["judges"].items(), key=lambda kv: -kv[1]))
+        )
     if res["attempts"]:
         print(
             f"detection per {ge.WIDTH}x{ge.HEIGHT} frame: median {res['median_detection_ms']:.1f} ms wall, "

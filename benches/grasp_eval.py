@@ -547,11 +547,24 @@ def load_avg() -> str:
         return "n/a"
 
 
-def hand_files(tmp: Path) -> tuple[str, ferrobot.RobotModel]:
+def hand_files(tmp: Path, coupled: bool = False) -> tuple[str, ferrobot.RobotModel]:
+    """The floating hand's URDF (path) and its ferrobot model. ``coupled``: the second finger joint mimics
+    the first (as the real Panda hand, whose fingers are geared to one motor), so the finger pair cannot
+    drift sideways as a unit; ferrobot then has one finger DOF, and the PyBullet judge must add the gear
+    constraint itself (PyBullet ignores ``<mimic>``)."""
     import pybullet_data
 
     mesh_dir = Path(pybullet_data.getDataPath()) / "franka_panda" / "meshes" / "collision"
     text = HAND_URDF.format(mesh_dir=mesh_dir, move_force=MOVE_FORCE, finger_force=FINGER_FORCE)
+    if coupled:
+        tail = f'<limit lower="0.0" upper="0.04" effort="{FINGER_FORCE}" velocity="0.2"/>\n  </joint>\n</robot>'
+        assert text.rstrip().endswith(tail), "HAND_URDF's last joint changed"
+        text = text.rstrip()[: -len("  </joint>\n</robot>")] + (
+            '  <mimic joint="panda_finger_joint1" multiplier="1" offset="0"/>\n  </joint>\n</robot>\n'
+        )
+        path = tmp / "floating_panda_hand_coupled.urdf"
+        path.write_text(text)
+        return str(path), ferrobot.RobotModel.from_urdf(path, ee_link="panda_hand")
     path = tmp / "floating_panda_hand.urdf"
     path.write_text(text)
     return str(path), ferrobot.RobotModel.from_urdf(path, ee_link="panda_hand")

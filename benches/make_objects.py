@@ -15,6 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ferrobot.grasp._group import _BOX_FACES
+
 
 def _grid_surface(points: np.ndarray, close_u: bool) -> tuple[np.ndarray, np.ndarray]:
     """Triangles of a (nu, nv, 3) grid closed along v (and along u when ``close_u``)."""
@@ -86,24 +88,9 @@ def bent_tube(rng) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _box(lo, hi) -> tuple[np.ndarray, np.ndarray]:
+    """An axis-aligned box from ``lo`` to ``hi``; corner c at bits (x, y, z) = (c & 1, c >> 1 & 1, c >> 2 & 1)."""
     v = np.array([[x, y, z] for z in (lo[2], hi[2]) for y in (lo[1], hi[1]) for x in (lo[0], hi[0])])
-    f = np.array(
-        [
-            [0, 2, 1],
-            [1, 2, 3],
-            [4, 5, 6],
-            [5, 7, 6],
-            [0, 1, 4],
-            [1, 5, 4],
-            [2, 6, 3],
-            [3, 6, 7],
-            [0, 4, 2],
-            [2, 4, 6],
-            [1, 3, 5],
-            [3, 7, 5],
-        ]
-    )
-    return v, f
+    return v, _BOX_FACES.copy()
 
 
 def l_shape(rng) -> tuple[np.ndarray, np.ndarray]:

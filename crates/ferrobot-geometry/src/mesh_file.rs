@@ -301,34 +301,9 @@ pub fn load_object_mesh(
 mod tests {
     use super::*;
 
+    /// A unit cube about the origin.
     fn cube() -> TriMesh {
-        let vertices = (0..8)
-            .map(|i| {
-                Point3::new(
-                    (i & 1) as f64 - 0.5,
-                    ((i >> 1) & 1) as f64 - 0.5,
-                    ((i >> 2) & 1) as f64 - 0.5,
-                )
-            })
-            .collect();
-        let triangles = vec![
-            [0, 2, 1],
-            [1, 2, 3],
-            [4, 5, 6],
-            [5, 7, 6],
-            [0, 1, 4],
-            [1, 5, 4],
-            [2, 6, 3],
-            [3, 6, 7],
-            [0, 4, 2],
-            [2, 4, 6],
-            [1, 3, 5],
-            [3, 7, 5],
-        ];
-        TriMesh {
-            vertices,
-            triangles,
-        }
+        TriMesh::cuboid(Point3::origin(), Vector3::repeat(0.5))
     }
 
     #[test]

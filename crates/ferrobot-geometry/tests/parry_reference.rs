@@ -154,32 +154,10 @@ fn capsule_is_along_z_with_half_height() {
     assert!(Shape::capsule_from_length(0.05, 0.0).validate("c").is_ok());
 }
 
+/// A cube of half side `h` about the origin, as vertices and outward triangles.
 fn cube(h: f64) -> (Vec<Point3<f64>>, Vec<[u32; 3]>) {
-    let v: Vec<Point3<f64>> = (0..8)
-        .map(|i| {
-            Point3::new(
-                if i & 1 == 0 { -h } else { h },
-                if i & 2 == 0 { -h } else { h },
-                if i & 4 == 0 { -h } else { h },
-            )
-        })
-        .collect();
-    // Outward triangles of the 6 faces.
-    let t = vec![
-        [0, 2, 1],
-        [1, 2, 3],
-        [4, 5, 6],
-        [5, 7, 6],
-        [0, 1, 4],
-        [1, 5, 4],
-        [2, 6, 3],
-        [3, 6, 7],
-        [0, 4, 2],
-        [2, 4, 6],
-        [1, 3, 5],
-        [3, 7, 5],
-    ];
-    (v, t)
+    let m = TriMesh::cuboid(Point3::origin(), Vector3::repeat(h));
+    (m.vertices, m.triangles)
 }
 
 #[test]

@@ -122,6 +122,21 @@ struct Smoothed {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct TimedOut;
 
+/// Intervals of an edge certified together by [`Planner::certify_path`]
+/// (with the tube, then without it where that fails).
+const CERTIFY_CHUNK: usize = 8;
+
+/// The outcome of certifying (and repairing) a path found at samples.
+enum Certified {
+    /// Every edge of the (possibly repaired) path is certified free; per
+    /// edge, whether its tube was certified too.
+    Free(Vec<Vec<f64>>, Vec<bool>),
+    /// An edge was not free and could not be repaired locally.
+    Collides,
+    /// The deadline passed.
+    TimedOut,
+}
+
 /// Outcome of a plan.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum PlanStatus {
@@ -167,8 +182,11 @@ pub struct StageTimes {
     pub ik: f64,
     /// Checks of start and goal, and RRT-Connect.
     pub planning: f64,
-    /// Shortcutting.
+    /// Shortcutting, and the continuous certification of the final path
+    /// (with its repairs).
     pub simplify: f64,
+    /// Of `simplify`: the certification of the final path.
+    pub certify: f64,
     /// Trajectory fitting, time parametrisation and dense re-check.
     pub trajectory: f64,
     /// Of `trajectory`: spline fits and time parametrisation (every
@@ -601,16 +619,24 @@ impl Planner {
         );
         let mut unchecked = false;
         let mut tubes = Vec::new();
-        if let (Ok(path), _) = &attempt {
-            let t = Instant::now();
-            let certified = self.certify_path(space, path, opts.rrt.resolution, deadline);
-            times.simplify += t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let certified = match &attempt.0 {
+            Ok(path) => Some(self.certify_repairing(space, path, opts, deadline)),
+            Err(_) => None,
+        };
+        if let Some(certified) = certified {
+            let elapsed = t.elapsed().as_secs_f64();
+            times.simplify += elapsed;
+            times.certify += elapsed;
             match certified {
                 // The path was found at samples only: it is not returned
                 // uncertified.
-                None => unchecked = true,
-                Some(Some(flags)) => tubes = flags,
-                Some(None) => {
+                Certified::TimedOut => unchecked = true,
+                Certified::Free(repaired, flags) => {
+                    tubes = flags;
+                    attempt.0 = Ok(repaired);
+                }
+                Certified::Collides => {
                     attempt = self.find_path(
                         space,
                         start,
@@ -629,7 +655,9 @@ impl Planner {
                             // the deadline can stop this.
                             _ => unchecked = true,
                         }
-                        times.simplify += t.elapsed().as_secs_f64();
+                        let elapsed = t.elapsed().as_secs_f64();
+                        times.simplify += elapsed;
+                        times.certify += elapsed;
                     }
                 }
             }
@@ -749,7 +777,12 @@ impl Planner {
                     .until(deadline)
                     .certified(certified);
                 let mut rng = SmallRng::seed_from_u64(opts.rrt.seed ^ 0x5EED);
-                simplify(&mut edges, path, &opts.simplify, &mut rng)
+                simplify(
+                    &mut edges,
+                    path,
+                    &self.simplify_options(opts, certified),
+                    &mut rng,
+                )
             } else {
                 path
             }
@@ -881,8 +914,98 @@ impl Planner {
         self.checker.motion_margin(&delta)
     }
 
-    /// Certifies every edge of `path` free continuously (intervals of
-    /// `resolution`, see [`ferrobot_collision::certify`]): per edge,
+    /// Shortcutting options for edges checked at samples (`certified`
+    /// false: the final path is certified afterwards, so parts of checked
+    /// edges need no check of their own) or certified (true: the parts are
+    /// certified on their own, since a part's certificate uses its own
+    /// intervals and work budget, and a failure falls back to the vertex
+    /// reduction, whose edges were certified whole).
+    fn simplify_options(&self, opts: &PlanOptions, certified: bool) -> SimplifyOptions {
+        SimplifyOptions {
+            recheck_parts: opts.simplify.recheck_parts || certified,
+            ..opts.simplify.clone()
+        }
+    }
+
+    /// Certifies every edge of `path` (found and shortcut at samples) free
+    /// continuously, like [`Planner::certify_path`]; an edge that is not
+    /// free (it grazes an obstacle between the coarse samples) is replaced
+    /// by a local RRT-Connect between its two end points with certified
+    /// edges, shortcut with certified edges, instead of searching the whole
+    /// problem again. [`Certified::Collides`] when a local search fails too.
+    fn certify_repairing(
+        &self,
+        space: &ActiveSpace,
+        path: &[Vec<f64>],
+        opts: &PlanOptions,
+        deadline: Instant,
+    ) -> Certified {
+        let resolution = opts.rrt.resolution;
+        let mut out = vec![path[0].clone()];
+        let mut flags = Vec::with_capacity(path.len().saturating_sub(1));
+        for (k, w) in path.windows(2).enumerate() {
+            match self.certify_path(space, w, resolution, deadline) {
+                None => return Certified::TimedOut,
+                Some(Some(f)) => {
+                    flags.extend(f);
+                    out.push(w[1].clone());
+                }
+                Some(None) => {
+                    // Both end points are free (configurations of a checked
+                    // path); search between them with certified edges.
+                    let rrt = RrtOptions {
+                        resolution,
+                        seed: opts.rrt.seed ^ (0xEDCE << 16) ^ k as u64,
+                        ..opts.rrt.clone()
+                    };
+                    let (found, _) = rrt_connect_until(
+                        &self.checker,
+                        space,
+                        &w[0],
+                        std::slice::from_ref(&w[1]),
+                        &rrt,
+                        deadline,
+                        true,
+                    );
+                    let Ok(local) = found else {
+                        return if Instant::now() >= deadline {
+                            Certified::TimedOut
+                        } else {
+                            Certified::Collides
+                        };
+                    };
+                    let local = if opts.simplify_path {
+                        let mut edges = Edges::new(&self.checker, space, resolution)
+                            .until(deadline)
+                            .certified(true);
+                        let mut rng = SmallRng::seed_from_u64(rrt.seed ^ 0x5EED);
+                        simplify(
+                            &mut edges,
+                            local,
+                            &self.simplify_options(opts, true),
+                            &mut rng,
+                        )
+                    } else {
+                        local
+                    };
+                    // Its edges are certified (or parts of certified edges);
+                    // this adds the tubes.
+                    match self.certify_path(space, &local, resolution, deadline) {
+                        Some(Some(f)) => flags.extend(f),
+                        None => return Certified::TimedOut,
+                        Some(None) => return Certified::Collides,
+                    }
+                    out.extend(local.into_iter().skip(1));
+                }
+            }
+        }
+        Certified::Free(out, flags)
+    }
+
+    /// Certifies every edge of `path` free: self-collision (and the world)
+    /// at samples `resolution` apart, then the world continuously from
+    /// intervals of [`crate::rrt::WORLD_INTERVALS`] x `resolution` (see
+    /// [`ferrobot_collision::certify`]), chunk by chunk: per edge,
     /// whether the tube of [`recheck::SKIP_DEVIATION`] x `resolution` around
     /// it was certified too (`Some(Some(flags))`), `Some(None)` when an edge
     /// is not free, `None` when `deadline` passed first.
@@ -899,18 +1022,64 @@ impl Planner {
         for w in path.windows(2) {
             space.expand_into(&w[0], a);
             space.expand_into(&w[1], b);
-            let certify = |tube| {
-                crate::rrt::certify_segment(&self.checker, a, b, resolution, tube, Some(deadline))
-            };
-            let flag = match (tube.is_finite(), certify(tube)) {
-                (true, Some(true)) => true,
-                (_, None) => return None,
-                _ => match certify(0.0)? {
-                    true => false,
-                    false => return Some(None),
-                },
-            };
-            flags.push(flag);
+            // Self-collision (and the world) at samples `resolution` apart.
+            if !self
+                .checker
+                .motion_valid_until(a, b, resolution, Some(deadline))?
+            {
+                return Some(None);
+            }
+            // The world continuously, chunk by chunk (the intervals of the
+            // whole edge): with the tube until a chunk fails with it, then
+            // without; a chunk that fails the tube is certified again
+            // without it, the chunks before it are not.
+            let steps = crate::rrt::certify_steps(a, b, resolution * crate::rrt::WORLD_INTERVALS);
+            let mut tube_ok = tube.is_finite();
+            let mut k = 0;
+            while k < steps {
+                let n = (steps - k).min(CERTIFY_CHUNK);
+                let part = |tube| {
+                    crate::rrt::certify_segment_part(
+                        &self.checker,
+                        a,
+                        b,
+                        (k, k + n, steps),
+                        tube,
+                        Some(deadline),
+                    )
+                };
+                if tube_ok {
+                    match part(tube)? {
+                        true => {
+                            k += n;
+                            continue;
+                        }
+                        false => tube_ok = false,
+                    }
+                }
+                if !part(0.0)? {
+                    // A chunk's work budget is its own (see
+                    // `ferrobot_collision::certify::CHECKS_PER_INTERVAL`):
+                    // a long stretch grazing an obstacle within micrometres
+                    // can exhaust it where the whole edge's pooled budget
+                    // does not, so the whole edge decides.
+                    let whole = crate::rrt::certify_world(
+                        &self.checker,
+                        a,
+                        b,
+                        resolution,
+                        0.0,
+                        Some(deadline),
+                    )?;
+                    if !whole {
+                        return Some(None);
+                    }
+                    tube_ok = false;
+                    break;
+                }
+                k += n;
+            }
+            flags.push(tube_ok);
         }
         Some(Some(flags))
     }

@@ -3,7 +3,11 @@
 //! configurations spread along the edge per SIMD pack, as VAMP does).
 //!
 //! The goal tree may hold several roots (a goal set from IK); the planner
-//! first tries the straight motion from the start to each goal.
+//! first tries the straight motion from the start to each goal. Two
+//! standard refinements keep hard problems (narrow passages into shelves)
+//! from drawing thousands of samples: balanced trees (the smaller tree is
+//! extended) and dynamic domains (samples far beyond a node whose
+//! extensions collided are not steered towards from it).
 
 use std::time::{Duration, Instant};
 
@@ -29,6 +33,12 @@ pub struct RrtOptions {
     pub time_limit: Duration,
     /// Random seed (same inputs and seed, same path).
     pub seed: u64,
+    /// Grow the smaller tree at each iteration (balanced trees) instead of
+    /// alternating.
+    pub balance: bool,
+    /// Dynamic domain: a node from which an extension collided accepts only
+    /// samples within its domain radius (see [`DOMAIN_RADIUS`]).
+    pub dynamic_domain: bool,
 }
 
 impl Default for RrtOptions {
@@ -39,15 +49,35 @@ impl Default for RrtOptions {
             max_samples: 100_000,
             time_limit: Duration::from_secs(1),
             seed: 0,
+            balance: true,
+            dynamic_domain: true,
         }
     }
 }
+
+/// Dynamic domain (Yershova et al., 2005; [`RrtOptions::dynamic_domain`]): a node from which an extension
+/// collided only accepts samples within its domain radius, so samples
+/// behind obstacles stop pulling the tree into them. The radius a node gets
+/// at its first collision (active-space Euclidean norm, rad or m).
+pub const DOMAIN_RADIUS: f64 = 4.0;
+/// The smallest domain radius.
+const DOMAIN_MIN_RADIUS: f64 = 1.0;
+/// Relative change of a finite domain radius per extension from the node
+/// (grows on success, shrinks on collision).
+const DOMAIN_ALPHA: f64 = 1e-4;
+/// Samples rejected by the dynamic domain in a row before one is accepted
+/// regardless (so the domain cannot stall the search where every node is
+/// bounded).
+const DOMAIN_MAX_REJECTS: usize = 64;
 
 /// A tree of configurations stored flat.
 struct Tree {
     dim: usize,
     nodes: Vec<f64>,
     parents: Vec<u32>,
+    /// Dynamic-domain radius per node (infinite until an extension from
+    /// it collides).
+    radius: Vec<f64>,
 }
 
 impl Tree {
@@ -56,13 +86,34 @@ impl Tree {
             dim,
             nodes: Vec::with_capacity(dim * 256),
             parents: Vec::with_capacity(256),
+            radius: Vec::with_capacity(256),
         }
+    }
+
+    fn len(&self) -> usize {
+        self.parents.len()
     }
 
     fn push(&mut self, q: &[f64], parent: u32) -> u32 {
         self.nodes.extend_from_slice(q);
         self.parents.push(parent);
+        self.radius.push(f64::INFINITY);
         (self.parents.len() - 1) as u32
+    }
+
+    /// Records an extension from node `i`: grows a finite domain on success,
+    /// sets or shrinks it on collision.
+    fn extended(&mut self, i: u32, free: bool) {
+        let r = &mut self.radius[i as usize];
+        if free {
+            if r.is_finite() {
+                *r *= 1.0 + DOMAIN_ALPHA;
+            }
+        } else if r.is_finite() {
+            *r = (*r * (1.0 - DOMAIN_ALPHA)).max(DOMAIN_MIN_RADIUS);
+        } else {
+            *r = DOMAIN_RADIUS;
+        }
     }
 
     fn node(&self, i: u32) -> &[f64] {
@@ -71,6 +122,11 @@ impl Tree {
     }
 
     fn nearest(&self, q: &[f64]) -> u32 {
+        self.nearest_with_distance(q).0
+    }
+
+    /// The nearest node and its squared distance.
+    fn nearest_with_distance(&self, q: &[f64]) -> (u32, f64) {
         let mut best = (f64::INFINITY, 0u32);
         for (i, n) in self.nodes.chunks_exact(self.dim).enumerate() {
             let d: f64 = n.iter().zip(q).map(|(a, b)| (a - b) * (a - b)).sum();
@@ -78,7 +134,7 @@ impl Tree {
                 best = (d, i as u32);
             }
         }
-        best.1
+        (best.1, best.0)
     }
 
     /// Path from the root to node `i`.
@@ -160,22 +216,14 @@ impl<'a> Edges<'a> {
         self.space.expand_into(q0, &mut self.a);
         self.space.expand_into(q1, &mut self.b);
         let answer = if self.certified {
-            // Most motions that collide do so at the samples: the sampled
-            // check finds that cheapest.
-            match self
-                .checker
-                .motion_valid_until(&self.a, &self.b, self.resolution, self.deadline)
-            {
-                Some(true) => certify_segment(
-                    self.checker,
-                    &self.a,
-                    &self.b,
-                    self.resolution,
-                    0.0,
-                    self.deadline,
-                ),
-                other => other,
-            }
+            certify_segment(
+                self.checker,
+                &self.a,
+                &self.b,
+                self.resolution,
+                0.0,
+                self.deadline,
+            )
         } else {
             self.checker
                 .motion_valid_until(&self.a, &self.b, self.resolution, self.deadline)
@@ -190,11 +238,24 @@ impl<'a> Edges<'a> {
     }
 }
 
-/// Whether every configuration of the straight motion from `a` to `b`
-/// (full configurations) is free with the spheres grown by `tube` (m),
-/// certified continuously from intervals no longer than `resolution` in any
-/// DOF ([`CollisionChecker::curve_certified_until`]); `None` when
-/// `deadline` passed first.
+/// Certification intervals of world contacts, in units of the resolution:
+/// an interval is proven free by its midpoint with the margin grown by what
+/// the robot can move over half of it, and split where that fails, so wider
+/// first intervals cost fewer checks where the motion has clearance (the
+/// usual case) and a few more splits where it grazes an obstacle. Self
+/// pairs, which cannot be certified with a grown margin (links in
+/// near-contact), are checked at samples `resolution` apart by the motion
+/// check that comes first.
+pub const WORLD_INTERVALS: f64 = 2.0;
+
+/// Whether the straight motion from `a` to `b` (full configurations) is
+/// free: every configuration free of the world with the spheres grown by
+/// `tube` (m), certified continuously
+/// ([`CollisionChecker::curve_certified_until`] from intervals of
+/// [`WORLD_INTERVALS`] x `resolution`), and free of self-collision at
+/// samples no more than `resolution` apart in any DOF (the motion check,
+/// which also finds most collisions cheapest); `None` when `deadline`
+/// passed first.
 pub(crate) fn certify_segment(
     checker: &CollisionChecker,
     a: &[f64],
@@ -203,16 +264,62 @@ pub(crate) fn certify_segment(
     tube: f64,
     deadline: Option<Instant>,
 ) -> Option<bool> {
-    let delta: Vec<f64> = a.iter().zip(b).map(|(x, y)| (y - x).abs()).collect();
-    let span = delta.iter().copied().fold(0.0, f64::max);
+    if !checker.motion_valid_until(a, b, resolution, deadline)? {
+        return Some(false);
+    }
+    certify_world(checker, a, b, resolution, tube, deadline)
+}
+
+/// The world half of [`certify_segment`] (no motion check at samples).
+pub(crate) fn certify_world(
+    checker: &CollisionChecker,
+    a: &[f64],
+    b: &[f64],
+    resolution: f64,
+    tube: f64,
+    deadline: Option<Instant>,
+) -> Option<bool> {
+    let steps = certify_steps(a, b, resolution * WORLD_INTERVALS);
+    certify_segment_part(checker, a, b, (0, steps, steps), tube, deadline)
+}
+
+/// Intervals of the motion from `a` to `b` over which no DOF moves more
+/// than `resolution`.
+pub(crate) fn certify_steps(a: &[f64], b: &[f64], resolution: f64) -> usize {
+    let span = a
+        .iter()
+        .zip(b)
+        .map(|(x, y)| (y - x).abs())
+        .fold(0.0, f64::max);
     // `as` saturates; callers bound the resolution (ranges::RESOLUTION).
-    let steps = ((span / resolution).ceil() as usize).max(1);
+    ((span / resolution).ceil() as usize).max(1)
+}
+
+/// [`certify_segment`] of the intervals `k0..k1` of the `steps` equal
+/// intervals of the motion from `a` to `b` (`part = (k0, k1, steps)`): the
+/// same intervals, so the same certificate, as the whole motion's.
+pub(crate) fn certify_segment_part(
+    checker: &CollisionChecker,
+    a: &[f64],
+    b: &[f64],
+    part: (usize, usize, usize),
+    tube: f64,
+    deadline: Option<Instant>,
+) -> Option<bool> {
+    let (k0, k1, steps) = part;
+    let (u0, u1) = (k0 as f64 / steps as f64, k1 as f64 / steps as f64);
+    let delta: Vec<f64> = a
+        .iter()
+        .zip(b)
+        .map(|(x, y)| (y - x).abs() * (u1 - u0))
+        .collect();
     let mut point = |u: f64, q: &mut [f64]| {
+        let s = u0 + (u1 - u0) * u;
         for ((o, x), y) in q.iter_mut().zip(a).zip(b) {
-            *o = x + (y - x) * u;
+            *o = x + (y - x) * s;
         }
     };
-    checker.curve_certified_until(&mut point, &delta, steps, tube, deadline, &mut 0)
+    checker.curve_certified_until(&mut point, &delta, k1 - k0, tube, deadline, &mut 0)
 }
 
 /// Why RRT-Connect stopped without a path.
@@ -303,6 +410,7 @@ pub(crate) fn rrt_connect_until(
     let mut sample = vec![0.0; dim];
     let mut new = Vec::with_capacity(dim);
     let mut step = Vec::with_capacity(dim);
+    let mut rejects = 0usize;
     let failure = loop {
         if stats.samples >= opts.max_samples {
             break RrtFailure::SampleLimit;
@@ -317,10 +425,21 @@ pub(crate) fn rrt_connect_until(
         for (k, s) in sample.iter_mut().enumerate() {
             *s = rng.random_range(space.sample_lower[k]..=space.sample_upper[k]);
         }
-        // Extend tree A towards the sample.
-        let near = ta.nearest(&sample);
+        // Extend tree A (the smaller one: balanced trees) towards the
+        // sample, if the sample lies in its nearest node's domain.
+        let (near, d2) = ta.nearest_with_distance(&sample);
+        let domain = ta.radius[near as usize];
+        if opts.dynamic_domain && d2 > domain * domain && rejects < DOMAIN_MAX_REJECTS {
+            rejects += 1;
+            continue;
+        }
+        rejects = 0;
         steer(ta.node(near), &sample, opts.range, &mut new);
-        if edges.valid(ta.node(near), &new) {
+        let free = edges.valid(ta.node(near), &new);
+        if opts.dynamic_domain {
+            ta.extended(near, free);
+        }
+        if free {
             let added = ta.push(&new, near);
             // Connect tree B to the new node, step by step.
             let mut nb = tb.nearest(&new);
@@ -336,16 +455,20 @@ pub(crate) fn rrt_connect_until(
                     // The meeting node appears in both halves.
                     from_start.pop();
                     from_start.extend(to_goal.into_iter().rev());
-                    stats.nodes = ta.parents.len() + tb.parents.len();
+                    stats.nodes = ta.len() + tb.len();
                     stats.motion_checks = edges.checks;
                     return (Ok(from_start), stats);
                 }
             }
         }
-        std::mem::swap(&mut ta, &mut tb);
-        a_is_start = !a_is_start;
+        // Balanced trees: the next extension grows the smaller tree (the
+        // trees alternate while they are the same size).
+        if !opts.balance || tb.len() <= ta.len() {
+            std::mem::swap(&mut ta, &mut tb);
+            a_is_start = !a_is_start;
+        }
     };
-    stats.nodes = ta.parents.len() + tb.parents.len();
+    stats.nodes = ta.len() + tb.len();
     stats.motion_checks = edges.checks;
     (Err(failure), stats)
 }

@@ -14,6 +14,20 @@ pub struct SimplifyOptions {
     pub max_shortcuts: usize,
     /// Stop after this many failed attempts in a row.
     pub max_failures: usize,
+    /// A random shortcut that would shorten the path by less than this
+    /// fraction of its length is not checked and counts as a failed
+    /// attempt (0 checks every candidate). Without it, shortcuts that gain
+    /// almost nothing keep succeeding (each resets the failure count and
+    /// adds two vertices), so the path grows to dozens of tiny edges that
+    /// the vertex reduction and the certification then check one by one:
+    /// the slowest MotionBenchMaker problems spent 10-30 ms there.
+    pub min_gain: f64,
+    /// Check the parts of checked edges that survive shortcutting on their
+    /// own at the end (their samples differ from the whole edge's). Off by
+    /// default: [`crate::Planner`] certifies every edge of the final path
+    /// continuously afterwards (and a part of a certified edge is
+    /// certified), so this check would be a second one.
+    pub recheck_parts: bool,
 }
 
 impl Default for SimplifyOptions {
@@ -21,6 +35,8 @@ impl Default for SimplifyOptions {
         Self {
             max_shortcuts: 40,
             max_failures: 10,
+            min_gain: 0.01,
+            recheck_parts: false,
         }
     }
 }
@@ -75,7 +91,9 @@ fn point(path: &[Vertex], s: usize, t: f64) -> Vec<f64> {
 }
 
 /// Shortens a valid path (every edge checked whole); the result is valid
-/// at the edges' resolution, every edge checked whole, same end points.
+/// at the edges' resolution, every edge checked whole, same end points
+/// (with `opts.recheck_parts` off: every edge is a checked edge or a part
+/// of one, which a continuous certification of the result must cover).
 ///
 /// When `edges` has a deadline and it passes, shortcutting stops: a check
 /// cut short answers "not free", so the edges kept are still only those
@@ -105,6 +123,21 @@ pub(crate) fn simplify(
         }
         let (t0, t1) = (rng.random::<f64>(), rng.random::<f64>());
         let (a, b) = (point(&path, s0, t0), point(&path, s1, t1));
+        if opts.min_gain > 0.0 {
+            // Length of the path between `a` and `b` against the shortcut.
+            let mut along = distance(&a, &path[s0 + 1].0) + distance(&path[s1].0, &b);
+            for k in s0 + 1..s1 {
+                along += distance(&path[k].0, &path[k + 1].0);
+            }
+            let total = path
+                .windows(2)
+                .map(|w| distance(&w[0].0, &w[1].0))
+                .sum::<f64>();
+            if along - distance(&a, &b) < opts.min_gain * total {
+                failures += 1;
+                continue;
+            }
+        }
         if edges.valid(&a, &b) {
             let mut next = path[..=s0].to_vec();
             next.push((a, false));
@@ -118,6 +151,9 @@ pub(crate) fn simplify(
         }
     }
     let path = reduce_vertices(edges, path);
+    if !opts.recheck_parts {
+        return path.into_iter().map(|v| v.0).collect();
+    }
     // Parts of checked edges that survived are checked on their own (their
     // sample points differ from the whole edge's); if one fails, the
     // shortcuts are given up for the vertex-only reduction, whose edges
