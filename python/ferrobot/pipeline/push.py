@@ -189,6 +189,24 @@ def _collides(hm: Heightmap, pts: np.ndarray, ignore_label: int | None, unknown_
     return bool(np.any(z < h))
 
 
+def _checked_motion(distances, tilts, tip_heights, margin, clearance) -> tuple[list[float], list[float]]:
+    """Checks the arguments pushes and slides share: ``distances`` in (0, 0.3] m (returned longest first),
+    ``tilts`` in [0, 1.2] rad, ``tip_heights`` in [0.003, 0.1] m (returned lowest first), ``margin`` and
+    ``clearance`` in [0, 0.02] m; raises ``InvalidArgumentError`` naming the argument."""
+    distances = sorted((float(d) for d in distances), reverse=True)
+    if not distances or not all(0 < d <= 0.3 for d in distances):
+        raise InvalidArgumentError(f"distances: expected values in (0, 0.3] m, got {distances}")
+    if not all(0.0 <= float(t) <= 1.2 for t in tilts):
+        raise InvalidArgumentError(f"tilts: expected values in [0, 1.2] rad, got {list(tilts)}")
+    tip_heights = sorted(float(h) for h in tip_heights)
+    if not tip_heights or not all(0.003 <= h <= 0.1 for h in tip_heights):
+        raise InvalidArgumentError(f"tip_heights: expected values in [0.003, 0.1] m, got {tip_heights}")
+    for name, v in (("margin", margin), ("clearance", clearance)):
+        if not 0.0 <= v <= 0.02:
+            raise InvalidArgumentError(f"{name}: {v} m is outside [0, 0.02]")
+    return distances, tip_heights
+
+
 def plan_push(
     points,
     labels,
@@ -212,21 +230,11 @@ def plan_push(
     (N, 3) world frame with ``labels`` (N,); ``gripper``: a :class:`ferrobot.Gripper` (its ``fingers`` boxes,
     ``tcp``, ``approach`` and ``closing``); ``support_z``: height of the table or bin floor (m); ``bounds``:
     [xmin, xmax, ymin, ymax] of the heightmap (m). Ranges: ``num_directions`` 1-64, ``distances`` in
-    (0, 0.3] m, ``tilts`` in [0, 1.2] rad, ``tip_height`` in [0.003, 0.05] m, ``margin`` and ``clearance`` in
+    (0, 0.3] m, ``tilts`` in [0, 1.2] rad, ``tip_heights`` in [0.003, 0.1] m, ``margin`` and ``clearance`` in
     [0, 0.02] m."""
     if not 1 <= int(num_directions) <= 64:
         raise InvalidArgumentError(f"num_directions: {num_directions} is outside [1, 64]")
-    distances = sorted((float(d) for d in distances), reverse=True)
-    if not distances or not all(0 < d <= 0.3 for d in distances):
-        raise InvalidArgumentError(f"distances: expected values in (0, 0.3] m, got {distances}")
-    if not all(0.0 <= float(t) <= 1.2 for t in tilts):
-        raise InvalidArgumentError(f"tilts: expected values in [0, 1.2] rad, got {list(tilts)}")
-    tip_heights = sorted(float(h) for h in tip_heights)
-    if not tip_heights or not all(0.003 <= h <= 0.1 for h in tip_heights):
-        raise InvalidArgumentError(f"tip_heights: expected values in [0.003, 0.1] m, got {tip_heights}")
-    for name, v in (("margin", margin), ("clearance", clearance)):
-        if not 0.0 <= v <= 0.02:
-            raise InvalidArgumentError(f"{name}: {v} m is outside [0, 0.02]")
+    distances, tip_heights = _checked_motion(distances, tilts, tip_heights, margin, clearance)
     hm = heightmap or Heightmap.from_points(points, labels, support_z, bounds, cell)
     mine = hm.label == target
     if not mine.any():

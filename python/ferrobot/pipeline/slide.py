@@ -38,7 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InvalidArgumentError
-from .push import FreeSpace, Heightmap, _collides, _hand_samples, hand_rotation
+from .push import FreeSpace, Heightmap, _checked_motion, _collides, _hand_samples, hand_rotation
 
 __all__ = ["SlidePlan", "plan_slide"]
 
@@ -135,23 +135,13 @@ def plan_slide(
         raise InvalidArgumentError(f"wall_gap: {wall_gap} m is outside (0, 0.1]")
     if not 0.0 <= hidden_gap <= 0.1:
         raise InvalidArgumentError(f"hidden_gap: {hidden_gap} m is outside [0, 0.1]")
-    distances = sorted((float(d) for d in distances), reverse=True)
-    if not distances or not all(0 < d <= 0.3 for d in distances):
-        raise InvalidArgumentError(f"distances: expected values in (0, 0.3] m, got {distances}")
+    distances, tip_heights = _checked_motion(distances, tilts, tip_heights, margin, clearance)
     if not 0.0 <= press <= 0.04:
         raise InvalidArgumentError(f"press: {press} m is outside [0, 0.04]")
     if not 0.0 <= reach <= press:
         raise InvalidArgumentError(f"reach: {reach} m is outside [0, press = {press}]")
-    if not all(0.0 <= float(t) <= 1.2 for t in tilts):
-        raise InvalidArgumentError(f"tilts: expected values in [0, 1.2] rad, got {list(tilts)}")
     if not all(-1.2 <= float(t) <= 1.2 for t in leans):
         raise InvalidArgumentError(f"leans: expected values in [-1.2, 1.2] rad, got {list(leans)}")
-    tip_heights = sorted(float(h) for h in tip_heights)
-    if not tip_heights or not all(0.003 <= h <= 0.1 for h in tip_heights):
-        raise InvalidArgumentError(f"tip_heights: expected values in [0.003, 0.1] m, got {tip_heights}")
-    for name, v in (("margin", margin), ("clearance", clearance)):
-        if not 0.0 <= v <= 0.02:
-            raise InvalidArgumentError(f"{name}: {v} m is outside [0, 0.02]")
     if not 0.0 <= min_gain <= 0.2:
         raise InvalidArgumentError(f"min_gain: {min_gain} m is outside [0, 0.2]")
     hm = heightmap or Heightmap.from_points(points, labels, support_z, bounds, cell)
