@@ -154,11 +154,15 @@ fn main() {
         .filter_map(|(b, e)| {
             let e = e.as_ref()?;
             let name = &model.links()[b.link].name;
-            Some(format!("{name} {}", e.refined_parts()))
+            Some(format!(
+                "{name} {} ({} inscribed)",
+                e.refined_parts(),
+                e.inscribed().count()
+            ))
         })
         .collect();
     println!(
-        "{} self pairs; exact bodies (refined mesh parts): {}",
+        "{} self pairs; exact bodies (refined mesh parts, inscribed spheres): {}",
         robot.pairs.len(),
         refined.join(", ")
     );
