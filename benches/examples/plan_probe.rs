@@ -1,6 +1,9 @@
 //! Plans every MotionBenchMaker problem once with the Rust API and prints
 //! median stage times (a quick probe; the benchmark proper is `benches/mbm.py`).
-//! `cargo run --release -p ferrobot-benches --example plan_probe [FOLDER...]`
+//! `cargo run --release -p ferrobot-benches --example plan_probe [--no-exact] [FOLDER...]`
+//!
+//! `--no-exact`: self-collision decided by the spheres alone (the exact
+//! self-collision stage off), to see what that stage costs the planner.
 
 use ferrobot_benches::{mbm_checker, mbm_problems};
 use ferrobot_planning::{PlanOptions, Planner};
@@ -16,6 +19,8 @@ fn median(v: &mut [f64]) -> f64 {
 
 fn main() {
     let mut folders: Vec<String> = std::env::args().skip(1).collect();
+    let no_exact = folders.iter().any(|f| f == "--no-exact");
+    folders.retain(|f| f != "--no-exact");
     if folders.is_empty() {
         folders = vec!["table_pick_panda".into(), "bookshelf_small_panda".into()];
     }
@@ -24,7 +29,10 @@ fn main() {
         let (mut solved, mut valid, mut stops) = (0, 0, 0);
         let problems = mbm_problems(&folder);
         for p in &problems {
-            let checker = mbm_checker(&p.scene);
+            let mut checker = mbm_checker(&p.scene);
+            if no_exact {
+                checker.set_exact_self_collision(false);
+            }
             let mut planner = Planner::new(checker, None).expect("planner");
             let mut full = planner.model().neutral_configuration();
             full[..7].copy_from_slice(&p.start);

@@ -3,6 +3,8 @@
 //! collision checker in a scene, random configurations, and the simulated
 //! table scene.
 
+pub mod scenes;
+
 use std::path::PathBuf;
 use std::sync::Arc;
 

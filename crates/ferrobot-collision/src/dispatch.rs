@@ -207,11 +207,22 @@ dispatched! {
         out: &mut [bool],
         scratch: &mut Scratch<f32x8>,
     ) {
+        // Up to 32 DOFs packed on the stack (no allocation per pack).
+        let mut stack = [f32x8::splat(0.0); 32];
         for (po, pq) in out.chunks_mut(8).zip(qs.chunks(8 * dof)) {
             let n = po.len();
-            let lanes = crate::checker::pack(pq, dof, n);
+            let heap;
+            let lanes: &[f32x8] = if dof <= stack.len() {
+                for (d, lane) in stack[..dof].iter_mut().enumerate() {
+                    *lane = f32x8::from_fn(|i| pq[i.min(n - 1) * dof + d] as f32);
+                }
+                &stack[..dof]
+            } else {
+                heap = crate::checker::pack(pq, dof, n);
+                &heap
+            };
             let active = (1u32 << n) - 1;
-            let hit = kernel::check(robot, world, grid, &lanes, margin, active, true, scratch);
+            let hit = kernel::check(robot, world, grid, lanes, margin, active, true, scratch);
             for (i, v) in po.iter_mut().enumerate() {
                 *v = hit & (1 << i) != 0;
             }

@@ -287,6 +287,29 @@ struct Part {
     /// The hull's faces as a mesh (hull parts without `fine`), standing
     /// for the part when the other part of a pair keeps its mesh.
     hull_faces: Option<Arc<TriMesh>>,
+    /// How far the shape reaches along each of [`directions26`] (part
+    /// frame): `local_support_point(d).dot(d)`, the outer side of
+    /// [`may_hold`], computed once.
+    reach26: [f32; 26],
+}
+
+/// The 26 unit directions of [`may_hold`]: every (x, y, z) in {-1, 0, 1}^3
+/// but the origin, normalised, in lexicographic order.
+fn directions26() -> [Vector; 26] {
+    let mut out = [Vector::ZERO; 26];
+    let mut k = 0;
+    for x in -1i8..=1 {
+        for y in -1i8..=1 {
+            for z in -1i8..=1 {
+                if (x, y, z) == (0, 0, 0) {
+                    continue;
+                }
+                out[k] = Vector::new(x as f32, y as f32, z as f32).normalize();
+                k += 1;
+            }
+        }
+    }
+    out
 }
 
 /// At most this many inner spheres per part.
@@ -334,7 +357,11 @@ impl Part {
             fine,
             uid: NEXT_UID.fetch_add(1, Relaxed) & UID_MASK as u32,
             hint: Arc::new(AtomicU64::new(u64::MAX)),
+            reach26: [0.0; 26],
         };
+        let dirs = directions26();
+        part.reach26 =
+            std::array::from_fn(|k| part.shape.local_support_point(dirs[k]).dot(dirs[k]));
         if let (Convex::Hull(h), None) = (&part.shape, &part.fine) {
             let v: Vec<Vector> = h.faces.iter().flatten().copied().collect();
             let t: Vec<[u32; 3]> = (0..h.faces.len() as u32)
@@ -590,20 +617,13 @@ fn coarse_hull_mesh(
 /// `outer`) may lie inside the solid of `outer`. False when `inner`'s hull
 /// reaches further than `outer`'s hull (which contains `outer`) along one
 /// of 26 directions: then some point of `inner` is outside `outer`.
-fn may_hold(outer: &Convex, inner: &Convex, pos: &Pose, reach: f32) -> bool {
-    for x in -1i8..=1 {
-        for y in -1i8..=1 {
-            for z in -1i8..=1 {
-                if (x, y, z) == (0, 0, 0) {
-                    continue;
-                }
-                let d = Vector::new(x as f32, y as f32, z as f32).normalize();
-                let o = outer.local_support_point(d).dot(d);
-                let i = inner.support_point(pos, d).dot(d);
-                if i > o + reach {
-                    return false;
-                }
-            }
+/// `outer`'s reach along each direction is precomputed
+/// ([`Part::reach26`]).
+fn may_hold(outer: &Part, inner: &Convex, pos: &Pose, reach: f32) -> bool {
+    for (d, o) in directions26().iter().zip(&outer.reach26) {
+        let i = inner.support_point(pos, *d).dot(*d);
+        if i > o + reach {
+            return false;
         }
     }
     true
@@ -641,6 +661,21 @@ fn refine(a: &Part, b: &Part, pos12: &Pose, margin: f32) -> bool {
             return true;
         }
     }
+    // The answer is "a triangle pair touches, or one solid may hold the
+    // other": the cheap containment tests (a vertex of one mesh inside the
+    // other part's hull, its planes) first, since deep contacts, which
+    // every such test finds, would otherwise traverse the whole BVH first.
+    let vertex_in_hull = |outer: &Part, pos: &Pose, m: &TriMesh| {
+        let p = pos * m.vertices()[0];
+        let p = Vector3::new(p.x as f64, p.y as f64, p.z as f64);
+        outer.shape.depth(&p) > -(reach as f64)
+    };
+    let pos21 = pos12.inverse();
+    if (a.fine.is_none() && vertex_in_hull(a, pos12, mb))
+        || (b.fine.is_none() && vertex_in_hull(b, &pos21, ma))
+    {
+        return true;
+    }
     let found = ma
         .bvh()
         .leaf_pairs(mb.bvh(), |n1, n2| {
@@ -650,25 +685,18 @@ fn refine(a: &Part, b: &Part, pos12: &Pose, margin: f32) -> bool {
         })
         .find(|&(i, j)| touch(i, j));
     if let Some((i, j)) = found {
-        if u64::from(i) <= TRI_MASK && u64::from(j) <= TRI_MASK {
-            a.hint.store(
-                u64::from(b.uid) << 44 | u64::from(i) << 22 | u64::from(j),
-                Relaxed,
-            );
+        let new = u64::from(b.uid) << 44 | u64::from(i) << 22 | u64::from(j);
+        // Stored only when it changes: threads checking in parallel share
+        // the hint, and a store takes the cache line from the others.
+        if u64::from(i) <= TRI_MASK && u64::from(j) <= TRI_MASK && new != hint {
+            a.hint.store(new, Relaxed);
         }
         return true;
     }
-    // Whether `inner`'s solid (its surface `m`, posed by `pos` in outer's
-    // frame) may lie inside `outer`'s.
-    let inside = |outer: &Part, inner: &Part, pos: &Pose, m: &TriMesh| match outer.fine {
-        None => {
-            let p = pos * m.vertices()[0];
-            let p = Vector3::new(p.x as f64, p.y as f64, p.z as f64);
-            outer.shape.depth(&p) > -(reach as f64)
-        }
-        Some(_) => may_hold(&outer.shape, &inner.shape, pos, reach),
-    };
-    inside(a, b, pos12, mb) || inside(b, a, &pos12.inverse(), ma)
+    // A solid inside a mesh part: ruled out unless the mesh part's hull
+    // reaches at least as far in every one of 26 directions.
+    (a.fine.is_some() && may_hold(a, &b.shape, pos12, reach))
+        || (b.fine.is_some() && may_hold(b, &a.shape, &pos21, reach))
 }
 
 impl Part {
@@ -944,6 +972,44 @@ fn relative(a: &([f32; 9], [f32; 3]), b: &([f32; 9], [f32; 3])) -> Pose {
     Pose::from_parts(t, Rot3::from_mat3(&rel).normalize())
 }
 
+/// The cheap steps of [`confirm`] (boxes, inscribed spheres) on `lanes`:
+/// `(sure, open)`, the lanes where some pair of parts certainly touches
+/// (an inscribed-sphere overlap), and the lanes, not sure, where some pair
+/// of parts' boxes overlap without one (GJK, and maybe the mesh, would have
+/// to decide). Every lane of `confirm(.., lanes, ..)` is in `sure | open`
+/// and every lane of `sure` is in it, so a kernel can take `sure` at once
+/// and leave `open` to [`confirm`] after every cheaper test of the check
+/// (only lanes that nothing else found colliding then reach GJK): the
+/// answer does not change, only the order of the work.
+#[inline(always)]
+pub fn confirm_cheap<L: Lanes>(
+    a: &ExactBody,
+    b: &ExactBody,
+    fa: &LaneFrame<L>,
+    fb: &LaneFrame<L>,
+    lanes: u32,
+    margin: f32,
+) -> (u32, u32) {
+    let margin = margin.max(0.0);
+    let (mut sure, mut open) = (0, 0);
+    for pa in a.parts.iter() {
+        for pb in b.parts.iter() {
+            let todo = lanes & !sure;
+            if todo == 0 {
+                return (sure, 0);
+            }
+            let bits = todo & boxes_overlap(&pa.obb, &pb.obb, fa, fb, margin / 2.0);
+            if bits == 0 {
+                continue;
+            }
+            let s = bits & inner_overlap(pa, pb, fa, fb, bits);
+            sure |= s;
+            open |= bits & !s;
+        }
+    }
+    (sure, open & !sure)
+}
+
 /// Of the lanes in `lanes`, those where the exact geometry of bodies `a`
 /// and `b` (lane frames `fa`, `fb`) is closer than `margin` (or touches,
 /// for a margin of zero or less). Inlined into the [`crate::dispatch`]
@@ -1126,7 +1192,7 @@ mod tests {
                 if d <= 0.0 {
                     assert!(got, "{c:?}: boxes touch, refine says apart");
                     hit += 1;
-                } else if d > 1e-4 && !may_hold(&u.shape, &cube.shape, &pos, TOUCH) {
+                } else if d > 1e-4 && !may_hold(&u, &cube.shape, &pos, TOUCH) {
                     assert!(!got, "{c:?}: {d} m apart, refine says touch");
                     free += usize::from(c.x.abs() < 0.06 && c.z < 0.1);
                 }
@@ -1165,8 +1231,8 @@ mod tests {
                 assert!(got, "{k}: meshes touch, refine says apart");
                 touch += 1;
             } else if d > 5e-3
-                && !may_hold(&a.shape, &b.shape, &pos, TOUCH)
-                && !may_hold(&b.shape, &a.shape, &pos.inverse(), TOUCH)
+                && !may_hold(&a, &b.shape, &pos, TOUCH)
+                && !may_hold(&b, &a.shape, &pos.inverse(), TOUCH)
             {
                 assert!(!got, "{k}: meshes {d} m apart, refine says touch");
                 apart += 1;

@@ -19,6 +19,9 @@ pub struct Scratch<L: Lanes> {
     centers: Vec<[L; 3]>,
     done: Vec<bool>,
     bounds: Vec<[L; 3]>,
+    /// Self pairs left to the exact stage's GJK (pair, lanes), decided
+    /// after every cheaper test of the check.
+    deferred: Vec<(usize, u32)>,
 }
 
 impl<L: Lanes> Scratch<L> {
@@ -30,6 +33,7 @@ impl<L: Lanes> Scratch<L> {
             centers: vec![[zero; 3]; robot.centers.len()],
             done: vec![false; robot.bodies.len()],
             bounds: vec![[zero; 3]; robot.bodies.len()],
+            deferred: Vec::with_capacity(robot.pairs.len()),
         }
     }
 
@@ -341,6 +345,7 @@ pub fn check<L: Lanes>(
 ) -> u32 {
     forward(robot, q, scratch);
     scratch.done.iter_mut().for_each(|d| *d = false);
+    scratch.deferred.clear();
     let m = L::splat(margin);
     let mut hit = 0u32;
     // Distal bodies first: they collide most often.
@@ -488,18 +493,45 @@ pub fn check<L: Lanes>(
                 spheres_hit |= (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).lt_mask(rr * rr) & near_i;
             }
         }
-        // Spheres overlap: the links' exact geometry decides.
+        // Spheres overlap: the links' exact geometry decides. Its cheap
+        // steps now; lanes that need GJK wait until every other pair had
+        // its chance to find them colliding.
         hit |= match (&robot.exact[a], &robot.exact[b]) {
             (Some(ea), Some(eb)) if spheres_hit != 0 => {
                 let (fa, fb) = (&scratch.frames[ba.frame], &scratch.frames[bb.frame]);
-                crate::exact::confirm(ea, eb, fa, fb, spheres_hit, margin)
+                let (sure, open) = crate::exact::confirm_cheap(ea, eb, fa, fb, spheres_hit, margin);
+                if open != 0 {
+                    scratch.deferred.push((pi, open));
+                }
+                sure
             }
             _ => spheres_hit,
         };
         if hit & active == active {
+            scratch.deferred.clear();
             return hit & active;
         }
     }
+    for k in 0..scratch.deferred.len() {
+        let (pi, open) = scratch.deferred[k];
+        let lanes = open & active & !hit;
+        if lanes == 0 {
+            continue;
+        }
+        let (a, b) = robot.pairs[pi];
+        let (Some(ea), Some(eb)) = (&robot.exact[a], &robot.exact[b]) else {
+            continue;
+        };
+        let (fa, fb) = (
+            &scratch.frames[robot.bodies[a].frame],
+            &scratch.frames[robot.bodies[b].frame],
+        );
+        hit |= crate::exact::confirm(ea, eb, fa, fb, lanes, margin);
+        if hit & active == active {
+            break;
+        }
+    }
+    scratch.deferred.clear();
     hit & active
 }
 

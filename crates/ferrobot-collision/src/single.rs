@@ -37,6 +37,9 @@ pub struct OneScratch {
     pair_bounds: PairBounds,
     packs: Vec<[f32x8; 3]>,
     done: Vec<bool>,
+    /// Self pairs left to the exact stage's GJK, decided after every
+    /// cheaper test of the check.
+    deferred: Vec<usize>,
 }
 
 impl OneScratch {
@@ -69,6 +72,7 @@ impl OneScratch {
             pair_bounds: PairBounds::new(&robot.pairs, &robot.pair_reach, n),
             packs: vec![[f32x8::splat(0.0); 3]; robot.packs.len()],
             done: vec![false; n],
+            deferred: Vec::with_capacity(robot.pairs.len()),
         }
     }
 }
@@ -159,6 +163,7 @@ pub fn check_one(
         pair_bounds,
         packs,
         done,
+        deferred,
     } = s;
     // Pairs two joints apart (the hand against link 5) that certainly
     // collide here: one lookup per pair of joints, before anything else.
@@ -167,6 +172,7 @@ pub fn check_one(
     }
     forward_cols(robot, q, frames);
     done.fill(false);
+    deferred.clear();
     let bodies = &robot.bodies;
     bounds.set_all(bodies.len(), |i| {
         apply_cols(&frames[bodies[i].frame], &bodies[i].bound.0)
@@ -256,6 +262,7 @@ pub fn check_one(
             continue;
         }
         let (a, b) = robot.pairs[pi];
+        let pair = pi;
         let cb = bounds.get(b);
         let (ba, bb) = (&robot.bodies[a], &robot.bodies[b]);
         ensure_packs(robot, a, frames, done, packs);
@@ -286,14 +293,21 @@ pub fn check_one(
                     let rr = ri + pack_b.r;
                     if (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).lt_mask(rr * rr) != 0 {
                         // Spheres overlap: the links' exact geometry decides.
+                        // Its cheap steps now; GJK waits until every
+                        // other pair had its chance to find a collision.
                         match exact {
                             (Some(ea), Some(eb)) => {
                                 let (fa, fb) = (
                                     cols_to_frame(&frames[ba.frame]),
                                     cols_to_frame(&frames[bb.frame]),
                                 );
-                                if crate::exact::confirm(ea, eb, &fa, &fb, 1, margin) != 0 {
+                                let (sure, open) =
+                                    crate::exact::confirm_cheap(ea, eb, &fa, &fb, 1, margin);
+                                if sure != 0 {
                                     return true;
+                                }
+                                if open != 0 {
+                                    deferred.push(pair);
                                 }
                                 break 'pair;
                             }
@@ -304,5 +318,18 @@ pub fn check_one(
             }
         }
     }
-    false
+    deferred.iter().any(|&pi| {
+        let (a, b) = robot.pairs[pi];
+        let (ba, bb) = (&robot.bodies[a], &robot.bodies[b]);
+        match (&robot.exact[a], &robot.exact[b]) {
+            (Some(ea), Some(eb)) => {
+                let (fa, fb) = (
+                    cols_to_frame(&frames[ba.frame]),
+                    cols_to_frame(&frames[bb.frame]),
+                );
+                crate::exact::confirm(ea, eb, &fa, &fb, 1, margin) != 0
+            }
+            _ => true,
+        }
+    })
 }

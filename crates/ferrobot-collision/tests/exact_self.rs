@@ -141,3 +141,68 @@ fn bundled_panda_ready_is_free_and_unexplained() {
     let batch = checker.in_collision_batch(&ready).unwrap();
     assert_eq!(batch, vec![false]);
 }
+
+/// The kernels take the exact stage's cheap steps (boxes, inscribed
+/// spheres) pair by pair and leave the pairs that need GJK (and the mesh
+/// refinement) until every other test of the check has run; the mesh
+/// refinement tests its cheap containment conditions before the triangles.
+/// Only the order of the work changes: every kernel (batch, serial batch,
+/// single) must still give, configuration by configuration, the answer of
+/// the collision explanation (`contacts`), which decides each self pair in
+/// turn by its spheres (`f64`) and the whole exact stage, and the world
+/// contacts by exact signed distances. Mostly self-colliding random
+/// configurations (elbow and wrist folded), in an empty and a crowded world.
+#[test]
+fn deferred_exact_stage_answers_as_pair_by_pair_confirmation() {
+    let (model, spheres, acm) = mbm_panda();
+    let mut rng = StdRng::seed_from_u64(23);
+    for (wi, world) in [
+        CollisionWorld::new(),
+        common::scattered_world(3, 150, 0.8, 0.0..1.2, 0.01..0.04, 4),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let checker =
+            CollisionChecker::new(model.clone(), spheres.clone(), acm.clone(), world).unwrap();
+        let mut spheres_only = checker.clone();
+        spheres_only.set_exact_self_collision(false);
+        let n = 2000;
+        let mut qs = Vec::with_capacity(n * 7);
+        for k in 0..n {
+            let mut q = random_q(&model, &mut rng);
+            if k % 2 == 0 {
+                // Elbow folded (joint 4 near its lower limit), wrist bent:
+                // the hand and links 5-7 come close to links 0-4.
+                q[3] = -3.0 + 0.4 * (k % 7) as f64 / 7.0;
+            }
+            qs.extend(q);
+        }
+        let batch = checker.in_collision_batch(&qs).unwrap();
+        let mut serial = vec![false; n];
+        checker.in_collision_batch_serial_into(&qs, &mut serial);
+        let (mut hits, mut filtered, mut disagree) = (0, 0, 0);
+        for (k, q) in qs.chunks_exact(7).enumerate() {
+            let single = checker.in_collision(q).unwrap();
+            assert_eq!(single, batch[k], "single vs batch at {q:?}");
+            assert_eq!(serial[k], batch[k], "serial vs batch at {q:?}");
+            let explained = !checker.contacts(q).unwrap().is_empty();
+            // Only a contact that exactly touches may differ (f64 spheres
+            // in the explanation, f32 lanes in the kernels).
+            if explained != single {
+                disagree += 1;
+            }
+            hits += usize::from(single);
+            filtered += usize::from(spheres_only.in_collision(q).unwrap() && !single);
+        }
+        assert!(
+            disagree <= n / 1000,
+            "world {wi}: {disagree} of {n} disagree"
+        );
+        // The exact stage decided many configurations either way.
+        assert!(
+            hits > n / 10 && filtered > 20,
+            "world {wi}: {hits} {filtered}"
+        );
+    }
+}
