@@ -1,6 +1,7 @@
 """Pick-and-place throughput and success: `ferrobot demo`'s batch mode as a benchmark.
 
     python benches/pipeline.py [--episodes 100] [--seed 0] [--workers N] [--json FILE]
+                               [--robot panda|ur5e] [--preshape-margin M] [--place-clearance C]
 
 Runs randomised episodes (the bundled Panda, a table with 3-5 objects, camera -> grasp -> IK ->
 plan -> execute -> verify) and prints the success rate, failures by stage, episodes per second of
@@ -19,6 +20,7 @@ import time
 from pathlib import Path
 
 import ferrobot
+from ferrobot.pipeline import PickPlaceConfig
 from ferrobot.pipeline.batch import run_batch
 
 
@@ -34,10 +36,26 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--workers", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--json", type=Path)
+    ap.add_argument("--robot", default="panda", choices=("panda", "ur5e"))
+    ap.add_argument(
+        "--preshape-margin",
+        type=float,
+        default=None,
+        help="PickPlaceConfig.preshape_margin (m, in [0, 0.05]); default: approach fully open",
+    )
+    ap.add_argument(
+        "--place-clearance", type=float, default=None, help="PickPlaceConfig.place_clearance (m); default: its default"
+    )
     args = ap.parse_args()
-    print(f"ferrobot {ferrobot.__version__}, {os.cpu_count()} cores, {args.workers} worker(s), load {os.getloadavg()}")
+    print(
+        f"ferrobot {ferrobot.__version__}, {os.cpu_count()} cores, {args.workers} worker(s), robot {args.robot}, "
+        f"preshape_margin {args.preshape_margin}, load {os.getloadavg()}"
+    )
     c0, t0 = cpu_seconds(), time.perf_counter()
-    s = run_batch(args.episodes, seed=args.seed, workers=args.workers, progress=False)
+    config = PickPlaceConfig(preshape_margin=args.preshape_margin)
+    if args.place_clearance is not None:
+        config.place_clearance = args.place_clearance
+    s = run_batch(args.episodes, seed=args.seed, workers=args.workers, progress=False, config=config, robot=args.robot)
     wall, cpu = time.perf_counter() - t0, cpu_seconds() - c0
     s["cpu_s_per_episode"] = cpu / args.episodes
     s["wall_incl_startup_s"] = wall

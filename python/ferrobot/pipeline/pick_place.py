@@ -388,6 +388,28 @@ def _along_z(pose: np.ndarray, distance: float) -> np.ndarray:
     return _along(pose, (0.0, 0.0, 1.0), distance)
 
 
+def _reach(shape: dict, pose: np.ndarray, u: np.ndarray) -> float | None:
+    """Largest ``p . u`` over the points ``p`` of a solid (a collision-geometry dict: ``type`` box with
+    ``size``, sphere with ``radius``, cylinder or capsule along its z axis with ``radius`` and ``length``,
+    mesh with ``vertices`` and ``scale``) at ``pose`` (4x4), for a unit direction ``u`` in the same frame as
+    ``pose``. None for a shape without that data (a mesh without vertices)."""
+    r, c = pose[:3, :3], pose[:3, 3]
+    v = r.T @ u  # the direction in the shape's frame
+    kind = shape["type"]
+    if kind == "box":
+        return float(c @ u + 0.5 * np.abs(v) @ np.asarray(shape["size"], dtype=float))
+    if kind == "sphere":
+        return float(c @ u + shape["radius"])
+    if kind in ("cylinder", "capsule"):
+        axial = 0.5 * shape["length"] * abs(v[2])
+        radial = shape["radius"] if kind == "capsule" else shape["radius"] * math.sqrt(max(0.0, 1.0 - v[2] ** 2))
+        return float(c @ u + axial + radial)
+    if kind == "mesh" and shape.get("vertices") is not None:
+        pts = np.asarray(shape["vertices"], dtype=float) * np.asarray(shape.get("scale", (1.0, 1.0, 1.0)), float)
+        return float(c @ u + np.max(pts @ v))
+    return None
+
+
 def resolve_robot(robot=None, srdf=None, gripper=None):
     """(model, gripper) for ``robot``: ``"panda"`` / ``"ur5e"`` (bundled), a URDF path (with ``srdf``), or a
     :class:`ferrobot.RobotModel`; ``gripper``: a :class:`ferrobot.Gripper`, ``"panda_hand"`` /
@@ -453,6 +475,16 @@ class PickPlace:
         wide = self._wide = (self.upper - self.lower) > 2 * math.pi + 1e-9
         self._win_lo = np.where(wide, np.maximum(self.lower, home_arm - math.pi), self.lower)
         self._win_hi = np.where(wide, np.minimum(self.upper, home_arm + math.pi), self.upper)
+        # The hand link and every link below it (fingers, pads, knuckles): what must clear a released object.
+        children: dict[str, list[str]] = {}
+        for j in self.model.joint_names:
+            info = self.model.joint_info(j)
+            children.setdefault(info.parent, []).append(info.child)
+        self._gripper_links, todo = [], [self.hand_link]
+        while todo:
+            link = todo.pop()
+            self._gripper_links.append(link)
+            todo += children.get(link, [])
 
     # -- helpers ---------------------------------------------------------------------------------------------
 
@@ -546,6 +578,36 @@ class PickPlace:
     def _back(self, hand: np.ndarray, distance: float) -> np.ndarray:
         """Hand pose(s) moved ``distance`` back along the gripper's approach."""
         return _along(hand, self.gripper.approach, -distance)
+
+    def _past_object(self, name: str) -> float:
+        """Distance (m, >= 0) the hand must move back along the gripper's approach for every point of the
+        gripper (the hand link and the links below it, at the simulated state: the fingers as they are now)
+        to be beyond the farthest point of the world object ``name`` along that direction: after a release,
+        how far the fingertips still reach down beside the placed object (a tall object grasped near its
+        top). From the model's collision geometry and the object's shape (``spec``) at its simulated pose;
+        the gripper's TCP (between the fingertips) stands in for links without usable geometry."""
+        ep = self.episode
+        hand = self._hand_world()
+        u = -(hand[:3, :3] @ np.asarray(self.gripper.approach, dtype=float))  # back along the approach, world
+        tips = [float((hand @ np.append(self.gripper.tcp, 1.0))[:3] @ u)]
+        for link in self._gripper_links:
+            pose = ep.robot.get_link_pose(link)
+            for shape in self.model.collision_geometry(link):
+                r = _reach(shape, pose @ shape["origin"], -u)
+                if r is not None:
+                    tips.append(-r)
+        spec = ep.spec.object(name)
+        pose = ep.world.get_object_pose(name)
+        if spec.kind == "box":
+            shape = {"type": "box", "size": spec.size}
+        elif spec.kind == "cylinder":
+            shape = {"type": "cylinder", "radius": spec.size[0], "length": spec.size[1]}
+        elif spec.kind == "sphere":
+            shape = {"type": "sphere", "radius": spec.size[0]}
+        else:
+            shape = {"type": "mesh", "vertices": _core.load_mesh(spec.mesh, spec.scale).vertices}
+        top = _reach(shape, pose, u)
+        return max(0.0, top - min(tips))
 
     # -- the stages -------------------------------------------------------------------------------------------
 
@@ -771,7 +833,14 @@ class PickPlace:
             # where that is out of reach, up to the pose the object was carried in (its IK is known).
             hand = self._hand_base()
             back_dir = -(hand[:3, :3] @ np.asarray(self.gripper.approach, dtype=float))
-            esc = self._escape("retreat", back_dir, cfg.retreat_distance)
+            # The straight part goes on at least until the open fingers are past the top of the released
+            # object (by escape_clearance): the planner's spheres can be clear of a tall object while the
+            # simulated fingertips still reach down beside it, and the planned rest of the retreat, which
+            # need not go straight up, would sweep them into it.
+            past = self._past_object(self.episode.spec.target)
+            need = past + cfg.escape_clearance if past > 0.0 else 0.0
+            esc = self._escape("retreat", back_dir, max(cfg.retreat_distance, need), min_distance=need)
+            esc["fingers_below_top_mm"] = 1e3 * past
             # The released object can follow the fingers (friction, tipping) while the hand backs out, so the
             # executed state is checked again: still touching, the hand backs out further along the same line
             # (within the retreat distance).
@@ -781,7 +850,7 @@ class PickPlace:
                 if more["escape_distance_mm"] <= 0.0:
                     break
                 moved += more["escape_distance_mm"]
-                esc = {**more, "escape_distance_mm": moved}
+                esc = {**esc, **more, "escape_distance_mm": moved}
             if esc["escape_distance_mm"] >= 1e3 * cfg.retreat_distance - 1e-6:
                 return {**esc, "retreat": "back along the approach"}
             back = self._back(hand, cfg.retreat_distance)
@@ -858,20 +927,23 @@ class PickPlace:
             for n in names:
                 self.planner.set_object_enabled(n, True)
 
-    def _escape(self, stage: str, direction: np.ndarray, max_distance: float) -> dict:
+    def _escape(self, stage: str, direction: np.ndarray, max_distance: float, min_distance: float = 0.0) -> dict:
         """The straight first part of a lift or retreat: the hand moves along ``direction`` (unit, base frame)
         from where it is, the objects it (or what it holds) touches now allowed, every other object checked,
-        until it is clear of everything by ``escape_clearance`` (at most ``max_distance``), and the motion is
-        executed. Raises :class:`StageFailure` when the straight path is out of reach or hits another object."""
+        until it is clear of everything by ``escape_clearance`` and has moved at least ``min_distance`` (m;
+        at most ``max_distance``), and the motion is executed. Raises :class:`StageFailure` when the straight
+        path is out of reach or hits another object."""
         cfg = self.config
         q0 = self._q()
         touching = self._touching(stage, q0)
-        if not touching:
+        if not touching and min_distance <= 0.0:
             return {"escape_distance_mm": 0.0, "allowed_contacts": []}
         hand0 = self._hand_base()
         path, dists = [q0], [0.0]
-        d, free_at, q = 0.0, None, q0
-        while d < max_distance - 1e-9 and (free_at is None or d < free_at + cfg.escape_clearance - 1e-9):
+        d, free_at, q = 0.0, (0.0 if not touching else None), q0
+        while d < max_distance - 1e-9 and (
+            free_at is None or d < free_at + cfg.escape_clearance - 1e-9 or d < min_distance - 1e-9
+        ):
             d = min(d + cfg.escape_step, max_distance)
             res = self.planner.ik(self._ee(_translate(hand0, d * direction)), q, num_seeds=4)
             if not res.success or np.max(np.abs(res.q - q)) > 0.25:
