@@ -839,7 +839,13 @@ class PickPlace:
             # need not go straight up, would sweep them into it.
             past = self._past_object(self.episode.spec.target)
             need = past + cfg.escape_clearance if past > 0.0 else 0.0
-            esc = self._escape("retreat", back_dir, max(cfg.retreat_distance, need), min_distance=need)
+            esc = self._escape(
+                "retreat",
+                back_dir,
+                max(cfg.retreat_distance, need),
+                min_distance=need,
+                allow=[self.episode.spec.target],
+            )
             esc["fingers_below_top_mm"] = 1e3 * past
             # The released object can follow the fingers (friction, tipping) while the hand backs out, so the
             # executed state is checked again: still touching, the hand backs out further along the same line
@@ -927,17 +933,22 @@ class PickPlace:
             for n in names:
                 self.planner.set_object_enabled(n, True)
 
-    def _escape(self, stage: str, direction: np.ndarray, max_distance: float, min_distance: float = 0.0) -> dict:
+    def _escape(
+        self, stage: str, direction: np.ndarray, max_distance: float, min_distance: float = 0.0, allow=()
+    ) -> dict:
         """The straight first part of a lift or retreat: the hand moves along ``direction`` (unit, base frame)
         from where it is, the objects it (or what it holds) touches now allowed, every other object checked,
         until it is clear of everything by ``escape_clearance`` and has moved at least ``min_distance`` (m;
-        at most ``max_distance``), and the motion is executed. Raises :class:`StageFailure` when the straight
-        path is out of reach or hits another object."""
+        at most ``max_distance``), and the motion is executed; with ``min_distance`` > 0 the objects named in
+        ``allow`` are allowed as well (a released object the fingers back away from). Raises
+        :class:`StageFailure` when the straight path is out of reach or hits another object."""
         cfg = self.config
         q0 = self._q()
         touching = self._touching(stage, q0)
         if not touching and min_distance <= 0.0:
             return {"escape_distance_mm": 0.0, "allowed_contacts": []}
+        if min_distance > 0.0:
+            touching += [n for n in allow if n not in touching and n in self.planner.world.names]
         hand0 = self._hand_base()
         path, dists = [q0], [0.0]
         d, free_at, q = 0.0, (0.0 if not touching else None), q0
