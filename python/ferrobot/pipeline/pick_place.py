@@ -149,9 +149,11 @@ class PickPlaceConfig:
     #: the pre-grasp, the grasp pose and the approach with the fingers at it (not fully open: open fingers
     #: meet walls and neighbours the grasp's own fingers clear). None (the default): approach with the
     #: gripper fully open. Off by default in ``PickPlace`` because on single objects on a table it measured
-    #: worse (Panda, seeds 0-99: 98/100 pre-shaped against 100/100 fully open; in seeds 11 and 52 the released
-    #: object is tipped by the retreat, cause not found); ``benches/clutter.py`` pre-shapes (better per grasp
-    #: in piles and bins, paired A/B in BENCHMARKS.md).
+    #: worse (Panda, seeds 0-99: 98/100 pre-shaped against 99/100 fully open; in seeds 11 and 52 the released
+    #: cylinder, dropped from ``place_clearance``, lands rocking on its rim and the rocking grows in the
+    #: simulator until it falls, with the fingers already above it: not the retreat; with ``place_clearance``
+    #: 4 mm both ways give 100/100, see BENCHMARKS.md, retreat18f); ``benches/clutter.py`` pre-shapes (better
+    #: per grasp in piles and bins, paired A/B in BENCHMARKS.md).
     preshape_margin: float | None = None
 
 
