@@ -624,6 +624,7 @@ impl CollisionChecker {
                     q,
                     dof,
                     self.margin as f32,
+                    self.margin as f32,
                     o,
                     &mut scratch,
                 );
@@ -649,6 +650,7 @@ impl CollisionChecker {
             grid,
             &qs[..out.len() * dof],
             dof,
+            self.margin as f32,
             self.margin as f32,
             out,
             &mut scratch,
@@ -766,6 +768,12 @@ impl CollisionChecker {
     /// (see [`CollisionChecker::motion_margin`]) are checked at the samples
     /// of the `steps` intervals only (the motion check's guarantee). The
     /// configurations checked are added to `tested`.
+    ///
+    /// The first intervals' midpoints are tested in one kernel pass per
+    /// eight (one forward kinematics): self pairs at the margin (+ `tube`),
+    /// the world at the grown margin ([`crate::kernel::check_margins`]);
+    /// the few that fail are tested again at the margin to tell a collision
+    /// from an interval to split.
     pub fn curve_certified_until(
         &self,
         point: &mut dyn FnMut(f64, &mut [f64]),
@@ -774,6 +782,39 @@ impl CollisionChecker {
         tube: f64,
         deadline: Option<Instant>,
         tested: &mut usize,
+    ) -> Option<bool> {
+        self.curve_certified(point, rate, steps, tube, deadline, tested, true)
+    }
+
+    /// [`CollisionChecker::curve_certified_until`] with the first
+    /// intervals' midpoints tested in two kernel passes, the whole robot at
+    /// the margin then the world alone at the grown margin (the scheme
+    /// before the one-pass kernel mode): the same answers, more kernel
+    /// work. Kept as the reference of the tests that the two agree and for
+    /// A/B measurements; not for use.
+    #[doc(hidden)]
+    pub fn curve_certified_two_pass_until(
+        &self,
+        point: &mut dyn FnMut(f64, &mut [f64]),
+        rate: &[f64],
+        steps: usize,
+        tube: f64,
+        deadline: Option<Instant>,
+        tested: &mut usize,
+    ) -> Option<bool> {
+        self.curve_certified(point, rate, steps, tube, deadline, tested, false)
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn curve_certified(
+        &self,
+        point: &mut dyn FnMut(f64, &mut [f64]),
+        rate: &[f64],
+        steps: usize,
+        tube: f64,
+        deadline: Option<Instant>,
+        tested: &mut usize,
+        one_pass: bool,
     ) -> Option<bool> {
         use crate::certify::{CERTIFY_SLACK, CHECKS_PER_INTERVAL, MAX_LEVELS};
         if self.static_hit {
@@ -790,23 +831,29 @@ impl CollisionChecker {
                 *slot = Some((self.id, Scratch::new(&self.robot)));
             }
             let scratch = &mut slot.as_mut().expect("set above").1;
-            // Flags of up to eight configurations (row-major in `qs`) at
-            // `margin`.
-            // `world`: the robot without self pairs (grown-margin checks).
-            let mut check = |qs: &[f64], margin: f64, out: &mut [bool], world: bool| {
-                *tested += out.len();
-                crate::dispatch::check_packs(
-                    self.simd,
-                    if world { &self.world_only } else { &self.robot },
-                    &self.compiled_world,
-                    grid,
-                    qs,
-                    dof,
-                    margin as f32,
-                    out,
-                    scratch,
-                )
-            };
+            // Flags of up to eight configurations (row-major in `qs`): the
+            // world at `margin`, self pairs at `self_margin` (`None`: the
+            // robot without self pairs).
+            let mut check =
+                |qs: &[f64], margin: f64, self_margin: Option<f64>, out: &mut [bool]| {
+                    *tested += out.len();
+                    crate::dispatch::check_packs(
+                        self.simd,
+                        if self_margin.is_some() {
+                            &self.robot
+                        } else {
+                            &self.world_only
+                        },
+                        &self.compiled_world,
+                        grid,
+                        qs,
+                        dof,
+                        margin as f32,
+                        self_margin.unwrap_or(margin) as f32,
+                        out,
+                        scratch,
+                    )
+                };
             let base = self.margin + tube;
             let mut qs = Vec::with_capacity(8 * dof);
             let mut flags = [false; 8];
@@ -822,7 +869,7 @@ impl CollisionChecker {
                         point(u, &mut q);
                         qs.extend_from_slice(&q);
                     }
-                    check(&qs, base, &mut flags[..chunk.len()], false);
+                    check(&qs, base, Some(base), &mut flags[..chunk.len()]);
                     if flags[..chunk.len()].iter().any(|&f| f) {
                         return Some(false);
                     }
@@ -854,15 +901,25 @@ impl CollisionChecker {
                         qs.extend_from_slice(&q);
                     }
                     let n = chunk.len();
-                    if level == 0 {
+                    if level == 0 && one_pass {
                         // Self-collision at the samples (midpoints
-                        // `resolution` apart), with the world.
-                        check(&qs, base, &mut flags[..n], false);
-                        if flags[..n].iter().any(|&f| f) {
-                            return Some(false);
+                        // `resolution` apart) at the margin and the world
+                        // at the grown margin, in one pass: a midpoint that
+                        // collides with the world at the margin collides
+                        // at the grown one, so the failures below (tested
+                        // again at the margin, self pairs included) hold
+                        // every collision of the two-pass scheme.
+                        check(&qs, grown, Some(base), &mut flags[..n]);
+                    } else {
+                        if level == 0 {
+                            // Self-collision at the samples, with the world.
+                            check(&qs, base, Some(base), &mut flags[..n]);
+                            if flags[..n].iter().any(|&f| f) {
+                                return Some(false);
+                            }
                         }
+                        check(&qs, grown, None, &mut flags[..n]);
                     }
-                    check(&qs, grown, &mut flags[..n], true);
                     if !flags[..n].iter().any(|&f| f) {
                         continue;
                     }
@@ -873,7 +930,7 @@ impl CollisionChecker {
                     for &i in &failed {
                         sub.extend_from_slice(&qs[i * dof..(i + 1) * dof]);
                     }
-                    check(&sub, base, &mut flags[..failed.len()], false);
+                    check(&sub, base, Some(base), &mut flags[..failed.len()]);
                     if flags[..failed.len()].iter().any(|&f| f) {
                         return Some(false);
                     }

@@ -195,7 +195,9 @@ dispatched! {
 
 dispatched! {
     /// Collision flags into `out` for the configurations in `qs` (row-major,
-    /// `dof` each), eight per SIMD pack (the body of a batch chunk).
+    /// `dof` each), eight per SIMD pack (the body of a batch chunk): the
+    /// world at `margin`, self pairs at `self_margin`
+    /// ([`kernel::check_margins`]).
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn check_packs(
         robot: &CompiledRobot,
@@ -204,6 +206,7 @@ dispatched! {
         qs: &[f64],
         dof: usize,
         margin: f32,
+        self_margin: f32,
         out: &mut [bool],
         scratch: &mut Scratch<f32x8>,
     ) {
@@ -222,7 +225,17 @@ dispatched! {
                 &heap
             };
             let active = (1u32 << n) - 1;
-            let hit = kernel::check(robot, world, grid, lanes, margin, active, true, scratch);
+            let hit = kernel::check_margins(
+                robot,
+                world,
+                grid,
+                lanes,
+                margin,
+                self_margin,
+                active,
+                true,
+                scratch,
+            );
             for (i, v) in po.iter_mut().enumerate() {
                 *v = hit & (1 << i) != 0;
             }

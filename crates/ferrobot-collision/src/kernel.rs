@@ -343,6 +343,39 @@ pub fn check<L: Lanes>(
     skip_static: bool,
     scratch: &mut Scratch<L>,
 ) -> u32 {
+    check_margins(
+        robot,
+        world,
+        grid,
+        q,
+        margin,
+        margin,
+        active,
+        skip_static,
+        scratch,
+    )
+}
+
+/// [`check`] with the world tested at `margin` and the self pairs at
+/// `self_margin`, on one forward kinematics: the lanes that touch the world
+/// at `margin` or collide with themselves at `self_margin` (the union of
+/// the two checks, so a lane in it may be colliding in either way). The
+/// continuous certification uses it to test world contacts at a grown
+/// margin and self pairs at the base margin in one pass
+/// ([`crate::CollisionChecker::curve_certified_until`]).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub fn check_margins<L: Lanes>(
+    robot: &CompiledRobot,
+    world: &CompiledWorld,
+    grid: Option<&crate::world_grid::WorldGrid>,
+    q: &[L],
+    margin: f32,
+    self_margin: f32,
+    active: u32,
+    skip_static: bool,
+    scratch: &mut Scratch<L>,
+) -> u32 {
     forward(robot, q, scratch);
     scratch.done.iter_mut().for_each(|d| *d = false);
     scratch.deferred.clear();
@@ -456,6 +489,8 @@ pub fn check<L: Lanes>(
             }
         }
     }
+    // Self pairs at their own margin.
+    let (m, margin) = (L::splat(self_margin), self_margin);
     for (pi, &(a, b)) in robot.pairs.iter().enumerate() {
         let (ba, bb) = (&robot.bodies[a], &robot.bodies[b]);
         let (ca, cb) = (scratch.bounds[a], scratch.bounds[b]);
