@@ -28,4 +28,4 @@ pub use error::{GeometryError, Result};
 pub use mesh::{Hull, Mesh, MeshSource};
 pub use mesh_file::{MAX_EXTENT, MAX_TRIANGLES, check_object_mesh, load_object_mesh};
 pub use shape::{MeshAs, Shape, box_sdf, cylinder_sdf};
-pub use trimesh::TriMesh;
+pub use trimesh::{BOX_TRIANGLES, TriMesh};
