@@ -352,22 +352,49 @@ def plan_scene_slide(state: State, frame, depth: np.ndarray, cam_pose: np.ndarra
     return best
 
 
-def execute_slide(state: State, w, hand_model, plan, names: list, ids: dict, on_step=None) -> dict:
-    """Runs a planned slide with the floating hand, fingers closed: down the approach to the start (0.5 s),
-    towards the wall by the press leg (0.5 s), along the wall (1.5 s), back up the approach 10 cm (0.5 s); the
-    objects' new poses become the state. ``on_step(robot)``, if given, is called after every step."""
+def closed_hand_at(w, hand_model, plan):
+    """The floating hand for a push or a slide, fingers closed, at ``plan.pre`` (the planned fingertip pose moved
+    back to the simulated hand's frame); returns the robot, its slide and finger joint names and its rotation."""
+    # The simulated fingers' tips are TCP_OFFSET from the hand frame (the gripper description's TCP is 0.1034).
     shift = (ge.TCP_OFFSET - ge.PANDA_HAND.tcp[2]) * plan.pre[:3, 2]
     base = plan.pre.copy()
     base[:3, 3] -= shift
-    rot = base[:3, :3]
-    q_start = np.array([0.0, 0.0, 0.05])
-    q_pressed = q_start + rot.T @ (plan.pressed[:3, 3] - plan.start[:3, 3])
-    q_end = q_start + rot.T @ (plan.end[:3, 3] - plan.start[:3, 3])
-    q_up = q_end - np.array([0.0, 0.0, 0.10])
     robot = w.add_robot(hand_model, ge.pose7(base), name="hand", q=np.zeros(hand_model.num_dof))
     slide, fingers = robot.dof_names[:3], robot.dof_names[3:]
     robot.set_drive_gains(stiffness=[2.0e4] * 3, damping=[1.0e3] * 3, joint_names=slide)
     robot.set_joint_position_targets(np.zeros(hand_model.num_dof))
+    return robot, slide, fingers, base[:3, :3]
+
+
+def objects_moved(state: State, w, plan, names: list, ids: dict, before: dict) -> dict:
+    """After a push or a slide: the objects' new poses become the state; returns the report's common part (target,
+    planned direction and tilt, where the fingertip started, how far the target and the others moved)."""
+    after = {n: w.get_object_pose(n) for n in names}
+    for n in names:
+        state.poses[n] = after[n]
+    target = ids.get(plan.target)
+    moved = {n: float(np.linalg.norm(after[n][:3, 3] - before[n])) for n in names}
+    return {
+        "target": target,
+        "direction": plan.direction.tolist(),
+        "distance": plan.distance,
+        "tilt": plan.tilt,
+        "tip_start": plan.tip_start.tolist(),
+        "target_moved": moved.get(target, 0.0),
+        "target_displacement": (after[target][:3, 3] - before[target]).tolist() if target in after else None,
+        "others_moved_max": max((v for n, v in moved.items() if n != target), default=0.0),
+    }
+
+
+def execute_slide(state: State, w, hand_model, plan, names: list, ids: dict, on_step=None) -> dict:
+    """Runs a planned slide with the floating hand, fingers closed: down the approach to the start (0.5 s),
+    towards the wall by the press leg (0.5 s), along the wall (1.5 s), back up the approach 10 cm (0.5 s); the
+    objects' new poses become the state. ``on_step(robot)``, if given, is called after every step."""
+    robot, slide, fingers, rot = closed_hand_at(w, hand_model, plan)
+    q_start = np.array([0.0, 0.0, 0.05])
+    q_pressed = q_start + rot.T @ (plan.pressed[:3, 3] - plan.start[:3, 3])
+    q_end = q_start + rot.T @ (plan.end[:3, 3] - plan.start[:3, 3])
+    q_up = q_end - np.array([0.0, 0.0, 0.10])
     before = {n: w.get_object_pose(n)[:3, 3].copy() for n in names}
     legs = ((np.zeros(3), q_start, 0.5), (q_start, q_pressed, 0.5), (q_pressed, q_end, SLIDE_S), (q_end, q_up, 0.5))
     for leg, (a, b_, sec) in enumerate(legs):
@@ -385,26 +412,9 @@ def execute_slide(state: State, w, hand_model, plan, names: list, ids: dict, on_
             w.step(1)
             if on_step is not None:
                 on_step(robot)
-    after = {n: w.get_object_pose(n) for n in names}
-    for n in names:
-        state.poses[n] = after[n]
-    target = ids.get(plan.target)
-    moved = {n: float(np.linalg.norm(after[n][:3, 3] - before[n])) for n in names}
-    return {
-        "kind": "slide",
-        "target": target,
-        "direction": plan.direction.tolist(),
-        "normal": plan.normal.tolist(),
-        "distance": plan.distance,
-        "press": plan.press,
-        "tilt": plan.tilt,
-        "lean": plan.lean,
-        "room": plan.room,
-        "tip_start": plan.tip_start.tolist(),
-        "target_moved": moved.get(target, 0.0),
-        "target_displacement": (after[target][:3, 3] - before[target]).tolist() if target in after else None,
-        "others_moved_max": max((v for n, v in moved.items() if n != target), default=0.0),
-    }
+    rec = {"kind": "slide", **objects_moved(state, w, plan, names, ids, before)}
+    rec.update(normal=plan.normal.tolist(), press=plan.press, lean=plan.lean, room=plan.room)
+    return rec
 
 
 def plan_scene_push(state: State, w, frame, depth: np.ndarray, cam_pose: np.ndarray, ids: dict):
@@ -443,40 +453,17 @@ def plan_scene_push(state: State, w, frame, depth: np.ndarray, cam_pose: np.ndar
 def execute_push(state: State, w, hand_model, plan, names: list, settled: dict, ids: dict) -> dict:
     """Runs a planned push with the floating hand, fingers closed: down the approach to the start (0.5 s),
     along the push (1 s), back up the approach 10 cm (0.5 s); the objects' new poses become the state."""
-    # The simulated fingers' tips are TCP_OFFSET from the hand frame (the gripper description's TCP is 0.1034).
-    shift = (ge.TCP_OFFSET - ge.PANDA_HAND.tcp[2]) * plan.pre[:3, 2]
-    base = plan.pre.copy()
-    base[:3, 3] -= shift
-    rot = base[:3, :3]
+    robot, slide, fingers, rot = closed_hand_at(w, hand_model, plan)
     q_start = np.array([0.0, 0.0, 0.05])
     q_end = q_start + rot.T @ (plan.travel * plan.direction)
     q_up = q_end - np.array([0.0, 0.0, 0.10])
-    robot = w.add_robot(hand_model, ge.pose7(base), name="hand", q=np.zeros(hand_model.num_dof))
-    slide, fingers = robot.dof_names[:3], robot.dof_names[3:]
-    robot.set_drive_gains(stiffness=[2.0e4] * 3, damping=[1.0e3] * 3, joint_names=slide)
-    robot.set_joint_position_targets(np.zeros(hand_model.num_dof))
     before = {n: w.get_object_pose(n)[:3, 3].copy() for n in names}
     for a, b_, sec in ((np.zeros(3), q_start, 0.5), (q_start, q_end, 1.0), (q_end, q_up, 0.5)):
         for q in ge.smooth(a, b_, sec):
             robot.set_joint_position_targets(q, joint_names=slide)
             robot.set_joint_position_targets(np.zeros(len(fingers)), joint_names=fingers)
             w.step(1)
-    after = {n: w.get_object_pose(n) for n in names}
-    for n in names:
-        state.poses[n] = after[n]
-    target = ids.get(plan.target)
-    moved = {n: float(np.linalg.norm(after[n][:3, 3] - before[n])) for n in names}
-    return {
-        "target": target,
-        "direction": plan.direction.tolist(),
-        "distance": plan.distance,
-        "travel": plan.travel,
-        "tilt": plan.tilt,
-        "tip_start": plan.tip_start.tolist(),
-        "target_moved": moved.get(target, 0.0),
-        "target_displacement": (after[target][:3, 3] - before[target]).tolist() if target in after else None,
-        "others_moved_max": max((v for n, v in moved.items() if n != target), default=0.0),
-    }
+    return {**objects_moved(state, w, plan, names, ids, before), "travel": plan.travel}
 
 
 def failure_stage(res: dict, diag: dict, target: str | None, after: dict, z0: dict) -> str:
