@@ -795,6 +795,10 @@ class Planner:
     @property
     def world(self) -> CollisionWorld: ...
     def in_collision(self, q: npt.ArrayLike, joint_names: list[str] | None = None) -> bool: ...
+    def exact_clearance(
+        self, q: npt.ArrayLike, objects: list[str] | None = None, joint_names: list[str] | None = None
+    ) -> dict[str, Clearance]:
+        """Per object of the planner's world: exact clearance (m) to the links' collision geometry (parry)."""
     def ik(
         self,
         goal_pose: npt.ArrayLike,

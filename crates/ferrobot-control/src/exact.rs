@@ -24,10 +24,53 @@ fn to_pose(iso: &Isometry3<f64>) -> Pose {
     )
 }
 
+/// Sides of the prism that stands in for a cylinder in distance queries.
+const CYLINDER_SIDES: usize = 64;
+
+/// A cylinder along z as the prism circumscribed about it (its
+/// [`CYLINDER_SIDES`]-gon's edges touch the circle, so the prism holds the
+/// cylinder and reaches at most `radius (1 / cos(pi / n) - 1)`, 0.12 % of
+/// the radius, beyond it). parry's GJK distance between a round cylinder and
+/// a box can stop millimetres short of converging (measured: 31.35 mm for a
+/// true 29.93 mm, radius 3.5 cm), which would overstate a clearance; against
+/// a polytope GJK terminates exactly, and the prism errs on the safe side.
+fn cylinder_prism(radius: f64, half_height: f64) -> Option<SharedShape> {
+    let n = CYLINDER_SIDES;
+    let r = radius / (std::f64::consts::PI / n as f64).cos();
+    let mut pts = Vec::with_capacity(2 * n);
+    for k in 0..n {
+        let a = std::f64::consts::TAU * k as f64 / n as f64;
+        for z in [-half_height, half_height] {
+            pts.push(Vector::new(
+                (r * a.cos()) as f32,
+                (r * a.sin()) as f32,
+                z as f32,
+            ));
+        }
+    }
+    SharedShape::convex_hull(&pts)
+}
+
+/// A shape for parry's distance queries: cylinders as their circumscribed
+/// prisms ([`cylinder_prism`]), the rest as [`Shape::to_parry`] makes them.
+fn distance_shape(shape: &Shape, meshes: MeshAs) -> Option<(SharedShape, Isometry3<f64>)> {
+    match shape {
+        Shape::Cylinder {
+            radius,
+            half_height,
+        } => Some((
+            cylinder_prism(*radius, *half_height)?,
+            Isometry3::identity(),
+        )),
+        _ => shape.to_parry(meshes).ok(),
+    }
+}
+
 /// A link shape for parry (meshes as their convex hulls, which contain
-/// them); None when parry cannot represent it.
+/// them; cylinders as circumscribed prisms); None when parry cannot
+/// represent it.
 fn link_shape(shape: &Shape) -> Option<(SharedShape, Isometry3<f64>)> {
-    shape.to_parry(MeshAs::ConvexHull).ok()
+    distance_shape(shape, MeshAs::ConvexHull)
 }
 
 /// A world shape for parry: primitives only (meshes, hulls and clouds are
@@ -37,9 +80,85 @@ pub(crate) fn world_shape(shape: &Shape) -> Option<(SharedShape, Isometry3<f64>)
         Shape::Box { .. }
         | Shape::Sphere { .. }
         | Shape::Cylinder { .. }
-        | Shape::Capsule { .. } => shape.to_parry(MeshAs::TriMesh).ok(),
+        | Shape::Capsule { .. } => distance_shape(shape, MeshAs::TriMesh),
         _ => None,
     }
+}
+
+/// A world shape for parry in exact object-by-object queries: primitives
+/// exactly, convex hulls as they are, a convex decomposition as its convex
+/// parts (a link inside the object touches a part), other meshes as their
+/// triangles; None for point clouds.
+fn world_shape_exact(shape: &Shape) -> Option<(SharedShape, Isometry3<f64>)> {
+    match shape {
+        Shape::PointCloud(_) => None,
+        _ => distance_shape(shape, MeshAs::TriMesh),
+    }
+}
+
+/// A lower bound (m) on the distance between convex shapes `a` at `pa` and
+/// `b` at `pb`, within 0.01 % of it in practice: GJK's closest points give a
+/// direction `n`, and no two points of the shapes are closer than the gap
+/// between `a`'s support along `n` and `b`'s along `-n` (a separating
+/// plane). parry's GJK alone can stop short of the minimum (measured: a
+/// prism against a box with parallel faces, 31.26 mm for a true 29.93 mm),
+/// which would overstate a clearance; the plane's gap never does. None when
+/// either shape is not convex.
+fn convex_distance_lower(
+    a: &dyn parry3d::shape::Shape,
+    pa: &Pose,
+    b: &dyn parry3d::shape::Shape,
+    pb: &Pose,
+) -> Option<f64> {
+    let sa = a.as_support_map()?;
+    let sb = b.as_support_map()?;
+    let c = parry3d::query::contact(pa, a, pb, b, 1.0e3).ok()??;
+    if c.dist <= 0.0 {
+        return Some(0.0);
+    }
+    let n = c.normal1;
+    let top_a = sa.support_point(pa, n).dot(n);
+    let bottom_b = sb.support_point(pb, -n).dot(n);
+    Some(f64::from(bottom_b - top_a).clamp(0.0, f64::from(c.dist)))
+}
+
+/// A lower bound (m) on the distance between the convex shape `a` at `pa`
+/// and `b` at `pb`, which may be a compound of convex parts or a triangle
+/// mesh (a surface: the least over its triangles); see
+/// [`convex_distance_lower`]. None when parry cannot measure the pair.
+fn distance_lower(
+    a: &dyn parry3d::shape::Shape,
+    pa: &Pose,
+    b: &dyn parry3d::shape::Shape,
+    pb: &Pose,
+) -> Option<f64> {
+    if let Some(compound) = b.as_compound() {
+        let mut best = f64::INFINITY;
+        for (local, part) in compound.shapes() {
+            best = best.min(distance_lower(a, pa, part.as_ref(), &(*pb * *local))?);
+        }
+        return Some(best);
+    }
+    if let Some(mesh) = b.as_trimesh() {
+        let mut best = f64::INFINITY;
+        for tri in mesh.triangles() {
+            best = best.min(convex_distance_lower(a, pa, &tri, pb)?);
+        }
+        return Some(best);
+    }
+    convex_distance_lower(a, pa, b, pb)
+}
+
+/// The clearance of one world object: see [`LinkClearance::object_clearances`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct ObjectClearance {
+    /// The world object's name.
+    pub object: String,
+    /// Smallest distance (m) between the object and any link's geometry; 0
+    /// when they touch or overlap; `inf` when no link has geometry.
+    pub distance: f64,
+    /// The link of the closest pair (None when no link has geometry).
+    pub link: Option<String>,
 }
 
 /// The closest pair found by [`LinkClearance::clearance`].
@@ -283,6 +402,86 @@ impl LinkClearance {
             }
         }
         best
+    }
+
+    /// Per object of `world` (every object, or those named in `objects`,
+    /// in the world's order): the smallest distance at `q` between its
+    /// shapes and the links' geometry (parry; link meshes as their convex
+    /// hulls, which contain them; cylinders as circumscribed prisms; world
+    /// primitives and hulls as they are, convex decompositions part by part,
+    /// other meshes by their triangles), as a lower bound that is exact to
+    /// ~0.01 % ([`convex_distance_lower`]): never more than the true
+    /// distance. A judge of contacts the sphere model reports, where a
+    /// few millimetres matter (a hand between the walls of a bin). Errors:
+    /// a name in `objects` the world does not hold, a point cloud, or a
+    /// configuration of the wrong length.
+    pub fn object_clearances(
+        &self,
+        q: &[f64],
+        world: &CollisionWorld,
+        objects: Option<&[String]>,
+    ) -> Result<Vec<ObjectClearance>> {
+        if let Some(names) = objects {
+            for n in names {
+                if !world.objects().iter().any(|o| &o.name == n) {
+                    return Err(ControlError::UnknownName(format!(
+                        "objects: the world has no object '{n}'"
+                    )));
+                }
+            }
+        }
+        let poses = self.model.fk_all(q)?;
+        let mut out = Vec::new();
+        for obj in world.objects() {
+            if objects.is_some_and(|names| !names.iter().any(|n| n == &obj.name)) {
+                continue;
+            }
+            let mut best = ObjectClearance {
+                object: obj.name.clone(),
+                distance: f64::INFINITY,
+                link: None,
+            };
+            for (shape, local) in &obj.parts {
+                let (s, fix) = world_shape_exact(shape).ok_or_else(|| {
+                    ControlError::InvalidArgument(format!(
+                        "world object '{}': exact clearance does not measure {}",
+                        obj.name,
+                        shape.kind()
+                    ))
+                })?;
+                let oiso = obj.pose * local * fix;
+                let opose = to_pose(&oiso);
+                let ob = s.compute_local_bounding_sphere();
+                let ocentre = oiso * to_point(ob.center());
+                for (l, parts) in self.links.iter().enumerate() {
+                    // Broad phase: a link whose bounding ball is farther than
+                    // the best distance so far cannot be closer.
+                    if let Some((c, r)) = self.bounds[l] {
+                        let gap = (poses[l] * c - ocentre).norm() - r - ob.radius() as f64;
+                        if gap > best.distance {
+                            continue;
+                        }
+                    }
+                    for (ls, llocal) in parts {
+                        let lpose = to_pose(&(poses[l] * llocal));
+                        let d = distance_lower(ls.as_ref(), &lpose, s.as_ref(), &opose)
+                            .ok_or_else(|| {
+                                ControlError::InvalidArgument(format!(
+                                    "parry cannot measure link '{}' against '{}'",
+                                    self.model.links()[l].name,
+                                    obj.name
+                                ))
+                            })?;
+                        if d < best.distance {
+                            best.distance = d;
+                            best.link = Some(self.model.links()[l].name.clone());
+                        }
+                    }
+                }
+            }
+            out.push(best);
+        }
+        Ok(out)
     }
 
     /// Smallest distance at `q` between the geometry of the link pairs

@@ -37,7 +37,7 @@ pub mod world;
 pub use config::{PotentialFieldConfig, ReactiveConfig};
 pub use core::{ControllerCore, Core, StepInfo, StepOutput};
 pub use error::{ControlError, Result};
-pub use exact::LinkClearance;
+pub use exact::{LinkClearance, ObjectClearance};
 pub use faults::{Arbiter, Conflict, DepthNoise, DepthNoiseParams, EncoderNoise};
 pub use field::VoxelField;
 pub use guidance::{GuidanceStatus, PlanAttempt};

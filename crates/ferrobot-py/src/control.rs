@@ -20,7 +20,7 @@ use crate::errors::{
 use crate::model::PyRobotModel;
 
 /// Converts a control error to the matching `ferrobot.errors` exception.
-fn control_err(e: ControlError) -> PyErr {
+pub(crate) fn control_err(e: ControlError) -> PyErr {
     match e {
         ControlError::Model(m) => model_err(m),
         ControlError::Collision(c) => collision_err(c),

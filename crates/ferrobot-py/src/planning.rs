@@ -527,6 +527,8 @@ pub struct PyPlanner {
     /// Keeps the planner's world in sync with a simulated world
     /// (`update_world(sim, ...)`): hulls cached, poses moved in place.
     sync: std::sync::Mutex<ferrobot_pipeline::SceneSync>,
+    /// The links' exact geometry for `exact_clearance`, made on first use.
+    exact: std::sync::OnceLock<ferrobot_control::LinkClearance>,
 }
 
 impl PyPlanner {
@@ -625,6 +627,7 @@ impl PyPlanner {
                     Planner::new(checker, link).map_err(planning_err)?,
                 )),
                 sync: Default::default(),
+                exact: Default::default(),
             })
         })
     }
@@ -923,6 +926,58 @@ impl PyPlanner {
             Ok(PyCollisionWorld {
                 inner: inner.checker().enabled_world(),
             })
+        })
+    }
+
+    /// Exact clearance at `q` of each object of the planner's world (the
+    /// ignored ones left out; every object, or those named in `objects`):
+    /// a dict from object name to `Clearance` (`distance` in m, 0 when
+    /// touching or overlapping; `closest` = (link, object)). Measured with
+    /// parry on the links' collision geometry (meshes as their convex
+    /// hulls) and the objects' shapes, not the sphere model: it tells the
+    /// contacts the spheres report (they reach a few millimetres beyond the
+    /// links) from real ones. Point clouds raise `InvalidArgumentError`;
+    /// unknown names `UnknownNameError`.
+    #[pyo3(signature = (q, objects=None, joint_names=None))]
+    fn exact_clearance(
+        &self,
+        py: Python<'_>,
+        q: &Bound<'_, PyAny>,
+        objects: Option<Vec<String>>,
+        joint_names: Option<Vec<String>>,
+    ) -> PyResult<std::collections::HashMap<String, crate::results::PyClearance>> {
+        guard(|| {
+            let inner = self.snap();
+            let order = self.order(joint_names)?;
+            let c = self.config(q, "q", order.as_ref())?;
+            let mut space = inner.space().clone();
+            if let Some(f) = &c.full {
+                space.lock_from(f);
+            }
+            let full = space.expand(&c.active);
+            if self.exact.get().is_none() {
+                let lc = ferrobot_control::LinkClearance::new(inner.model().clone())
+                    .map_err(crate::control::control_err)?;
+                let _ = self.exact.set(lc);
+            }
+            let lc = self.exact.get().expect("set above");
+            let world = inner.checker().enabled_world();
+            let found = py
+                .detach(|| lc.object_clearances(&full, &world, objects.as_deref()))
+                .map_err(crate::control::control_err)?;
+            Ok(found
+                .into_iter()
+                .map(|o| {
+                    let closest = o.link.map(|l| (l, o.object.clone()));
+                    (
+                        o.object,
+                        crate::results::PyClearance {
+                            distance: o.distance,
+                            closest,
+                        },
+                    )
+                })
+                .collect())
         })
     }
 
