@@ -155,6 +155,15 @@ class PickPlaceConfig:
     #: 4 mm both ways give 100/100, see BENCHMARKS.md, retreat18f); ``benches/clutter.py`` pre-shapes (better
     #: per grasp in piles and bins, paired A/B in BENCHMARKS.md).
     preshape_margin: float | None = None
+    #: Clearance (m, in [0, 0.02]; None: off) that the links' exact geometry must keep from every object but
+    #: the target and the table on the final approach, where the planner's sphere model alone would refuse
+    #: it. The spheres reach a few millimetres (up to ~2 cm at a box-shaped hand's corners) beyond the
+    #: links, so a grasp the detector found clear of a bin's wall or a neighbour can be "in collision" for
+    #: the planner; then the straight approach from the pre-grasp is measured exactly
+    #: (:meth:`ferrobot.Planner.exact_clearance`, conservative advancement: each step no longer than the
+    #: measured clearance allows) and, if clear by this much all along, taken with those sphere contacts
+    #: ignored on that segment only.
+    exact_approach_clearance: float | None = 0.0005
 
 
 @dataclass
@@ -239,6 +248,9 @@ class Episode:
     hand_grasp: np.ndarray | None = None
     q_pre: np.ndarray | None = None
     q_grasp: np.ndarray | None = None
+    #: Objects the sphere model touches on the final approach that the exact geometry clears
+    #: (``PickPlaceConfig.exact_approach_clearance``): ignored on that straight segment only.
+    approach_allowed: list[str] = field(default_factory=list)
     #: Configurations of the lift, above the place location and at it; the place hand pose (``lift``,
     #: ``transport``).
     q_lift: np.ndarray | None = None
@@ -458,6 +470,9 @@ class PickPlace:
         m = self.config.preshape_margin
         if m is not None and not (isinstance(m, (int, float)) and 0.0 <= m <= 0.05):
             raise InvalidArgumentError(f"config.preshape_margin: {m!r} m is outside [0, 0.05] (or None)")
+        m = self.config.exact_approach_clearance
+        if m is not None and not (isinstance(m, (int, float)) and 0.0 <= m <= 0.02):
+            raise InvalidArgumentError(f"config.exact_approach_clearance: {m!r} m is outside [0, 0.02] (or None)")
         self.model, self.gripper = resolve_robot(model if robot is None else robot, srdf, gripper)
         self.hand_link = self.gripper.hand_link
         self.planner = _core.Planner(self.model)
@@ -468,6 +483,11 @@ class PickPlace:
         self._hand_to_ee = np.linalg.inv(self.model.fk(q0, self.hand_link)) @ self.model.fk(q0, ee)
         self.home = home_for(self.model, self.gripper)
         self.arm = list(self.planner.joint_names)
+        # The farthest any link's geometry reaches from its link's origin (from the sphere model, which
+        # holds it): for the exact approach's motion bound.
+        sm = self.planner.sphere_model
+        ext = [np.linalg.norm(s[:, :3], axis=1) + s[:, 3] for s in map(sm.spheres, self.model.link_names)]
+        self._link_extent = float(max((e.max() for e in ext if len(e)), default=0.0))
         idx = self._arm_dofs = [self.model.dof_names.index(n) for n in self.arm]
         self.lower, self.upper = self.model.lower_limits[idx], self.model.upper_limits[idx]
         # Joints whose range spans more than a turn (UR arms: +-2 pi) keep IK goals within half a turn of home:
@@ -532,8 +552,9 @@ class PickPlace:
         """Whether the arm configuration ``q`` lies within the IK window around home (see ``__init__``)."""
         return bool(np.all((q >= self._win_lo - 1e-9) & (q <= self._win_hi + 1e-9)))
 
-    def _move(self, stage: str, goal_q: np.ndarray, ignore: list[str]) -> dict:
-        """Plans from the current state to ``goal_q`` in the synced world and executes it."""
+    def _move(self, stage: str, goal_q: np.ndarray, ignore: list[str], straight: bool = False) -> dict:
+        """Plans from the current state to ``goal_q`` in the synced world and executes it; with ``straight``
+        the plan must be the straight joint-space segment (else the stage fails)."""
         self._sync(ignore)
         start = self._q()
         t0 = time.perf_counter()
@@ -548,6 +569,8 @@ class PickPlace:
         plan_s = time.perf_counter() - t0
         if not res.success:
             raise StageFailure(stage, f"planning failed ({res.status}): {res.message}")
+        if straight and len(res.path) != 2:
+            raise StageFailure(stage, f"the plan is not the straight segment ({len(res.path)} waypoints)")
         traj = res.interpolated(self.episode.recorder.sample_dt)
         err = self.episode.recorder.execute(traj.positions, traj.velocities, self.episode.arm_idx, stage)
         self.episode.recorder.wait(0.1, stage)
@@ -698,11 +721,28 @@ class PickPlace:
             self._sync([self.episode.spec.target, "table"])
             tried += 1
             ik_g = self.planner.ik(self._ee(hands[j]), q_pre, collision_free=True, num_seeds=8)
+            allowed: list[str] = []
+            if not ik_g.success and cfg.exact_approach_clearance is not None:
+                # The spheres may report a contact the links do not have: the pose without the collision
+                # test, then the straight approach to it measured exactly.
+                ik_g = self.planner.ik(self._ee(hands[j]), q_pre, collision_free=False, num_seeds=8)
+                if ik_g.success and np.max(np.abs(ik_g.q - q_pre)) <= 1.0 and self._in_window(ik_g.q):
+                    found = self._exact_segment(q_pre, ik_g.q)
+                    if found is None:
+                        continue
+                    allowed = found
             if not ik_g.success or np.max(np.abs(ik_g.q - q_pre)) > 1.0 or not self._in_window(ik_g.q):
                 continue
-            res = self.planner.plan(q_pre, goal_q=ik_g.q, trajectory=False, time_limit=0.2)
-            if not res.success:
+            for n in allowed:
+                self.planner.set_object_enabled(n, False)
+            try:
+                res = self.planner.plan(q_pre, goal_q=ik_g.q, trajectory=False, time_limit=0.2)
+            finally:
+                for n in allowed:
+                    self.planner.set_object_enabled(n, True)
+            if not res.success or (allowed and len(res.path) != 2):
                 continue
+            self.episode.approach_allowed = allowed
             self.episode.choice = order[j]
             self.episode.q_pre, self.episode.q_grasp = q_pre, ik_g.q
             self.episode.hand_grasp = hands[j]
@@ -719,6 +759,7 @@ class PickPlace:
                 "width": g.width,
                 "preshape_opening": opening,
                 "approach_angle_deg": math.degrees(angle[order[j]]),
+                "exact_approach": allowed,
             }
         raise StageFailure(
             "select",
@@ -739,9 +780,22 @@ class PickPlace:
             return {**self._move("pregrasp", self.episode.q_pre, []), "preshape_opening_mm": 1e3 * opening}
 
         self._stage("pregrasp", pregrasp)
-        self._stage(
-            "approach", lambda: self._move("approach", self.episode.q_grasp, [self.episode.spec.target, "table"])
-        )
+
+        def approach():
+            ignore = [self.episode.spec.target, "table"]
+            allowed = self.episode.approach_allowed
+            if not allowed:
+                return self._move("approach", self.episode.q_grasp, ignore)
+            # The sphere contacts select measured exactly: the straight segment from where the arm is now,
+            # measured again, is the motion (planned with them ignored, it must stay one straight segment).
+            self._sync(ignore)
+            found = self._exact_segment(self._q(), self.episode.q_grasp)
+            if found is None:
+                raise StageFailure("approach", "the straight approach comes closer to an object than allowed")
+            out = self._move("approach", self.episode.q_grasp, ignore + found, straight=True)
+            return {**out, "exact_approach": found}
+
+        self._stage("approach", approach)
 
         def close():
             self.episode.recorder.set_gripper(True, cfg.grip_force)
@@ -910,6 +964,72 @@ class PickPlace:
         full = self.home.copy()
         full[self._arm_dofs] = q_arm
         return self.model.fk(full, self.hand_link)
+
+    def _reach_bound(self, q: np.ndarray) -> float:
+        """An upper bound (m) on how far any point of the robot's geometry moves per radian of any joint
+        near ``q``: twice the largest distance from the base of a link's origin plus its geometry's
+        extent (a joint axis passes through the robot, so no point is farther from it), with 25 % slack
+        for the configurations between samples."""
+        full = np.asarray(self.planner.locked_positions, dtype=float).copy()
+        names = list(self.planner.dof_names)
+        for k, n in enumerate(self.arm):
+            full[names.index(n)] = q[k]
+        poses = self.model.fk_all(full)
+        r = float(np.max(np.linalg.norm(poses[:, :3, 3], axis=1))) + self._link_extent
+        return 2.5 * r
+
+    def _exact_segment(self, q_a: np.ndarray, q_b: np.ndarray) -> list[str] | None:
+        """The straight joint-space segment ``q_a`` -> ``q_b`` measured with the links' exact geometry
+        against the planner's world as synced: None when some configuration on it comes closer to an
+        object than ``config.exact_approach_clearance``, else the objects the sphere model reports in
+        contact at the measured configurations (to be ignored on this segment; a plan that then leaves the
+        straight segment is refused by the callers). Conservative advancement: from each
+        measured configuration the next lies no farther than its clearance margin allows (joint motion
+        times :meth:`_reach_bound`), so the whole segment, not just the samples, keeps the clearance."""
+        c_min = float(self.config.exact_approach_clearance or 0.0)
+        q_a, q_b = np.asarray(q_a, dtype=float), np.asarray(q_b, dtype=float)
+        step = np.abs(q_b - q_a).sum()
+        r = max(self._reach_bound(q_a), self._reach_bound(q_b))
+        t = 0.0
+        touching: set[str] = set()
+        for _ in range(10_000):
+            q = q_a + t * (q_b - q_a)
+            touching.update(self._sphere_contacts(q))
+            found = self.planner.exact_clearance(q, joint_names=self.arm)
+            d = min((c.distance for c in found.values()), default=math.inf)
+            if d < c_min:
+                return None
+            if t >= 1.0:
+                break
+            # Each point moves at most r * (sum of |dq|) from here: keep it within the margin d - c_min,
+            # and never less than 0.1 mm per step (below that the margin is gone anyway).
+            dt = (d - c_min) / max(r * step, 1e-12)
+            t = min(1.0, t + max(dt, 1e-4 / max(r * step, 1e-12)))
+            if dt * r * step < 1e-4:
+                return None
+        else:
+            return None
+        return sorted(touching)
+
+    def _sphere_contacts(self, q: np.ndarray) -> list[str]:
+        """Objects of the planner's world as synced (enabled ones) the sphere model reports in contact with
+        the robot at ``q``: each enabled alone; self-collision is not an object's contact."""
+        if not self.planner.in_collision(q):
+            return []
+        names = [n for n in self.planner.world.names if n != ROBOT_MOUNT]
+        for n in names:
+            self.planner.set_object_enabled(n, False)
+        try:
+            out = []
+            for n in names:
+                self.planner.set_object_enabled(n, True)
+                if self.planner.in_collision(q):
+                    out.append(n)
+                self.planner.set_object_enabled(n, False)
+            return out
+        finally:
+            for n in names:
+                self.planner.set_object_enabled(n, True)
 
     def _touching(self, stage: str, q: np.ndarray) -> list[str]:
         """World objects the robot or what it holds collides with at ``q`` (planner world, synced from the
