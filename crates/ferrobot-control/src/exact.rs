@@ -1,8 +1,12 @@
 //! Exact clearance between the robot's link geometry and the world, with
 //! parry: link primitives exactly, link meshes as their convex hulls (which
 //! contain them, so a contact is never missed); world boxes, spheres,
-//! cylinders and capsules exactly. For judging controllers (benchmarks,
-//! tests) independently of the sphere model they steer by.
+//! cylinders and capsules exactly. Distances are lower bounds exact to
+//! ~0.01 % (a separating plane along GJK's direction, cylinders as
+//! circumscribed prisms: see `convex_distance_lower`), never more than the
+//! true distance. For judging controllers (benchmarks, tests) independently
+//! of the sphere model they steer by, and for certifying motions the sphere
+//! model is too coarse for (`object_clearances`).
 
 use std::sync::Arc;
 
@@ -367,14 +371,13 @@ impl LinkClearance {
             for (s, local) in parts {
                 let pose = to_pose(&(poses[l] * local));
                 for (name, o, opose) in &obstacles {
-                    let d = parry3d::query::distance(&pose, s.as_ref(), opose, o.as_ref())
-                        .map_err(|_| {
+                    let d =
+                        distance_lower(s.as_ref(), &pose, o.as_ref(), opose).ok_or_else(|| {
                             ControlError::InvalidArgument(format!(
                                 "parry cannot measure link '{}' against '{name}'",
                                 self.model.links()[l].name
                             ))
-                        })?
-                        .distance as f64;
+                        })?;
                     if d < best.distance {
                         best = Clearance {
                             distance: d,
@@ -396,8 +399,7 @@ impl LinkClearance {
             let pa = to_pose(&(poses[a] * la));
             for (sb, lb) in self.links.get(b)? {
                 let pb = to_pose(&(poses[b] * lb));
-                let d = parry3d::query::distance(&pa, sa.as_ref(), &pb, sb.as_ref()).ok()?;
-                let d = d.distance as f64;
+                let d = distance_lower(sa.as_ref(), &pa, sb.as_ref(), &pb)?;
                 best = Some(best.map_or(d, |x: f64| x.min(d)));
             }
         }
@@ -506,15 +508,14 @@ impl LinkClearance {
                 let pa = to_pose(&(poses[a] * la));
                 for (sb, lb) in &self.links[b] {
                     let pb = to_pose(&(poses[b] * lb));
-                    let d = parry3d::query::distance(&pa, sa.as_ref(), &pb, sb.as_ref())
-                        .map_err(|_| {
+                    let d =
+                        distance_lower(sa.as_ref(), &pa, sb.as_ref(), &pb).ok_or_else(|| {
                             ControlError::InvalidArgument(format!(
                                 "parry cannot measure link '{}' against link '{}'",
                                 self.model.links()[a].name,
                                 self.model.links()[b].name
                             ))
-                        })?
-                        .distance as f64;
+                        })?;
                     if d < best.distance {
                         best = Clearance {
                             distance: d,
