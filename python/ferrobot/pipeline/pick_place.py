@@ -710,9 +710,17 @@ class PickPlace:
             # The fingers pre-shaped to this grasp's width (plus the margin) for every check of its approach.
             opening = self.preshape_opening(float(gw.widths[order[j]]))
             self._set_planner_fingers(opening)
-            # Pre-grasp: free of collision with everything, target included.
+            # Pre-grasp: free of collision with everything, target included. Where it is not (the hand
+            # still between a bin's walls), farther back along the approach (1.5 and 2 times the distance:
+            # the longer approach is measured exactly if the spheres touch anything on it).
             self._sync([])
-            ik_pre = self._ik(pre[j : j + 1], None if seeds is None else seeds[j : j + 1], collision_free=True)
+            seed_j = None if seeds is None else seeds[j : j + 1]
+            ik_pre = self._ik(pre[j : j + 1], seed_j, collision_free=True)
+            for factor in (1.5, 2.0) if cfg.exact_approach_clearance is not None else ():
+                if ik_pre.success[0] and self._in_window(ik_pre.q[0]):
+                    break
+                far = self._ee(self._back(hands[j : j + 1], factor * cfg.pregrasp_distance))
+                ik_pre = self._ik(far, seed_j, collision_free=True)
             if not ik_pre.success[0] or not self._in_window(ik_pre.q[0]):
                 continue
             reachable += 1
