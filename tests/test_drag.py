@@ -187,6 +187,7 @@ def test_drag_planner_rejects_bad_input_naming_the_argument():
         ({"inset": 0.05}, "inset"),
         ({"flatness": -0.01}, "flatness"),
         ({"max_contacts": 0}, "max_contacts"),
+        ({"min_support": 0.0}, "min_support"),
         ({"margin": -0.001}, "margin"),
         ({"min_gain": 0.5}, "min_gain"),
     ):

@@ -16,17 +16,18 @@ maximum rule gives 1.0 against mu_o, a drag only for objects below 1.0).
 :func:`plan_drag` works on the observations :func:`ferrobot.pipeline.push.plan_push` uses (a
 :class:`~ferrobot.pipeline.push.Heightmap` of the labelled cloud, the camera's
 :class:`~ferrobot.pipeline.push.FreeSpace`). For each of ``num_directions`` horizontal directions d whose motion
-leaves the object more clearance (its footprint's distance to anything else observed 1 cm or more above the
-support: walls, neighbours) by at least ``min_gain``, and whose moved footprint stays clear of all of it, it tries
-contact points on the object's top (the closed fingertips' footprint, grown by ``inset``, entirely on the target's
-observed cells, the top there flat within ``flatness``), nearest the footprint's centre first, with the closing
-axis across or along d and the hand leaning its top towards d by each of ``tilts``. The motion: down the approach
-(5 cm) to ``clearance`` above the top, the hand's solids (closed fingers, palm, housing) clear of everything
-observed, the target's columns included; the press (the hand is checked resting on the top: the object stops
-it); the drag along d by the distance (the hand clear of everything but the target); and back up the approach
-by 10 cm. Among the feasible drags, the one leaving the most clearance (up to 10 cm) wins, then the one pressing
-nearest the centre, the least tilted, the shortest. Nothing is simulated here: the plan is hand poses (world
-frame) for an executor.
+leaves the object more clearance (its footprint's distance to anything else observed 1 cm or more above the support:
+walls, neighbours) or more room for the housing (along the best of 8 axes through its centre, the free length on the
+nearer side, up to ``housing_room``) by at least ``min_gain``, and whose moved footprint stays clear of all of it,
+it tries contact points on the object's top (at least ``min_support`` of the closed fingertips' footprint on the
+target's observed cells, a quarter of it within ``flatness`` of the top there, nothing else as high under them),
+nearest the footprint's centre first, with the closing axis across or along d and the hand leaning its top towards d
+by each of ``tilts``. The motion: down the approach (5 cm) to ``clearance`` above the top, the hand's solids (closed
+fingers, palm, housing) clear of everything observed, the target's columns included; the press (the hand is checked
+resting on the top: the object stops it); the drag along d by the distance (the hand clear of everything but the
+target); and back up the approach by 10 cm. Among the feasible drags, the one leaving the most room for the housing
+plus half the clearance (up to 10 cm) wins, then the one pressing nearest the centre, the least tilted, the
+shortest. Nothing is simulated here: the plan is hand poses (world frame) for an executor.
 """
 
 from __future__ import annotations
@@ -98,37 +99,44 @@ def plan_drag(
     distances=(0.12, 0.10, 0.08, 0.06, 0.04),
     tilts=(0.0, 0.2, 0.4),
     press: float = 0.015,
-    inset: float = 0.003,
-    flatness: float = 0.006,
+    inset: float = 0.002,
+    flatness: float = 0.01,
+    min_support: float = 0.5,
     max_contacts: int = 12,
     margin: float = 0.004,
     clearance: float = 0.005,
     min_gain: float = 0.02,
+    housing_room: float = 0.12,
     unknown_height: float = 1.0,
     heightmap: Heightmap | None = None,
     view: FreeSpace | None = None,
 ) -> DragPlan | None:
     """The best drag of the object labelled ``target`` (see the module's docstring), or None. Arguments as
-    :func:`ferrobot.pipeline.push.plan_push`'s; ``press`` (m): how far below the object's top the fingertips'
-    target goes (the pressing force is the drive's stiffness times it); ``inset`` (m): how far inside the
-    object's observed outline the fingertips' footprint must stay; ``flatness`` (m): the largest height
-    difference of the object's top under the fingertips; ``max_contacts``: contact points tried per direction
-    and hand orientation. Ranges: ``num_directions`` 1-64, ``distances`` in (0, 0.3] m, ``tilts`` in [0, 1.2]
-    rad, ``press`` in (0, 0.04] m, ``inset`` in [0, 0.02] m, ``flatness`` in [0, 0.03] m, ``max_contacts`` 1-64,
-    ``margin`` and ``clearance`` in [0, 0.02] m, ``min_gain`` in [0, 0.2] m."""
+    :func:`ferrobot.pipeline.push.plan_push`'s; ``press`` (m): how far below the object's top the fingertips' target
+    goes (the pressing force is the drive's stiffness times it); the closed fingertips' footprint (shrunk by
+    ``inset``, m) must have at least ``min_support`` of its area over the object's observed cells, the object's top
+    there level within ``flatness`` (m), and nothing else as high under it; ``max_contacts``: contact points tried
+    per direction and hand orientation. Ranges: ``num_directions`` 1-64, ``distances`` in (0, 0.3] m, ``tilts`` in
+    [0, 1.2] rad, ``press`` in (0, 0.04] m, ``inset`` in [0, 0.005] m, ``min_support`` in (0, 1], ``flatness`` in
+    [0, 0.03] m, ``max_contacts`` 1-64, ``margin`` and ``clearance`` in [0, 0.02] m, ``min_gain`` in [0, 0.2] m,
+    ``housing_room`` in [0.02, 0.3] m."""
     if not 1 <= int(num_directions) <= 64:
         raise InvalidArgumentError(f"num_directions: {num_directions} is outside [1, 64]")
     distances, _ = _checked_motion(distances, tilts, (0.01,), margin, clearance)
     if not 0.0 < press <= 0.04:
         raise InvalidArgumentError(f"press: {press} m is outside (0, 0.04]")
-    if not 0.0 <= inset <= 0.02:
-        raise InvalidArgumentError(f"inset: {inset} m is outside [0, 0.02]")
+    if not 0.0 <= inset <= 0.005:
+        raise InvalidArgumentError(f"inset: {inset} m is outside [0, 0.005]")
     if not 0.0 <= flatness <= 0.03:
         raise InvalidArgumentError(f"flatness: {flatness} m is outside [0, 0.03]")
+    if not 0.0 < min_support <= 1.0:
+        raise InvalidArgumentError(f"min_support: {min_support} is outside (0, 1]")
     if not 1 <= int(max_contacts) <= 64:
         raise InvalidArgumentError(f"max_contacts: {max_contacts} is outside [1, 64]")
     if not 0.0 <= min_gain <= 0.2:
         raise InvalidArgumentError(f"min_gain: {min_gain} m is outside [0, 0.2]")
+    if not 0.02 <= housing_room <= 0.3:
+        raise InvalidArgumentError(f"housing_room: {housing_room} m is outside [0.02, 0.3]")
     hm = heightmap or Heightmap.from_points(points, labels, support_z, bounds, cell)
     mine = hm.label == target
     if not mine.any():
@@ -152,7 +160,27 @@ def plan_drag(
         d2 = ((fp[::2, None, :] - near[None, :, :]) ** 2).sum(axis=2)
         return min(0.1, float(np.sqrt(d2.min())))
 
-    now = clearance_of(foot)
+    # Room for the hand's housing: along each of 8 horizontal axes through the footprint's centre, the free length
+    # on both sides (the nearer obstacle of three rays, the middle one and two ``palm_height`` / 2 to its sides);
+    # the best axis's smaller side. A grasp needs about half the housing's width (10.4 cm) on both sides.
+    axes = np.array([[math.cos(math.pi * m / 8), math.sin(math.pi * m / 8)] for m in range(8)])
+    rays = np.concatenate([axes, -axes])  # (16, 2)
+    ray_steps = np.arange(hm.cell, housing_room + 1e-9, hm.cell)
+    ph = gripper.fingers.palm_height / 2
+
+    def room_of(fp: np.ndarray) -> float:
+        c = fp.mean(axis=0)
+        perp = np.column_stack([-rays[:, 1], rays[:, 0]])
+        starts = c[None, None, :] + np.array([0.0, ph, -ph])[None, :, None] * perp[:, None, :]  # (16, 3, 2)
+        pts = starts[:, :, None, :] + ray_steps[None, None, :, None] * rays[:, None, None, :]  # (16, 3, S, 2)
+        i, j, inside = hm.cells(pts.reshape(-1, 2))
+        hit = (~inside | obstacle[i, j]).reshape(len(rays), 3, len(ray_steps)).any(axis=1)  # (16, S)
+        first = np.where(hit.any(axis=1), hit.argmax(axis=1), len(ray_steps))
+        free = np.where(first > 0, ray_steps[np.maximum(first - 1, 0)], 0.0)
+        free = np.where(first == len(ray_steps), housing_room, free)
+        return float(np.minimum(free[:8], free[8:]).max())
+
+    now_clear, now_room = clearance_of(foot), room_of(foot)
     f = gripper.fingers
     samples = _hand_samples(gripper, 0.008, margin)
     tcp = np.asarray(gripper.tcp, dtype=float)
@@ -175,13 +203,14 @@ def plan_drag(
                     break
             if not ok:
                 continue
-            after = clearance_of(foot + dist * d[:2])
-            if after >= now + min_gain:
-                feasible.append((after, dist))
+            moved = foot + dist * d[:2]
+            after, room = clearance_of(moved), room_of(moved)
+            if after >= now_clear + min_gain or room >= now_room + min_gain:
+                feasible.append((room + 0.5 * after, after, dist))
         if not feasible:
             continue
-        # Best clearance first; of equal clearance the shortest drag.
-        feasible.sort(key=lambda cd: (-cd[0], cd[1]))
+        # Most room for the housing (and clearance) first; of equal room the shortest drag.
+        feasible.sort(key=lambda v: (-v[0], v[2]))
         side = np.cross(up, d)
         for across, tilt in itertools.product((True, False), tilts):
             # The closed fingertips' footprint: along the closing axis twice the finger thickness, across it the
@@ -195,18 +224,22 @@ def plan_drag(
                     continue
                 g = np.stack(
                     np.meshgrid(
-                        np.linspace(-half_d - inset, half_d + inset, 5),
-                        np.linspace(-half_side - inset, half_side + inset, 5),
+                        np.linspace(-half_d + inset, half_d - inset, 5),
+                        np.linspace(-half_side + inset, half_side - inset, 5),
                         indexing="ij",
                     ),
                     axis=-1,
                 ).reshape(-1, 2)
                 under = p + g[:, :1] * d[:2] + g[:, 1:] * side[:2]
                 i, j, inside = hm.cells(under)
-                if not inside.all() or not (hm.label[i, j] == target).all():
+                on = inside & (hm.label[i, j] == target)
+                if on.mean() < min_support:
                     continue
-                h = hm.height[i, j]
-                if h.max() - h.min() > flatness:
+                h = hm.height[i, j][on]
+                # Nothing else under the fingertips as high as the object's top there (they would land on it).
+                others = inside & ~on & (hm.height[i, j] > h.max() - 0.005)
+                # A contact patch, not a peak: a quarter of the footprint within ``flatness`` of the top there.
+                if others.any() or (h >= h.max() - flatness).sum() < 0.25 * len(on):
                     continue
                 contacts.append((p, float(h.max())))
                 if len(contacts) >= int(max_contacts):
@@ -229,7 +262,7 @@ def plan_drag(
                 rest = tip - np.array([0.0, 0.0, clearance - 0.001])
                 if _collides(hm, body + rest, target, unknown_height, view):
                     continue
-                for after, dist in feasible:
+                for value, after, dist in feasible:
                     if any(
                         _collides(hm, body + rest + s * d, target, unknown_height, view)
                         for s in (*np.arange(step, dist, step), dist)
@@ -239,7 +272,7 @@ def plan_drag(
                     if any(_descent_collides(hm, body + end_tip - s * a, target, unknown_height, view) for s in lift):
                         continue
                     off = float(np.linalg.norm(p - centre))
-                    score = after - 0.5 * off - 0.01 * tilt - 0.01 * dist
+                    score = value - 0.5 * off - 0.01 * tilt - 0.01 * dist
                     if best is None or score > best.score:
                         rot = hand_rotation(gripper, a, c)
                         start = np.eye(4)
