@@ -29,8 +29,13 @@ Each attempt (the setting of VGN's clutter removal, with grasp_eval's floating P
   cleared); the scene ends when no object remains or after 2 failed attempts in a row, or after 2 K
   attempts;
 - a frame without a grasp gets a push of some object into free space instead (``ferrobot.pipeline.push``,
-  ``--no-push``) or, in a bin when no push exists, a slide of an object along the wall it lies at
-  (``ferrobot.pipeline.slide``, ``--no-slide``); at most 3 in a row, not counted as grasp attempts.
+  ``--no-push``) or, in a bin when no push exists, a drag of an object away from the walls with a fingertip
+  pressed on its top (``ferrobot.pipeline.drag``, ``--no-drag``) or, when no drag exists either, a slide of an
+  object along the wall it lies at (``ferrobot.pipeline.slide``, ``--no-slide``); at most 3 in a row, not counted
+  as grasp attempts;
+- the bin is one part: its floor (the table's top under it) has the walls' friction, 0.6
+  (``--bin-floor-friction``; 1.0, the table's, before bins18g), and drags run only where Coulomb friction lets a
+  pressed fingertip move the heaviest, grippiest object over that floor (``drag_enabled``).
 
 The **PyBullet judge** replays every attempt: the same objects (each the same convex parts, as OBJ files)
 at the poses they settled to in ferrobot, the same hand URDF, base pose and joint targets per step, and the
