@@ -104,6 +104,8 @@ GEAR_FORCE = 1000.0
 #: floor is the table's top under the bin, so in a bin scene the table gets this friction (``--bin-floor-friction``;
 #: 1.0, the table's, before bins18g). Tables keep 1.0.
 BIN_FLOOR_FRICTION = 0.6
+#: ``--paired-floor F``: every bin grasp is also run from the same poses on a floor of friction F (None: not).
+PAIRED_FLOOR: float | None = None
 
 
 def floor_friction(spec: clutter.ClutterSpec) -> float:
@@ -119,14 +121,14 @@ class State:
         self.objects = {o.name: o for o in spec.objects}
         self.poses: dict[str, np.ndarray] = {}
 
-    def build(self) -> ferrobot.World:
+    def build(self, floor: float | None = None) -> ferrobot.World:
         w = ferrobot.World(dt=DT)
         w.add_box(
             "table",
             [ge.TABLE_SIZE, ge.TABLE_SIZE, TABLE_TOP],
             [CENTER[0], CENTER[1], TABLE_TOP / 2, 1, 0, 0, 0],
             fixed=True,
-            friction=floor_friction(self.spec),
+            friction=floor_friction(self.spec) if floor is None else floor,
         )
         if self.spec.bin is not None:
             clutter.add_bin(w, self.spec.bin, TABLE_TOP)
@@ -720,6 +722,15 @@ def attempt(
         "preshape_opening": 2.0 * finger,
     }
     z0 = {n: settled[n][2, 3] for n in names}
+    if PAIRED_FLOOR is not None and state.spec.bin is not None:
+        # The same grasp from the same poses on the other bin floor (a fresh world settled alike), judged by ferrobot:
+        # the floor's own effect on grasps, apart from the different piles it leads to.
+        w3 = state.build(floor=PAIRED_FLOOR)
+        clutter.settle(w3, names, max_seconds=SETTLE_S)
+        dev = max(float(np.abs(w3.get_object_pose(n) - settled[n]).max()) for n in names)
+        z3 = {n: w3.get_object_pose(n)[2, 3] for n in names}
+        r3, _, _, _ = run_hand(w3, hand_model, base, steps, finger, names, settled, z3, rec.get("target"))
+        rec["paired_floor"] = {"floor": PAIRED_FLOOR, "ferrobot": r3, "state_deviation": dev}
     if paired:
         # The same attempt from the same state with the other pre-shape (fully open <-> pre-shaped): a fresh
         # world rebuilt and settled as this one (deterministic), judged alike; the scene follows this run.
@@ -849,6 +860,19 @@ def summarise(scenes: list[dict], use_pybullet: bool) -> dict:
         st = a["ferrobot"].get("stage", a["ferrobot"].get("reason", "?"))
         stages[st] = stages.get(st, 0) + 1
     out["stages"] = stages
+    pf = [a for a in att if "paired_floor" in a]
+    if pf:
+        out["paired_floor"] = {
+            "attempts": len(pf),
+            "floor": pf[0]["paired_floor"]["floor"],
+            "this": sum(a["ferrobot"]["success"] for a in pf) / len(pf),
+            "other": sum(a["paired_floor"]["ferrobot"]["success"] for a in pf) / len(pf),
+            "stages_other": {},
+            "max_state_deviation": max(a["paired_floor"]["state_deviation"] for a in pf),
+        }
+        for a in pf:
+            st = a["paired_floor"]["ferrobot"]["stage"]
+            out["paired_floor"]["stages_other"][st] = out["paired_floor"]["stages_other"].get(st, 0) + 1
     pa = [a for a in att if "paired" in a]
     if pa:
         # Paired A/B: every grasp executed from the same state with both pre-shapes (the scene follows this run's).
@@ -883,7 +907,7 @@ def summarise(scenes: list[dict], use_pybullet: bool) -> dict:
 
 
 def main() -> int:
-    global BIN_FLOOR_FRICTION
+    global BIN_FLOOR_FRICTION, PAIRED_FLOOR
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--objects", type=Path, default=None, help="folder of URDFs / OBJ / STL / DAE files")
     ap.add_argument("--scenes", type=int, default=10)
@@ -915,6 +939,13 @@ def main() -> int:
         "material; 1.0: the table's, as before bins18g)",
     )
     ap.add_argument(
+        "--paired-floor",
+        type=float,
+        default=None,
+        metavar="F",
+        help="bins: also run every grasp from the same poses on a bin floor of friction F (in [0, 2]), ferrobot judge",
+    )
+    ap.add_argument(
         "--paired",
         action="store_true",
         help="also run every grasp from the same state with the other pre-shape (fully open <-> pre-shaped)",
@@ -940,6 +971,9 @@ def main() -> int:
     if not 0.0 <= args.bin_floor_friction <= 2.0:
         raise SystemExit("--bin-floor-friction: expected 0 to 2")
     BIN_FLOOR_FRICTION = args.bin_floor_friction
+    if args.paired_floor is not None and not 0.0 <= args.paired_floor <= 2.0:
+        raise SystemExit("--paired-floor: expected 0 to 2")
+    PAIRED_FLOOR = args.paired_floor
     options = {}
     for kv in args.option:
         key, _, value = kv.partition("=")
@@ -1045,6 +1079,14 @@ def main() -> int:
         f"clean lifts {res['clean_lifts']}, pushes {res['pushes']} (slides {res['slides']}, drags {res['drags']})"
     )
     print("stages: " + ", ".join(f"{k} {v}" for k, v in sorted(res["stages"].items(), key=lambda kv: -kv[1])))
+    if "paired_floor" in res:
+        pf = res["paired_floor"]
+        print(
+            f"paired floor ({pf['attempts']} grasps from the same poses, "
+            f"max deviation {pf['max_state_deviation']:.1e}): "
+            f"ferrobot this floor {pf['this'] * 100:.1f}% / floor {pf['floor']} {pf['other'] * 100:.1f}% "
+            f"(stages there: {pf['stages_other']})"
+        )
     if "paired" in res:
         pr = res["paired"]
         print(
