@@ -442,6 +442,8 @@ DRAG_S = 1.5
 #: The heaviest object (kg) and the highest object friction the bench's sets hold, for the check that a drag can
 #: move an object on the bin's floor at all (``drag.drag_feasible``).
 DRAG_MASS, DRAG_MU_OBJECT = 0.3, 1.0
+#: The hand's leans (rad) towards the drag that the drag planner tries (``--drag-tilts``; the planner's default).
+DRAG_TILTS = drag_mod.plan_drag.__kwdefaults__["tilts"]
 
 
 def drag_enabled(spec: clutter.ClutterSpec) -> bool:
@@ -462,7 +464,9 @@ def plan_scene_drag(state: State, frame, depth: np.ndarray, cam_pose: np.ndarray
     for label in ids:
         if ids[label] in stuck:
             continue
-        plan = drag_mod.plan_drag(pts, labels, label, ge.PANDA_HAND, TABLE_TOP, bounds, heightmap=hm, view=view)
+        plan = drag_mod.plan_drag(
+            pts, labels, label, ge.PANDA_HAND, TABLE_TOP, bounds, heightmap=hm, view=view, tilts=DRAG_TILTS
+        )
         if plan is not None and (best is None or plan.score > best.score):
             best = plan
     return best
@@ -907,7 +911,7 @@ def summarise(scenes: list[dict], use_pybullet: bool) -> dict:
 
 
 def main() -> int:
-    global BIN_FLOOR_FRICTION, PAIRED_FLOOR
+    global BIN_FLOOR_FRICTION, PAIRED_FLOOR, DRAG_TILTS
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--objects", type=Path, default=None, help="folder of URDFs / OBJ / STL / DAE files")
     ap.add_argument("--scenes", type=int, default=10)
@@ -937,6 +941,13 @@ def main() -> int:
         default=BIN_FLOOR_FRICTION,
         help="bins: friction of the bin's floor (the table under it; in [0, 2], default %(default)s, the walls' "
         "material; 1.0: the table's, as before bins18g)",
+    )
+    ap.add_argument(
+        "--drag-tilts",
+        type=float,
+        nargs="+",
+        default=list(DRAG_TILTS),
+        help="bins: the hand's leans (rad, in [0, 1.2]) towards the drag that drags try (default %(default)s)",
     )
     ap.add_argument(
         "--paired-floor",
@@ -974,6 +985,9 @@ def main() -> int:
     if args.paired_floor is not None and not 0.0 <= args.paired_floor <= 2.0:
         raise SystemExit("--paired-floor: expected 0 to 2")
     PAIRED_FLOOR = args.paired_floor
+    if not all(0.0 <= t <= 1.2 for t in args.drag_tilts):
+        raise SystemExit("--drag-tilts: expected values in [0, 1.2]")
+    DRAG_TILTS = tuple(args.drag_tilts)
     options = {}
     for kv in args.option:
         key, _, value = kv.partition("=")
@@ -1066,6 +1080,7 @@ def main() -> int:
         push=not args.no_push,
         slide=not args.no_slide,
         drag=not args.no_drag,
+        drag_tilts=list(DRAG_TILTS),
         bin_floor_friction=BIN_FLOOR_FRICTION if args.bin else None,
         paired_run=args.paired,
         coupled_fingers=not args.independent_fingers,
