@@ -187,6 +187,8 @@ def test_drag_planner_rejects_bad_input_naming_the_argument():
         ({"inset": 0.05}, "inset"),
         ({"flatness": -0.01}, "flatness"),
         ({"max_contacts": 0}, "max_contacts"),
+        ({"max_contacts": float("nan")}, "max_contacts"),
+        ({"num_directions": 2.5}, "num_directions"),
         ({"min_support": 0.0}, "min_support"),
         ({"margin": -0.001}, "margin"),
         ({"min_gain": 0.5}, "min_gain"),

@@ -120,8 +120,9 @@ def plan_drag(
     [0, 1.2] rad, ``press`` in (0, 0.04] m, ``inset`` in [0, 0.005] m, ``min_support`` in (0, 1], ``flatness`` in
     [0, 0.03] m, ``max_contacts`` 1-64, ``margin`` and ``clearance`` in [0, 0.02] m, ``min_gain`` in [0, 0.2] m,
     ``housing_room`` in [0.02, 0.3] m."""
-    if not 1 <= int(num_directions) <= 64:
-        raise InvalidArgumentError(f"num_directions: {num_directions} is outside [1, 64]")
+    for name, v in (("num_directions", num_directions), ("max_contacts", max_contacts)):
+        if not isinstance(v, (int, np.integer)) or isinstance(v, bool) or not 1 <= v <= 64:
+            raise InvalidArgumentError(f"{name}: expected an integer in [1, 64], got {v!r}")
     distances, _ = _checked_motion(distances, tilts, (0.01,), margin, clearance)
     if not 0.0 < press <= 0.04:
         raise InvalidArgumentError(f"press: {press} m is outside (0, 0.04]")
@@ -131,8 +132,6 @@ def plan_drag(
         raise InvalidArgumentError(f"flatness: {flatness} m is outside [0, 0.03]")
     if not 0.0 < min_support <= 1.0:
         raise InvalidArgumentError(f"min_support: {min_support} is outside (0, 1]")
-    if not 1 <= int(max_contacts) <= 64:
-        raise InvalidArgumentError(f"max_contacts: {max_contacts} is outside [1, 64]")
     if not 0.0 <= min_gain <= 0.2:
         raise InvalidArgumentError(f"min_gain: {min_gain} m is outside [0, 0.2]")
     if not 0.02 <= housing_room <= 0.3:
