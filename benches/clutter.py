@@ -29,8 +29,13 @@ Each attempt (the setting of VGN's clutter removal, with grasp_eval's floating P
   cleared); the scene ends when no object remains or after 2 failed attempts in a row, or after 2 K
   attempts;
 - a frame without a grasp gets a push of some object into free space instead (``ferrobot.pipeline.push``,
-  ``--no-push``) or, in a bin when no push exists, a slide of an object along the wall it lies at
-  (``ferrobot.pipeline.slide``, ``--no-slide``); at most 3 in a row, not counted as grasp attempts.
+  ``--no-push``) or, in a bin when no push exists, a drag of an object away from the walls with a fingertip
+  pressed on its top (``ferrobot.pipeline.drag``, ``--no-drag``) or, when no drag exists either, a slide of an
+  object along the wall it lies at (``ferrobot.pipeline.slide``, ``--no-slide``); at most 3 in a row, not counted
+  as grasp attempts;
+- the bin is one part: its floor (the table's top under it) has the walls' friction, 0.6
+  (``--bin-floor-friction``; 1.0, the table's, before bins18g), and drags run only where Coulomb friction lets a
+  pressed fingertip move the heaviest, grippiest object over that floor (``drag_enabled``).
 
 The **PyBullet judge** replays every attempt: the same objects (each the same convex parts, as OBJ files)
 at the poses they settled to in ferrobot, the same hand URDF, base pose and joint targets per step, and the
@@ -72,6 +77,7 @@ import ferrobot  # noqa: E402
 import ferrobot.camera  # noqa: E402
 import ferrobot.grasp as fg  # noqa: E402
 from ferrobot.pipeline import clutter  # noqa: E402
+from ferrobot.pipeline import drag as drag_mod  # noqa: E402
 from ferrobot.pipeline import push as push_mod  # noqa: E402
 from ferrobot.pipeline import slide as slide_mod  # noqa: E402
 
@@ -94,6 +100,17 @@ TABLE_DEPTHS = (0.04, 0.03, 0.02)
 #: Largest force (N) of the PyBullet judge's gear constraint between the coupled fingers (well above the
 #: 2 x 20 N squeeze, so it holds them equal as the ferrobot mimic coupling does).
 GEAR_FORCE = 1000.0
+#: Friction of the bin's floor: a bin is one part, its floor of the walls' material (0.6, ``clutter.add_bin``). The
+#: floor is the table's top under the bin, so in a bin scene the table gets this friction (``--bin-floor-friction``;
+#: 1.0, the table's, before bins18g). Tables keep 1.0.
+BIN_FLOOR_FRICTION = 0.6
+#: ``--paired-floor F``: every bin grasp is also run from the same poses on a floor of friction F (None: not).
+PAIRED_FLOOR: float | None = None
+
+
+def floor_friction(spec: clutter.ClutterSpec) -> float:
+    """The table's friction in a scene: the bin's floor material with a bin, 1.0 without."""
+    return BIN_FLOOR_FRICTION if spec.bin is not None else 1.0
 
 
 class State:
@@ -104,14 +121,14 @@ class State:
         self.objects = {o.name: o for o in spec.objects}
         self.poses: dict[str, np.ndarray] = {}
 
-    def build(self) -> ferrobot.World:
+    def build(self, floor: float | None = None) -> ferrobot.World:
         w = ferrobot.World(dt=DT)
         w.add_box(
             "table",
             [ge.TABLE_SIZE, ge.TABLE_SIZE, TABLE_TOP],
             [CENTER[0], CENTER[1], TABLE_TOP / 2, 1, 0, 0, 0],
             fixed=True,
-            friction=1.0,
+            friction=floor_friction(self.spec) if floor is None else floor,
         )
         if self.spec.bin is not None:
             clutter.add_bin(w, self.spec.bin, TABLE_TOP)
@@ -189,7 +206,7 @@ class PyBulletClutterJudge(ge.PyBulletJudge):
             [CENTER[0], CENTER[1], TABLE_TOP / 2],
             physicsClientId=c,
         )
-        p.changeDynamics(tid, -1, lateralFriction=1.0, physicsClientId=c)
+        p.changeDynamics(tid, -1, lateralFriction=floor_friction(state.spec), physicsClientId=c)
         if state.spec.bin is not None:
             for _, size, pose in state.spec.bin.walls(TABLE_TOP):
                 sid = p.createCollisionShape(p.GEOM_BOX, halfExtents=[s / 2 for s in size], physicsClientId=c)
@@ -417,6 +434,74 @@ def execute_slide(state: State, w, hand_model, plan, names: list, ids: dict, on_
     return rec
 
 
+#: Stiffness (N/m) of the floating hand's drive along its approach while a drag presses and pulls: the press force
+#: is this times the planned press depth (2e3 x 1.5 cm: about 30 N).
+DRAG_STIFFNESS = 2.0e3
+#: Duration (s) of the drag leg.
+DRAG_S = 1.5
+#: The heaviest object (kg) and the highest object friction the bench's sets hold, for the check that a drag can
+#: move an object on the bin's floor at all (``drag.drag_feasible``).
+DRAG_MASS, DRAG_MU_OBJECT = 0.3, 1.0
+#: The hand's leans (rad) towards the drag that the drag planner tries (``--drag-tilts``; the planner's default).
+DRAG_TILTS = drag_mod.plan_drag.__kwdefaults__["tilts"]
+
+
+def drag_enabled(spec: clutter.ClutterSpec) -> bool:
+    """Drags only in bins whose floor lets a pressed fingertip move the heaviest, grippiest object (with the table's
+    1.0 under the bin the finger-object and object-floor frictions are equal and no press drags anything)."""
+    if spec.bin is None:
+        return False
+    press = DRAG_STIFFNESS * drag_mod.plan_drag.__kwdefaults__["press"]
+    return drag_mod.drag_feasible(1.0, DRAG_MU_OBJECT, floor_friction(spec), DRAG_MASS, press)
+
+
+def plan_scene_drag(state: State, frame, depth: np.ndarray, cam_pose: np.ndarray, ids: dict):
+    """The best drag away from the walls (``ferrobot.pipeline.drag.plan_drag``) of any remaining object, or None;
+    objects whose last drag moved them less than ``SLIDE_STUCK`` are skipped."""
+    pts, labels, bounds, hm, view = scene_observation(state, frame, depth, cam_pose, ids)
+    stuck = getattr(state, "drag_stuck", set())
+    best = None
+    for label in ids:
+        if ids[label] in stuck:
+            continue
+        plan = drag_mod.plan_drag(
+            pts, labels, label, ge.PANDA_HAND, TABLE_TOP, bounds, heightmap=hm, view=view, tilts=DRAG_TILTS
+        )
+        if plan is not None and (best is None or plan.score > best.score):
+            best = plan
+    return best
+
+
+def execute_drag(state: State, w, hand_model, plan, names: list, ids: dict, on_step=None) -> dict:
+    """Runs a planned drag with the floating hand, fingers closed: down the approach to the start (0.5 s, stiff),
+    pressing down the approach onto the object's top (0.5 s) and dragging (``DRAG_S``) with a soft drive along the
+    approach (``DRAG_STIFFNESS``: the press force is it times the overlap) and a stiff one across it, back up the
+    approach 10 cm (0.5 s, stiff); the objects' new poses become the state. ``on_step(robot)``, if given, is called
+    after every step."""
+    robot, slide, fingers, rot = closed_hand_at(w, hand_model, plan)
+    q_start = np.array([0.0, 0.0, 0.05])
+    q_pressed = q_start + rot.T @ (plan.pressed[:3, 3] - plan.start[:3, 3])
+    q_end = q_start + rot.T @ (plan.end[:3, 3] - plan.start[:3, 3])
+    q_up = q_end - np.array([0.0, 0.0, 0.10])
+    before = {n: w.get_object_pose(n)[:3, 3].copy() for n in names}
+    legs = ((np.zeros(3), q_start, 0.5), (q_start, q_pressed, 0.5), (q_pressed, q_end, DRAG_S), (q_end, q_up, 0.5))
+    for leg, (a, b_, sec) in enumerate(legs):
+        if leg == 1:
+            k = DRAG_STIFFNESS
+            robot.set_drive_gains(stiffness=[2.0e4, 2.0e4, k], damping=[1.0e3, 1.0e3, 2.0 * k**0.5], joint_names=slide)
+        elif leg == 3:
+            robot.set_drive_gains(stiffness=[2.0e4] * 3, damping=[1.0e3] * 3, joint_names=slide)
+        for q in ge.smooth(a, b_, sec):
+            robot.set_joint_position_targets(q, joint_names=slide)
+            robot.set_joint_position_targets(np.zeros(len(fingers)), joint_names=fingers)
+            w.step(1)
+            if on_step is not None:
+                on_step(robot)
+    rec = {"kind": "drag", **objects_moved(state, w, plan, names, ids, before)}
+    rec.update(press=plan.press, top=plan.top, clearance_after=plan.clearance_after)
+    return rec
+
+
 def plan_scene_push(state: State, w, frame, depth: np.ndarray, cam_pose: np.ndarray, ids: dict):
     """The best push (``ferrobot.pipeline.push.plan_push``) of any remaining object, on the frame's cloud in
     the world (instance labels from the segmentation), or None."""
@@ -547,6 +632,7 @@ def attempt(
     paired: bool = False,
     slide: bool = True,
     mj_judge=None,
+    drag: bool = True,
 ) -> dict:
     """One perceive-grasp-lift attempt; updates ``state`` (removes lifted and lost objects). The fingers
     approach open to the grasp's width plus ``preshape_margin`` (None: fully open). With ``push``, a frame
@@ -589,6 +675,14 @@ def attempt(
             rec["push"] = execute_push(state, w, hand_model, plan, names, settled, ids)
             rec["cpu_s"] = time.process_time() - t_cpu
             return rec
+        if drag and drag_enabled(state.spec):
+            dplan = plan_scene_drag(state, frame, depth, cam_pose, ids)
+            if dplan is not None:
+                rec["push"] = execute_drag(state, w, hand_model, dplan, names, ids)
+                if rec["push"]["target_moved"] < SLIDE_STUCK:
+                    state.drag_stuck = getattr(state, "drag_stuck", set()) | {rec["push"]["target"]}
+                rec["cpu_s"] = time.process_time() - t_cpu
+                return rec
         if slide and state.spec.bin is not None:
             splan = plan_scene_slide(state, frame, depth, cam_pose, ids)
             if splan is not None:
@@ -632,6 +726,15 @@ def attempt(
         "preshape_opening": 2.0 * finger,
     }
     z0 = {n: settled[n][2, 3] for n in names}
+    if PAIRED_FLOOR is not None and state.spec.bin is not None:
+        # The same grasp from the same poses on the other bin floor (a fresh world settled alike), judged by ferrobot:
+        # the floor's own effect on grasps, apart from the different piles it leads to.
+        w3 = state.build(floor=PAIRED_FLOOR)
+        clutter.settle(w3, names, max_seconds=SETTLE_S)
+        dev = max(float(np.abs(w3.get_object_pose(n) - settled[n]).max()) for n in names)
+        z3 = {n: w3.get_object_pose(n)[2, 3] for n in names}
+        r3, _, _, _ = run_hand(w3, hand_model, base, steps, finger, names, settled, z3, rec.get("target"))
+        rec["paired_floor"] = {"floor": PAIRED_FLOOR, "ferrobot": r3, "state_deviation": dev}
     if paired:
         # The same attempt from the same state with the other pre-shape (fully open <-> pre-shaped): a fresh
         # world rebuilt and settled as this one (deterministic), judged alike; the scene follows this run.
@@ -685,9 +788,12 @@ def run_scene(
     paired: bool = False,
     slide: bool = True,
     mj_judge=None,
+    drag: bool = True,
 ) -> dict:
     """Clears one scene; returns its record (counts are read from the simulator's state). ``slide``: bins
-    only (slides along a wall when neither a grasp nor a push is found)."""
+    only (slides along a wall when neither a grasp nor a push is found); ``drag``: bins only, with a floor that
+    allows it (``drag_enabled``: drags away from the walls when neither a grasp nor a push is found, before
+    slides)."""
     # Settle the drop once in its own world: the first state.
     w = ferrobot.World(dt=DT)
     w.add_box(
@@ -695,7 +801,7 @@ def run_scene(
         [ge.TABLE_SIZE, ge.TABLE_SIZE, TABLE_TOP],
         [*CENTER, TABLE_TOP / 2, 1, 0, 0, 0],
         fixed=True,
-        friction=1.0,
+        friction=floor_friction(spec),
     )
     names = clutter.add_clutter(w, spec)
     state = State(spec)
@@ -706,7 +812,7 @@ def run_scene(
         tag = f"s{spec.seed}_a{len(attempts)}"
         can_push = push and in_row < MAX_PUSHES_IN_ROW
         rec = attempt(
-            state, hand_model, pb, options, picture_dir, tag, preshape_margin, can_push, paired, slide, mj_judge
+            state, hand_model, pb, options, picture_dir, tag, preshape_margin, can_push, paired, slide, mj_judge, drag
         )
         if "push" in rec:
             pushes.append(rec)
@@ -746,6 +852,7 @@ def summarise(scenes: list[dict], use_pybullet: bool) -> dict:
         "clean_lifts": sum(a["ferrobot"].get("clean", False) for a in att),
         "pushes": sum(len(s.get("pushes", [])) for s in scenes),
         "slides": sum(p["push"].get("kind") == "slide" for s in scenes for p in s.get("pushes", [])),
+        "drags": sum(p["push"].get("kind") == "drag" for s in scenes for p in s.get("pushes", [])),
         "attempts_per_removed_object": len(att) / removed if removed else None,
         "median_detection_ms": statistics.median(a["detect_ms"] for a in att) if att else None,
         "median_detection_cpu_ms": statistics.median(a["detect_cpu_ms"] for a in att) if att else None,
@@ -757,6 +864,19 @@ def summarise(scenes: list[dict], use_pybullet: bool) -> dict:
         st = a["ferrobot"].get("stage", a["ferrobot"].get("reason", "?"))
         stages[st] = stages.get(st, 0) + 1
     out["stages"] = stages
+    pf = [a for a in att if "paired_floor" in a]
+    if pf:
+        out["paired_floor"] = {
+            "attempts": len(pf),
+            "floor": pf[0]["paired_floor"]["floor"],
+            "this": sum(a["ferrobot"]["success"] for a in pf) / len(pf),
+            "other": sum(a["paired_floor"]["ferrobot"]["success"] for a in pf) / len(pf),
+            "stages_other": {},
+            "max_state_deviation": max(a["paired_floor"]["state_deviation"] for a in pf),
+        }
+        for a in pf:
+            st = a["paired_floor"]["ferrobot"]["stage"]
+            out["paired_floor"]["stages_other"][st] = out["paired_floor"]["stages_other"].get(st, 0) + 1
     pa = [a for a in att if "paired" in a]
     if pa:
         # Paired A/B: every grasp executed from the same state with both pre-shapes (the scene follows this run's).
@@ -791,6 +911,7 @@ def summarise(scenes: list[dict], use_pybullet: bool) -> dict:
 
 
 def main() -> int:
+    global BIN_FLOOR_FRICTION, PAIRED_FLOOR, DRAG_TILTS
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--objects", type=Path, default=None, help="folder of URDFs / OBJ / STL / DAE files")
     ap.add_argument("--scenes", type=int, default=10)
@@ -810,6 +931,30 @@ def main() -> int:
     ap.add_argument("--no-push", action="store_true", help="no pushes: a frame without a grasp is a failed attempt")
     ap.add_argument(
         "--no-slide", action="store_true", help="bins: no slides along a wall when neither a grasp nor a push is found"
+    )
+    ap.add_argument(
+        "--no-drag", action="store_true", help="bins: no drags away from the walls with a fingertip on the object"
+    )
+    ap.add_argument(
+        "--bin-floor-friction",
+        type=float,
+        default=BIN_FLOOR_FRICTION,
+        help="bins: friction of the bin's floor (the table under it; in [0, 2], default %(default)s, the walls' "
+        "material; 1.0: the table's, as before bins18g)",
+    )
+    ap.add_argument(
+        "--drag-tilts",
+        type=float,
+        nargs="+",
+        default=list(DRAG_TILTS),
+        help="bins: the hand's leans (rad, in [0, 1.2]) towards the drag that drags try (default %(default)s)",
+    )
+    ap.add_argument(
+        "--paired-floor",
+        type=float,
+        default=None,
+        metavar="F",
+        help="bins: also run every grasp from the same poses on a bin floor of friction F (in [0, 2]), ferrobot judge",
     )
     ap.add_argument(
         "--paired",
@@ -834,6 +979,15 @@ def main() -> int:
     if not 0.0 <= args.preshape_margin <= 0.08:
         raise SystemExit("--preshape-margin: expected 0 to 0.08 m")
     preshape = None if args.no_preshape else args.preshape_margin
+    if not 0.0 <= args.bin_floor_friction <= 2.0:
+        raise SystemExit("--bin-floor-friction: expected 0 to 2")
+    BIN_FLOOR_FRICTION = args.bin_floor_friction
+    if args.paired_floor is not None and not 0.0 <= args.paired_floor <= 2.0:
+        raise SystemExit("--paired-floor: expected 0 to 2")
+    PAIRED_FLOOR = args.paired_floor
+    if not all(0.0 <= t <= 1.2 for t in args.drag_tilts):
+        raise SystemExit("--drag-tilts: expected values in [0, 1.2]")
+    DRAG_TILTS = tuple(args.drag_tilts)
     options = {}
     for kv in args.option:
         key, _, value = kv.partition("=")
@@ -869,6 +1023,7 @@ def main() -> int:
                     args.paired,
                     not args.no_slide,
                     mj_judge,
+                    not args.no_drag,
                 )
                 for p in s["pushes"]:
                     pp = p["push"]
@@ -924,6 +1079,9 @@ def main() -> int:
         preshape_margin=preshape,
         push=not args.no_push,
         slide=not args.no_slide,
+        drag=not args.no_drag,
+        drag_tilts=list(DRAG_TILTS),
+        bin_floor_friction=BIN_FLOOR_FRICTION if args.bin else None,
         paired_run=args.paired,
         coupled_fingers=not args.independent_fingers,
         cores=os.cpu_count(),
@@ -933,9 +1091,17 @@ def main() -> int:
     print(
         f"cleared {res['removed']}/{res['objects']} ({res['completion_rate'] * 100:.1f}%), lost {res['lost']}, "
         f"attempts {res['attempts']} ({res['attempts_per_removed_object'] or float('nan'):.2f} per removed object), "
-        f"clean lifts {res['clean_lifts']}, pushes {res['pushes']} (slides {res['slides']})"
+        f"clean lifts {res['clean_lifts']}, pushes {res['pushes']} (slides {res['slides']}, drags {res['drags']})"
     )
     print("stages: " + ", ".join(f"{k} {v}" for k, v in sorted(res["stages"].items(), key=lambda kv: -kv[1])))
+    if "paired_floor" in res:
+        pf = res["paired_floor"]
+        print(
+            f"paired floor ({pf['attempts']} grasps from the same poses, "
+            f"max deviation {pf['max_state_deviation']:.1e}): "
+            f"ferrobot this floor {pf['this'] * 100:.1f}% / floor {pf['floor']} {pf['other'] * 100:.1f}% "
+            f"(stages there: {pf['stages_other']})"
+        )
     if "paired" in res:
         pr = res["paired"]
         print(
