@@ -198,6 +198,39 @@ pub struct StageTimes {
     pub total: f64,
 }
 
+/// What a plan's stages did, counted (for profiling the planner; the
+/// figures of `examples/plan_ab.rs`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct PlanCounts {
+    /// Motion checks of RRT-Connect (the direct connection included).
+    pub rrt_checks: usize,
+    /// Waypoints of RRT-Connect's path.
+    pub rrt_vertices: usize,
+    /// Motion checks of the vertex reductions (before and after the
+    /// shortcuts).
+    pub reduce_checks: usize,
+    /// Shortcut candidates drawn (the same segment twice included).
+    pub shortcuts_drawn: usize,
+    /// Of them, not checked for gaining less than `min_gain`.
+    pub shortcuts_small: usize,
+    /// Of them, motion-checked.
+    pub shortcuts_checked: usize,
+    /// Of them, free and kept.
+    pub shortcuts_kept: usize,
+    /// Edges of the shortcut path certified.
+    pub certify_edges: usize,
+    /// Configurations the continuous certification of the final path
+    /// tested (world, with the tube and without it).
+    pub certify_tested: usize,
+    /// Chunks whose tube was not certified (redone without it).
+    pub tube_failures: usize,
+    /// Edges not free at the final resolution (each repaired locally or the
+    /// whole problem searched again).
+    pub not_free: usize,
+    /// Local repairs that succeeded.
+    pub repairs: usize,
+}
+
 /// The result of a plan (active DOFs throughout).
 #[derive(Debug, Clone)]
 pub struct PlanResult {
@@ -223,6 +256,8 @@ pub struct PlanResult {
     pub recheck_samples: usize,
     /// Waypoints added to the smooth trajectory where it collided.
     pub refinements: usize,
+    /// What the stages did, counted.
+    pub counts: PlanCounts,
 }
 
 impl PlanResult {
@@ -243,6 +278,7 @@ impl PlanResult {
             stops_at_waypoints: false,
             recheck_samples: 0,
             refinements: 0,
+            counts: PlanCounts::default(),
         }
     }
 }
@@ -614,14 +650,23 @@ impl Planner {
         // samples; see `ferrobot_collision::certify`); a path that fails
         // there (rare) is searched again with certified edges.
         let coarse = opts.rrt.resolution * opts.coarse_factor.max(1.0);
+        let mut counts = PlanCounts::default();
         let mut attempt = self.find_path(
-            space, start, goals, opts, coarse, false, deadline, &mut times,
+            space,
+            start,
+            goals,
+            opts,
+            coarse,
+            false,
+            deadline,
+            &mut times,
+            &mut counts,
         );
         let mut unchecked = false;
         let mut tubes = Vec::new();
         let t = Instant::now();
         let certified = match &attempt.0 {
-            Ok(path) => Some(self.certify_repairing(space, path, opts, deadline)),
+            Ok(path) => Some(self.certify_repairing(space, path, opts, deadline, &mut counts)),
             Err(_) => None,
         };
         if let Some(certified) = certified {
@@ -646,10 +691,17 @@ impl Planner {
                         true,
                         deadline,
                         &mut times,
+                        &mut counts,
                     );
                     if let (Ok(path), _) = &attempt {
                         let t = Instant::now();
-                        match self.certify_path(space, path, opts.rrt.resolution, deadline) {
+                        match self.certify_path(
+                            space,
+                            path,
+                            opts.rrt.resolution,
+                            deadline,
+                            &mut counts,
+                        ) {
                             Some(Some(flags)) => tubes = flags,
                             // Its edges were certified by the search: only
                             // the deadline can stop this.
@@ -677,6 +729,7 @@ impl Planner {
                     times,
                 );
                 r.samples = stats.samples;
+                r.counts = counts;
                 return r;
             }
             Ok(p) => p,
@@ -692,6 +745,7 @@ impl Planner {
                     times,
                 );
                 r.samples = stats.samples;
+                r.counts = counts;
                 return r;
             }
         };
@@ -735,6 +789,7 @@ impl Planner {
             stops_at_waypoints: stops,
             recheck_samples,
             refinements,
+            counts,
         }
     }
 
@@ -751,6 +806,7 @@ impl Planner {
         certified: bool,
         deadline: Instant,
         times: &mut StageTimes,
+        counts: &mut PlanCounts,
     ) -> (
         std::result::Result<Vec<Vec<f64>>, RrtFailure>,
         crate::rrt::RrtStats,
@@ -770,6 +826,10 @@ impl Planner {
             certified,
         );
         times.planning += t0.elapsed().as_secs_f64();
+        counts.rrt_checks += stats.motion_checks;
+        if let Ok(path) = &found {
+            counts.rrt_vertices += path.len();
+        }
         let t1 = Instant::now();
         let found = found.map(|path| {
             if opts.simplify_path {
@@ -782,6 +842,7 @@ impl Planner {
                     path,
                     &self.simplify_options(opts, certified),
                     &mut rng,
+                    counts,
                 )
             } else {
                 path
@@ -939,12 +1000,13 @@ impl Planner {
         path: &[Vec<f64>],
         opts: &PlanOptions,
         deadline: Instant,
+        counts: &mut PlanCounts,
     ) -> Certified {
         let resolution = opts.rrt.resolution;
         let mut out = vec![path[0].clone()];
         let mut flags = Vec::with_capacity(path.len().saturating_sub(1));
         for (k, w) in path.windows(2).enumerate() {
-            match self.certify_path(space, w, resolution, deadline) {
+            match self.certify_path(space, w, resolution, deadline, counts) {
                 None => return Certified::TimedOut,
                 Some(Some(f)) => {
                     flags.extend(f);
@@ -984,14 +1046,18 @@ impl Planner {
                             local,
                             &self.simplify_options(opts, true),
                             &mut rng,
+                            counts,
                         )
                     } else {
                         local
                     };
                     // Its edges are certified (or parts of certified edges);
                     // this adds the tubes.
-                    match self.certify_path(space, &local, resolution, deadline) {
-                        Some(Some(f)) => flags.extend(f),
+                    match self.certify_path(space, &local, resolution, deadline, counts) {
+                        Some(Some(f)) => {
+                            counts.repairs += 1;
+                            flags.extend(f)
+                        }
                         None => return Certified::TimedOut,
                         Some(None) => return Certified::Collides,
                     }
@@ -1015,6 +1081,7 @@ impl Planner {
         path: &[Vec<f64>],
         resolution: f64,
         deadline: Instant,
+        counts: &mut PlanCounts,
     ) -> Option<Option<Vec<bool>>> {
         let tube = self.tube_margin(space, resolution);
         let (a, b) = (&mut space.locked.clone(), &mut space.locked.clone());
@@ -1022,11 +1089,13 @@ impl Planner {
         for w in path.windows(2) {
             space.expand_into(&w[0], a);
             space.expand_into(&w[1], b);
+            counts.certify_edges += 1;
             // Self-collision (and the world) at samples `resolution` apart.
             if !self
                 .checker
                 .motion_valid_until(a, b, resolution, Some(deadline))?
             {
+                counts.not_free += 1;
                 return Some(None);
             }
             // The world continuously, chunk by chunk (the intervals of the
@@ -1038,7 +1107,7 @@ impl Planner {
             let mut k = 0;
             while k < steps {
                 let n = (steps - k).min(CERTIFY_CHUNK);
-                let part = |tube| {
+                let mut part = |tube| {
                     crate::rrt::certify_segment_part(
                         &self.checker,
                         a,
@@ -1046,6 +1115,7 @@ impl Planner {
                         (k, k + n, steps),
                         tube,
                         Some(deadline),
+                        &mut counts.certify_tested,
                     )
                 };
                 if tube_ok {
@@ -1054,7 +1124,10 @@ impl Planner {
                             k += n;
                             continue;
                         }
-                        false => tube_ok = false,
+                        false => {
+                            tube_ok = false;
+                            counts.tube_failures += 1;
+                        }
                     }
                 }
                 if !part(0.0)? {
@@ -1072,6 +1145,7 @@ impl Planner {
                         Some(deadline),
                     )?;
                     if !whole {
+                        counts.not_free += 1;
                         return Some(None);
                     }
                     tube_ok = false;
