@@ -42,6 +42,30 @@ impl Default for SimplifyOptions {
     }
 }
 
+/// Range of [`SimplifyOptions::min_gain`] (a fraction of the path length).
+pub const MIN_GAIN: ferrobot_model::ranges::Range = ferrobot_model::ranges::Range {
+    name: "min_gain",
+    min: 0.0,
+    max: 0.5,
+    unit: "",
+};
+/// Largest [`SimplifyOptions::max_shortcuts`].
+pub const MAX_SHORTCUTS: usize = 100_000;
+/// Largest [`SimplifyOptions::max_failures`].
+pub const MAX_FAILURES: usize = 100_000;
+
+impl SimplifyOptions {
+    /// Checks every option: `min_gain` in [0, 0.5], `max_shortcuts` in
+    /// [0, 100000], `max_failures` in [1, 100000].
+    pub fn validate(&self) -> crate::Result<()> {
+        use ferrobot_model::ranges::check_count;
+        MIN_GAIN.check(self.min_gain)?;
+        check_count("max_shortcuts", self.max_shortcuts, 0, MAX_SHORTCUTS)?;
+        check_count("max_failures", self.max_failures, 1, MAX_FAILURES)?;
+        Ok(())
+    }
+}
+
 /// Euclidean length of a path in the active space.
 pub fn path_length(path: &[Vec<f64>]) -> f64 {
     path.windows(2).map(|w| distance(&w[0], &w[1])).sum()
