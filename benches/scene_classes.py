@@ -128,7 +128,8 @@ class _Recorder:
         self.lines += [
             f"    - id: {name}",
             f"      primitives: [{{type: {kind}, dimensions: [{', '.join(repr(float(d)) for d in dims)}]}}]",
-            f"      primitive_poses: [{{position: [{x!r}, {y!r}, {z!r}], orientation: [{qx!r}, {qy!r}, {qz!r}, {qw!r}]}}]",
+            f"      primitive_poses: [{{position: [{x!r}, {y!r}, {z!r}], "
+            f"orientation: [{qx!r}, {qy!r}, {qz!r}, {qw!r}]}}]",
         ]
 
     def add_box(self, name, size, pose):

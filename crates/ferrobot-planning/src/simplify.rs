@@ -56,12 +56,13 @@ pub const MAX_FAILURES: usize = 100_000;
 
 impl SimplifyOptions {
     /// Checks every option: `min_gain` in [0, 0.5], `max_shortcuts` in
-    /// [0, 100000], `max_failures` in [1, 100000].
+    /// [0, 100000], `max_failures` in [1, 100000] (named by its Python
+    /// name, `max_shortcut_failures`, in the error).
     pub fn validate(&self) -> crate::Result<()> {
         use ferrobot_model::ranges::check_count;
         MIN_GAIN.check(self.min_gain)?;
         check_count("max_shortcuts", self.max_shortcuts, 0, MAX_SHORTCUTS)?;
-        check_count("max_failures", self.max_failures, 1, MAX_FAILURES)?;
+        check_count("max_shortcut_failures", self.max_failures, 1, MAX_FAILURES)?;
         Ok(())
     }
 }
