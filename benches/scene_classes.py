@@ -2,6 +2,7 @@
 
     python benches/scene_classes.py [--worlds 6] [--problems 10] [--classes table,shelves,cage,clutter]
     python benches/scene_classes.py --ab /tmp/ferrobot-main-pkg --rounds 3   # interleaved A/B
+    python benches/scene_classes.py --classes cage --dump /tmp/cage.txt      # problems for plan_ab.rs
 
 Scene classes (Panda at the origin, generated from a seed; see the functions below):
   table    an open table with a few objects on it;
@@ -116,6 +117,35 @@ def clutter(world, rng):
 CLASSES = {"table": table, "shelves": shelves, "cage": cage, "clutter": clutter}
 
 
+class _Recorder:
+    """Forwards add_box / add_cylinder / add_sphere to a world and writes them as MoveIt scene objects (--dump)."""
+
+    def __init__(self, world):
+        self.world, self.lines = world, ["world:", "  collision_objects:"]
+
+    def _add(self, name, kind, dims, pose):
+        x, y, z, qw, qx, qy, qz = (float(v) for v in pose)
+        self.lines += [
+            f"    - id: {name}",
+            f"      primitives: [{{type: {kind}, dimensions: [{', '.join(repr(float(d)) for d in dims)}]}}]",
+            f"      primitive_poses: [{{position: [{x!r}, {y!r}, {z!r}], "
+            f"orientation: [{qx!r}, {qy!r}, {qz!r}, {qw!r}]}}]",
+        ]
+
+    def add_box(self, name, size, pose):
+        self.world.add_box(name, size, pose)
+        self._add(name, "box", size, pose)
+
+    def add_cylinder(self, name, radius, length, pose):
+        self.world.add_cylinder(name, radius, length, pose)
+        # shape_msgs/SolidPrimitive: [height, radius]
+        self._add(name, "cylinder", [length, radius], pose)
+
+    def add_sphere(self, name, radius, pose):
+        self.world.add_sphere(name, radius, pose)
+        self._add(name, "sphere", [radius], pose)
+
+
 def run(args) -> dict:
     import ferrobot
 
@@ -132,7 +162,8 @@ def run(args) -> dict:
         for w in range(args.worlds):
             rng = np.random.default_rng(1000 * w + len(cname))
             world = ferrobot.CollisionWorld()
-            CLASSES[cname](world, rng)
+            rec = _Recorder(world)
+            CLASSES[cname](rec, rng)
             planner.update_world(world)
             checker.update_world(world)
             rows["obstacles"].append(len(world))
@@ -149,6 +180,14 @@ def run(args) -> dict:
                 checker.in_collision(q)
             rows["single_us"].append((time.perf_counter() - t0) / 2000 * 1e6)
             free = full[~flags][:, idx]
+            if args.dump:
+                scene = Path(args.dump).with_name(f"{Path(args.dump).stem}_{cname}{w}.scene")
+                scene.write_text("\n".join(rec.lines) + "\n")
+                with open(args.dump, "a") as f:
+                    for p in range(args.problems):
+                        q = " ".join(repr(float(v)) for v in (*free[2 * p], *free[2 * p + 1]))
+                        f.write(f"{scene.resolve()} {q}\n")
+                continue
             for p in range(args.problems):
                 start, goal = free[2 * p], free[2 * p + 1]
                 t0 = time.perf_counter()
@@ -222,6 +261,11 @@ def main() -> None:
     ap.add_argument("--ab", help="directory holding the A side's ferrobot package")
     ap.add_argument("--rounds", type=int, default=2)
     ap.add_argument("--json", action="store_true", help=argparse.SUPPRESS)
+    ap.add_argument(
+        "--dump",
+        help="only write the problems (scene file, 7 start and 7 goal values a line; the scenes beside it) for "
+        "crates/ferrobot-planning/examples/plan_ab.rs to this file (appended)",
+    )
     args = ap.parse_args()
     if args.ab:
         print(f"load average {os.getloadavg()}")
@@ -235,6 +279,8 @@ def main() -> None:
         print(f"load average {os.getloadavg()}")
         return
     res = run(args)
+    if args.dump:
+        return
     if args.json:
         print(json.dumps(res))
     else:

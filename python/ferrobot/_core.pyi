@@ -1101,6 +1101,9 @@ class _PlanOverrides(TypedDict, total=False):
     goal_solutions: int
     coarse_factor: float
     refinements: int
+    min_gain: float
+    max_shortcuts: int
+    max_shortcut_failures: int
 
 class _IkOverrides(TypedDict, total=False):
     position_tolerance: float
@@ -1161,6 +1164,9 @@ class PlanOptions:
     goal_solutions: int
     coarse_factor: float
     refinements: int
+    min_gain: float
+    max_shortcuts: int
+    max_shortcut_failures: int
 
 @final
 class IkOptions:

@@ -15,7 +15,7 @@ use std::time::Duration;
 
 use ferrobot_collision::{AllowedCollisions, CollisionChecker, CollisionWorld, RobotSpheres};
 use ferrobot_model::{LoadOptions, RobotModel, SrdfSource};
-use ferrobot_planning::{PlanOptions, Planner};
+use ferrobot_planning::{PlanCounts, PlanOptions, PlanResult, Planner};
 
 fn now_ns() -> u64 {
     static START: std::sync::OnceLock<std::time::Instant> = std::sync::OnceLock::new();
@@ -94,6 +94,55 @@ fn certify_counts(planner: &Planner, path: &[Vec<f64>]) -> [usize; 5] {
     out
 }
 
+/// Stage times (us) and work counts of one plan.
+#[derive(Default, Clone)]
+struct Profile {
+    planning: f64,
+    simplify: f64,
+    certify: f64,
+    counts: PlanCounts,
+    path: usize,
+}
+
+impl Profile {
+    fn of(r: &PlanResult) -> Self {
+        Self {
+            planning: r.times.planning * 1e6,
+            simplify: r.times.simplify * 1e6,
+            certify: r.times.certify * 1e6,
+            counts: r.counts,
+            path: r.path.len(),
+        }
+    }
+
+    fn mean<'a>(it: impl Iterator<Item = &'a Profile>) -> String {
+        let v: Vec<&Profile> = it.collect();
+        let n = v.len().max(1) as f64;
+        let m = |f: &dyn Fn(&Profile) -> f64| v.iter().map(|p| f(p)).sum::<f64>() / n;
+        format!(
+            "rrt {:.0} us ({:.1} checks, {:.1} vertices), simplify {:.0} us of which certify {:.0} us; \
+             reduce checks {:.1}; shortcuts drawn {:.1} small {:.1} checked {:.1} kept {:.1}; final vertices {:.1}; \
+             certify edges {:.1} tested {:.0} tube failures {:.2} not free {:.2} repairs {:.2}",
+            m(&|p| p.planning),
+            m(&|p| p.counts.rrt_checks as f64),
+            m(&|p| p.counts.rrt_vertices as f64),
+            m(&|p| p.simplify),
+            m(&|p| p.certify),
+            m(&|p| p.counts.reduce_checks as f64),
+            m(&|p| p.counts.shortcuts_drawn as f64),
+            m(&|p| p.counts.shortcuts_small as f64),
+            m(&|p| p.counts.shortcuts_checked as f64),
+            m(&|p| p.counts.shortcuts_kept as f64),
+            m(&|p| p.path as f64),
+            m(&|p| p.counts.certify_edges as f64),
+            m(&|p| p.counts.certify_tested as f64),
+            m(&|p| p.counts.tube_failures as f64),
+            m(&|p| p.counts.not_free as f64),
+            m(&|p| p.counts.repairs as f64),
+        )
+    }
+}
+
 fn stats(v: &mut [f64]) -> String {
     v.sort_by(f64::total_cmp);
     let n = v.len();
@@ -137,11 +186,19 @@ fn main() {
     );
     let mut rows: Vec<Row> = variants.iter().map(|_| Default::default()).collect();
     let mut slow: Vec<Vec<(f64, String, usize)>> = variants.iter().map(|_| Vec::new()).collect();
+    // Per variant and solved problem: (plan+simplify us, the plan's stage times and counts).
+    let mut profiles: Vec<Vec<(f64, Profile)>> = variants.iter().map(|_| Vec::new()).collect();
     let text = std::fs::read_to_string(problems).expect("problems file");
+    let mut scene: Option<String> = None;
     for (k, line) in text.lines().enumerate() {
         let f: Vec<&str> = line.split_whitespace().collect();
-        let world = CollisionWorld::from_moveit_scene(f[0]).expect("scene");
-        planner.update_world(world);
+        // The world (and the grid built with it) changes with the scene
+        // only, as in a bench setting the world once for many problems.
+        if scene.as_deref() != Some(f[0]) {
+            let world = CollisionWorld::from_moveit_scene(f[0]).expect("scene");
+            planner.update_world(world);
+            scene = Some(f[0].to_string());
+        }
         let q: Vec<f64> = f[1..15].iter().map(|x| x.parse().unwrap()).collect();
         let (start, goal) = (&q[..7], &q[7..]);
         let mut best = vec![(f64::INFINITY, f64::INFINITY); variants.len()];
@@ -160,8 +217,12 @@ fn main() {
                 let c0 = now_ns();
                 let rt = planner.plan(start, goal, &o).expect("plan");
                 let tr = (now_ns() - c0) as f64 * 1e-3;
+                // The plans of the repeat with the least plan + simplify
+                // time are kept (their stage times and counts).
+                if ps < best[v].0 {
+                    last[v] = Some((r, rt));
+                }
                 best[v] = (best[v].0.min(ps), best[v].1.min(tr));
-                last[v] = Some((r, rt));
             }
         }
         for (v, row) in rows.iter_mut().enumerate() {
@@ -171,7 +232,7 @@ fn main() {
             }
             let id: Vec<&str> = f[0].rsplit('/').take(2).collect();
             let id = format!(
-                "{}/{}",
+                "{}/{}:{k}",
                 &id[1][..id[1].len().min(5)],
                 id[0].trim_end_matches(".yaml")
             );
@@ -194,6 +255,7 @@ fn main() {
             row.3.push(r.path_length());
             row.4.push(r.times.certify * 1e6);
             slow[v].push((best[v].0, id.clone(), r.samples));
+            profiles[v].push((best[v].0, Profile::of(&r)));
             if std::env::var("PLAN_AB_CERT").is_ok() && v == 1 {
                 let c = certify_counts(&planner, &r.path);
                 println!(
@@ -203,7 +265,11 @@ fn main() {
             }
         }
     }
-    for ((name, _), (row, sl)) in variants.iter().zip(rows.iter_mut().zip(slow.iter_mut())) {
+    for (((name, _), (row, sl)), prof) in variants
+        .iter()
+        .zip(rows.iter_mut().zip(slow.iter_mut()))
+        .zip(profiles.iter_mut())
+    {
         let n = row.0.len();
         println!(
             "{name:6} solved {n} failed {:?}\n    plan+simplify us (min of repeats) median/mean/p95 {}\n    trajectory us (min of repeats)    median/mean/p95 {}\n    certify wall us median/mean/p95 {}\n    samples mean {:.1}, path length mean {:.3}",
@@ -221,5 +287,27 @@ fn main() {
             .map(|(c, id, s)| format!("{id} {c:.0}us {s}smp"))
             .collect();
         println!("    slowest: {}", top.join(", "));
+        prof.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let n = prof.len();
+        if n > 0 {
+            let tail = (n / 20).max(1);
+            let mid = n / 2;
+            println!(
+                "    all (mean):        {}",
+                Profile::mean(prof.iter().map(|p| &p.1))
+            );
+            println!(
+                "    median 10 (mean):  {}",
+                Profile::mean(
+                    prof[mid.saturating_sub(5)..(mid + 5).min(n)]
+                        .iter()
+                        .map(|p| &p.1)
+                )
+            );
+            println!(
+                "    slowest 5% (mean): {}",
+                Profile::mean(prof[n - tail..].iter().map(|p| &p.1))
+            );
+        }
     }
 }

@@ -26,7 +26,8 @@ pub use ik::{IkOptions, IkSolution, IkSolver};
 pub use joint_order::{Configuration, JointOrder};
 pub use limits::KinematicLimits;
 pub use planner::{
-    Goal, PlanOptions, PlanRequest, PlanResult, PlanStatus, Planner, StageTimes, TimedOut,
+    Goal, PlanCounts, PlanOptions, PlanRequest, PlanResult, PlanStatus, Planner, StageTimes,
+    TimedOut,
 };
 pub use space::ActiveSpace;
 pub use spline::Trajectory;

@@ -280,7 +280,7 @@ pub(crate) fn certify_world(
     deadline: Option<Instant>,
 ) -> Option<bool> {
     let steps = certify_steps(a, b, resolution * WORLD_INTERVALS);
-    certify_segment_part(checker, a, b, (0, steps, steps), tube, deadline)
+    certify_segment_part(checker, a, b, (0, steps, steps), tube, deadline, &mut 0)
 }
 
 /// Intervals of the motion from `a` to `b` over which no DOF moves more
@@ -298,6 +298,7 @@ pub(crate) fn certify_steps(a: &[f64], b: &[f64], resolution: f64) -> usize {
 /// [`certify_segment`] of the intervals `k0..k1` of the `steps` equal
 /// intervals of the motion from `a` to `b` (`part = (k0, k1, steps)`): the
 /// same intervals, so the same certificate, as the whole motion's.
+/// Configurations tested are added to `tested`.
 pub(crate) fn certify_segment_part(
     checker: &CollisionChecker,
     a: &[f64],
@@ -305,6 +306,7 @@ pub(crate) fn certify_segment_part(
     part: (usize, usize, usize),
     tube: f64,
     deadline: Option<Instant>,
+    tested: &mut usize,
 ) -> Option<bool> {
     let (k0, k1, steps) = part;
     let (u0, u1) = (k0 as f64 / steps as f64, k1 as f64 / steps as f64);
@@ -319,7 +321,7 @@ pub(crate) fn certify_segment_part(
             *o = x + (y - x) * s;
         }
     };
-    checker.curve_certified_until(&mut point, &delta, k1 - k0, tube, deadline, &mut 0)
+    checker.curve_certified_until(&mut point, &delta, k1 - k0, tube, deadline, tested)
 }
 
 /// Why RRT-Connect stopped without a path.

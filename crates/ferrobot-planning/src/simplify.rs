@@ -5,6 +5,7 @@
 use rand::Rng;
 use rand::rngs::SmallRng;
 
+use crate::planner::PlanCounts;
 use crate::rrt::Edges;
 
 /// Options of `simplify`.
@@ -41,6 +42,31 @@ impl Default for SimplifyOptions {
     }
 }
 
+/// Range of [`SimplifyOptions::min_gain`] (a fraction of the path length).
+pub const MIN_GAIN: ferrobot_model::ranges::Range = ferrobot_model::ranges::Range {
+    name: "min_gain",
+    min: 0.0,
+    max: 0.5,
+    unit: "",
+};
+/// Largest [`SimplifyOptions::max_shortcuts`].
+pub const MAX_SHORTCUTS: usize = 100_000;
+/// Largest [`SimplifyOptions::max_failures`].
+pub const MAX_FAILURES: usize = 100_000;
+
+impl SimplifyOptions {
+    /// Checks every option: `min_gain` in [0, 0.5], `max_shortcuts` in
+    /// [0, 100000], `max_failures` in [1, 100000] (named by its Python
+    /// name, `max_shortcut_failures`, in the error).
+    pub fn validate(&self) -> crate::Result<()> {
+        use ferrobot_model::ranges::check_count;
+        MIN_GAIN.check(self.min_gain)?;
+        check_count("max_shortcuts", self.max_shortcuts, 0, MAX_SHORTCUTS)?;
+        check_count("max_shortcut_failures", self.max_failures, 1, MAX_FAILURES)?;
+        Ok(())
+    }
+}
+
 /// Euclidean length of a path in the active space.
 pub fn path_length(path: &[Vec<f64>]) -> f64 {
     path.windows(2).map(|w| distance(&w[0], &w[1])).sum()
@@ -60,10 +86,15 @@ type Vertex = (Vec<f64>, bool);
 
 /// Keeps the first vertex, then from each kept vertex jumps to the farthest
 /// later vertex reachable in a straight line (a checked, whole edge).
-fn reduce_vertices(edges: &mut Edges<'_>, path: Vec<Vertex>) -> Vec<Vertex> {
+fn reduce_vertices(
+    edges: &mut Edges<'_>,
+    path: Vec<Vertex>,
+    counts: &mut PlanCounts,
+) -> Vec<Vertex> {
     if path.len() <= 2 {
         return path;
     }
+    let before = edges.checks;
     let n = path.len();
     let mut out = vec![path[0].clone()];
     let mut i = 0;
@@ -77,6 +108,7 @@ fn reduce_vertices(edges: &mut Edges<'_>, path: Vec<Vertex>) -> Vec<Vertex> {
         out.push((path[j].0.clone(), whole));
         i = j;
     }
+    counts.reduce_checks += edges.checks - before;
     out
 }
 
@@ -103,9 +135,10 @@ pub(crate) fn simplify(
     path: Vec<Vec<f64>>,
     opts: &SimplifyOptions,
     rng: &mut SmallRng,
+    counts: &mut PlanCounts,
 ) -> Vec<Vec<f64>> {
     let path: Vec<Vertex> = path.into_iter().map(|q| (q, true)).collect();
-    let mut path = reduce_vertices(edges, path);
+    let mut path = reduce_vertices(edges, path, counts);
     let vertex_only = path.clone();
     let mut failures = 0;
     for _ in 0..opts.max_shortcuts {
@@ -113,6 +146,7 @@ pub(crate) fn simplify(
             break;
         }
         let segs = path.len() - 1;
+        counts.shortcuts_drawn += 1;
         let (mut s0, mut s1) = (rng.random_range(0..segs), rng.random_range(0..segs));
         if s0 == s1 {
             failures += 1;
@@ -134,11 +168,14 @@ pub(crate) fn simplify(
                 .map(|w| distance(&w[0].0, &w[1].0))
                 .sum::<f64>();
             if along - distance(&a, &b) < opts.min_gain * total {
+                counts.shortcuts_small += 1;
                 failures += 1;
                 continue;
             }
         }
+        counts.shortcuts_checked += 1;
         if edges.valid(&a, &b) {
+            counts.shortcuts_kept += 1;
             let mut next = path[..=s0].to_vec();
             next.push((a, false));
             next.push((b, true));
@@ -150,7 +187,7 @@ pub(crate) fn simplify(
             failures += 1;
         }
     }
-    let path = reduce_vertices(edges, path);
+    let path = reduce_vertices(edges, path, counts);
     if !opts.recheck_parts {
         return path.into_iter().map(|v| v.0).collect();
     }

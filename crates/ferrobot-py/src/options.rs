@@ -299,6 +299,19 @@ options_class! {
         /// Times the smooth trajectory is refined where it collided before
         /// stopping at every waypoint, in [0, 64] (default 4).
         refinements / set_refinements: usize ["int"] => refinements;
+        /// Shortcutting: a random shortcut that would shorten the path by
+        /// less than this fraction of its length is not checked and counts
+        /// as a failed attempt; in [0, 0.5] (default 0.01; 0 checks every
+        /// candidate: slightly shorter paths, slower on crowded scenes;
+        /// larger values give up more shortcuts: faster, longer paths).
+        min_gain / set_min_gain: f64 ["float"] => simplify.min_gain;
+        /// Shortcutting: random shortcut attempts at most, in [0, 100000]
+        /// (default 40; 0 keeps only the vertex reduction, which connects
+        /// each kept waypoint to the farthest later one it sees).
+        max_shortcuts / set_max_shortcuts: usize ["int"] => simplify.max_shortcuts;
+        /// Shortcutting stops after this many failed attempts in a row, in
+        /// [1, 100000] (default 10).
+        max_shortcut_failures / set_max_shortcut_failures: usize ["int"] => simplify.max_failures;
     }
 }
 
