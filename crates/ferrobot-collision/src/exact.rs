@@ -35,7 +35,10 @@
 //! decides a contact without GJK or triangles; and each part remembers the
 //! triangle pair that touched last for each other part (a hint tested
 //! first: consecutive checks along a motion touch at the same place), which
-//! changes the time, never the answer.
+//! changes the time, never the answer. Before the triangles, a refined
+//! part's witness points (its inscribed spheres' centres and mesh vertices
+//! spread over it) are tested against the other part's solid: one inside is
+//! a contact the triangles would confirm too, found without the traversal.
 //!
 //! The second stage is cheap because most lanes never reach GJK:
 //!
@@ -87,11 +90,11 @@ pub mod stats {
         pub boxes: u64,
         /// Of those, lanes decided by inscribed spheres.
         pub inner: u64,
-        /// GJK calls, and how many found the hulls in contact.
+        /// GJK calls.
         pub gjk: u64,
         /// GJK calls that found the hulls in contact.
         pub gjk_hit: u64,
-        /// Mesh refinements, and how many confirmed the contact.
+        /// Mesh refinements.
         pub refine: u64,
         /// Refinements that confirmed the contact.
         pub refine_hit: u64,
