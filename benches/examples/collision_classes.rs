@@ -9,6 +9,12 @@
 //!
 //! `... collision_classes loop CLASS SECONDS [batch|single]` checks one
 //! class's first world over and over (for `perf record`).
+//!
+//! `cargo run --release -p ferrobot-benches --features exact-stats --example
+//! collision_classes stats [panda|ur5] [N]` counts, per class and per pair of
+//! robot parts, what the exact self-collision stage does for N random
+//! configurations (box overlaps, inscribed-sphere decisions, GJK calls, mesh
+//! refinements, triangle pairs tested, time), per 1,000 configurations.
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -109,8 +115,124 @@ fn measure(checker: &CollisionChecker, qs: &[f64], pool1: &rayon::ThreadPool) ->
     }
 }
 
+/// The UR5 of `../shared` with its SRDF and automatic sphere model.
+#[cfg(feature = "exact-stats")]
+fn ur5() -> (Arc<ferrobot_model::RobotModel>, RobotSpheres) {
+    use ferrobot_model::{LoadOptions, RobotModel, SrdfSource};
+    let model = RobotModel::from_urdf_file(
+        shared("robots/ur5/ur5.urdf"),
+        &LoadOptions {
+            srdf: Some(SrdfSource::File(shared("robots/ur5/ur5.srdf"))),
+            ..Default::default()
+        },
+    )
+    .expect("load the shared UR5");
+    // Its spherized URDF leaves `ee_link`'s geometry without spheres: the
+    // automatic sphere model instead.
+    let (links, _) = ferrobot_collision::spherize::spherize_robot(
+        &model,
+        &ferrobot_collision::spherize::SpherizeOptions::default(),
+    )
+    .expect("spherize the UR5");
+    let spheres = RobotSpheres::new(&model, links).expect("UR5 spheres");
+    (Arc::new(model), spheres)
+}
+
+/// `stats [panda|ur5] [N]`: the exact stage's counters per class.
+#[cfg(feature = "exact-stats")]
+fn stats(args: &[String]) {
+    use ferrobot_collision::exact::stats;
+    let robot = args.get(1).map_or("panda", String::as_str);
+    let n: usize = args.get(2).map_or(100_000, |s| s.parse().expect("N"));
+    let (model, spheres) = if robot == "ur5" {
+        ur5()
+    } else {
+        let model = Arc::new(mbm_panda());
+        let spheres =
+            RobotSpheres::from_spherized_urdf(&model, shared("robots/panda/panda_spherized.urdf"))
+                .expect("spherized Panda");
+        (model, spheres)
+    };
+    let acm = AllowedCollisions::from_model(&model);
+    let base =
+        CollisionChecker::new(model.clone(), spheres, acm, CollisionWorld::new()).expect("checker");
+    let (compiled, _) = base.compiled();
+    for (b, e) in compiled.bodies.iter().zip(&compiled.exact) {
+        if let Some(e) = e {
+            println!(
+                "{}: {} refined parts, {} inscribed spheres",
+                model.links()[b.link].name,
+                e.refined_parts(),
+                e.inscribed().count()
+            );
+        }
+    }
+    let per = 1000.0 / n as f64;
+    for name in ["empty", "table", "shelves", "cage", "clutter"] {
+        let mut checker = base.clone();
+        checker.set_world(world(name, 0));
+        let qs = random_configurations(&model, n, 0);
+        let mut flags = vec![false; n];
+        stats::take();
+        checker.in_collision_batch_into(&qs, &mut flags);
+        let rows = stats::take();
+        let colliding = flags.iter().filter(|&&f| f).count();
+        println!(
+            "\n{robot} {name}: {n} configurations, {:.1} % colliding; per 1,000 configurations:",
+            100.0 * colliding as f64 / n as f64
+        );
+        println!(
+            "{:>24} {:>24} | {:>7} {:>7} {:>6} {:>6} {:>6} {:>6} | {:>22} {:>8} {:>8} {:>8}",
+            "part a",
+            "part b",
+            "boxes",
+            "inner",
+            "gjk",
+            "g-hit",
+            "refine",
+            "r-hit",
+            "hint/vtx/wit/tri/hold/no",
+            "tests/r",
+            "ns/refine",
+            "ns/gjk"
+        );
+        let mut tot = [0.0f64; 2];
+        for (a, b, t) in rows {
+            if t.boxes == 0 {
+                continue;
+            }
+            tot[0] += t.refine_ns as f64;
+            tot[1] += t.gjk_ns as f64;
+            let r = t.refine.max(1) as f64;
+            println!(
+                "{a:>24} {b:>24} | {:7.2} {:7.2} {:6.2} {:6.2} {:6.3} {:6.3} | {:>22} {:8.0} {:8.0} {:8.0}",
+                t.boxes as f64 * per,
+                t.inner as f64 * per,
+                t.gjk as f64 * per,
+                t.gjk_hit as f64 * per,
+                t.refine as f64 * per,
+                t.refine_hit as f64 * per,
+                format!("{:?}", t.by),
+                t.touch_tests as f64 / r,
+                t.refine_ns as f64 / r,
+                t.gjk_ns as f64 / t.gjk.max(1) as f64,
+            );
+        }
+        println!(
+            "time per configuration: refinement {:.1} ns, GJK {:.1} ns",
+            tot[0] / n as f64,
+            tot[1] / n as f64
+        );
+    }
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
+    #[cfg(feature = "exact-stats")]
+    if args.first().map(String::as_str) == Some("stats") {
+        stats(&args);
+        return;
+    }
     let model = Arc::new(mbm_panda());
     let spheres =
         RobotSpheres::from_spherized_urdf(&model, shared("robots/panda/panda_spherized.urdf"))
