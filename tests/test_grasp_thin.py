@@ -109,12 +109,10 @@ def test_grasps_are_clear_of_the_true_mesh_and_the_table(scenes, name):
         assert tips[2] < top - 0.004, (name, i, tips[2] - grasp_eval.TABLE_TOP, top - grasp_eval.TABLE_TOP)
 
 
-def test_the_top_grasp_lifts_each_kind_in_both_simulators(scenes):
-    paths = [scenes[name][0] for name in OBJECTS]
-    res = grasp_eval.evaluate(paths, seed=0, progress=False)
-    failed = {
-        Path(r["object"]).stem: {j: r[j] for j in ("ferrobot", "pybullet") if not r[j]["success"]}
-        for r in res["objects"]
-        if not (r["ferrobot"]["success"] and r["pybullet"]["success"])
-    }
-    assert not failed, failed
+@pytest.mark.parametrize("name", list(OBJECTS))
+def test_the_top_grasp_lifts_it_in_both_simulators(scenes, name):
+    res = grasp_eval.evaluate([scenes[name][0]], seed=0, progress=False)
+    rec = res["objects"][0]
+    for judge in ("ferrobot", "pybullet"):
+        assert rec[judge]["success"], (judge, rec[judge])
+        assert rec[judge]["rise"] >= grasp_eval.MIN_RISE

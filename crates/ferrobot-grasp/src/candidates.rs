@@ -226,6 +226,35 @@ fn slot_interval(
     run_through_centre(layout, lo_y, hi_y)
 }
 
+/// Whether both fingertips of a hand at `p` of orientation `r` (fingertip
+/// centres at x = `depth`, y = `yc` ± `width` / 2, z = 0) are at most half
+/// as high above `plane` as the highest of the points between the fingers
+/// (`inside`, hand frame): the object's top there. For a piece lower than
+/// the fingers can reach past its top (the plane-limited depths), the pads
+/// then cover the lower half of its side, where a rounded rim (a ring, a
+/// torus, a tube lying flat) is widest; fingertips above that squeeze the
+/// rim from above and push the piece down and out instead of holding it
+/// (see BENCHMARKS.md, "Thin and flat objects": hands rolled so that one
+/// finger is higher than the other were the usual case). False without
+/// points between the fingers.
+fn tips_below_mid_height(
+    plane: &Plane,
+    p: &Point3<f64>,
+    r: &Matrix3<f64>,
+    depth: f64,
+    width: f64,
+    yc: f64,
+    inside: &[Vector3<f64>],
+) -> bool {
+    let top = inside
+        .iter()
+        .map(|q| plane.distance(&(p + r * q)))
+        .fold(f64::NEG_INFINITY, f64::max);
+    [-1.0, 1.0].iter().all(|s| {
+        plane.distance(&(p + r * Vector3::new(depth, yc + s * width / 2.0, 0.0))) <= 0.5 * top
+    })
+}
+
 /// The y extent of the run of occupied bins through the seed's bin (y = 0).
 fn run_through_centre(layout: &SlotLayout, lo_y: &[f64], hi_y: &[f64]) -> Option<(f64, f64)> {
     let centre = layout.index(0.0);
@@ -778,6 +807,12 @@ fn evaluate(
         if sp.single_object && foreign_inside >= MAX_FOREIGN_POINTS {
             continue;
         }
+        if k >= nfixed
+            && let Some(plane) = &sp.plane
+            && !tips_below_mid_height(plane, p, r, depth, width, yc, &inside)
+        {
+            continue;
+        }
         return score_hand(cloud, p, r, &inside, seed, depth, width, yc, sp);
     }
     None
@@ -961,6 +996,39 @@ mod tests {
                 assert!(c.z >= -PLANE_TOLERANCE, "{c:?}");
             }
         }
+    }
+
+    #[test]
+    fn fingertips_below_half_the_top_between_the_fingers() {
+        // A 16 mm tall piece between fingers 30 mm apart, hand straight down
+        // from a seed on its top (x = -z, y = +x): the tips must be at most
+        // 8 mm above the table (depth >= 8 mm). Turned by t about its z axis,
+        // the approach tilts and the closing axis rises by sin t: the higher
+        // tip is at 16 mm - d·cos t + 15 mm·sin t.
+        let r = Matrix3::from_columns(&[-Vector3::z(), Vector3::x(), Vector3::y()]);
+        let p = Point3::new(0.0, 0.0, 0.016);
+        let inside: Vec<Vector3<f64>> = (0..8)
+            .map(|i| Vector3::new(0.002 * i as f64, 0.0, 0.0))
+            .collect();
+        let ok = |r: &Matrix3<f64>, depth: f64| {
+            tips_below_mid_height(&table(), &p, r, depth, 0.03, 0.0, &inside)
+        };
+        assert!(ok(&r, 0.0081));
+        assert!(!ok(&r, 0.0079));
+        let t = 0.2f64;
+        let turned = r * Matrix3::from(nalgebra::Rotation3::from_axis_angle(&Vector3::z_axis(), t));
+        let limit = (0.008 + 0.015 * t.sin()) / t.cos();
+        assert!(ok(&turned, limit + 1e-4));
+        assert!(!ok(&turned, limit - 1e-4));
+        assert!(!tips_below_mid_height(
+            &table(),
+            &p,
+            &r,
+            0.015,
+            0.03,
+            0.0,
+            &[]
+        ));
     }
 
     #[test]

@@ -7,7 +7,7 @@ use nalgebra::{Matrix3, Point3, Vector3};
 
 use super::{
     MAX_FOREIGN_POINTS, PLANE_TOLERANCE, SearchParams, is_foreign, margin, plane_depths,
-    score_hand, shallowest_depth,
+    score_hand, shallowest_depth, tips_below_mid_height,
 };
 use crate::grasp::Grasp;
 use crate::gripper::Region;
@@ -319,6 +319,12 @@ fn evaluate(
             .filter(|q| g.region(q, depth, width, yc, m) == Region::Closing)
             .copied()
             .collect();
+        if k >= sp.depths.len()
+            && let Some(plane) = &sp.plane
+            && !tips_below_mid_height(plane, p, r, depth, width, yc, &inside)
+        {
+            continue;
+        }
         return score_hand(cloud, p, r, &inside, seed, depth, width, yc, sp);
     }
     None
