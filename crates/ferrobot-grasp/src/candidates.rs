@@ -116,10 +116,12 @@ fn plane_limited_depth(
 /// palm with the approach corridor, and the housing: the boxes the search
 /// checks against the plane), goes more than half of [`PLANE_TOLERANCE`]
 /// below `plane`; None when the approach does not head towards the plane.
-/// [`plane_limited_depth`] bounds this from below for any opening: for a
-/// hand tilted by θ about its approach it is lower by up to
-/// `reach_y`·sin θ (7 mm at 5°), which on a piece 1-2 cm tall keeps the
-/// fingertips above a rounded rim's widest line.
+/// [`plane_limited_depth`] is the same for fingers anywhere within
+/// `reach_y` (9 cm for the Panda hand) of the seed: for a hand rolled by θ
+/// (the closing axis θ off the plane) it is shallower by up to
+/// (`reach_y` - the fingers' actual reach)·sin θ, e.g. 3.5 mm at 5° for
+/// the open Panda hand centred on the seed, which on a piece 1-2 cm tall
+/// keeps the fingertips above a rounded rim's widest line.
 pub fn exact_plane_depth(
     plane: &Plane,
     p: &Point3<f64>,
