@@ -111,6 +111,168 @@ fn plane_limited_depth(
     Some((lowest + 0.5 * PLANE_TOLERANCE) / -a)
 }
 
+/// The deepest fingertip depth at which no corner of the hand of
+/// orientation `r` at `p`, opened to `width` around `yc` (both fingers, the
+/// palm with the approach corridor, and the housing: the boxes the search
+/// checks against the plane), goes more than half of [`PLANE_TOLERANCE`]
+/// below `plane`; None when the approach does not head towards the plane.
+/// [`plane_limited_depth`] is the same for fingers anywhere within
+/// `reach_y` (9 cm for the Panda hand) of the seed: for a hand rolled by θ
+/// (the closing axis θ off the plane) it is shallower by up to
+/// (`reach_y` - the fingers' actual reach)·sin θ, e.g. 3.5 mm at 5° for
+/// the open Panda hand centred on the seed, which on a piece 1-2 cm tall
+/// keeps the fingertips above a rounded rim's widest line.
+pub fn exact_plane_depth(
+    plane: &Plane,
+    p: &Point3<f64>,
+    r: &Matrix3<f64>,
+    g: &GripperGeometry,
+    width: f64,
+    yc: f64,
+) -> Option<f64> {
+    let a = r.column(0).dot(&plane.normal);
+    if a >= -1e-6 {
+        return None;
+    }
+    let (yn, zn) = (
+        r.column(1).dot(&plane.normal),
+        r.column(2).dot(&plane.normal),
+    );
+    let [f1, f2, palm] = g.boxes(0.0, width, yc);
+    let dist = plane.distance(p);
+    let lowest = [f1, f2, palm, g.body_box(0.0, yc)]
+        .iter()
+        .map(|(lo, hi)| {
+            // The box's lowest corner at depth 0 (a < 0: its largest x).
+            let cy = if yn < 0.0 { hi.y } else { lo.y };
+            let cz = if zn < 0.0 { hi.z } else { lo.z };
+            dist + hi.x * a + cy * yn + cz * zn
+        })
+        .fold(f64::INFINITY, f64::min);
+    Some((lowest + 0.5 * PLANE_TOLERANCE) / -a)
+}
+
+/// Depths closer than this (m) to the plane-limited depth already tried are
+/// not tried again by [`plane_depths`].
+const PLANE_DEPTH_STEP: f64 = 0.001;
+
+/// The plane-limited depths a hand of orientation `r` at `p` tries once
+/// every fixed depth failed, best first: the depth the plane allows for
+/// the hand fully open and centred on the object's interval there
+/// ([`exact_plane_depth`] for the interval found at the conservative depth,
+/// or at [`MIN_PLANE_DEPTH`] when that is shallower), then the
+/// conservative [`plane_limited_depth`] (fingers anywhere within `reach_y`
+/// of the seed). Each lies within [[`MIN_PLANE_DEPTH`], `shallowest`)
+/// (the shallowest fixed depth); the search checks every hand against the
+/// plane as for fixed depths, so a deeper depth whose interval grew is
+/// rejected there. `interval(depth)` is the object's interval along y at
+/// a depth (None: no point at the seed), `pad` the clearance per side.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn plane_depths(
+    plane: &Plane,
+    p: &Point3<f64>,
+    r: &Matrix3<f64>,
+    g: &GripperGeometry,
+    reach_y: f64,
+    shallowest: f64,
+    pad: f64,
+    mut interval: impl FnMut(f64) -> Option<(f64, f64)>,
+) -> [Option<f64>; 2] {
+    let Some(d0) = plane_limited_depth(plane, p, r, g, reach_y) else {
+        return [None, None];
+    };
+    let valid = |d: f64| d >= MIN_PLANE_DEPTH && d < shallowest;
+    let conservative = Some(d0).filter(|&d| valid(d));
+    let probe = d0.max(MIN_PLANE_DEPTH);
+    if probe >= shallowest {
+        return [None, conservative];
+    }
+    // The hand approaches fully open (executors open it before the
+    // approach), centred where it will close: the open fingers must clear
+    // the plane too, so the depth is that of the widest opening at the
+    // object's centre, not only of the closing width.
+    let refined = interval(probe)
+        .and_then(|(ymin, ymax)| {
+            let width = (ymax - ymin + 2.0 * pad).max(g.max_width);
+            exact_plane_depth(plane, p, r, g, width, (ymin + ymax) / 2.0)
+        })
+        .map(|d| d.min(shallowest - 0.5 * PLANE_DEPTH_STEP))
+        .filter(|&d| valid(d) && conservative.is_none_or(|c| d > c + PLANE_DEPTH_STEP));
+    [refined, conservative]
+}
+
+/// The object's interval along y around the seed (y = 0) among the slot
+/// points `(xs, ys)` in the finger slot of `depth` (x in [depth -
+/// `finger_depth`, depth]): bins of `layout`, the run of occupied bins
+/// through the seed's bin (`lo_y`, `hi_y` are scratch of `layout.nbins`).
+/// None when the seed's bin is empty.
+fn slot_interval(
+    xs: &[f64],
+    ys: &[f64],
+    depth: f64,
+    finger_depth: f64,
+    layout: &SlotLayout,
+    lo_y: &mut [f64],
+    hi_y: &mut [f64],
+) -> Option<(f64, f64)> {
+    let base = depth - finger_depth;
+    lo_y.fill(f64::INFINITY);
+    hi_y.fill(f64::NEG_INFINITY);
+    for (&x, &y) in xs.iter().zip(ys) {
+        if x >= base && x <= depth {
+            let k = layout.index(y);
+            lo_y[k] = lo_y[k].min(y);
+            hi_y[k] = hi_y[k].max(y);
+        }
+    }
+    run_through_centre(layout, lo_y, hi_y)
+}
+
+/// Whether both fingertips of a hand at `p` of orientation `r` (fingertip
+/// centres at x = `depth`, y = `yc` ± `width` / 2, z = 0) are at most half
+/// as high above `plane` as the highest of the points between the fingers
+/// (`inside`, hand frame): the object's top there. For a piece lower than
+/// the fingers can reach past its top (the plane-limited depths), the pads
+/// then cover the lower half of its side, where a rounded rim (a ring, a
+/// torus, a tube lying flat) is widest; fingertips above that squeeze the
+/// rim from above and push the piece down and out instead of holding it
+/// (see BENCHMARKS.md, "Thin and flat objects": hands rolled so that one
+/// finger is higher than the other were the usual case). False without
+/// points between the fingers.
+fn tips_below_mid_height(
+    plane: &Plane,
+    p: &Point3<f64>,
+    r: &Matrix3<f64>,
+    depth: f64,
+    width: f64,
+    yc: f64,
+    inside: &[Vector3<f64>],
+) -> bool {
+    let top = inside
+        .iter()
+        .map(|q| plane.distance(&(p + r * q)))
+        .fold(f64::NEG_INFINITY, f64::max);
+    [-1.0, 1.0].iter().all(|s| {
+        plane.distance(&(p + r * Vector3::new(depth, yc + s * width / 2.0, 0.0))) <= 0.5 * top
+    })
+}
+
+/// The y extent of the run of occupied bins through the seed's bin (y = 0).
+fn run_through_centre(layout: &SlotLayout, lo_y: &[f64], hi_y: &[f64]) -> Option<(f64, f64)> {
+    let centre = layout.index(0.0);
+    if lo_y[centre] > hi_y[centre] {
+        return None;
+    }
+    let (mut lo, mut hi) = (centre, centre);
+    while lo > 0 && lo_y[lo - 1] <= hi_y[lo - 1] {
+        lo -= 1;
+    }
+    while hi + 1 < layout.nbins && lo_y[hi + 1] <= hi_y[hi + 1] {
+        hi += 1;
+    }
+    Some((lo_y[lo], hi_y[hi]))
+}
+
 /// How much the hand's solid parts are grown for collision: points are
 /// voxel centroids, up to about half a voxel and more from the surface.
 fn margin(sp: &SearchParams) -> f64 {
@@ -488,7 +650,6 @@ fn evaluate(
     // object (an empty bin is a gap a finger may use: collision decides).
     let nbins = layout.nbins;
     let reach_y = layout.reach_y;
-    let centre = layout.index(0.0);
     // Each depth's finger slot is x in [depth - finger_depth, depth]. The
     // slot's points are binned once into strips along x between the
     // windows' ends (`edges`), and each depth merges the strips inside its
@@ -536,19 +697,33 @@ fn evaluate(
         strip_hi[k] = strip_hi[k].max(y);
     }
     // The fixed depths, deepest first; then, when the support plane stopped
-    // them all, the deepest depth it allows (objects lower than the
-    // shallowest fixed depth: thin pieces lying flat, small objects).
+    // them all, the deepest depths it allows (objects lower than the
+    // shallowest fixed depth: thin pieces lying flat, small objects; see
+    // [`plane_depths`]).
     let shallowest = sp.depths.iter().copied().fold(f64::INFINITY, f64::min);
-    let plane_depth = sp
-        .plane
-        .as_ref()
-        .and_then(|pl| plane_limited_depth(pl, p, r, g, reach_y))
-        .filter(|&d| d >= MIN_PLANE_DEPTH && d < shallowest);
-    for (k, depth) in sp.depths.iter().copied().chain(plane_depth).enumerate() {
-        let base = depth - g.finger_depth;
-        lo_y.fill(f64::INFINITY);
-        hi_y.fill(f64::NEG_INFINITY);
-        if k < sp.depths.len() {
+    let nfixed = sp.depths.len();
+    let mut plane_stage: [Option<f64>; 2] = [None, None];
+    for k in 0..nfixed + 2 {
+        let depth = if k < nfixed {
+            sp.depths[k]
+        } else {
+            if k == nfixed {
+                let Some(pl) = sp.plane.as_ref() else {
+                    break;
+                };
+                plane_stage = plane_depths(pl, p, r, g, reach_y, shallowest, pad, |d| {
+                    slot_interval(slot_x, slot_y, d, g.finger_depth, layout, lo_y, hi_y)
+                });
+            }
+            match plane_stage[k - nfixed] {
+                Some(d) => d,
+                None => continue,
+            }
+        };
+        let interval = if k < nfixed {
+            let base = depth - g.finger_depth;
+            lo_y.fill(f64::INFINITY);
+            hi_y.fill(f64::NEG_INFINITY);
             for j in 0..strips {
                 if edges[j] >= base && edges[j + 1] <= depth {
                     let (sl, sh) = (
@@ -568,26 +743,13 @@ fn evaluate(
                     hi_y[k] = hi_y[k].max(y);
                 }
             }
+            run_through_centre(layout, lo_y, hi_y)
         } else {
-            for (&x, &y) in slot_x.iter().zip(slot_y) {
-                if x >= base && x <= depth {
-                    let k = layout.index(y);
-                    lo_y[k] = lo_y[k].min(y);
-                    hi_y[k] = hi_y[k].max(y);
-                }
-            }
-        }
-        if lo_y[centre] > hi_y[centre] {
+            slot_interval(slot_x, slot_y, depth, g.finger_depth, layout, lo_y, hi_y)
+        };
+        let Some((ymin, ymax)) = interval else {
             continue;
-        }
-        let (mut lo, mut hi) = (centre, centre);
-        while lo > 0 && lo_y[lo - 1] <= hi_y[lo - 1] {
-            lo -= 1;
-        }
-        while hi + 1 < nbins && lo_y[hi + 1] <= hi_y[hi + 1] {
-            hi += 1;
-        }
-        let (ymin, ymax) = (lo_y[lo], hi_y[hi]);
+        };
         let width = ymax - ymin + 2.0 * pad;
         if width > g.max_width {
             continue;
@@ -645,6 +807,12 @@ fn evaluate(
             }
         }
         if sp.single_object && foreign_inside >= MAX_FOREIGN_POINTS {
+            continue;
+        }
+        if k >= nfixed
+            && let Some(plane) = &sp.plane
+            && !tips_below_mid_height(plane, p, r, depth, width, yc, &inside)
+        {
             continue;
         }
         return score_hand(cloud, p, r, &inside, seed, depth, width, yc, sp);
@@ -830,6 +998,103 @@ mod tests {
                 assert!(c.z >= -PLANE_TOLERANCE, "{c:?}");
             }
         }
+    }
+
+    #[test]
+    fn fingertips_below_half_the_top_between_the_fingers() {
+        // A 16 mm tall piece between fingers 30 mm apart, hand straight down
+        // from a seed on its top (x = -z, y = +x): the tips must be at most
+        // 8 mm above the table (depth >= 8 mm). Turned by t about its z axis,
+        // the approach tilts and the closing axis rises by sin t: the higher
+        // tip is at 16 mm - d·cos t + 15 mm·sin t.
+        let r = Matrix3::from_columns(&[-Vector3::z(), Vector3::x(), Vector3::y()]);
+        let p = Point3::new(0.0, 0.0, 0.016);
+        let inside: Vec<Vector3<f64>> = (0..8)
+            .map(|i| Vector3::new(0.002 * i as f64, 0.0, 0.0))
+            .collect();
+        let ok = |r: &Matrix3<f64>, depth: f64| {
+            tips_below_mid_height(&table(), &p, r, depth, 0.03, 0.0, &inside)
+        };
+        assert!(ok(&r, 0.0081));
+        assert!(!ok(&r, 0.0079));
+        let t = 0.2f64;
+        let turned = r * Matrix3::from(nalgebra::Rotation3::from_axis_angle(&Vector3::z_axis(), t));
+        let limit = (0.008 + 0.015 * t.sin()) / t.cos();
+        assert!(ok(&turned, limit + 1e-4));
+        assert!(!ok(&turned, limit - 1e-4));
+        assert!(!tips_below_mid_height(
+            &table(),
+            &p,
+            &r,
+            0.015,
+            0.03,
+            0.0,
+            &[]
+        ));
+    }
+
+    #[test]
+    fn exact_plane_depth_is_the_deepest_depth_every_corner_clears() {
+        // Hands rolled and tilted at random over a table: at the returned
+        // depth the lowest of the 32 corners of the fingers, the palm and
+        // the housing (enumerated, not derived) is exactly half the
+        // tolerance below the plane; it is never shallower than the
+        // conservative depth for any opening within reach.
+        let g = GripperGeometry::default();
+        let mut state = 7u64;
+        let mut rand = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut checked = 0;
+        for _ in 0..500 {
+            let (yaw, roll, tilt) = (6.3 * rand(), 0.6 * (rand() - 0.5), 0.9 * (rand() - 0.5));
+            // Straight down, rolled about the approach, tilted about y.
+            let r = nalgebra::Rotation3::from_euler_angles(0.0, 0.0, yaw)
+                * nalgebra::Rotation3::from_axis_angle(
+                    &Vector3::y_axis(),
+                    std::f64::consts::FRAC_PI_2,
+                )
+                * nalgebra::Rotation3::from_axis_angle(&Vector3::x_axis(), roll)
+                * nalgebra::Rotation3::from_axis_angle(&Vector3::z_axis(), tilt);
+            let r = *r.matrix();
+            let p = Point3::new(0.0, 0.0, 0.005 + 0.03 * rand());
+            let width = 0.08 * rand();
+            let yc = 0.02 * (rand() - 0.5);
+            let Some(d) = exact_plane_depth(&table(), &p, &r, &g, width, yc) else {
+                continue;
+            };
+            let lowest = |d: f64| {
+                let [f1, f2, palm] = g.boxes(d, width, yc);
+                let mut lowest = f64::INFINITY;
+                for (lo, hi) in [f1, f2, palm, g.body_box(d, yc)] {
+                    for k in 0..8 {
+                        let c = Vector3::new(
+                            if k & 1 == 0 { lo.x } else { hi.x },
+                            if k & 2 == 0 { lo.y } else { hi.y },
+                            if k & 4 == 0 { lo.z } else { hi.z },
+                        );
+                        lowest = lowest.min((p + r * c).z);
+                    }
+                }
+                lowest
+            };
+            assert!(
+                (lowest(d) + 0.5 * PLANE_TOLERANCE).abs() < 1e-12,
+                "{}",
+                lowest(d)
+            );
+            // Any depth whose hand clears the plane as well is no deeper,
+            // e.g. the conservative one, when it clears.
+            let c = plane_limited_depth(&table(), &p, &r, &g, 0.09).unwrap();
+            if lowest(c) >= -0.5 * PLANE_TOLERANCE - 1e-12 {
+                assert!(d >= c - 1e-12, "{d} < {c}");
+            }
+            checked += 1;
+        }
+        assert!(checked > 400, "{checked}");
     }
 
     #[test]

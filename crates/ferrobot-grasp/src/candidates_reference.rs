@@ -6,8 +6,8 @@
 use nalgebra::{Matrix3, Point3, Vector3};
 
 use super::{
-    MAX_FOREIGN_POINTS, MIN_PLANE_DEPTH, PLANE_TOLERANCE, SearchParams, is_foreign, margin,
-    plane_limited_depth, score_hand, shallowest_depth,
+    MAX_FOREIGN_POINTS, PLANE_TOLERANCE, SearchParams, is_foreign, margin, plane_depths,
+    score_hand, shallowest_depth, tips_below_mid_height,
 };
 use crate::grasp::Grasp;
 use crate::gripper::Region;
@@ -201,12 +201,39 @@ fn evaluate(
     // them all, the deepest depth it allows (objects lower than the
     // shallowest fixed depth: thin pieces lying flat, small objects).
     let shallowest = sp.depths.iter().copied().fold(f64::INFINITY, f64::min);
-    let plane_depth = sp
-        .plane
-        .as_ref()
-        .and_then(|pl| plane_limited_depth(pl, p, r, g, reach_y))
-        .filter(|&d| d >= MIN_PLANE_DEPTH && d < shallowest);
-    for (k, depth) in sp.depths.iter().copied().chain(plane_depth).enumerate() {
+    let plane_stage = match &sp.plane {
+        Some(pl) => plane_depths(pl, p, r, g, reach_y, shallowest, pad, |depth| {
+            let base = depth - g.finger_depth;
+            let mut lo_y = vec![f64::INFINITY; nbins];
+            let mut hi_y = vec![f64::NEG_INFINITY; nbins];
+            for &(x, y) in slot.iter() {
+                if x >= base && x <= depth {
+                    let k = index(y);
+                    lo_y[k] = lo_y[k].min(y);
+                    hi_y[k] = hi_y[k].max(y);
+                }
+            }
+            if lo_y[centre] > hi_y[centre] {
+                return None;
+            }
+            let (mut lo, mut hi) = (centre, centre);
+            while lo > 0 && lo_y[lo - 1] <= hi_y[lo - 1] {
+                lo -= 1;
+            }
+            while hi + 1 < nbins && lo_y[hi + 1] <= hi_y[hi + 1] {
+                hi += 1;
+            }
+            Some((lo_y[lo], hi_y[hi]))
+        }),
+        None => [None, None],
+    };
+    for (k, depth) in sp
+        .depths
+        .iter()
+        .copied()
+        .chain(plane_stage.into_iter().flatten())
+        .enumerate()
+    {
         let base = depth - g.finger_depth;
         lo_y.fill(f64::INFINITY);
         hi_y.fill(f64::NEG_INFINITY);
@@ -292,6 +319,12 @@ fn evaluate(
             .filter(|q| g.region(q, depth, width, yc, m) == Region::Closing)
             .copied()
             .collect();
+        if k >= sp.depths.len()
+            && let Some(plane) = &sp.plane
+            && !tips_below_mid_height(plane, p, r, depth, width, yc, &inside)
+        {
+            continue;
+        }
         return score_hand(cloud, p, r, &inside, seed, depth, width, yc, sp);
     }
     None
