@@ -1019,15 +1019,19 @@ class PickPlace:
             return None
         return sorted(touching)
 
-    def _sphere_contacts(self, q: np.ndarray) -> list[str]:
-        """Objects of the planner's world as synced (enabled ones) the sphere model reports in contact with
-        the robot at ``q``: each enabled alone; self-collision is not an object's contact."""
+    def _sphere_contacts(self, q: np.ndarray, stage: str | None = None) -> list[str]:
+        """Objects of the planner's world as synced (enabled ones) the robot or what it holds collides with at
+        ``q`` by the sphere model: each enabled alone among the others, which are ignored meanwhile. With
+        ``stage``, raises :class:`StageFailure` when ``q`` collides with no object enabled (self-collision);
+        without, self-collision is not an object's contact."""
         if not self.planner.in_collision(q):
             return []
         names = [n for n in self.planner.world.names if n != ROBOT_MOUNT]
         for n in names:
             self.planner.set_object_enabled(n, False)
         try:
+            if stage is not None and self.planner.in_collision(q):
+                raise StageFailure(stage, "the robot (or what it holds) is in self-collision")
             out = []
             for n in names:
                 self.planner.set_object_enabled(n, True)
@@ -1041,27 +1045,10 @@ class PickPlace:
 
     def _touching(self, stage: str, q: np.ndarray) -> list[str]:
         """World objects the robot or what it holds collides with at ``q`` (planner world, synced from the
-        simulation): each enabled alone among the others, which are ignored meanwhile. Raises
-        :class:`StageFailure` when ``q`` collides with no world object enabled (self-collision)."""
+        simulation with nothing ignored): see :meth:`_sphere_contacts`. Raises :class:`StageFailure` when
+        ``q`` collides with no world object enabled (self-collision)."""
         self._sync([])
-        if not self.planner.in_collision(q):
-            return []
-        names = [n for n in self.planner.world.names if n != ROBOT_MOUNT]
-        for n in names:
-            self.planner.set_object_enabled(n, False)
-        try:
-            if self.planner.in_collision(q):
-                raise StageFailure(stage, "the robot (or what it holds) is in self-collision")
-            out = []
-            for n in names:
-                self.planner.set_object_enabled(n, True)
-                if self.planner.in_collision(q):
-                    out.append(n)
-                self.planner.set_object_enabled(n, False)
-            return out
-        finally:
-            for n in names:
-                self.planner.set_object_enabled(n, True)
+        return self._sphere_contacts(q, stage)
 
     def _escape(
         self, stage: str, direction: np.ndarray, max_distance: float, min_distance: float = 0.0, allow=()
