@@ -357,15 +357,30 @@ SLIDE_STUCK = 0.005
 def plan_scene_slide(state: State, frame, depth: np.ndarray, cam_pose: np.ndarray, ids: dict):
     """The best slide along a wall (``ferrobot.pipeline.slide.plan_slide``) of any remaining object, or None;
     objects whose last slide moved them less than ``SLIDE_STUCK`` are skipped."""
-    pts, labels, bounds, hm, view = scene_observation(state, frame, depth, cam_pose, ids)
-    stuck = getattr(state, "slide_stuck", set())
+    return best_scene_plan(
+        state,
+        scene_observation(state, frame, depth, cam_pose, ids),
+        ids,
+        "slide_stuck",
+        lambda pts, labels, label, bounds, hm, view: slide_mod.plan_slide(
+            pts, labels, label, ge.PANDA_HAND, TABLE_TOP, bounds, heightmap=hm, view=view
+        ),
+    )
+
+
+def best_scene_plan(state: State, observation, ids: dict, stuck_attr: str, plan):
+    """The highest-scoring plan ``plan(pts, labels, label, bounds, heightmap, view)`` over the remaining objects
+    of ``observation`` (``scene_observation``'s tuple), skipping the objects in ``state.<stuck_attr>``; None
+    when no object has one."""
+    pts, labels, bounds, hm, view = observation
+    stuck = getattr(state, stuck_attr, set())
     best = None
     for label in ids:
         if ids[label] in stuck:
             continue
-        plan = slide_mod.plan_slide(pts, labels, label, ge.PANDA_HAND, TABLE_TOP, bounds, heightmap=hm, view=view)
-        if plan is not None and (best is None or plan.score > best.score):
-            best = plan
+        found = plan(pts, labels, label, bounds, hm, view)
+        if found is not None and (best is None or found.score > best.score):
+            best = found
     return best
 
 
@@ -458,18 +473,15 @@ def drag_enabled(spec: clutter.ClutterSpec) -> bool:
 def plan_scene_drag(state: State, frame, depth: np.ndarray, cam_pose: np.ndarray, ids: dict):
     """The best drag away from the walls (``ferrobot.pipeline.drag.plan_drag``) of any remaining object, or None;
     objects whose last drag moved them less than ``SLIDE_STUCK`` are skipped."""
-    pts, labels, bounds, hm, view = scene_observation(state, frame, depth, cam_pose, ids)
-    stuck = getattr(state, "drag_stuck", set())
-    best = None
-    for label in ids:
-        if ids[label] in stuck:
-            continue
-        plan = drag_mod.plan_drag(
+    return best_scene_plan(
+        state,
+        scene_observation(state, frame, depth, cam_pose, ids),
+        ids,
+        "drag_stuck",
+        lambda pts, labels, label, bounds, hm, view: drag_mod.plan_drag(
             pts, labels, label, ge.PANDA_HAND, TABLE_TOP, bounds, heightmap=hm, view=view, tilts=DRAG_TILTS
-        )
-        if plan is not None and (best is None or plan.score > best.score):
-            best = plan
-    return best
+        ),
+    )
 
 
 def execute_drag(state: State, w, hand_model, plan, names: list, ids: dict, on_step=None) -> dict:
