@@ -64,9 +64,10 @@ use ferrobot_model::{Link, Shape};
 use nalgebra::{Isometry3, Matrix3, Point3, SymmetricEigen, UnitQuaternion, Vector3};
 use parry3d::bounding_volume::BoundingVolume;
 use parry3d::math::{Mat3, Pose, Rot3, Vector};
+use parry3d::query::ClosestPoints;
 use parry3d::query::PointQuery;
 use parry3d::query::details::{
-    distance_support_map_support_map, intersection_test_support_map_support_map,
+    closest_points_support_map_support_map, intersection_test_support_map_support_map,
 };
 use parry3d::shape::{Ball, Capsule, Cuboid, Cylinder, SupportMap, TriMesh};
 
@@ -301,6 +302,37 @@ impl SupportMap for Convex {
             Convex::Capsule(s) => s.local_support_point(dir),
             Convex::Hull(h) => h.support(dir),
         }
+    }
+}
+
+/// Whether the convex shapes `sa` and `sb` (`sb`'s pose in `sa`'s frame:
+/// `pos12`) come closer than `margin` (> 0), never answering "no" for
+/// shapes that do. parry's GJK distance can stop short of the minimum and
+/// overstate it by millimetres (a cylinder against a box with parallel
+/// faces: 31.35 mm for a true 29.93 mm), which would let a pair within the
+/// margin pass; here the distance is the gap between the two shapes'
+/// support points along GJK's direction (a separating plane: never more
+/// than the true distance), and touching or overlapping shapes always count.
+fn within_margin(pos12: &Pose, sa: &Convex, sb: &Convex, margin: f32) -> bool {
+    if intersection_test_support_map_support_map(pos12, sa, sb) {
+        return true;
+    }
+    match closest_points_support_map_support_map(pos12, sa, sb, f32::MAX) {
+        ClosestPoints::WithinMargin(p1, p2) => {
+            let n = *pos12 * p2 - p1;
+            let len = n.length();
+            // Closest points that coincide (or a NaN length): touching.
+            if len.is_nan() || len <= 1e-9 {
+                return true;
+            }
+            let n = n / len;
+            let top_a = sa.local_support_point(n).dot(n);
+            let dir_b = pos12.rotation.inverse() * -n;
+            let bottom_b = (*pos12 * sb.local_support_point(dir_b)).dot(n);
+            bottom_b - top_a < margin
+        }
+        // GJK found them intersecting after all, or could not tell.
+        _ => true,
     }
 }
 
@@ -1309,7 +1341,7 @@ pub fn confirm<L: Lanes>(
                 #[cfg(feature = "exact-stats")]
                 let t0 = std::time::Instant::now();
                 let mut hit = if margin > 0.0 {
-                    distance_support_map_support_map(&pos12, sa, sb) < margin
+                    within_margin(&pos12, sa, sb, margin)
                 } else {
                     intersection_test_support_map_support_map(&pos12, sa, sb)
                 };
@@ -1621,8 +1653,7 @@ mod tests {
                                     &part_pose(&fb, 0, &pb.pose),
                                 );
                                 let hulls = if margin > 0.0 {
-                                    distance_support_map_support_map(&pos12, &pa.shape, &pb.shape)
-                                        < margin
+                                    within_margin(&pos12, &pa.shape, &pb.shape, margin)
                                 } else {
                                     intersection_test_support_map_support_map(
                                         &pos12, &pa.shape, &pb.shape,
