@@ -152,19 +152,22 @@ def generate(out: Path, per_kind: int = 12, seed: int = 18) -> list[Path]:
     paths = []
     for kind in KINDS:
         for i in range(per_kind):
-            parts = make(kind, rng)
-            name = f"{kind}_{i:02d}"
-            collisions = []
-            for k, part in enumerate(parts):
-                write_obj(out / f"{name}_{k}.obj", part)
-                collisions.append(f'    <collision><geometry><mesh filename="{name}_{k}.obj"/></geometry></collision>')
-            volume = sum(hull_volume(p) for p in parts)
-            mass = volume * rng.uniform(400.0, 1200.0)
-            friction = rng.uniform(0.6, 1.0)
-            path = out / f"{name}.urdf"
-            path.write_text(URDF.format(name=name, mass=mass, friction=friction, collisions="\n".join(collisions)))
-            paths.append(path)
+            paths.append(write_object(out, f"{kind}_{i:02d}", make(kind, rng), rng))
     return paths
+
+
+def write_object(out: Path, name: str, parts, rng: np.random.Generator) -> Path:
+    """Writes ``parts`` (convex point sets) as ``NAME_K.obj`` meshes and a multi-part ``NAME.urdf`` in ``out``
+    with a density drawn in 400-1200 kg/m^3 and a friction in 0.6-1.0 (in that order from ``rng``)."""
+    collisions = []
+    for k, part in enumerate(parts):
+        write_obj(out / f"{name}_{k}.obj", part)
+        collisions.append(f'    <collision><geometry><mesh filename="{name}_{k}.obj"/></geometry></collision>')
+    mass = sum(hull_volume(p) for p in parts) * rng.uniform(400.0, 1200.0)
+    friction = rng.uniform(0.6, 1.0)
+    path = out / f"{name}.urdf"
+    path.write_text(URDF.format(name=name, mass=mass, friction=friction, collisions="\n".join(collisions)))
+    return path
 
 
 def main() -> int:

@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from heldout_objects import URDF, box, hull_volume, wall, write_obj  # noqa: E402
+from heldout_objects import box, wall, write_object  # noqa: E402
 
 KINDS = ("flatring", "torus", "benttube", "plate", "washer", "flatbar")
 
@@ -81,17 +81,7 @@ def generate(out: Path, per_kind: int = 6, seed: int = 7) -> list[Path]:
     paths = []
     for kind in KINDS:
         for i in range(per_kind):
-            parts = make(kind, rng)
-            name = f"{kind}_{i:02d}"
-            collisions = []
-            for k, part in enumerate(parts):
-                write_obj(out / f"{name}_{k}.obj", part)
-                collisions.append(f'    <collision><geometry><mesh filename="{name}_{k}.obj"/></geometry></collision>')
-            mass = sum(hull_volume(p) for p in parts) * rng.uniform(400.0, 1200.0)
-            friction = rng.uniform(0.6, 1.0)
-            path = out / f"{name}.urdf"
-            path.write_text(URDF.format(name=name, mass=mass, friction=friction, collisions="\n".join(collisions)))
-            paths.append(path)
+            paths.append(write_object(out, f"{kind}_{i:02d}", make(kind, rng), rng))
     return paths
 
 

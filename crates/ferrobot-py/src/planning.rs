@@ -948,13 +948,7 @@ impl PyPlanner {
     ) -> PyResult<std::collections::HashMap<String, crate::results::PyClearance>> {
         guard(|| {
             let inner = self.snap();
-            let order = self.order(joint_names)?;
-            let c = self.config(q, "q", order.as_ref())?;
-            let mut space = inner.space().clone();
-            if let Some(f) = &c.full {
-                space.lock_from(f);
-            }
-            let full = space.expand(&c.active);
+            let full = self.full_config(q, joint_names)?;
             if self.exact.get().is_none() {
                 let lc = ferrobot_control::LinkClearance::new(inner.model().clone())
                     .map_err(crate::control::control_err)?;
@@ -989,16 +983,8 @@ impl PyPlanner {
         joint_names: Option<Vec<String>>,
     ) -> PyResult<bool> {
         guard(|| {
-            let inner = self.snap();
-            let order = self.order(joint_names)?;
-            let c = self.config(q, "q", order.as_ref())?;
-            let mut space = inner.space().clone();
-            if let Some(f) = &c.full {
-                space.lock_from(f);
-            }
-            Ok(inner
-                .checker()
-                .in_collision_unchecked(&space.expand(&c.active)))
+            let full = self.full_config(q, joint_names)?;
+            Ok(self.snap().checker().in_collision_unchecked(&full))
         })
     }
 
