@@ -235,7 +235,9 @@ impl Mesh {
     }
 }
 
-fn is_closed(triangles: &[[u32; 3]]) -> bool {
+/// Whether every edge of `triangles` is shared by exactly two triangles (a
+/// closed surface).
+pub(crate) fn is_closed(triangles: &[[u32; 3]]) -> bool {
     use std::collections::HashMap;
     let mut edges: HashMap<(u32, u32), i32> = HashMap::new();
     for t in triangles {

@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import _core
-from ..errors import InvalidArgumentError, MeshError
+from ..errors import InvalidArgumentError, MeshError, ModelError
 
 __all__ = [
     "BinSpec",
@@ -41,6 +41,9 @@ __all__ = [
     "find_object_files",
     "instance_masks",
     "random_clutter",
+    "object_mesh",
+    "object_mesh_file",
+    "primitive_mesh",
     "read_object_file",
     "settle",
 ]
@@ -170,8 +173,14 @@ def _floats(text: str | None, n: int, what: str, path: Path) -> tuple[float, ...
 
 
 def read_object_file(path) -> ObjectFile:
-    """An object file as an :class:`ObjectFile`. URDF: the first link with a collision mesh (``package://``
-    is resolved against the URDF's folder). Raises ``MeshError`` naming the file when it cannot be used."""
+    """An object file as an :class:`ObjectFile`. Bare meshes (OBJ, STL, DAE) are used as they are. A URDF is
+    read by the one URDF reader (:meth:`ferrobot.RobotModel.from_urdf_string`, its ``<visual>`` elements
+    left out: an object's visuals are not used); every ``<collision>`` of every link counts, placed by its
+    ``<origin>`` and the links' fixed joints. One collision mesh at the link's origin is used as it is (its
+    file and ``scale``); anything else (primitives, several collisions, offsets, several links) becomes one
+    generated OBJ in the object's frame (:func:`object_mesh_file`). Mass: the links' ``<inertial><mass>``
+    summed; friction: the first ``<contact><lateral_friction>``. Raises ``MeshError`` naming the file when it
+    cannot be used (unreadable, no collision geometry, movable joints)."""
     path = Path(path)
     if path.suffix.lower() in MESH_SUFFIXES:
         return ObjectFile(source=str(path), mesh=str(path))
@@ -182,28 +191,155 @@ def read_object_file(path) -> ObjectFile:
     except (ET.ParseError, OSError) as e:
         raise MeshError(f"object file '{path}': cannot read the URDF: {e}") from e
     for link in root.iter("link"):
-        mesh = link.find("collision/geometry/mesh")
-        if mesh is None:
-            continue
-        fname = mesh.get("filename", "")
-        if fname.startswith("package://"):
-            fname = fname[len("package://") :].split("/", 1)[-1]
-        elif fname.startswith("file://"):
-            fname = fname[len("file://") :]
-        mesh_path = (path.parent / fname).resolve()
-        scale = _floats(mesh.get("scale", "1 1 1"), 3, "mesh scale", path)
-        m = link.find("inertial/mass")
-        mass = _floats(m.get("value"), 1, "mass", path)[0] if m is not None else None
-        fr = link.find("contact/lateral_friction")
-        friction = _floats(fr.get("value"), 1, "lateral_friction", path)[0] if fr is not None else None
-        return ObjectFile(
-            source=str(path),
-            mesh=str(mesh_path),
-            scale=scale,  # type: ignore[arg-type]
-            mass=mass if mass and mass > 0 else None,
-            friction=friction,
+        for visual in link.findall("visual"):
+            link.remove(visual)
+    try:
+        model = _core.RobotModel.from_urdf_string(ET.tostring(root, encoding="unicode"), package_dirs=[path.parent])
+    except ModelError as e:
+        raise MeshError(f"object file '{path}': {e}") from e
+    if model.num_dof:
+        raise MeshError(
+            f"object file '{path}': an object must be one rigid body; movable joints {model.joint_names} "
+            "(articulated objects are not supported)"
         )
-    raise MeshError(f"object file '{path}': no link has a collision mesh")
+    q0 = np.zeros(0)
+    parts = [(model.fk(q0, link) @ g["origin"], g) for link in model.link_names for g in model.collision_geometry(link)]
+    if not parts:
+        raise MeshError(f"object file '{path}': no link has collision geometry")
+    masses, friction = [], None
+    for link in root.iter("link"):
+        m = link.find("inertial/mass")
+        if m is not None:
+            masses.append(_floats(m.get("value"), 1, "mass", path)[0])
+        fr = link.find("contact/lateral_friction")
+        if fr is not None and friction is None:
+            friction = _floats(fr.get("value"), 1, "lateral_friction", path)[0]
+    mass = sum(masses) if masses and sum(masses) > 0 else None
+    pose, g = parts[0]
+    if len(parts) == 1 and g["type"] == "mesh" and np.allclose(pose, np.eye(4), rtol=0.0, atol=1e-12):
+        scale = tuple(float(s) for s in g["scale"])
+        return ObjectFile(source=str(path), mesh=str(g["path"]), scale=scale, mass=mass, friction=friction)  # type: ignore[arg-type]
+    vertices, faces = object_mesh(parts)
+    return ObjectFile(source=str(path), mesh=str(object_mesh_file(vertices, faces)), mass=mass, friction=friction)
+
+
+#: Segments round the axis of a generated sphere, cylinder or capsule (and latitude steps of the same angle
+#: on round ends): its vertices lie on the true surface and its faces at most 0.25 % of the radius inside it.
+ROUND_SEGMENTS = 64
+
+
+def _revolve(profile: list[tuple[float, float]], segments: int = ROUND_SEGMENTS) -> tuple[np.ndarray, np.ndarray]:
+    """A closed surface of revolution about z: ``profile`` is (z, r) from the bottom pole (r = 0) to the top
+    pole (r = 0), z increasing; triangles wound counter-clockwise seen from outside."""
+    a = np.linspace(0.0, 2.0 * np.pi, segments, endpoint=False)
+    ring = np.c_[np.cos(a), np.sin(a)]
+    rings = profile[1:-1]
+    verts = [np.array([[0.0, 0.0, profile[0][0]]])]
+    verts += [np.c_[r * ring, np.full(segments, z)] for z, r in rings]
+    verts.append(np.array([[0.0, 0.0, profile[-1][0]]]))
+    v = np.vstack(verts)
+    top = len(v) - 1
+    j = np.arange(segments)
+    k = (j + 1) % segments
+    tris = [np.c_[np.zeros(segments, dtype=np.int64), 1 + k, 1 + j]]
+    for i in range(len(rings) - 1):
+        lo, hi = 1 + i * segments, 1 + (i + 1) * segments
+        tris += [np.c_[lo + j, lo + k, hi + k], np.c_[lo + j, hi + k, hi + j]]
+    last = 1 + (len(rings) - 1) * segments
+    tris.append(np.c_[np.full(segments, top), last + j, last + k])
+    return v, np.vstack(tris).astype(np.int64)
+
+
+def primitive_mesh(g: dict) -> tuple[np.ndarray, np.ndarray]:
+    """A closed triangle mesh (vertices (N, 3), faces (M, 3), outward) of a URDF collision primitive in its
+    own frame (``ferrobot.RobotModel.collision_geometry``'s dicts: box ``size``; sphere ``radius``; cylinder
+    and capsule ``radius`` and ``length`` along z, the capsule's length between its ball centres). Boxes are
+    exact; round shapes are inscribed polyhedra (:data:`ROUND_SEGMENTS`), within 0.25 % of the radius."""
+    t = g["type"]
+    if t == "box":
+        h = 0.5 * np.asarray(g["size"], dtype=np.float64)
+        v = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=np.float64) * h
+        f = np.array(
+            [[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
+             [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]],
+            dtype=np.int64,
+        )  # fmt: skip
+        return v, f
+    r = float(g["radius"])
+    half_rings = ROUND_SEGMENTS // 4
+    polar = np.linspace(0.0, 0.5 * np.pi, half_rings + 1)
+    if t == "sphere":
+        return _revolve([(-r * math.cos(p), r * math.sin(p)) for p in np.r_[polar, np.pi - polar[-2::-1]]])
+    h = 0.5 * float(g["length"])
+    if t == "cylinder":
+        return _revolve([(-h, 0.0), (-h, r), (h, r), (h, 0.0)])
+    if t == "capsule":
+        bottom = [(-h - r * math.cos(p), r * math.sin(p)) for p in polar]
+        return _revolve(bottom + [(-z, rr) for z, rr in bottom[::-1]])
+    raise MeshError(f"collision geometry '{t}' is not a box, sphere, cylinder, capsule or mesh")
+
+
+def object_mesh(parts) -> tuple[np.ndarray, np.ndarray]:
+    """One triangle mesh (vertices, faces) of ``parts``: (4x4 pose in the object frame, collision geometry
+    dict of :meth:`ferrobot.RobotModel.collision_geometry`) pairs; meshes scaled by their ``scale``."""
+    vs, fs, n = [], [], 0
+    for pose, g in parts:
+        if g["type"] == "mesh":
+            v = np.asarray(g["vertices"], dtype=np.float64) * np.asarray(g["scale"], dtype=np.float64)
+            f = np.asarray(g["faces"], dtype=np.int64)
+        else:
+            v, f = primitive_mesh(g)
+        pose = np.asarray(pose, dtype=np.float64)
+        vs.append(v @ pose[:3, :3].T + pose[:3, 3])
+        fs.append(f + n)
+        n += len(v)
+    return np.vstack(vs), np.vstack(fs)
+
+
+def _cache_dir() -> Path:
+    """``$FERROBOT_CACHE_DIR/objects`` (``off``: a temporary folder of this process), else
+    ``$XDG_CACHE_HOME/ferrobot/objects``, else ``~/.cache/ferrobot/objects`` (as the sphere models' cache)."""
+    import os
+    import tempfile
+
+    base = os.environ.get("FERROBOT_CACHE_DIR")
+    if base == "off":
+        global _TEMP_CACHE
+        if _TEMP_CACHE is None:
+            _TEMP_CACHE = tempfile.mkdtemp(prefix="ferrobot-objects-")
+        return Path(_TEMP_CACHE)
+    if not base:
+        xdg = os.environ.get("XDG_CACHE_HOME")
+        base = str(Path(xdg) / "ferrobot") if xdg else str(Path.home() / ".cache" / "ferrobot")
+    return Path(base) / "objects"
+
+
+_TEMP_CACHE: str | None = None
+
+
+def object_mesh_file(vertices: np.ndarray, faces: np.ndarray) -> Path:
+    """``vertices``/``faces`` written as an OBJ in the object cache (:func:`_cache_dir`), named by a hash of
+    the content (the same geometry gives the same file, so its decomposition is cached once)."""
+    import hashlib
+    import os
+
+    v = np.ascontiguousarray(vertices, dtype=np.float64)
+    f = np.ascontiguousarray(faces, dtype=np.int64)
+    digest = hashlib.sha256(v.tobytes() + f.tobytes()).hexdigest()[:24]
+    folder = _cache_dir()
+    out = folder / f"{digest}.obj"
+    if out.is_file():
+        return out
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        lines = [f"v {x!r} {y!r} {z!r}" for x, y, z in v.tolist()]
+        lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in f.tolist()]
+        tmp = folder / f".{digest}.{os.getpid()}.tmp"
+        tmp.write_text("\n".join(lines) + "\n")
+        tmp.replace(out)
+    except OSError as e:
+        raise MeshError(f"object cache '{folder}': cannot write the generated mesh: {e}") from e
+    return out
 
 
 def _random_rotation(rng: np.random.Generator) -> np.ndarray:
