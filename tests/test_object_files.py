@@ -245,3 +245,23 @@ def test_folder_of_mixed_objects_is_copied_and_loads(tmp_path):
     spec = clutter.random_clutter(0, 3, folder)
     assert spec.skipped == []
     assert len(spec.objects) == 3
+
+
+def test_package_uris_resolve_in_ros_and_flat_layouts(tmp_path):
+    """``package://NAME/meshes/m.obj`` from ``NAME/urdf/o.urdf`` (a ROS package), and ``package://ANY/m.obj``
+    with the mesh beside the URDF (how object files are often shipped)."""
+    v, f = clutter.primitive_mesh({"type": "box", "size": [1.0, 1.0, 1.0]})
+    obj = "\n".join([f"v {a} {b} {c}" for a, b, c in v] + [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in f]) + "\n"
+    ros = tmp_path / "mypkg"
+    (ros / "urdf").mkdir(parents=True)
+    (ros / "meshes").mkdir()
+    (ros / "meshes" / "m.obj").write_text(obj)
+    link = _link("o", _collision('<mesh filename="package://mypkg/meshes/m.obj" scale="0.03 0.03 0.03"/>'))
+    of = clutter.read_object_file(_urdf(ros / "urdf" / "o.urdf", link))
+    assert Path(of.mesh) == (ros / "meshes" / "m.obj").resolve()
+    flat = tmp_path / "flat"
+    flat.mkdir()
+    (flat / "m.obj").write_text(obj)
+    link = _link("o", _collision('<mesh filename="package://elsewhere/m.obj" scale="0.03 0.03 0.03"/>'))
+    of = clutter.read_object_file(_urdf(flat / "o.urdf", link))
+    assert Path(of.mesh) == (flat / "m.obj").resolve()

@@ -193,10 +193,24 @@ def read_object_file(path) -> ObjectFile:
     for link in root.iter("link"):
         for visual in link.findall("visual"):
             link.remove(visual)
+    # package:// and relative names resolve against the URDF's folder and its parents (as a URDF file's do);
+    # failing that, package://NAME/rest as rest in the URDF's folder (objects often ship that way).
+    roots = [path.parent.resolve(), *path.parent.resolve().parents]
     try:
-        model = _core.RobotModel.from_urdf_string(ET.tostring(root, encoding="unicode"), package_dirs=[path.parent])
-    except ModelError as e:
-        raise MeshError(f"object file '{path}': {e}") from e
+        model = _core.RobotModel.from_urdf_string(ET.tostring(root, encoding="unicode"), package_dirs=roots)
+    except ModelError as first:
+        renamed = False
+        for mesh in root.iter("mesh"):
+            name = mesh.get("filename", "")
+            if name.startswith("package://") and "/" in name[len("package://") :]:
+                mesh.set("filename", str(path.parent.resolve() / name[len("package://") :].split("/", 1)[1]))
+                renamed = True
+        if not renamed:
+            raise MeshError(f"object file '{path}': {first}") from first
+        try:
+            model = _core.RobotModel.from_urdf_string(ET.tostring(root, encoding="unicode"), package_dirs=roots)
+        except ModelError:
+            raise MeshError(f"object file '{path}': {first}") from first
     if model.num_dof:
         raise MeshError(
             f"object file '{path}': an object must be one rigid body; movable joints {model.joint_names} "
