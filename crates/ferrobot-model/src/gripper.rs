@@ -192,6 +192,34 @@ pub struct FingerGeometry {
     pub palm_depth: f64,
 }
 
+/// Extents (m) of a robot model's own collision geometry of a gripper in
+/// the grasp frame (origin at the TCP, x approach, y closing, z = x × y),
+/// over every opening from closed to open ([`Gripper::model_extents`]), in
+/// the terms of the detector's boxes: fingers from the pads' inner faces
+/// (± half the opening) outwards, a housing centred on the fingers behind
+/// their base (x = -`fingers.depth`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HandExtents {
+    /// Largest reach of a finger link's geometry beyond its pad's inner
+    /// face along the closing axis.
+    pub thickness: f64,
+    /// Twice the largest |z| of a finger link's geometry.
+    pub height: f64,
+    /// Twice the largest |y| of the hand's rigid geometry and of finger
+    /// geometry reaching behind the fingers' base.
+    pub palm_width: f64,
+    /// Twice the largest |z| of the same.
+    pub palm_height: f64,
+    /// How far the same reaches behind the fingers' base.
+    pub palm_depth: f64,
+    /// How far finger geometry reaches beyond the TCP along the approach
+    /// (>= 0; the detector's fingers end at the TCP).
+    pub tip: f64,
+    /// How far the hand's rigid geometry reaches in front of the fingers'
+    /// base along the approach (>= 0; the detector's housing ends there).
+    pub palm_front: f64,
+}
+
 /// A parallel-jaw gripper (see the module docs).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Gripper {
@@ -445,14 +473,127 @@ impl Gripper {
 
     /// The gripper of `model`: a shipped instance when the model has its
     /// links and joints (Panda hand, Robotiq 2F-85), else one built from the
-    /// SRDF's first `end_effector` ([`Self::from_end_effector`]).
+    /// SRDF's first `end_effector` ([`Self::from_end_effector`]); either
+    /// with its finger and housing boxes grown to cover the model's own
+    /// collision geometry of the hand and finger links ([`Self::covering`]).
     pub fn from_model(model: &RobotModel) -> Result<Self> {
         for g in [Self::panda_hand(), Self::robotiq_2f85()] {
             if g.check_model(model).is_ok() {
-                return Ok(g);
+                return g.covering(model);
             }
         }
-        Self::from_end_effector(model)
+        Self::from_end_effector(model)?.covering(model)
+    }
+
+    /// How far `model`'s own collision geometry of this gripper (the hand
+    /// link and every link below it, the fingers at every opening from
+    /// closed to open) reaches in the grasp frame, as the detector's box
+    /// model needs it ([`HandExtents`]). Errors when `model` does not have
+    /// this gripper ([`Self::check_model`]).
+    pub fn model_extents(&self, model: &RobotModel) -> Result<HandExtents> {
+        self.check_model(model)?;
+        let hand = model.link(&self.hand_link)?;
+        let dof = match model.joints()[model.joint(&self.driver)?].coupling {
+            JointCoupling::Dof(d) => d,
+            _ => unreachable!("check_model: the driver is independent"),
+        };
+        let to_grasp = self.grasp_to_hand();
+        let links: Vec<usize> = subtree_links(model, hand);
+        let mut q = model.neutral_configuration();
+        // Link poses in the grasp frame with the driver at `x`.
+        let mut poses_at = |x: f64| -> Result<Vec<Isometry3<f64>>> {
+            q[dof] = x;
+            let all = model.fk_all(&q)?;
+            let inv = to_grasp * all[hand].inverse();
+            Ok(all.iter().map(|p| inv * p).collect())
+        };
+        let (qo, qc) = (self.open_position, self.closed_position);
+        let (po, pc) = (poses_at(qo)?, poses_at(qc)?);
+        // A link the driver moves is a finger; one rigid with the hand is
+        // part of the hand's body.
+        let moves = |l: usize| {
+            let d = po[l].inverse() * pc[l];
+            d.translation.vector.norm() > 1e-9 || d.rotation.angle() > 1e-9
+        };
+        let (x, y, z) = (Vector3::x(), Vector3::y(), Vector3::z());
+        let base = -self.fingers.depth;
+        let mut e = HandExtents {
+            thickness: 0.0,
+            height: 0.0,
+            palm_width: 0.0,
+            palm_height: 0.0,
+            palm_depth: 0.0,
+            tip: f64::NEG_INFINITY,
+            palm_front: f64::NEG_INFINITY,
+        };
+        let n = 17;
+        for k in 0..n {
+            let qk = qc + (qo - qc) * k as f64 / (n - 1) as f64;
+            let poses = if k == n - 1 {
+                po.clone()
+            } else {
+                poses_at(qk)?
+            };
+            let half = self.opening(qk) / 2.0;
+            for &l in &links {
+                let finger = moves(l);
+                for g in &model.links()[l].collisions {
+                    let p = poses[l] * g.origin;
+                    let s = |d: &Vector3<f64>| support(&g.shape, &p, d);
+                    let (x_lo, x_hi) = (-s(&-x), s(&x));
+                    let (y_lo, y_hi) = (-s(&-y), s(&y));
+                    let (z_lo, z_hi) = (-s(&-z), s(&z));
+                    let z_abs = z_hi.max(-z_lo);
+                    let y_abs = y_hi.max(-y_lo);
+                    if finger {
+                        // The side is that of the shape's centre at this
+                        // opening; the finger box reaches from the inner
+                        // face (half the opening) outwards.
+                        let outer = if p.translation.y >= 0.0 { y_hi } else { -y_lo };
+                        e.thickness = e.thickness.max(outer - half);
+                        e.height = e.height.max(2.0 * z_abs);
+                        e.tip = e.tip.max(x_hi);
+                        if x_lo < base {
+                            // Behind the fingers' base: the housing covers it.
+                            e.palm_width = e.palm_width.max(2.0 * y_abs);
+                            e.palm_height = e.palm_height.max(2.0 * z_abs);
+                            e.palm_depth = e.palm_depth.max(base - x_lo);
+                        }
+                    } else {
+                        e.palm_width = e.palm_width.max(2.0 * y_abs);
+                        e.palm_height = e.palm_height.max(2.0 * z_abs);
+                        e.palm_depth = e.palm_depth.max(base - x_lo);
+                        e.palm_front = e.palm_front.max(x_hi - base);
+                    }
+                }
+            }
+        }
+        e.tip = e.tip.max(0.0);
+        e.palm_front = e.palm_front.max(0.0);
+        Ok(e)
+    }
+
+    /// This gripper with its finger and housing boxes grown to cover
+    /// `model`'s own collision geometry of the hand and finger links
+    /// ([`Self::model_extents`]): each of finger thickness, finger height,
+    /// palm width, height and depth is the larger of this description's and
+    /// the model's. What the planner and the simulator collide with is then
+    /// what grasp detection keeps out of the cloud, walls and neighbours.
+    /// The pad length (`fingers.depth`), TCP, axes and opening map are kept.
+    pub fn covering(&self, model: &RobotModel) -> Result<Self> {
+        let e = self.model_extents(model)?;
+        let f = self.fingers;
+        let mut g = self.clone();
+        g.fingers = FingerGeometry {
+            depth: f.depth,
+            thickness: f.thickness.max(e.thickness),
+            height: f.height.max(e.height),
+            palm_width: f.palm_width.max(e.palm_width),
+            palm_height: f.palm_height.max(e.palm_height),
+            palm_depth: f.palm_depth.max(e.palm_depth),
+        };
+        g.validate()?;
+        Ok(g)
     }
 
     /// A gripper built from the SRDF's first `end_effector`: its parent link
@@ -805,6 +946,17 @@ mod tests {
         assert_eq!(Gripper::from_model(&panda).unwrap().name, "panda_hand");
         assert_eq!(Gripper::from_model(&ur).unwrap().name, "robotiq_2f85");
         assert!(Gripper::robotiq_2f85().check_model(&panda).is_err());
+    }
+
+    #[test]
+    fn extents_print() {
+        for (m, g) in [
+            (crate::robots::panda().unwrap(), Gripper::panda_hand()),
+            (crate::robots::ur5e().unwrap(), Gripper::robotiq_2f85()),
+        ] {
+            eprintln!("{:?}", g.model_extents(&m).unwrap());
+            eprintln!("{:?}", g.covering(&m).unwrap().fingers);
+        }
     }
 
     #[test]

@@ -427,7 +427,8 @@ def _reach(shape: dict, pose: np.ndarray, u: np.ndarray) -> float | None:
 def resolve_robot(robot=None, srdf=None, gripper=None):
     """(model, gripper) for ``robot``: ``"panda"`` / ``"ur5e"`` (bundled), a URDF path (with ``srdf``), or a
     :class:`ferrobot.RobotModel`; ``gripper``: a :class:`ferrobot.Gripper`, ``"panda_hand"`` /
-    ``"robotiq_2f85"``, or None to find the model's own (``Gripper.from_model``)."""
+    ``"robotiq_2f85"``, or None to find the model's own (``Gripper.from_model``); the gripper returned has its finger
+    and housing boxes grown to cover the model's own collision geometry of them (``Gripper.covering``)."""
     if robot is None or isinstance(robot, str) and robot in ("panda", "ur5e"):
         model = robots.bundled(robot or "panda")
     elif isinstance(robot, (str, bytes)) or hasattr(robot, "__fspath__"):
@@ -443,8 +444,9 @@ def resolve_robot(robot=None, srdf=None, gripper=None):
         g = known[gripper]()
     else:
         g = gripper
-    g.check_model(model)
-    return model, g
+    # The detector's hand covers the model's own hand and finger collision geometry (what the planner and the
+    # simulator collide with); raises unless the model has this gripper.
+    return model, g.covering(model)
 
 
 class PickPlace:
