@@ -473,16 +473,18 @@ impl Gripper {
 
     /// The gripper of `model`: a shipped instance when the model has its
     /// links and joints (Panda hand, Robotiq 2F-85), else one built from the
-    /// SRDF's first `end_effector` ([`Self::from_end_effector`]); either
-    /// with its finger and housing boxes grown to cover the model's own
-    /// collision geometry of the hand and finger links ([`Self::covering`]).
+    /// SRDF's first `end_effector` ([`Self::from_end_effector`]). Its
+    /// detection boxes are the description's; [`Self::covering`] grows them
+    /// to the model's own collision geometry (not the default: with the
+    /// bundled Panda's primitives it left the bin demo almost no grasps,
+    /// BENCHMARKS.md, branch `hand18h`).
     pub fn from_model(model: &RobotModel) -> Result<Self> {
         for g in [Self::panda_hand(), Self::robotiq_2f85()] {
             if g.check_model(model).is_ok() {
-                return g.covering(model);
+                return Ok(g);
             }
         }
-        Self::from_end_effector(model)?.covering(model)
+        Self::from_end_effector(model)
     }
 
     /// How far `model`'s own collision geometry of this gripper (the hand
@@ -526,7 +528,13 @@ impl Gripper {
             tip: f64::NEG_INFINITY,
             palm_front: f64::NEG_INFINITY,
         };
-        let n = 17;
+        // The openings are sampled; between two samples a finger point moves
+        // along each axis at most `slack` (translation plus rotation times
+        // the shape's reach; across, also the change of half the opening),
+        // added to the finger extents so that they bound the whole range.
+        let n = 129;
+        let mut slack = Vector3::<f64>::zeros();
+        let mut prev: Option<(Vec<Isometry3<f64>>, f64)> = None;
         for k in 0..n {
             let qk = qc + (qo - qc) * k as f64 / (n - 1) as f64;
             let poses = if k == n - 1 {
@@ -535,6 +543,23 @@ impl Gripper {
                 poses_at(qk)?
             };
             let half = self.opening(qk) / 2.0;
+            if let Some((pp, ph)) = &prev {
+                for &l in &links {
+                    for g in &model.links()[l].collisions {
+                        let (a, b) = (pp[l] * g.origin, poses[l] * g.origin);
+                        let r = [x, y, z, -x, -y, -z]
+                            .iter()
+                            .map(|d| support(&g.shape, &Isometry3::identity(), d))
+                            .fold(0.0f64, |m, v| m.max(v.abs()))
+                            * 3f64.sqrt();
+                        let turn = (a.rotation.inverse() * b.rotation).angle() * r;
+                        let step = (b.translation.vector - a.translation.vector).abs()
+                            + Vector3::repeat(turn)
+                            + Vector3::new(0.0, (half - ph).abs(), 0.0);
+                        slack = slack.sup(&step);
+                    }
+                }
+            }
             for &l in &links {
                 let finger = moves(l);
                 for g in &model.links()[l].collisions {
@@ -567,7 +592,11 @@ impl Gripper {
                     }
                 }
             }
+            prev = Some((poses, half));
         }
+        e.thickness += slack.y;
+        e.height += 2.0 * slack.z;
+        e.tip += slack.x;
         e.tip = e.tip.max(0.0);
         e.palm_front = e.palm_front.max(0.0);
         Ok(e)
@@ -948,15 +977,151 @@ mod tests {
         assert!(Gripper::robotiq_2f85().check_model(&panda).is_err());
     }
 
+    /// Points on the surface of a primitive in its own frame, dense enough
+    /// that their extremes along any axis are within 0.1 mm of the shape's.
+    fn surface_samples(shape: &Shape) -> Vec<Vector3<f64>> {
+        let ring = |r: f64, z: f64| {
+            (0..512).map(move |k| {
+                let t = k as f64 * std::f64::consts::TAU / 512.0;
+                Vector3::new(r * t.cos(), r * t.sin(), z)
+            })
+        };
+        match shape {
+            Shape::Box { half_extents: h } => (0..8)
+                .map(|k| {
+                    Vector3::new(
+                        if k & 1 == 0 { -h.x } else { h.x },
+                        if k & 2 == 0 { -h.y } else { h.y },
+                        if k & 4 == 0 { -h.z } else { h.z },
+                    )
+                })
+                .collect(),
+            Shape::Cylinder {
+                radius,
+                half_height,
+            } => ring(*radius, *half_height)
+                .chain(ring(*radius, -*half_height))
+                .collect(),
+            Shape::Capsule {
+                radius,
+                half_height,
+            } => {
+                // Both end spheres: rings at every latitude.
+                let mut v = Vec::new();
+                for c in [-*half_height, *half_height] {
+                    for i in 0..=64 {
+                        let phi =
+                            -std::f64::consts::FRAC_PI_2 + i as f64 * std::f64::consts::PI / 64.0;
+                        v.extend(ring(radius * phi.cos(), c + radius * phi.sin()));
+                    }
+                }
+                v
+            }
+            other => panic!("no samples for {other:?}"),
+        }
+    }
+
     #[test]
-    fn extents_print() {
+    fn model_extents_bound_the_sampled_primitives_tightly() {
+        // Reference: every primitive of the hand and the links below it,
+        // sampled on its surface and placed by FK at 41 driver positions,
+        // measured in the grasp frame; the extents must bound the samples
+        // and be reached by them to 0.1 mm.
         for (m, g) in [
             (crate::robots::panda().unwrap(), Gripper::panda_hand()),
             (crate::robots::ur5e().unwrap(), Gripper::robotiq_2f85()),
         ] {
-            eprintln!("{:?}", g.model_extents(&m).unwrap());
-            eprintln!("{:?}", g.covering(&m).unwrap().fingers);
+            let e = g.model_extents(&m).unwrap();
+            let hand = m.link(&g.hand_link).unwrap();
+            let dof = m.dof_names().iter().position(|n| *n == g.driver).unwrap();
+            let links = subtree_links(&m, hand);
+            let to_grasp = g.grasp_to_hand();
+            let mut q = m.neutral_configuration();
+            let rel = |q: &[f64]| {
+                let all = m.fk_all(q).unwrap();
+                let inv = to_grasp * all[hand].inverse();
+                all.iter().map(|p| inv * p).collect::<Vec<_>>()
+            };
+            q[dof] = g.open_position;
+            let open = rel(&q);
+            q[dof] = g.closed_position;
+            let closed = rel(&q);
+            let base = -g.fingers.depth;
+            let (mut thick, mut height, mut tip) = (0.0f64, 0.0f64, f64::NEG_INFINITY);
+            let (mut pw, mut ph, mut pd, mut front) = (0.0f64, 0.0f64, 0.0f64, f64::NEG_INFINITY);
+            for k in 0..=40 {
+                let x = g.closed_position + (g.open_position - g.closed_position) * k as f64 / 40.0;
+                q[dof] = x;
+                let poses = rel(&q);
+                let half = g.opening(x) / 2.0;
+                for &l in &links {
+                    let finger = (open[l].translation.vector - closed[l].translation.vector).norm()
+                        > 1e-9
+                        || (open[l].rotation.inverse() * closed[l].rotation).angle() > 1e-9;
+                    for geo in &m.links()[l].collisions {
+                        let p = poses[l] * geo.origin;
+                        let pts: Vec<Vector3<f64>> = surface_samples(&geo.shape)
+                            .iter()
+                            .map(|v| p * nalgebra::Point3::from(*v))
+                            .map(|v| v.coords)
+                            .collect();
+                        let max = |f: &dyn Fn(&Vector3<f64>) -> f64| {
+                            pts.iter().map(f).fold(f64::NEG_INFINITY, f64::max)
+                        };
+                        let ya = max(&|v| v.y.abs());
+                        let za = max(&|v| v.z.abs());
+                        let x_lo = -max(&|v| -v.x);
+                        if finger {
+                            let outer = if p.translation.y >= 0.0 {
+                                max(&|v| v.y)
+                            } else {
+                                max(&|v| -v.y)
+                            };
+                            thick = thick.max(outer - half);
+                            height = height.max(2.0 * za);
+                            tip = tip.max(max(&|v| v.x));
+                            if x_lo < base {
+                                pw = pw.max(2.0 * ya);
+                                ph = ph.max(2.0 * za);
+                                pd = pd.max(base - x_lo);
+                            }
+                        } else {
+                            pw = pw.max(2.0 * ya);
+                            ph = ph.max(2.0 * za);
+                            pd = pd.max(base - x_lo);
+                            front = front.max(max(&|v| v.x) - base);
+                        }
+                    }
+                }
+            }
+            for (what, got, want) in [
+                ("thickness", e.thickness, thick),
+                ("height", e.height, height),
+                ("tip", e.tip, tip.max(0.0)),
+                ("palm width", e.palm_width, pw),
+                ("palm height", e.palm_height, ph),
+                ("palm depth", e.palm_depth, pd),
+                ("palm front", e.palm_front, front.max(0.0)),
+            ] {
+                assert!(
+                    got >= want - 1e-9 && got <= want + 1e-3,
+                    "{}: {what} {got} vs sampled {want}",
+                    g.name
+                );
+            }
+            // Covering: the larger of the description and the model, again
+            // the same; from_model gives the covered gripper.
+            let c = g.covering(&m).unwrap();
+            assert_eq!(c.fingers.thickness, g.fingers.thickness.max(e.thickness));
+            assert_eq!(c.fingers.palm_width, g.fingers.palm_width.max(e.palm_width));
+            assert_eq!(c.fingers.palm_depth, g.fingers.palm_depth.max(e.palm_depth));
+            assert_eq!(c.fingers.depth, g.fingers.depth);
+            assert_eq!(c.covering(&m).unwrap(), c);
+            assert_eq!(Gripper::from_model(&m).unwrap(), g);
         }
+        // A gripper the model does not have is refused.
+        let ur = crate::robots::ur5e().unwrap();
+        assert!(Gripper::panda_hand().model_extents(&ur).is_err());
     }
 
     #[test]

@@ -165,9 +165,9 @@ impl PyGripper {
     }
 
     /// The gripper of `model`: a shipped one whose links and joints it has,
-    /// else one built from its SRDF end effector and finger geometry; its
-    /// finger and housing boxes cover the model's own collision geometry
-    /// (`covering`).
+    /// else one built from its SRDF end effector and finger geometry (its
+    /// detection boxes the description's; `covering` grows them to the
+    /// model's collision geometry).
     #[staticmethod]
     fn from_model(model: &PyRobotModel) -> PyResult<Self> {
         guard(|| {
