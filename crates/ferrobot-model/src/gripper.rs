@@ -192,6 +192,34 @@ pub struct FingerGeometry {
     pub palm_depth: f64,
 }
 
+/// Extents (m) of a robot model's own collision geometry of a gripper in
+/// the grasp frame (origin at the TCP, x approach, y closing, z = x × y),
+/// over every opening from closed to open ([`Gripper::model_extents`]), in
+/// the terms of the detector's boxes: fingers from the pads' inner faces
+/// (± half the opening) outwards, a housing centred on the fingers behind
+/// their base (x = -`fingers.depth`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HandExtents {
+    /// Largest reach of a finger link's geometry beyond its pad's inner
+    /// face along the closing axis.
+    pub thickness: f64,
+    /// Twice the largest |z| of a finger link's geometry.
+    pub height: f64,
+    /// Twice the largest |y| of the hand's rigid geometry and of finger
+    /// geometry reaching behind the fingers' base.
+    pub palm_width: f64,
+    /// Twice the largest |z| of the same.
+    pub palm_height: f64,
+    /// How far the same reaches behind the fingers' base.
+    pub palm_depth: f64,
+    /// How far finger geometry reaches beyond the TCP along the approach
+    /// (>= 0; the detector's fingers end at the TCP).
+    pub tip: f64,
+    /// How far the hand's rigid geometry reaches in front of the fingers'
+    /// base along the approach (>= 0; the detector's housing ends there).
+    pub palm_front: f64,
+}
+
 /// A parallel-jaw gripper (see the module docs).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Gripper {
@@ -445,7 +473,11 @@ impl Gripper {
 
     /// The gripper of `model`: a shipped instance when the model has its
     /// links and joints (Panda hand, Robotiq 2F-85), else one built from the
-    /// SRDF's first `end_effector` ([`Self::from_end_effector`]).
+    /// SRDF's first `end_effector` ([`Self::from_end_effector`]). Its
+    /// detection boxes are the description's; [`Self::covering`] grows them
+    /// to the model's own collision geometry (not the default: with the
+    /// bundled Panda's primitives it left the bin demo almost no grasps,
+    /// BENCHMARKS.md, branch `hand18h`).
     pub fn from_model(model: &RobotModel) -> Result<Self> {
         for g in [Self::panda_hand(), Self::robotiq_2f85()] {
             if g.check_model(model).is_ok() {
@@ -453,6 +485,144 @@ impl Gripper {
             }
         }
         Self::from_end_effector(model)
+    }
+
+    /// How far `model`'s own collision geometry of this gripper (the hand
+    /// link and every link below it, the fingers at every opening from
+    /// closed to open) reaches in the grasp frame, as the detector's box
+    /// model needs it ([`HandExtents`]). Errors when `model` does not have
+    /// this gripper ([`Self::check_model`]).
+    pub fn model_extents(&self, model: &RobotModel) -> Result<HandExtents> {
+        self.check_model(model)?;
+        let hand = model.link(&self.hand_link)?;
+        let dof = match model.joints()[model.joint(&self.driver)?].coupling {
+            JointCoupling::Dof(d) => d,
+            _ => unreachable!("check_model: the driver is independent"),
+        };
+        let to_grasp = self.grasp_to_hand();
+        let links: Vec<usize> = subtree_links(model, hand);
+        let mut q = model.neutral_configuration();
+        // Link poses in the grasp frame with the driver at `x`.
+        let mut poses_at = |x: f64| -> Result<Vec<Isometry3<f64>>> {
+            q[dof] = x;
+            let all = model.fk_all(&q)?;
+            let inv = to_grasp * all[hand].inverse();
+            Ok(all.iter().map(|p| inv * p).collect())
+        };
+        let (qo, qc) = (self.open_position, self.closed_position);
+        let (po, pc) = (poses_at(qo)?, poses_at(qc)?);
+        // A link the driver moves is a finger; one rigid with the hand is
+        // part of the hand's body.
+        let moves = |l: usize| {
+            let d = po[l].inverse() * pc[l];
+            d.translation.vector.norm() > 1e-9 || d.rotation.angle() > 1e-9
+        };
+        let (x, y, z) = (Vector3::x(), Vector3::y(), Vector3::z());
+        let base = -self.fingers.depth;
+        let mut e = HandExtents {
+            thickness: 0.0,
+            height: 0.0,
+            palm_width: 0.0,
+            palm_height: 0.0,
+            palm_depth: 0.0,
+            tip: f64::NEG_INFINITY,
+            palm_front: f64::NEG_INFINITY,
+        };
+        // The openings are sampled; between two samples a finger point moves
+        // along each axis at most `slack` (translation plus rotation times
+        // the shape's reach; across, also the change of half the opening),
+        // added to the finger extents so that they bound the whole range.
+        let n = 129;
+        let mut slack = Vector3::<f64>::zeros();
+        let mut prev: Option<(Vec<Isometry3<f64>>, f64)> = None;
+        for k in 0..n {
+            let qk = qc + (qo - qc) * k as f64 / (n - 1) as f64;
+            let poses = if k == n - 1 {
+                po.clone()
+            } else {
+                poses_at(qk)?
+            };
+            let half = self.opening(qk) / 2.0;
+            if let Some((pp, ph)) = &prev {
+                for &l in &links {
+                    for g in &model.links()[l].collisions {
+                        let (a, b) = (pp[l] * g.origin, poses[l] * g.origin);
+                        let r = [x, y, z, -x, -y, -z]
+                            .iter()
+                            .map(|d| support(&g.shape, &Isometry3::identity(), d))
+                            .fold(0.0f64, |m, v| m.max(v.abs()))
+                            * 3f64.sqrt();
+                        let turn = (a.rotation.inverse() * b.rotation).angle() * r;
+                        let step = (b.translation.vector - a.translation.vector).abs()
+                            + Vector3::repeat(turn)
+                            + Vector3::new(0.0, (half - ph).abs(), 0.0);
+                        slack = slack.sup(&step);
+                    }
+                }
+            }
+            for &l in &links {
+                let finger = moves(l);
+                for g in &model.links()[l].collisions {
+                    let p = poses[l] * g.origin;
+                    let s = |d: &Vector3<f64>| support(&g.shape, &p, d);
+                    let (x_lo, x_hi) = (-s(&-x), s(&x));
+                    let (y_lo, y_hi) = (-s(&-y), s(&y));
+                    let (z_lo, z_hi) = (-s(&-z), s(&z));
+                    let z_abs = z_hi.max(-z_lo);
+                    let y_abs = y_hi.max(-y_lo);
+                    if finger {
+                        // The side is that of the shape's centre at this
+                        // opening; the finger box reaches from the inner
+                        // face (half the opening) outwards.
+                        let outer = if p.translation.y >= 0.0 { y_hi } else { -y_lo };
+                        e.thickness = e.thickness.max(outer - half);
+                        e.height = e.height.max(2.0 * z_abs);
+                        e.tip = e.tip.max(x_hi);
+                        if x_lo < base {
+                            // Behind the fingers' base: the housing covers it.
+                            e.palm_width = e.palm_width.max(2.0 * y_abs);
+                            e.palm_height = e.palm_height.max(2.0 * z_abs);
+                            e.palm_depth = e.palm_depth.max(base - x_lo);
+                        }
+                    } else {
+                        e.palm_width = e.palm_width.max(2.0 * y_abs);
+                        e.palm_height = e.palm_height.max(2.0 * z_abs);
+                        e.palm_depth = e.palm_depth.max(base - x_lo);
+                        e.palm_front = e.palm_front.max(x_hi - base);
+                    }
+                }
+            }
+            prev = Some((poses, half));
+        }
+        e.thickness += slack.y;
+        e.height += 2.0 * slack.z;
+        e.tip += slack.x;
+        e.tip = e.tip.max(0.0);
+        e.palm_front = e.palm_front.max(0.0);
+        Ok(e)
+    }
+
+    /// This gripper with its finger and housing boxes grown to cover
+    /// `model`'s own collision geometry of the hand and finger links
+    /// ([`Self::model_extents`]): each of finger thickness, finger height,
+    /// palm width, height and depth is the larger of this description's and
+    /// the model's. What the planner and the simulator collide with is then
+    /// what grasp detection keeps out of the cloud, walls and neighbours.
+    /// The pad length (`fingers.depth`), TCP, axes and opening map are kept.
+    pub fn covering(&self, model: &RobotModel) -> Result<Self> {
+        let e = self.model_extents(model)?;
+        let f = self.fingers;
+        let mut g = self.clone();
+        g.fingers = FingerGeometry {
+            depth: f.depth,
+            thickness: f.thickness.max(e.thickness),
+            height: f.height.max(e.height),
+            palm_width: f.palm_width.max(e.palm_width),
+            palm_height: f.palm_height.max(e.palm_height),
+            palm_depth: f.palm_depth.max(e.palm_depth),
+        };
+        g.validate()?;
+        Ok(g)
     }
 
     /// A gripper built from the SRDF's first `end_effector`: its parent link
@@ -805,6 +975,153 @@ mod tests {
         assert_eq!(Gripper::from_model(&panda).unwrap().name, "panda_hand");
         assert_eq!(Gripper::from_model(&ur).unwrap().name, "robotiq_2f85");
         assert!(Gripper::robotiq_2f85().check_model(&panda).is_err());
+    }
+
+    /// Points on the surface of a primitive in its own frame, dense enough
+    /// that their extremes along any axis are within 0.1 mm of the shape's.
+    fn surface_samples(shape: &Shape) -> Vec<Vector3<f64>> {
+        let ring = |r: f64, z: f64| {
+            (0..512).map(move |k| {
+                let t = k as f64 * std::f64::consts::TAU / 512.0;
+                Vector3::new(r * t.cos(), r * t.sin(), z)
+            })
+        };
+        match shape {
+            Shape::Box { half_extents: h } => (0..8)
+                .map(|k| {
+                    Vector3::new(
+                        if k & 1 == 0 { -h.x } else { h.x },
+                        if k & 2 == 0 { -h.y } else { h.y },
+                        if k & 4 == 0 { -h.z } else { h.z },
+                    )
+                })
+                .collect(),
+            Shape::Cylinder {
+                radius,
+                half_height,
+            } => ring(*radius, *half_height)
+                .chain(ring(*radius, -*half_height))
+                .collect(),
+            Shape::Capsule {
+                radius,
+                half_height,
+            } => {
+                // Both end spheres: rings at every latitude.
+                let mut v = Vec::new();
+                for c in [-*half_height, *half_height] {
+                    for i in 0..=64 {
+                        let phi =
+                            -std::f64::consts::FRAC_PI_2 + i as f64 * std::f64::consts::PI / 64.0;
+                        v.extend(ring(radius * phi.cos(), c + radius * phi.sin()));
+                    }
+                }
+                v
+            }
+            other => panic!("no samples for {other:?}"),
+        }
+    }
+
+    #[test]
+    fn model_extents_bound_the_sampled_primitives_tightly() {
+        // Reference: every primitive of the hand and the links below it,
+        // sampled on its surface and placed by FK at 41 driver positions,
+        // measured in the grasp frame; the extents must bound the samples
+        // and be reached by them to 0.1 mm.
+        for (m, g) in [
+            (crate::robots::panda().unwrap(), Gripper::panda_hand()),
+            (crate::robots::ur5e().unwrap(), Gripper::robotiq_2f85()),
+        ] {
+            let e = g.model_extents(&m).unwrap();
+            let hand = m.link(&g.hand_link).unwrap();
+            let dof = m.dof_names().iter().position(|n| *n == g.driver).unwrap();
+            let links = subtree_links(&m, hand);
+            let to_grasp = g.grasp_to_hand();
+            let mut q = m.neutral_configuration();
+            let rel = |q: &[f64]| {
+                let all = m.fk_all(q).unwrap();
+                let inv = to_grasp * all[hand].inverse();
+                all.iter().map(|p| inv * p).collect::<Vec<_>>()
+            };
+            q[dof] = g.open_position;
+            let open = rel(&q);
+            q[dof] = g.closed_position;
+            let closed = rel(&q);
+            let base = -g.fingers.depth;
+            let (mut thick, mut height, mut tip) = (0.0f64, 0.0f64, f64::NEG_INFINITY);
+            let (mut pw, mut ph, mut pd, mut front) = (0.0f64, 0.0f64, 0.0f64, f64::NEG_INFINITY);
+            for k in 0..=40 {
+                let x = g.closed_position + (g.open_position - g.closed_position) * k as f64 / 40.0;
+                q[dof] = x;
+                let poses = rel(&q);
+                let half = g.opening(x) / 2.0;
+                for &l in &links {
+                    let finger = (open[l].translation.vector - closed[l].translation.vector).norm()
+                        > 1e-9
+                        || (open[l].rotation.inverse() * closed[l].rotation).angle() > 1e-9;
+                    for geo in &m.links()[l].collisions {
+                        let p = poses[l] * geo.origin;
+                        let pts: Vec<Vector3<f64>> = surface_samples(&geo.shape)
+                            .iter()
+                            .map(|v| p * nalgebra::Point3::from(*v))
+                            .map(|v| v.coords)
+                            .collect();
+                        let max = |f: &dyn Fn(&Vector3<f64>) -> f64| {
+                            pts.iter().map(f).fold(f64::NEG_INFINITY, f64::max)
+                        };
+                        let ya = max(&|v| v.y.abs());
+                        let za = max(&|v| v.z.abs());
+                        let x_lo = -max(&|v| -v.x);
+                        if finger {
+                            let outer = if p.translation.y >= 0.0 {
+                                max(&|v| v.y)
+                            } else {
+                                max(&|v| -v.y)
+                            };
+                            thick = thick.max(outer - half);
+                            height = height.max(2.0 * za);
+                            tip = tip.max(max(&|v| v.x));
+                            if x_lo < base {
+                                pw = pw.max(2.0 * ya);
+                                ph = ph.max(2.0 * za);
+                                pd = pd.max(base - x_lo);
+                            }
+                        } else {
+                            pw = pw.max(2.0 * ya);
+                            ph = ph.max(2.0 * za);
+                            pd = pd.max(base - x_lo);
+                            front = front.max(max(&|v| v.x) - base);
+                        }
+                    }
+                }
+            }
+            for (what, got, want) in [
+                ("thickness", e.thickness, thick),
+                ("height", e.height, height),
+                ("tip", e.tip, tip.max(0.0)),
+                ("palm width", e.palm_width, pw),
+                ("palm height", e.palm_height, ph),
+                ("palm depth", e.palm_depth, pd),
+                ("palm front", e.palm_front, front.max(0.0)),
+            ] {
+                assert!(
+                    got >= want - 1e-9 && got <= want + 1e-3,
+                    "{}: {what} {got} vs sampled {want}",
+                    g.name
+                );
+            }
+            // Covering: the larger of the description and the model, again
+            // the same; from_model gives the covered gripper.
+            let c = g.covering(&m).unwrap();
+            assert_eq!(c.fingers.thickness, g.fingers.thickness.max(e.thickness));
+            assert_eq!(c.fingers.palm_width, g.fingers.palm_width.max(e.palm_width));
+            assert_eq!(c.fingers.palm_depth, g.fingers.palm_depth.max(e.palm_depth));
+            assert_eq!(c.fingers.depth, g.fingers.depth);
+            assert_eq!(c.covering(&m).unwrap(), c);
+            assert_eq!(Gripper::from_model(&m).unwrap(), g);
+        }
+        // A gripper the model does not have is refused.
+        let ur = crate::robots::ur5e().unwrap();
+        assert!(Gripper::panda_hand().model_extents(&ur).is_err());
     }
 
     #[test]

@@ -32,7 +32,7 @@ pub use chain::KinematicChain;
 pub use error::{ModelError, Result, SourceLocation};
 pub use ferrobot_geometry::{Hull, Mesh, MeshSource, TriMesh};
 pub use geometry::{Geometry, Inertial, Shape};
-pub use gripper::{FingerGeometry, Gripper, OpeningMap};
+pub use gripper::{FingerGeometry, Gripper, HandExtents, OpeningMap};
 pub use joint::{Joint, JointCoupling, JointKind, JointLimits, Mimic};
 pub use kinematics::{pose_to_array, pose_to_matrix};
 pub use link::Link;

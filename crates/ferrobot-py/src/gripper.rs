@@ -165,13 +165,56 @@ impl PyGripper {
     }
 
     /// The gripper of `model`: a shipped one whose links and joints it has,
-    /// else one built from its SRDF end effector and finger geometry.
+    /// else one built from its SRDF end effector and finger geometry (its
+    /// detection boxes the description's; `covering` grows them to the
+    /// model's collision geometry).
     #[staticmethod]
     fn from_model(model: &PyRobotModel) -> PyResult<Self> {
         guard(|| {
             Ok(Self {
                 inner: Gripper::from_model(&model.inner).map_err(model_err)?,
             })
+        })
+    }
+
+    /// This gripper with its finger and housing boxes grown to cover `model`'s
+    /// own collision geometry of the hand and finger links (every opening
+    /// from closed to open): what grasp detection keeps out of the cloud is
+    /// then what the planner and simulator collide with. Raises unless
+    /// `model` has this gripper.
+    fn covering(&self, model: &PyRobotModel) -> PyResult<Self> {
+        guard(|| {
+            Ok(Self {
+                inner: self.inner.covering(&model.inner).map_err(model_err)?,
+            })
+        })
+    }
+
+    /// How far `model`'s collision geometry of this gripper reaches in the
+    /// grasp frame (m, a dict): thickness and height of the fingers (from the
+    /// pads' inner faces), palm_width, palm_height, palm_depth of the rest,
+    /// tip (finger geometry beyond the TCP) and palm_front (hand geometry in
+    /// front of the fingers' base), which the detector's boxes do not model.
+    fn model_extents<'py>(
+        &self,
+        py: Python<'py>,
+        model: &PyRobotModel,
+    ) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
+        guard(|| {
+            let e = self.inner.model_extents(&model.inner).map_err(model_err)?;
+            let d = pyo3::types::PyDict::new(py);
+            for (k, v) in [
+                ("thickness", e.thickness),
+                ("height", e.height),
+                ("palm_width", e.palm_width),
+                ("palm_height", e.palm_height),
+                ("palm_depth", e.palm_depth),
+                ("tip", e.tip),
+                ("palm_front", e.palm_front),
+            ] {
+                d.set_item(k, v)?;
+            }
+            Ok(d)
         })
     }
 

@@ -164,6 +164,13 @@ class PickPlaceConfig:
     #: measured clearance allows) and, if clear by this much all along, taken with those sphere contacts
     #: ignored on that segment only.
     exact_approach_clearance: float | None = 0.0005
+    #: Grasp detection with the hand grown to cover the robot model's own collision geometry of the hand and
+    #: finger links (``ferrobot.Gripper.covering``), so that no returned grasp puts the simulated / planned
+    #: hand into the cloud. Off by default: with the bundled Panda's primitives (fingers 2.65 cm thick at
+    #: their base, a 23.25 cm housing) the arm bin demo found almost no grasps (seeds 0-5: 14 -> 2 objects
+    #: cleared of 36, held-out 8 -> 4; BENCHMARKS.md, branch ``hand18h``); the detector needs the fingers'
+    #: taper (the real finger is 1.55 cm thick at the tip) before this can be the default.
+    hand_covers_model: bool = False
 
 
 @dataclass
@@ -424,10 +431,12 @@ def _reach(shape: dict, pose: np.ndarray, u: np.ndarray) -> float | None:
     return None
 
 
-def resolve_robot(robot=None, srdf=None, gripper=None):
+def resolve_robot(robot=None, srdf=None, gripper=None, cover: bool = False):
     """(model, gripper) for ``robot``: ``"panda"`` / ``"ur5e"`` (bundled), a URDF path (with ``srdf``), or a
     :class:`ferrobot.RobotModel`; ``gripper``: a :class:`ferrobot.Gripper`, ``"panda_hand"`` /
-    ``"robotiq_2f85"``, or None to find the model's own (``Gripper.from_model``)."""
+    ``"robotiq_2f85"``, or None to find the model's own (``Gripper.from_model``). ``cover``: the gripper returned
+    has its finger and housing boxes grown to cover the model's own collision geometry of them
+    (``Gripper.covering``; off by default, see ``PickPlaceConfig.hand_covers_model``)."""
     if robot is None or isinstance(robot, str) and robot in ("panda", "ur5e"):
         model = robots.bundled(robot or "panda")
     elif isinstance(robot, (str, bytes)) or hasattr(robot, "__fspath__"):
@@ -443,6 +452,10 @@ def resolve_robot(robot=None, srdf=None, gripper=None):
         g = known[gripper]()
     else:
         g = gripper
+    if cover:
+        # The detector's hand covers the model's own hand and finger collision geometry (what the planner and
+        # the simulator collide with); raises unless the model has this gripper.
+        return model, g.covering(model)
     g.check_model(model)
     return model, g
 
@@ -473,7 +486,13 @@ class PickPlace:
         m = self.config.exact_approach_clearance
         if m is not None and not (isinstance(m, (int, float)) and 0.0 <= m <= 0.02):
             raise InvalidArgumentError(f"config.exact_approach_clearance: {m!r} m is outside [0, 0.02] (or None)")
-        self.model, self.gripper = resolve_robot(model if robot is None else robot, srdf, gripper)
+        if not isinstance(self.config.hand_covers_model, bool):
+            raise InvalidArgumentError(
+                f"config.hand_covers_model: expected a bool, got {self.config.hand_covers_model!r}"
+            )
+        self.model, self.gripper = resolve_robot(
+            model if robot is None else robot, srdf, gripper, cover=self.config.hand_covers_model
+        )
         self.hand_link = self.gripper.hand_link
         self.planner = _core.Planner(self.model)
         # The planner moves the model's end-effector link; hands are placed for the gripper's hand link.
