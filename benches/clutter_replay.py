@@ -4,16 +4,18 @@ target object in the hand's frame: the tool behind the "slipped out" diagnosis i
 
     python benches/clutter_replay.py RUN.json SCENE ATTEMPT [--objects DIR] [--coupled] [--pybullet] [--mujoco]
                                      [--every K] [--world KEY=JSON ...] [--iters N] [--force F] [--quiet]
+                                     [--close-speed V]
 
 ``RUN.json`` is a ``clutter.py --json`` file, ``SCENE`` and ``ATTEMPT`` indices into its ``scene_records``
 and their ``attempts``; ``--objects`` the folder the run drew from (default: pybullet_data's). The world is
 rebuilt from the recorded settled poses without a new settle (so ferrobot's outcome may differ from the
 recorded one: the pile's contacts start afresh), the hand runs the recorded schedule. ``--world`` passes a
 ``ferrobot.World`` keyword (e.g. ``contact_frequency=200``), ``--iters`` the hand's solver iterations,
-``--force`` the squeeze per finger (N). Every ``K`` steps from the end of the approach: each finger's
-position (mm), the target's origin in the hand frame (mm; PyBullet reports the centre of mass instead), its
-rise (cm), its angular speed (rad/s, with its components in the hand frame when above 2 rad/s: y is the
-closing axis) and how far the other objects moved.
+``--force`` the squeeze per finger (N), ``--close-speed`` a finger speed (m/s) at which ferrobot's finger
+target is ramped shut instead of being set closed at once (without it the drive closes at ~0.6 m/s). Every
+``K`` steps from the end of the approach: each finger's position (mm), the target's origin in the hand frame (mm;
+PyBullet reports the centre of mass instead), its rise (cm), its angular speed (rad/s, with its components in the
+hand frame when above 2 rad/s: y is the closing axis) and how far the other objects moved.
 """
 
 from __future__ import annotations
@@ -48,6 +50,12 @@ def main() -> int:
     ap.add_argument("--iters", type=int, default=None)
     ap.add_argument("--force", type=float, default=ge.FINGER_FORCE)
     ap.add_argument("--quiet", action="store_true", help="results only")
+    ap.add_argument(
+        "--close-speed",
+        type=float,
+        default=None,
+        help="ferrobot: ramp the finger target at this speed (m/s per finger) instead of closing at once",
+    )
     a = ap.parse_args()
     data = json.loads(a.json.read_text())
     sc = data["scene_records"][a.scene]
@@ -103,9 +111,13 @@ def main() -> int:
         robot.set_gripper(fingers, [ge.OPEN] * nf, [0.0] * nf)
         robot.set_joint_position_targets(q_start)
         closing = False
+        ramp = finger
         for k, (tgt, force) in enumerate(steps):
             robot.set_joint_position_targets(tgt[:3], joint_names=slide)
-            if force > 0 and not closing:
+            if force > 0 and a.close_speed is not None and ramp > 0.0:
+                ramp = max(ramp - a.close_speed * cb.DT, 0.0)
+                robot.set_gripper_driver(ramp, force=force * (3 - nf))
+            elif force > 0 and not closing:
                 robot.close_gripper(force=force * (3 - nf))
                 closing = True
             elif force == 0:
