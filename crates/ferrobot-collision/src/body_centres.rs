@@ -38,11 +38,18 @@ impl BodyCentres {
         }
     }
 
-    /// The centre of `body`.
+    /// The centre of `body`, read lane by lane from the stored chunk (a
+    /// copy of the chunk in registers would be spilled to the stack to
+    /// pick a lane by index, and the lane's load would wait on that store).
     #[inline(always)]
     pub fn get(&self, body: usize) -> [f32; 3] {
         let chunk = &self.0[body / 8];
-        chunk.map(|v| v.as_array()[body % 8])
+        let lane = body % 8;
+        [
+            chunk[0].as_array()[lane],
+            chunk[1].as_array()[lane],
+            chunk[2].as_array()[lane],
+        ]
     }
 
     /// The chunks: bodies `8 c .. 8 c + 8` in chunk `c`.

@@ -1758,6 +1758,56 @@ mod tests {
         }
     }
 
+    /// The eight-wide scan returns the very vertex of a plain scalar scan
+    /// (the first of the hull's vertices with the largest `x dx + y dy +
+    /// z dz`, same `f32` operations), ties included, as its docs say:
+    /// hulls with an odd and an even number of packs (padding lanes repeat
+    /// the last vertex), directions along the axes (many equal values) and
+    /// random ones.
+    #[test]
+    fn hull_support_is_the_first_maximum() {
+        for (n, rings) in [(40usize, 3usize), (44, 3), (23, 2), (8, 1)] {
+            let mut pts = Vec::new();
+            for i in 0..n {
+                let a = i as f32 * std::f32::consts::TAU / n as f32;
+                for r in 0..rings.max(2) {
+                    pts.push(Vector::new(
+                        0.05 * a.cos(),
+                        0.05 * a.sin(),
+                        0.1 * r as f32 - 0.05,
+                    ));
+                }
+            }
+            let hull = Hull::new(&pts).unwrap();
+            let mut dirs: Vec<Vector> = [Vector::X, Vector::Y, Vector::Z]
+                .into_iter()
+                .flat_map(|e| [e, -e])
+                .collect();
+            dirs.extend((0..500).map(|k| {
+                Vector::new(
+                    (k as f32 * 0.37).sin(),
+                    (k as f32 * 0.91).cos(),
+                    (k as f32 * 0.13).sin() - 0.3,
+                )
+            }));
+            for d in dirs {
+                let value = |p: &Vector| p.x * d.x + p.y * d.y + p.z * d.z;
+                let mut first = 0;
+                for (i, p) in hull.points.iter().enumerate() {
+                    if value(p) > value(&hull.points[first]) {
+                        first = i;
+                    }
+                }
+                assert_eq!(
+                    hull.support(d),
+                    hull.points[first],
+                    "{n} x {rings}, {} packs, direction {d:?}",
+                    hull.packs.len()
+                );
+            }
+        }
+    }
+
     /// The box test never separates boxes that overlap (checked against
     /// points sampled inside the boxes), and separates far ones.
     #[test]

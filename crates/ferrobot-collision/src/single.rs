@@ -188,7 +188,12 @@ pub fn check_one(
         .enumerate()
         .rev()
     {
-        let mut todo = if skip_static { moving } else { all };
+        // No obstacles: no body has anything to test against.
+        let mut todo = match (num_obstacles, skip_static) {
+            (0, _) => 0,
+            (_, true) => moving,
+            (_, false) => all,
+        };
         // Most bodies are far from everything: one grid lookup shows it.
         if let Some(g) = grid {
             let reach = (*r + m8) + f32x8::splat(SLACK);
@@ -272,7 +277,7 @@ pub fn check_one(
         let exact = (&robot.exact[a], &robot.exact[b]);
         'pair: for ka in ba.first_pack..ba.first_pack + ba.pack_count {
             // Eight spheres of `a` against the bounding sphere of `b`.
-            let p = packs[ka];
+            let p = &packs[ka];
             let ri = robot.packs[ka].r + m8;
             let d = [p[0] - cb8[0], p[1] - cb8[1], p[2] - cb8[2]];
             let reach = ri + rb;
@@ -280,13 +285,16 @@ pub fn check_one(
             while near != 0 {
                 let lane = near.trailing_zeros() as usize;
                 near &= near - 1;
+                // Lanes read from memory, not from a copy of the packs
+                // spilled to the stack (see `BodyCentres::get`); the same
+                // sum as `ri`'s lane.
                 let pi = [
-                    p[0].to_array()[lane],
-                    p[1].to_array()[lane],
-                    p[2].to_array()[lane],
+                    p[0].as_array()[lane],
+                    p[1].as_array()[lane],
+                    p[2].as_array()[lane],
                 ]
                 .map(f32x8::splat);
-                let ri = f32x8::splat(ri.to_array()[lane]);
+                let ri = f32x8::splat(robot.packs[ka].r.as_array()[lane] + margin);
                 let range_b = bb.first_pack..bb.first_pack + bb.pack_count;
                 for (pb, pack_b) in packs[range_b.clone()].iter().zip(&robot.packs[range_b]) {
                     let d = [pi[0] - pb[0], pi[1] - pb[1], pi[2] - pb[2]];
