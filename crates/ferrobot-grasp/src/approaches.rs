@@ -14,7 +14,7 @@
 //! the preferred approach direction) it tries the approach along the
 //! preferred direction, then tilted about the closing axis (the housing
 //! leans across its short side) and about the housing's short axis (it
-//! leans along its long side), smallest tilt first ([`TILTS`]); the first
+//! leans along its long side), in the order of [`TILTS`]; the first
 //! orientation whose housing, swept back along the approach, holds no
 //! observed point of the cloud (nor of the far obstacles) and stays above
 //! the support plane at some fingertip depth is returned, with those
