@@ -1,5 +1,5 @@
-"""Analytic RGB-D scenes for the grasp tests and benchmarks: boxes and upright cylinders on a table,
-ray-cast by hand through a pinhole camera (OpenCV convention). Independent of ferrobot."""
+"""Analytic RGB-D scenes for the grasp tests and benchmarks: boxes, upright cylinders and cylinders lying on their
+side on a table, ray-cast by hand through a pinhole camera (OpenCV convention). Independent of ferrobot."""
 
 from __future__ import annotations
 
@@ -45,6 +45,17 @@ class Cylinder:
 
 
 @dataclass
+class LyingCylinder:
+    """A cylinder lying on the table, its axis horizontal along ``yaw`` (0: world x), centred at ``center_xy``."""
+
+    radius: float
+    length: float
+    center_xy: tuple = (0.0, 0.0)
+    yaw: float = 0.0
+    label: int = 3
+
+
+@dataclass
 class Scene:
     objects: list = field(default_factory=list)
     table_half: float = 0.4  # the table top is the square |x|, |y| <= table_half at z = 0
@@ -80,6 +91,27 @@ def render(scene: Scene, cam_pose: np.ndarray, width: int = W, height: int = H, 
                 tmax = np.nanmin(np.maximum(t1, t2), axis=1)
                 hit = (tmax >= tmin) & (tmin > 0)
                 tt = tmin
+            elif isinstance(obj, LyingCylinder):
+                # In the cylinder's frame (x along the axis, z up through its centre): the side y^2 + z^2 = r^2
+                # for |x| <= length / 2, and the two end discs x = +-length / 2.
+                Ry = _yaw(obj.yaw)
+                c = np.array([*obj.center_xy, obj.radius])
+                ol = Ry.T @ (o - c)
+                dl = d @ Ry
+                a = dl[:, 1] ** 2 + dl[:, 2] ** 2
+                b = 2 * (dl[:, 1] * ol[1] + dl[:, 2] * ol[2])
+                cc = ol[1] ** 2 + ol[2] ** 2 - obj.radius**2
+                disc = b * b - 4 * a * cc
+                t_side = (-b - np.sqrt(np.maximum(disc, 0))) / (2 * a)
+                x_side = ol[0] + t_side * dl[:, 0]
+                side = (disc >= 0) & (t_side > 0) & (np.abs(x_side) <= obj.length / 2)
+                tt = np.where(side, t_side, np.inf)
+                for end in (-obj.length / 2, obj.length / 2):
+                    t_end = (end - ol[0]) / dl[:, 0]
+                    q = ol[1:] + t_end[:, None] * dl[:, 1:]
+                    disc_hit = (t_end > 0) & (np.sum(q**2, axis=1) <= obj.radius**2)
+                    tt = np.where(disc_hit & (t_end < tt), t_end, tt)
+                hit = np.isfinite(tt)
             else:
                 c = np.array(obj.center_xy)
                 oc = o[:2] - c
@@ -124,6 +156,10 @@ def inside(scene: Scene, p: np.ndarray, margin: float = 0.0) -> np.ndarray:
             c = np.array([*obj.center_xy, obj.size[2] / 2.0])
             q = (p - c) @ _yaw(obj.yaw)
             solid |= np.all(np.abs(q) < half, axis=1)
+        elif isinstance(obj, LyingCylinder):
+            q = (p - np.array([*obj.center_xy, obj.radius])) @ _yaw(obj.yaw)
+            r = np.hypot(q[:, 1], q[:, 2])
+            solid |= (r < obj.radius - margin) & (np.abs(q[:, 0]) < obj.length / 2 - margin)
         else:
             r = np.linalg.norm(p[:, :2] - np.array(obj.center_xy), axis=1)
             solid |= (r < obj.radius - margin) & (p[:, 2] > margin) & (p[:, 2] < obj.height - margin)
@@ -137,6 +173,13 @@ def object_volume(obj, step: float = 0.002) -> np.ndarray:
         axes = [np.arange(-h + step / 2, h, step) for h in half]
         g = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
         return g @ _yaw(obj.yaw).T + np.array([*obj.center_xy, half[2]])
+    if isinstance(obj, LyingCylinder):
+        r, half = obj.radius, obj.length / 2
+        xs = np.arange(-half + step / 2, half, step)
+        ys = np.arange(-r + step / 2, r, step)
+        g = np.stack(np.meshgrid(xs, ys, ys, indexing="ij"), -1).reshape(-1, 3)
+        g = g[np.hypot(g[:, 1], g[:, 2]) < r]
+        return g @ _yaw(obj.yaw).T + np.array([*obj.center_xy, r])
     r = obj.radius
     xs = np.arange(-r + step / 2, r, step)
     zs = np.arange(step / 2, obj.height, step)

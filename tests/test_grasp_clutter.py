@@ -13,6 +13,7 @@ from grasp_scenes import (
     FX,
     FY,
     Box,
+    LyingCylinder,
     Scene,
     clutter_scene,
     hand_boxes,
@@ -166,19 +167,22 @@ def test_objects_lower_than_the_shallowest_depth_are_grasped_from_above(height):
     assert tips[2] <= height / 2 + 1e-3
 
 
-def _against_the_walls_scene(center_xy):
-    """``benches/clutter.py``'s bin (30 x 24 cm inside, walls 10 cm tall and 1.2 cm thick, label 9) with a
-    standing slab (2.2 x 8.5 x 6.5 cm, label 1) at ``center_xy`` near the +x wall; the camera looks down
-    at 60 degrees from the +x side. The hand's housing (20.8 cm along the closing axis) fits across the
-    slab only where it leans away from the walls."""
+def _bin_walls():
+    """``benches/clutter.py``'s bin: 30 x 24 cm inside, walls 10 cm tall and 1.2 cm thick, label 9."""
     ix, iy, h, t = 0.30, 0.24, 0.10, 0.012
-    walls = [
+    return [
         Box(size=(ix + 2 * t, t, h), center_xy=(0.0, iy / 2 + t / 2), label=9),
         Box(size=(ix + 2 * t, t, h), center_xy=(0.0, -iy / 2 - t / 2), label=9),
         Box(size=(t, iy, h), center_xy=(ix / 2 + t / 2, 0.0), label=9),
         Box(size=(t, iy, h), center_xy=(-ix / 2 - t / 2, 0.0), label=9),
     ]
-    objects = [Box(size=(0.022, 0.085, 0.065), center_xy=center_xy, label=1), *walls]
+
+
+def _against_the_walls_scene(center_xy):
+    """The bench's bin (``_bin_walls``) with a standing slab (2.2 x 8.5 x 6.5 cm, label 1) at ``center_xy`` near
+    the +x wall; the camera looks down at 60 degrees from the +x side. The hand's housing (20.8 cm along the
+    closing axis) fits across the slab only where it leans away from the walls."""
+    objects = [Box(size=(0.022, 0.085, 0.065), center_xy=center_xy, label=1), *_bin_walls()]
     return Scene(objects=objects, table_half=0.4), look_at(eye=(0.35, 0.0, 0.6), target=(0.0, 0.0, 0.0))
 
 
@@ -201,8 +205,32 @@ def _obb_overlap(c1, r1, h1, c2, r2, h2, tol=1e-3):
 
 @pytest.mark.parametrize("center_xy", [(0.09, 0.0), (0.1, 0.07)], ids=["wall", "corner"])
 def test_objects_against_bin_walls_get_grasps_clear_of_the_walls(center_xy):
-    target = 1
     scene, cam = _against_the_walls_scene(center_xy)
+    _assert_grasps_clear_of_the_bin(scene, cam, target=1)
+
+
+def test_a_tube_lying_along_a_wall_gets_grasps_leaning_its_housing_over_the_wall():
+    """A 3 cm-thick, 12 cm-long tube lying 7 cm (centre) from the bench bin's +y wall, seen by the bench's camera
+    (0.7 m, 60 degrees above the bin, from +x). Closed across the tube, the upright housing reaches 10.8 cm towards
+    the wall: it meets the wall; along the tube the opening (8 cm) is too small. Leaning about the housing's short
+    axis lifts its wall end over the 10 cm wall while the other end stays above the floor only in a band of leans
+    about 0.4-0.5 rad wide, which the tilt steps of 0.3 rad (``main`` before corner18h) skip: no grasp then."""
+    e = np.radians(60.0)
+    cam = look_at(eye=(0.7 * np.cos(e), 0.0, 0.7 * np.sin(e)), target=(0.0, 0.0, 0.0))
+    tube = LyingCylinder(radius=0.015, length=0.12, center_xy=(0.0, 0.05), label=1)
+    scene = Scene(objects=[tube, *_bin_walls()], table_half=0.4)
+    gw = _assert_grasps_clear_of_the_bin(scene, cam, target=1)
+    # Every grasp closes across the tube (its axis is world x) and leans away from the wall: the housing's
+    # +y end (towards the wall) is the raised one.
+    for g in gw:
+        closing = g.rotation_matrix[:, 1]
+        assert abs(closing[0]) < 0.5, f"{g}: closing along the tube"
+        assert closing[1] * closing[2] > 0.0, f"{g}: the housing's wall end is not the raised one"
+
+
+def _assert_grasps_clear_of_the_bin(scene, cam, target):
+    """Detects grasps on ``target`` in ``scene`` (the bench's bin) and checks them independently of the
+    detector; returns them (world frame)."""
     depth, labels = render(scene, cam)
     cloud = backproject_world(depth, cam)
     cloud = cloud[cloud[:, 2] > 0.003]
@@ -212,8 +240,8 @@ def test_objects_against_bin_walls_get_grasps_clear_of_the_walls(center_xy):
     assert len(fg.detect_from_rgbd(depth, FX, FY, CX, CY, 1.0, wall_approaches=False, **opts)) == 0
     gw = fg.detect_from_rgbd(depth, FX, FY, CX, CY, 1.0, **opts).transform(cam)
     assert len(gw) >= 1
-    box = next(o for o in scene.objects if o.label == target)
-    vol = object_volume(box)
+    obj = next(o for o in scene.objects if o.label == target)
+    vol = object_volume(obj)
     for g in gw:
         # Fingers, palm and approach corridor, and the housing swept back: out of the walls, the table and
         # the object (the analytic solids) and free of observed points.
@@ -235,3 +263,4 @@ def test_objects_against_bin_walls_get_grasps_clear_of_the_walls(center_xy):
         q = (vol - g.translation) @ g.rotation_matrix
         between = (np.abs(q[:, 2]) <= HEIGHT / 2) & (q[:, 0] >= g.depth - L_FINGER) & (q[:, 0] <= g.depth)
         assert (between & (np.abs(q[:, 1]) <= g.width / 2)).any(), f"{g}: the target is not between the fingers"
+    return gw

@@ -14,7 +14,7 @@
 //! the preferred approach direction) it tries the approach along the
 //! preferred direction, then tilted about the closing axis (the housing
 //! leans across its short side) and about the housing's short axis (it
-//! leans along its long side), smallest tilt first ([`TILTS`]); the first
+//! leans along its long side), in the order of [`TILTS`]; the first
 //! orientation whose housing, swept back along the approach, holds no
 //! observed point of the cloud (nor of the far obstacles) and stays above
 //! the support plane at some fingertip depth is returned, with those
@@ -43,9 +43,20 @@ const PLANE_TOLERANCE: f64 = 0.001;
 
 /// Tilts (radians) of the approach away from the preferred direction tried
 /// by [`clear_approaches`]: (about the closing axis, about the housing's
-/// short axis), each with both signs, smallest total tilt first. The
-/// largest (0.9, 0.6) leans the hand 62° from the preferred direction.
-pub const TILTS: [(f64, f64); 12] = [
+/// short axis), each with both signs. The first twelve go smallest total
+/// tilt first, up to (0.9, 0.6): 62° from the preferred direction. A lean
+/// about the short axis raises one end of the housing (20.8 cm long on the
+/// Panda) and lowers the other by half its length times the sine of the
+/// lean: a low object lying along a bin wall, closed across, needs its
+/// wall-side end over the wall while the other end stays above the floor,
+/// a band of leans a few tenths of a radian wide (a 3 cm tube 7 cm from a
+/// 10 cm wall: about 0.45 rad) that steps of 0.3 skip. The leans between
+/// (0.15, 0.45) come last, so that a closing axis where one of the first
+/// twelve clears keeps that orientation: they only add hands where none
+/// of those fit (a lean in the first place also changed grasps elsewhere,
+/// among them one closing on a neighbour's unobserved corner in
+/// `tests/test_grasp_clutter.py`).
+pub const TILTS: [(f64, f64); 20] = [
     (0.0, 0.0),
     (0.3, 0.0),
     (0.0, 0.3),
@@ -58,6 +69,14 @@ pub const TILTS: [(f64, f64); 12] = [
     (0.9, 0.0),
     (0.9, 0.3),
     (0.9, 0.6),
+    (0.0, 0.15),
+    (0.3, 0.15),
+    (0.0, 0.45),
+    (0.3, 0.45),
+    (0.6, 0.15),
+    (0.6, 0.45),
+    (0.9, 0.15),
+    (0.9, 0.45),
 ];
 
 /// Points per block of the housing test in [`clear_approaches`].
