@@ -407,7 +407,6 @@ pub fn check_margins<L: Lanes>(
             let mut todo = full & !g.clear_lanes(world, &p8, reach, full);
             // (cell, its lanes, the farthest candidate distance they reach)
             let mut cells = [(usize::MAX, 0u32, 0.0f32); 8];
-            let mut lane_limit = [0.0f32; 8];
             let mut ncells = 0;
             full = 0;
             let reach_body = body.bound.1 + margin;
@@ -419,7 +418,6 @@ pub fn check_margins<L: Lanes>(
                     None => full |= 1 << l,
                     Some((c, centre)) => {
                         let limit = WorldGrid::list_limit_at(&centre, &p, reach_body);
-                        lane_limit[l] = limit;
                         match cells[..ncells].iter_mut().find(|x| x.0 == c) {
                             Some(x) => {
                                 x.1 |= 1 << l;
@@ -434,27 +432,6 @@ pub fn check_margins<L: Lanes>(
                 }
             }
             for &(c, lanes, limit) in &cells[..ncells] {
-                // Few lanes in the cell: each lane alone, its spheres eight
-                // at a time, costs fewer tests than the body's spheres one
-                // at a time across eight mostly idle lanes.
-                if lanes.count_ones() as usize * body.pack_count < body.count {
-                    let mut rest = lanes;
-                    while rest != 0 {
-                        let l = rest.trailing_zeros() as usize;
-                        rest &= rest - 1;
-                        let p = [bc[0].lane(l), bc[1].lane(l), bc[2].lane(l)];
-                        let frame = scratch.frames[body.frame].map(|v| v.lane(l));
-                        let list = g.candidates(world, c);
-                        let limit = lane_limit[l];
-                        if lane_hits_list(robot, body, world, list, limit, &p, &frame, margin) {
-                            hit |= 1 << l;
-                            if hit & active == active {
-                                return hit & active;
-                            }
-                        }
-                    }
-                    continue;
-                }
                 for cand in g.candidates(world, c) {
                     // Nearest first: the rest are out of these lanes' reach.
                     // (NaN limits were kept out by `list_cell`.)
@@ -638,81 +615,6 @@ fn world_pair<L: Lanes>(
             return;
         }
     }
-}
-
-/// Whether one configuration's body (bounding-sphere centre `p`, its
-/// frame `frame`, one lane of the eight-lane kernel's) touches an obstacle
-/// of candidate list `list` within `limit` (see
-/// [`crate::world_grid::WorldGrid::list_limit`]): each candidate's bound,
-/// then its primitive against the body's bounding sphere, then the body's
-/// spheres eight at a time ([`crate::compiled::SpherePack`]). The sphere
-/// centres are computed with the same `f32` operations as [`apply`] on
-/// that lane, so every sphere test is the eight-lane kernel's for that
-/// lane, bit for bit.
-#[inline(always)]
-#[allow(clippy::too_many_arguments)]
-fn lane_hits_list(
-    robot: &CompiledRobot,
-    body: &crate::compiled::Body,
-    world: &CompiledWorld,
-    list: &[crate::world_grid::Candidate],
-    limit: f32,
-    p: &[f32; 3],
-    frame: &LaneFrame<f32>,
-    margin: f32,
-) -> bool {
-    let reach_body = body.bound.1 + margin;
-    let m8 = f32x8::splat(margin);
-    let packs = &robot.packs[body.first_pack..body.first_pack + body.pack_count];
-    // Pack centres in the base frame, made on the first candidate that
-    // needs them (at most eight packs on the stack; more are made per use).
-    let mut made: Option<[[f32x8; 3]; 8]> = None;
-    let centre = |pack: &crate::compiled::SpherePack| {
-        let f = frame.map(f32x8::splat);
-        let c = pack.c;
-        [
-            f[0] * c[0] + f[1] * c[1] + f[2] * c[2] + f[9],
-            f[3] * c[0] + f[4] * c[1] + f[5] * c[2] + f[10],
-            f[6] * c[0] + f[7] * c[1] + f[8] * c[2] + f[11],
-        ]
-    };
-    for cand in list {
-        // Nearest first: the rest are out of the body's reach.
-        if cand.distance > limit {
-            break;
-        }
-        let obs = &world.obstacles[cand.obstacle as usize];
-        // The same bound test as the eight-lane one of `world_pair`.
-        let reach = (body.bound.1 + obs.bound_r) + margin;
-        if dist2(p, &obs.bound_c) >= reach * reach {
-            continue;
-        }
-        if obs.complex.is_none() && sphere_hits_prim(&obs.prim, p, reach_body) == 0 {
-            continue;
-        }
-        let hits = |c: &[f32x8; 3], pack: &crate::compiled::SpherePack| {
-            let r = pack.r + m8;
-            match &obs.complex {
-                Some((shape, pose)) => complex_hits(shape, pose, c, r, 0xff),
-                None => sphere_hits_prim(&obs.prim, c, r),
-            }
-        };
-        if packs.len() <= 8 {
-            let made = made.get_or_insert_with(|| {
-                let mut out = [[f32x8::splat(0.0); 3]; 8];
-                for (o, pack) in out.iter_mut().zip(packs) {
-                    *o = centre(pack);
-                }
-                out
-            });
-            if made.iter().zip(packs).any(|(c, pack)| hits(c, pack) != 0) {
-                return true;
-            }
-        } else if packs.iter().any(|pack| hits(&centre(pack), pack) != 0) {
-            return true;
-        }
-    }
-    false
 }
 
 #[inline(always)]
