@@ -8,6 +8,7 @@ use crate::compiled::{CompiledRobot, CompiledWorld, Prim, Step};
 use wide::{f32x4, f32x8};
 
 use crate::lanes::{Lanes, sin_cos};
+use crate::world_grid::WorldGrid;
 
 /// A lane frame: row-major rotation (9) then translation (3).
 pub type LaneFrame<L> = [L; 12];
@@ -336,7 +337,7 @@ const GRID_MIN_OBSTACLES: usize = 16;
 pub fn check<L: Lanes>(
     robot: &CompiledRobot,
     world: &CompiledWorld,
-    grid: Option<&crate::world_grid::WorldGrid>,
+    grid: Option<&WorldGrid>,
     q: &[L],
     margin: f32,
     active: u32,
@@ -368,7 +369,7 @@ pub fn check<L: Lanes>(
 pub fn check_margins<L: Lanes>(
     robot: &CompiledRobot,
     world: &CompiledWorld,
-    grid: Option<&crate::world_grid::WorldGrid>,
+    grid: Option<&WorldGrid>,
     q: &[L],
     margin: f32,
     self_margin: f32,
@@ -413,10 +414,10 @@ pub fn check_margins<L: Lanes>(
                 let l = todo.trailing_zeros() as usize;
                 todo &= todo - 1;
                 let p = [bc[0].lane(l), bc[1].lane(l), bc[2].lane(l)];
-                match g.list_cell(&p) {
+                match g.list_cell_centre(&p) {
                     None => full |= 1 << l,
-                    Some(c) => {
-                        let limit = g.list_limit(c, &p, reach_body);
+                    Some((c, centre)) => {
+                        let limit = WorldGrid::list_limit_at(&centre, &p, reach_body);
                         match cells[..ncells].iter_mut().find(|x| x.0 == c) {
                             Some(x) => {
                                 x.1 |= 1 << l;

@@ -215,8 +215,12 @@ pub fn check_one(
             // The obstacles near the body's cell, nearest first, when the
             // grid's lists cover this body; else every obstacle.
             let list = grid.filter(|g| reach_body <= g.list_reach()).and_then(|g| {
-                g.list_cell(&bc)
-                    .map(|c| (g.candidates(world, c), g.list_limit(c, &bc, reach_body)))
+                g.list_cell_centre(&bc).map(|(c, centre)| {
+                    (
+                        g.candidates(world, c),
+                        WorldGrid::list_limit_at(&centre, &bc, reach_body),
+                    )
+                })
             });
             if let Some((list, limit)) = list {
                 let rb1 = body.bound.1;

@@ -14,9 +14,12 @@
 //! find nothing, are skipped: no answer changes. Anything else falls back
 //! to those tests.
 //!
-//! Cells are filled on first use (a few hundred instructions each), so a
-//! new world costs only the allocation; concurrent fills of one cell write
-//! the same value.
+//! Cells are filled on first use, so a new world costs only the
+//! allocation; concurrent fills of one cell write the same value. A cell
+//! is filled from the candidate list of the list cell holding it (below):
+//! only the listed obstacles are measured, and the bound is capped at the
+//! list's radius less the offset of the two centres (any unlisted obstacle
+//! is farther), so a fill costs the list's length, not the world's.
 //!
 //! A second, coarser grid (10 cm cells) holds per cell the list of
 //! obstacles a body centred anywhere in the cell could touch, nearest
@@ -123,7 +126,11 @@ impl WorldGrid {
             .filter(|b| b.frame != 0)
             .map(|b| b.bound.1)
             .fold(0.0f32, f32::max)
-            + margin;
+            + margin
+            // Bounds made from the lists are capped near the lists' reach
+            // (see `fill`): three quanta more keep a body far from every
+            // obstacle cleared by the bound alone.
+            + 3.0 * QUANTUM;
         Some(Self {
             origin: lo,
             n,
@@ -157,6 +164,34 @@ impl WorldGrid {
         Some(idx)
     }
 
+    /// The candidate-list cell holding `p` and its centre (the same `f32`
+    /// value as [`WorldGrid::list_centre`]'s, without its divisions), or
+    /// `None` outside the grid.
+    #[inline(always)]
+    pub fn list_cell_centre(&self, p: &[f32; 3]) -> Option<(usize, [f32; 3])> {
+        let mut idx = 0usize;
+        let mut centre = [0.0; 3];
+        for (a, &x) in p.iter().enumerate() {
+            let f = (x - self.origin[a]) * (1.0 / LIST_CELL);
+            // In [0, n) (NaN fails both tests).
+            if !(f >= 0.0 && f < self.list_n_f32[a]) {
+                return None;
+            }
+            let i = f as usize;
+            idx = idx * self.list_n[a] + i;
+            centre[a] = self.origin[a] + (i as f32 + 0.5) * LIST_CELL;
+        }
+        Some((idx, centre))
+    }
+
+    /// [`WorldGrid::list_limit`] for the list cell centred at `centre`
+    /// (from [`WorldGrid::list_cell_centre`]).
+    #[inline(always)]
+    pub fn list_limit_at(centre: &[f32; 3], p: &[f32; 3], reach: f32) -> f32 {
+        let d = [p[0] - centre[0], p[1] - centre[1], p[2] - centre[2]];
+        reach + (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt() + LIST_SLACK
+    }
+
     /// Centre of list cell `idx`.
     #[inline(always)]
     pub fn list_centre(&self, idx: usize) -> [f32; 3] {
@@ -172,9 +207,7 @@ impl WorldGrid {
     /// centred at `p` with bounding radius plus margin `reach`.
     #[inline(always)]
     pub fn list_limit(&self, idx: usize, p: &[f32; 3], reach: f32) -> f32 {
-        let c = self.list_centre(idx);
-        let d = [p[0] - c[0], p[1] - c[1], p[2] - c[2]];
-        reach + (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt() + LIST_SLACK
+        Self::list_limit_at(&self.list_centre(idx), p, reach)
     }
 
     /// The obstacles (indices into `world.obstacles`, nearest first) a body
@@ -187,11 +220,17 @@ impl WorldGrid {
         self.lists[idx].get_or_init(|| self.fill_list(world, idx))
     }
 
+    /// Distance from a list cell's centre within which every obstacle is
+    /// on its list.
+    fn list_radius(&self) -> f32 {
+        self.list_reach + 0.5 * LIST_CELL * 3f32.sqrt() + LIST_SLACK
+    }
+
     #[cold]
     #[inline(never)]
     fn fill_list(&self, world: &CompiledWorld, idx: usize) -> Box<[Candidate]> {
         let c = self.list_centre(idx);
-        let reach = self.list_reach + 0.5 * LIST_CELL * 3f32.sqrt() + LIST_SLACK;
+        let reach = self.list_radius();
         let mut near: Vec<(f32, u32)> = world
             .obstacles
             .iter()
@@ -296,11 +335,28 @@ impl WorldGrid {
     #[inline(never)]
     fn fill(&self, world: &CompiledWorld, ijk: [usize; 3]) -> u8 {
         let c = [0, 1, 2].map(|a| self.origin[a] + (ijk[a] as f32 + 0.5) * CELL);
-        let nearest = world
-            .obstacles
-            .iter()
-            .map(|o| obstacle_distance(o, &c))
-            .fold(f32::INFINITY, f32::min);
+        // The cell lies in the list cell of half its indices (list cells
+        // are two cells wide, same origin): only that list's obstacles can
+        // be nearer than the list's radius minus the offset of the centres;
+        // every other obstacle is farther (the distance to a solid is
+        // 1-Lipschitz), so the bound is capped there. The stored bound's
+        // one-unit deduction covers the `f32` rounding of both distances.
+        let l = ijk.map(|i| i / 2);
+        let nearest = if l.iter().zip(&self.list_n).all(|(i, n)| i < n) {
+            let idx = (l[0] * self.list_n[1] + l[1]) * self.list_n[2] + l[2];
+            let lc = self.list_centre(idx);
+            let offset = norm([c[0] - lc[0], c[1] - lc[1], c[2] - lc[2]]);
+            self.candidates(world, idx)
+                .iter()
+                .map(|cand| obstacle_distance(&world.obstacles[cand.obstacle as usize], &c))
+                .fold(self.list_radius() - offset, f32::min)
+        } else {
+            world
+                .obstacles
+                .iter()
+                .map(|o| obstacle_distance(o, &c))
+                .fold(f32::INFINITY, f32::min)
+        };
         let half_diagonal = 0.5 * CELL * 3f32.sqrt();
         let bound = (nearest - half_diagonal) / QUANTUM;
         if bound.is_nan() || bound < 1.0 {
