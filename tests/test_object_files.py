@@ -64,7 +64,7 @@ def _cache(tmp_path, monkeypatch):
     ],
 )
 def test_primitive_meshes_match_hand_formulas(geometry, exact):
-    v, f = clutter.primitive_mesh(geometry)
+    v, f = clutter._primitive_mesh(geometry)
     volume = _closed_and_outward(v, f)
     if geometry["type"] == "box":
         assert volume == pytest.approx(exact, rel=1e-12)
@@ -153,7 +153,7 @@ def test_multi_link_urdf_keeps_every_collision(tmp_path):
 def test_single_mesh_at_its_origin_is_used_as_it_is(tmp_path):
     """The common case (pybullet_data's random_urdfs): the mesh file itself with the URDF's scale, so its
     decomposition is cached per file; a visual mesh that does not exist does not matter."""
-    v, f = clutter.primitive_mesh({"type": "box", "size": [1.0, 2.0, 3.0]})
+    v, f = clutter._primitive_mesh({"type": "box", "size": [1.0, 2.0, 3.0]})
     mesh = tmp_path / "m.obj"
     mesh.write_text(
         "".join(f"v {a} {b} {c}\n" for a, b, c in v) + "".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in f)
@@ -167,10 +167,21 @@ def test_single_mesh_at_its_origin_is_used_as_it_is(tmp_path):
 
 def test_generated_files_are_cached_by_content(tmp_path):
     link = _link("o", _collision('<cylinder radius="0.02" length="0.05"/>', xyz=(0, 0, 0.01)))
-    a = clutter.read_object_file(_urdf(tmp_path / "a.urdf", link))
-    b = clutter.read_object_file(_urdf(tmp_path / "b.urdf", link))
+    (tmp_path / "one").mkdir()
+    (tmp_path / "two").mkdir()
+    a = clutter.read_object_file(_urdf(tmp_path / "one" / "can.urdf", link))
+    b = clutter.read_object_file(_urdf(tmp_path / "two" / "can.urdf", link))
     assert a.mesh == b.mesh
     assert Path(a.mesh).parent == tmp_path / "cache" / "objects"
+    assert Path(a.mesh).name.startswith("can-")
+
+
+def test_a_generated_mesh_too_big_is_named_after_its_object(tmp_path):
+    """The generated OBJ carries the source's name, so the size check's error names the object."""
+    link = _link("o", _collision('<box size="1e9 1 1"/>', xyz=(0, 0, 0.5)))
+    of = clutter.read_object_file(_urdf(tmp_path / "slab.urdf", link))
+    with pytest.raises(MeshError, match=r"slab-[0-9a-f]+\.obj.*huge"):
+        ferrobot.load_mesh(of.mesh)
 
 
 @pytest.mark.parametrize(
@@ -184,6 +195,9 @@ def test_generated_files_are_cached_by_content(tmp_path):
             "movable joints",
         ),
         (_link("o", _collision('<mesh filename="nowhere.obj"/>')), "", "nowhere.obj"),
+        (_link("o", _collision('<box size="0.1 0.1 0.1"/>', xyz=("nan", 0, 0))), "", "not finite"),
+        (_link("o", _collision('<box size="-0.1 0.1 0.1"/>')), "", "box size must be positive"),
+        (_link("o", _collision('<cylinder radius="0.02"/>')), "", "length"),
     ],
 )
 def test_unusable_urdf_objects_raise_naming_the_file(tmp_path, links, joints, match):
@@ -250,7 +264,7 @@ def test_folder_of_mixed_objects_is_copied_and_loads(tmp_path):
 def test_package_uris_resolve_in_ros_and_flat_layouts(tmp_path):
     """``package://NAME/meshes/m.obj`` from ``NAME/urdf/o.urdf`` (a ROS package), and ``package://ANY/m.obj``
     with the mesh beside the URDF (how object files are often shipped)."""
-    v, f = clutter.primitive_mesh({"type": "box", "size": [1.0, 1.0, 1.0]})
+    v, f = clutter._primitive_mesh({"type": "box", "size": [1.0, 1.0, 1.0]})
     obj = "\n".join([f"v {a} {b} {c}" for a, b, c in v] + [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in f]) + "\n"
     ros = tmp_path / "mypkg"
     (ros / "urdf").mkdir(parents=True)

@@ -20,7 +20,10 @@ e.g. non-manifold meshes) are left out and listed in ``ClutterSpec.skipped``.
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import math
+import os
+import tempfile
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -41,9 +44,6 @@ __all__ = [
     "find_object_files",
     "instance_masks",
     "random_clutter",
-    "object_mesh",
-    "object_mesh_file",
-    "primitive_mesh",
     "read_object_file",
     "settle",
 ]
@@ -178,8 +178,9 @@ def read_object_file(path) -> ObjectFile:
     left out: an object's visuals are not used); every ``<collision>`` of every link counts, placed by its
     ``<origin>`` and the links' fixed joints. One collision mesh at the link's origin is used as it is (its
     file and ``scale``); anything else (primitives, several collisions, offsets, several links) becomes one
-    generated OBJ in the object's frame (:func:`object_mesh_file`). Mass: the links' ``<inertial><mass>``
-    summed; friction: the first ``<contact><lateral_friction>``. Raises ``MeshError`` naming the file when it
+    generated OBJ in the object's frame, ``NAME-HASH.obj`` in the object cache (``$FERROBOT_CACHE_DIR/objects``,
+    else ``~/.cache/ferrobot/objects``; boxes exact, round primitives inscribed polyhedra within 0.25 % of the
+    radius). Mass: the links' ``<inertial><mass>`` summed; friction: the first ``<contact><lateral_friction>``. Raises ``MeshError`` naming the file when it
     cannot be used (unreadable, no collision geometry, movable joints)."""
     path = Path(path)
     if path.suffix.lower() in MESH_SUFFIXES:
@@ -233,8 +234,9 @@ def read_object_file(path) -> ObjectFile:
     if len(parts) == 1 and g["type"] == "mesh" and np.allclose(pose, np.eye(4), rtol=0.0, atol=1e-12):
         scale = tuple(float(s) for s in g["scale"])
         return ObjectFile(source=str(path), mesh=str(g["path"]), scale=scale, mass=mass, friction=friction)  # type: ignore[arg-type]
-    vertices, faces = object_mesh(parts)
-    return ObjectFile(source=str(path), mesh=str(object_mesh_file(vertices, faces)), mass=mass, friction=friction)
+    vertices, faces = _object_mesh(parts)
+    mesh = _object_mesh_file(vertices, faces, path.stem)
+    return ObjectFile(source=str(path), mesh=str(mesh), mass=mass, friction=friction)
 
 
 #: Segments round the axis of a generated sphere, cylinder or capsule (and latitude steps of the same angle
@@ -264,7 +266,7 @@ def _revolve(profile: list[tuple[float, float]], segments: int = ROUND_SEGMENTS)
     return v, np.vstack(tris).astype(np.int64)
 
 
-def primitive_mesh(g: dict) -> tuple[np.ndarray, np.ndarray]:
+def _primitive_mesh(g: dict) -> tuple[np.ndarray, np.ndarray]:
     """A closed triangle mesh (vertices (N, 3), faces (M, 3), outward) of a URDF collision primitive in its
     own frame (``ferrobot.RobotModel.collision_geometry``'s dicts: box ``size``; sphere ``radius``; cylinder
     and capsule ``radius`` and ``length`` along z, the capsule's length between its ball centres). Boxes are
@@ -293,7 +295,7 @@ def primitive_mesh(g: dict) -> tuple[np.ndarray, np.ndarray]:
     raise MeshError(f"collision geometry '{t}' is not a box, sphere, cylinder, capsule or mesh")
 
 
-def object_mesh(parts) -> tuple[np.ndarray, np.ndarray]:
+def _object_mesh(parts) -> tuple[np.ndarray, np.ndarray]:
     """One triangle mesh (vertices, faces) of ``parts``: (4x4 pose in the object frame, collision geometry
     dict of :meth:`ferrobot.RobotModel.collision_geometry`) pairs; meshes scaled by their ``scale``."""
     vs, fs, n = [], [], 0
@@ -302,7 +304,7 @@ def object_mesh(parts) -> tuple[np.ndarray, np.ndarray]:
             v = np.asarray(g["vertices"], dtype=np.float64) * np.asarray(g["scale"], dtype=np.float64)
             f = np.asarray(g["faces"], dtype=np.int64)
         else:
-            v, f = primitive_mesh(g)
+            v, f = _primitive_mesh(g)
         pose = np.asarray(pose, dtype=np.float64)
         vs.append(v @ pose[:3, :3].T + pose[:3, 3])
         fs.append(f + n)
@@ -313,9 +315,6 @@ def object_mesh(parts) -> tuple[np.ndarray, np.ndarray]:
 def _cache_dir() -> Path:
     """``$FERROBOT_CACHE_DIR/objects`` (``off``: a temporary folder of this process), else
     ``$XDG_CACHE_HOME/ferrobot/objects``, else ``~/.cache/ferrobot/objects`` (as the sphere models' cache)."""
-    import os
-    import tempfile
-
     base = os.environ.get("FERROBOT_CACHE_DIR")
     if base == "off":
         global _TEMP_CACHE
@@ -331,17 +330,15 @@ def _cache_dir() -> Path:
 _TEMP_CACHE: str | None = None
 
 
-def object_mesh_file(vertices: np.ndarray, faces: np.ndarray) -> Path:
-    """``vertices``/``faces`` written as an OBJ in the object cache (:func:`_cache_dir`), named by a hash of
-    the content (the same geometry gives the same file, so its decomposition is cached once)."""
-    import hashlib
-    import os
-
+def _object_mesh_file(vertices: np.ndarray, faces: np.ndarray, stem: str = "object") -> Path:
+    """``vertices``/``faces`` written as an OBJ in the object cache (:func:`_cache_dir`), named ``STEM-HASH.obj``
+    (``stem``: the source file's, so a later error about the mesh names its object; the hash of the content,
+    so the same geometry gives the same file and its decomposition is cached once)."""
     v = np.ascontiguousarray(vertices, dtype=np.float64)
     f = np.ascontiguousarray(faces, dtype=np.int64)
     digest = hashlib.sha256(v.tobytes() + f.tobytes()).hexdigest()[:24]
     folder = _cache_dir()
-    out = folder / f"{digest}.obj"
+    out = folder / f"{stem}-{digest}.obj"
     if out.is_file():
         return out
     try:
