@@ -180,8 +180,9 @@ def read_object_file(path) -> ObjectFile:
     file and ``scale``); anything else (primitives, several collisions, offsets, several links) becomes one
     generated OBJ in the object's frame, ``NAME-HASH.obj`` in the object cache (``$FERROBOT_CACHE_DIR/objects``,
     else ``~/.cache/ferrobot/objects``; boxes exact, round primitives inscribed polyhedra within 0.25 % of the
-    radius). Mass: the links' ``<inertial><mass>`` summed; friction: the first ``<contact><lateral_friction>``. Raises ``MeshError`` naming the file when it
-    cannot be used (unreadable, no collision geometry, movable joints)."""
+    radius). Mass: the links' ``<inertial><mass>`` summed; friction: the first ``<contact><lateral_friction>``.
+    Raises ``MeshError`` naming the file when it cannot be used (unreadable, no collision geometry, movable
+    joints)."""
     path = Path(path)
     if path.suffix.lower() in MESH_SUFFIXES:
         return ObjectFile(source=str(path), mesh=str(path))
