@@ -13,8 +13,9 @@ import numpy as np
 import pytest
 
 import ferrobot
+from ferrobot._tessellate import primitive_mesh
 from ferrobot.errors import MeshError
-from ferrobot.pipeline import clutter
+from ferrobot.pipeline import clutter, viewer
 
 scipy_rotation = pytest.importorskip("scipy.spatial.transform").Rotation
 
@@ -63,8 +64,11 @@ def _cache(tmp_path, monkeypatch):
         ({"type": "capsule", "radius": 0.015, "length": 0.06}, math.pi * 0.015**2 * 0.06 + 4 / 3 * math.pi * 0.015**3),
     ],
 )
-def test_primitive_meshes_match_hand_formulas(geometry, exact):
-    v, f = clutter._primitive_mesh(geometry)
+@pytest.mark.parametrize("segments", [64, viewer.VIEW_SEGMENTS])
+def test_primitive_meshes_match_hand_formulas(geometry, exact, segments):
+    """The one tessellation (object files at 64 segments, the viewer at 20, whose back-face culling needs
+    outward faces): closed, outward, vertices on the surface, faces within ~2 (1 - cos(pi / segments)) of it."""
+    v, f = primitive_mesh(geometry, segments)
     volume = _closed_and_outward(v, f)
     if geometry["type"] == "box":
         assert volume == pytest.approx(exact, rel=1e-12)
@@ -72,7 +76,10 @@ def test_primitive_meshes_match_hand_formulas(geometry, exact):
         return
     # Round shapes: vertices on the true surface, so the polyhedron lies inside the shape; every face plane
     # is at least r_in from the shape's core (its centre, axis segment), so the polyhedron holds the same
-    # shape of radius r_in: exact(r_in) <= volume < exact(r), and r_in is within 0.25 % of r.
+    # shape of radius r_in: exact(r_in) <= volume < exact(r), and r_in is within 2.05 (1 - cos(pi / segments))
+    # of r (a quad of the latitude-longitude grid spans 2 pi / segments both ways; its triangles' circumradius
+    # is about half its diagonal, so their planes sink r (pi / segments)^2 ~ 2 r (1 - cos(pi / segments)) in;
+    # 0.25 % at 64 segments).
     r = geometry["radius"]
     h = geometry.get("length", 0.0) / 2
     t = v[f]
@@ -97,7 +104,7 @@ def test_primitive_meshes_match_hand_formulas(geometry, exact):
         assert np.allclose(plane_distance[caps], 0.0, atol=1e-12)  # the caps are exact (core on the cap)
         plane_distance = plane_distance[~caps]
     r_in = plane_distance.min()
-    assert r * (1 - 0.0025) < r_in < r
+    assert r * (1 - 2.05 * (1 - math.cos(math.pi / segments))) < r_in < r
     scaled = dict(geometry, radius=r_in)
     exact_in = {
         "sphere": 4 / 3 * math.pi * r_in**3,
@@ -153,7 +160,7 @@ def test_multi_link_urdf_keeps_every_collision(tmp_path):
 def test_single_mesh_at_its_origin_is_used_as_it_is(tmp_path):
     """The common case (pybullet_data's random_urdfs): the mesh file itself with the URDF's scale, so its
     decomposition is cached per file; a visual mesh that does not exist does not matter."""
-    v, f = clutter._primitive_mesh({"type": "box", "size": [1.0, 2.0, 3.0]})
+    v, f = primitive_mesh({"type": "box", "size": [1.0, 2.0, 3.0]})
     mesh = tmp_path / "m.obj"
     mesh.write_text(
         "".join(f"v {a} {b} {c}\n" for a, b, c in v) + "".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in f)
@@ -264,7 +271,7 @@ def test_folder_of_mixed_objects_is_copied_and_loads(tmp_path):
 def test_package_uris_resolve_in_ros_and_flat_layouts(tmp_path):
     """``package://NAME/meshes/m.obj`` from ``NAME/urdf/o.urdf`` (a ROS package), and ``package://ANY/m.obj``
     with the mesh beside the URDF (how object files are often shipped)."""
-    v, f = clutter._primitive_mesh({"type": "box", "size": [1.0, 1.0, 1.0]})
+    v, f = primitive_mesh({"type": "box", "size": [1.0, 1.0, 1.0]})
     obj = "\n".join([f"v {a} {b} {c}" for a, b, c in v] + [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in f]) + "\n"
     ros = tmp_path / "mypkg"
     (ros / "urdf").mkdir(parents=True)

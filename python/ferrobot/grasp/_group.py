@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._core import grasp_nms, grasp_transform
+from .._tessellate import BOX_FACES as _BOX_FACES
 from ..errors import InvalidArgumentError, NonFiniteError, ShapeError
 
 __all__ = ["Grasp", "GraspGroup", "GRASP_COLUMNS", "PANDA_TCP_OFFSET", "GRASP_TO_PANDA_HAND"]
@@ -366,24 +367,6 @@ class GraspGroup:
 
 #: Values ``GraspGroup.from_dicts`` uses for fields a server leaves out.
 DICT_DEFAULTS = {"score": 0.0, "width": 0.08, "height": 0.02, "depth": 0.02, "object_id": -1}
-
-#: The 12 triangles of a box whose corners are indexed by bits (x, y, z) = (c & 1, c >> 1 & 1, c >> 2 & 1).
-_BOX_FACES = np.array(
-    [
-        [0, 2, 1],
-        [1, 2, 3],
-        [4, 5, 6],
-        [5, 7, 6],
-        [0, 1, 4],
-        [1, 5, 4],
-        [2, 6, 3],
-        [3, 6, 7],
-        [0, 4, 2],
-        [2, 4, 6],
-        [1, 3, 5],
-        [3, 7, 5],
-    ]
-)
 
 
 def _gripper_meshes(group: GraspGroup, finger_depth=0.05, finger_width=0.01, approach_distance=0.03):

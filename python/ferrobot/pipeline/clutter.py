@@ -1,8 +1,9 @@
 """Mesh objects and clutter: object files, random piles on a table or in a bin, settling, instance masks.
 
-Objects come from a folder of files: single-object URDFs (the first link's first collision mesh with its
-``scale``, ``<inertial><mass>`` and ``<contact><lateral_friction>``) and bare meshes (OBJ, STL, DAE) not
-referenced by a URDF in the same folder. The default folders are PyPI ``pybullet``'s
+Objects come from a folder of files: single-object URDFs (every collision of every link, meshes with their
+``scale`` and primitives, placed by their origins and fixed joints; ``<inertial><mass>`` and
+``<contact><lateral_friction>``; :func:`read_object_file`) and bare meshes (OBJ, STL, DAE) not referenced by a
+URDF in the same folder. The default folders are PyPI ``pybullet``'s
 ``pybullet_data/random_urdfs`` (1,000 objects) and ``pybullet_data/objects``.
 
 A :class:`ClutterSpec` is plain data drawn from a seed by :func:`random_clutter`: which files, at which
@@ -31,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import _core
+from .._tessellate import ROUND_SEGMENTS, primitive_mesh
 from ..errors import InvalidArgumentError, MeshError, ModelError
 
 __all__ = [
@@ -240,62 +242,6 @@ def read_object_file(path) -> ObjectFile:
     return ObjectFile(source=str(path), mesh=str(mesh), mass=mass, friction=friction)
 
 
-#: Segments round the axis of a generated sphere, cylinder or capsule (and latitude steps of the same angle
-#: on round ends): its vertices lie on the true surface and its faces at most 0.25 % of the radius inside it.
-ROUND_SEGMENTS = 64
-
-
-def _revolve(profile: list[tuple[float, float]], segments: int = ROUND_SEGMENTS) -> tuple[np.ndarray, np.ndarray]:
-    """A closed surface of revolution about z: ``profile`` is (z, r) from the bottom pole (r = 0) to the top
-    pole (r = 0), z increasing; triangles wound counter-clockwise seen from outside."""
-    a = np.linspace(0.0, 2.0 * np.pi, segments, endpoint=False)
-    ring = np.c_[np.cos(a), np.sin(a)]
-    rings = profile[1:-1]
-    verts = [np.array([[0.0, 0.0, profile[0][0]]])]
-    verts += [np.c_[r * ring, np.full(segments, z)] for z, r in rings]
-    verts.append(np.array([[0.0, 0.0, profile[-1][0]]]))
-    v = np.vstack(verts)
-    top = len(v) - 1
-    j = np.arange(segments)
-    k = (j + 1) % segments
-    tris = [np.c_[np.zeros(segments, dtype=np.int64), 1 + k, 1 + j]]
-    for i in range(len(rings) - 1):
-        lo, hi = 1 + i * segments, 1 + (i + 1) * segments
-        tris += [np.c_[lo + j, lo + k, hi + k], np.c_[lo + j, hi + k, hi + j]]
-    last = 1 + (len(rings) - 1) * segments
-    tris.append(np.c_[np.full(segments, top), last + j, last + k])
-    return v, np.vstack(tris).astype(np.int64)
-
-
-def _primitive_mesh(g: dict) -> tuple[np.ndarray, np.ndarray]:
-    """A closed triangle mesh (vertices (N, 3), faces (M, 3), outward) of a URDF collision primitive in its
-    own frame (``ferrobot.RobotModel.collision_geometry``'s dicts: box ``size``; sphere ``radius``; cylinder
-    and capsule ``radius`` and ``length`` along z, the capsule's length between its ball centres). Boxes are
-    exact; round shapes are inscribed polyhedra (:data:`ROUND_SEGMENTS`), within 0.25 % of the radius."""
-    t = g["type"]
-    if t == "box":
-        h = 0.5 * np.asarray(g["size"], dtype=np.float64)
-        v = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=np.float64) * h
-        f = np.array(
-            [[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
-             [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]],
-            dtype=np.int64,
-        )  # fmt: skip
-        return v, f
-    r = float(g["radius"])
-    half_rings = ROUND_SEGMENTS // 4
-    polar = np.linspace(0.0, 0.5 * np.pi, half_rings + 1)
-    if t == "sphere":
-        return _revolve([(-r * math.cos(p), r * math.sin(p)) for p in np.r_[polar, np.pi - polar[-2::-1]]])
-    h = 0.5 * float(g["length"])
-    if t == "cylinder":
-        return _revolve([(-h, 0.0), (-h, r), (h, r), (h, 0.0)])
-    if t == "capsule":
-        bottom = [(-h - r * math.cos(p), r * math.sin(p)) for p in polar]
-        return _revolve(bottom + [(-z, rr) for z, rr in bottom[::-1]])
-    raise MeshError(f"collision geometry '{t}' is not a box, sphere, cylinder, capsule or mesh")
-
-
 def _object_mesh(parts) -> tuple[np.ndarray, np.ndarray]:
     """One triangle mesh (vertices, faces) of ``parts``: (4x4 pose in the object frame, collision geometry
     dict of :meth:`ferrobot.RobotModel.collision_geometry`) pairs; meshes scaled by their ``scale``."""
@@ -304,8 +250,10 @@ def _object_mesh(parts) -> tuple[np.ndarray, np.ndarray]:
         if g["type"] == "mesh":
             v = np.asarray(g["vertices"], dtype=np.float64) * np.asarray(g["scale"], dtype=np.float64)
             f = np.asarray(g["faces"], dtype=np.int64)
+        elif g["type"] in ("box", "sphere", "cylinder", "capsule"):
+            v, f = primitive_mesh(g, ROUND_SEGMENTS)
         else:
-            v, f = _primitive_mesh(g)
+            raise MeshError(f"collision geometry '{g['type']}' is not a box, sphere, cylinder, capsule or mesh")
         pose = np.asarray(pose, dtype=np.float64)
         vs.append(v @ pose[:3, :3].T + pose[:3, 3])
         fs.append(f + n)

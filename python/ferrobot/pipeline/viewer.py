@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import _core
-from ..grasp._group import _BOX_FACES
+from .._tessellate import primitive_mesh
 from .scene import ROBOT_MOUNT, TABLE_TOP
 
 __all__ = ["DEFAULT_VIEW", "mesh_of", "project", "robot_meshes", "scene_data", "viewer_data", "write_viewer"]
@@ -49,47 +49,8 @@ def project(points, view: dict | None = None) -> np.ndarray:
     return np.stack([v["width"] / 2 + v["F"] * (d @ r) / z, v["height"] / 2 - v["F"] * (d @ u) / z, z], axis=1)
 
 
-def _sphere_like(radius: float, half_length: float, n: int = 16, m: int = 8):
-    """A sphere (half_length 0) or a capsule along z as a latitude-longitude triangle mesh."""
-    rings = []
-    for i in range(m + 1):  # north pole to equator, then equator to south pole
-        a = np.pi / 2 * (1 - i / m)
-        rings.append((radius * np.cos(a), radius * np.sin(a) + half_length))
-    for i in range(m + 1):
-        a = -np.pi / 2 * i / m
-        rings.append((radius * np.cos(a), radius * np.sin(a) - half_length))
-    verts, faces = [], []
-    t = 2 * np.pi * np.arange(n) / n
-    for rr, z in rings:
-        verts += [(rr * np.cos(a), rr * np.sin(a), z) for a in t]
-    for k in range(len(rings) - 1):
-        for j in range(n):
-            a, b = k * n + j, k * n + (j + 1) % n
-            c, d = a + n, b + n
-            faces += [(a, c, b), (b, c, d)]
-    return np.array(verts), np.array(faces)
-
-
-def _cylinder(radius: float, length: float, n: int = 20):
-    t = 2 * np.pi * np.arange(n) / n
-    ring = np.stack([radius * np.cos(t), radius * np.sin(t)], 1)
-    top = np.c_[ring, np.full(n, length / 2)]
-    bot = np.c_[ring, np.full(n, -length / 2)]
-    verts = np.vstack([top, bot, [[0, 0, length / 2], [0, 0, -length / 2]]])
-    faces = []
-    for j in range(n):
-        k = (j + 1) % n
-        faces += [(j, n + j, k), (k, n + j, n + k), (2 * n, j, k), (2 * n + 1, n + k, n + j)]
-    return verts, np.array(faces)
-
-
-def _box(size):
-    h = np.asarray(size, dtype=np.float64) / 2
-    verts = (
-        np.array([[(-1) ** (1 - (i & 1)), (-1) ** (1 - (i >> 1 & 1)), (-1) ** (1 - (i >> 2 & 1))] for i in range(8)])
-        * h
-    )
-    return verts, _BOX_FACES
+#: Segments round the axis of a drawn sphere, cylinder or capsule (``_tessellate.primitive_mesh``).
+VIEW_SEGMENTS = 20
 
 
 def _decimate(verts: np.ndarray, faces: np.ndarray, max_faces: int):
@@ -117,14 +78,8 @@ def mesh_of(geom: dict, max_faces: int = 1500) -> tuple[np.ndarray, np.ndarray]:
     """Triangle mesh (vertices in the geometry's parent frame, faces) of one geometry dict as
     ``RobotModel.visual_geometry`` / ``collision_geometry`` give it."""
     kind = geom["type"]
-    if kind == "box":
-        v, f = _box(geom["size"])
-    elif kind == "sphere":
-        v, f = _sphere_like(geom["radius"], 0.0)
-    elif kind == "capsule":
-        v, f = _sphere_like(geom["radius"], geom["length"] / 2)
-    elif kind == "cylinder":
-        v, f = _cylinder(geom["radius"], geom["length"])
+    if kind in ("box", "sphere", "cylinder", "capsule"):
+        v, f = primitive_mesh(geom, VIEW_SEGMENTS)
     elif kind == "mesh":
         scaled = np.asarray(geom["vertices"]) * np.asarray(geom.get("scale", (1.0, 1.0, 1.0)))
         v, f = _decimate(scaled, np.asarray(geom["faces"]), max_faces)
@@ -160,15 +115,14 @@ def _round(a, nd: int = 4):
 
 
 def _object_mesh(kind: str, size) -> tuple[np.ndarray, np.ndarray]:
-    size = list(size)
+    """A scene object's mesh from its ``kind`` and ``size`` (box extents; radius; radius and length)."""
+    size = [float(x) for x in size]
     if kind == "box":
-        return _box(size)
+        return primitive_mesh({"type": "box", "size": size})
     if kind == "sphere":
-        return _sphere_like(size[0], 0.0)
-    if kind == "cylinder":
-        return _cylinder(size[0], size[1])
-    if kind == "capsule":
-        return _sphere_like(size[0], size[1] / 2)
+        return primitive_mesh({"type": "sphere", "radius": size[0]}, VIEW_SEGMENTS)
+    if kind in ("cylinder", "capsule"):
+        return primitive_mesh({"type": kind, "radius": size[0], "length": size[1]}, VIEW_SEGMENTS)
     raise ValueError(f"unknown object kind {kind!r}")
 
 
