@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 import shutil
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -14,7 +15,7 @@ import pytest
 
 import ferrobot
 from ferrobot._tessellate import primitive_mesh
-from ferrobot.errors import MeshError
+from ferrobot.errors import InvalidArgumentError, MeshError
 from ferrobot.pipeline import clutter, viewer
 
 scipy_rotation = pytest.importorskip("scipy.spatial.transform").Rotation
@@ -286,3 +287,33 @@ def test_package_uris_resolve_in_ros_and_flat_layouts(tmp_path):
     link = _link("o", _collision('<mesh filename="package://elsewhere/m.obj" scale="0.03 0.03 0.03"/>'))
     of = clutter.read_object_file(_urdf(flat / "o.urdf", link))
     assert Path(of.mesh) == (flat / "m.obj").resolve()
+
+
+@pytest.mark.parametrize(
+    ("env", "expected"),
+    [
+        ({"FERROBOT_CACHE_DIR": "/c", "XDG_CACHE_HOME": "/x", "HOME": "/h"}, "/c/{kind}"),
+        ({"FERROBOT_CACHE_DIR": "", "XDG_CACHE_HOME": "/x", "HOME": "/h"}, "/x/ferrobot/{kind}"),
+        ({"XDG_CACHE_HOME": "", "HOME": "/h"}, "/h/.cache/ferrobot/{kind}"),
+        ({"FERROBOT_CACHE_DIR": "off", "XDG_CACHE_HOME": "/x", "HOME": "/h"}, None),
+        ({"HOME": ""}, None),
+    ],
+)
+def test_one_cache_folder_rule_for_spheres_and_objects(monkeypatch, tmp_path, env, expected):
+    """The documented rule (README): $FERROBOT_CACHE_DIR, else $XDG_CACHE_HOME/ferrobot, else
+    ~/.cache/ferrobot, a subfolder per kind, empty variables unset, ``off`` no disk cache; the object cache
+    falls back to a temporary folder of the process."""
+    for k in ("FERROBOT_CACHE_DIR", "XDG_CACHE_HOME", "HOME"):
+        monkeypatch.delenv(k, raising=False)
+    for k, v in env.items():
+        monkeypatch.setenv(k, v)
+    for kind in ("spheres", "objects"):
+        got = ferrobot._core.cache_dir(kind)
+        assert (None if got is None else str(got)) == (None if expected is None else expected.format(kind=kind))
+    folder = clutter._cache_dir()
+    if expected is None:
+        assert folder.is_dir() and Path(tempfile.gettempdir()) in folder.parents
+    else:
+        assert folder == Path(expected.format(kind="objects"))
+    with pytest.raises(InvalidArgumentError, match="kind"):
+        ferrobot._core.cache_dir("../objects")

@@ -2,6 +2,7 @@
 
 from collections.abc import Iterator, Sequence
 from os import PathLike
+from pathlib import Path
 from typing import Any, TypedDict, final
 
 import numpy as np
@@ -30,6 +31,7 @@ __all__ = [
     "look_at",
     "load_mesh",
     "bundled_robot",
+    "cache_dir",
     "_simd_support",  # issue 22: the per-level builds loader
     "ReactiveController",
     "PotentialFieldController",
@@ -110,6 +112,9 @@ def _simd_support() -> tuple[str, str]:
 
 def bundled_robot(name: str) -> tuple[str, str, str]:
     """(URDF text, SRDF text, default ee link) of a bundled robot."""
+
+def cache_dir(kind: str) -> Path | None:
+    """The disk cache's folder for ``kind`` (``"spheres"``, ``"objects"``), None when the cache is off."""
 
 @final
 class RobotModel:

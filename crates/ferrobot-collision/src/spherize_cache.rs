@@ -9,10 +9,10 @@
 //! sizes, origins, mesh scales and every vertex and triangle). The spherizer
 //! is deterministic, so a hit is the result a new run would give.
 //!
-//! The disk cache lives in `$FERROBOT_CACHE_DIR`, else
-//! `$XDG_CACHE_HOME/ferrobot`, else `$HOME/.cache/ferrobot`, under
-//! `spheres/`; `FERROBOT_CACHE_DIR=off` turns it off (the memory cache
-//! stays). It is only an optimisation: a file that cannot be read, written
+//! The disk cache lives in the `spheres/` folder of the one cache root
+//! ([`ferrobot_geometry::cache`]: `$FERROBOT_CACHE_DIR`, else
+//! `$XDG_CACHE_HOME/ferrobot`, else `$HOME/.cache/ferrobot`);
+//! `FERROBOT_CACHE_DIR=off` turns it off (the memory cache stays). It is only an optimisation: a file that cannot be read, written
 //! or parsed is ignored and the model is computed.
 
 use std::collections::HashMap;
@@ -126,15 +126,7 @@ fn memory() -> &'static Mutex<HashMap<u64, Entry>> {
 }
 
 fn dir() -> Option<PathBuf> {
-    let base = match std::env::var_os("FERROBOT_CACHE_DIR") {
-        Some(d) if d == "off" => return None,
-        Some(d) if !d.is_empty() => PathBuf::from(d),
-        _ => match std::env::var_os("XDG_CACHE_HOME") {
-            Some(d) if !d.is_empty() => PathBuf::from(d).join("ferrobot"),
-            _ => PathBuf::from(std::env::var_os("HOME")?).join(".cache/ferrobot"),
-        },
-    };
-    Some(base.join("spheres"))
+    ferrobot_geometry::cache::cache_dir("spheres")
 }
 
 /// Text form: per link `link NAME COUNT` then `x y z r` lines, then the

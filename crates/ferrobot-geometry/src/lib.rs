@@ -14,6 +14,7 @@
 //! passing it from the simulator to the collision world never copies or
 //! rebuilds them.
 
+pub mod cache;
 pub mod cloud;
 pub mod decomposition;
 pub mod error;

@@ -36,6 +36,23 @@ fn bundled_robot(name: &str) -> PyResult<(&'static str, &'static str, &'static s
     })
 }
 
+/// The folder of ferrobot's disk cache for entries of `kind` (`"spheres"`,
+/// `"objects"`): `$FERROBOT_CACHE_DIR/kind`, else
+/// `$XDG_CACHE_HOME/ferrobot/kind`, else `~/.cache/ferrobot/kind`; `None`
+/// when the disk cache is off (`FERROBOT_CACHE_DIR=off`, or no home). The
+/// rule is `ferrobot_geometry::cache`'s; the folder is not created.
+#[pyfunction]
+fn cache_dir(kind: &str) -> PyResult<Option<std::path::PathBuf>> {
+    errors::guard(|| {
+        if kind.is_empty() || kind.contains(['/', '\\']) || kind == "." || kind == ".." {
+            return Err(errors::InvalidArgumentError::new_err(format!(
+                "kind must be one folder name (e.g. 'objects'), got {kind:?}"
+            )));
+        }
+        Ok(ferrobot_geometry::cache::cache_dir(kind))
+    })
+}
+
 /// The instruction-set levels of this process, for the Python loader that
 /// picks one of a wheel's per-level builds (`python/ferrobot/_builds.py`):
 /// (the best level this CPU and OS support, the level this module was
@@ -123,6 +140,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(camera::camera_backproject, m)?)?;
     m.add_function(wrap_pyfunction!(camera::camera_convert_pose, m)?)?;
     m.add_function(wrap_pyfunction!(bundled_robot, m)?)?;
+    m.add_function(wrap_pyfunction!(cache_dir, m)?)?;
     m.add_function(wrap_pyfunction!(_simd_support, m)?)?;
     m.add_function(wrap_pyfunction!(mesh_objects::load_mesh, m)?)?;
     m.add_class::<control::PyReactiveController>()?;

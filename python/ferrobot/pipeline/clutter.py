@@ -262,18 +262,16 @@ def _object_mesh(parts) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _cache_dir() -> Path:
-    """``$FERROBOT_CACHE_DIR/objects`` (``off``: a temporary folder of this process), else
-    ``$XDG_CACHE_HOME/ferrobot/objects``, else ``~/.cache/ferrobot/objects`` (as the sphere models' cache)."""
-    base = os.environ.get("FERROBOT_CACHE_DIR")
-    if base == "off":
-        global _TEMP_CACHE
-        if _TEMP_CACHE is None:
-            _TEMP_CACHE = tempfile.mkdtemp(prefix="ferrobot-objects-")
-        return Path(_TEMP_CACHE)
-    if not base:
-        xdg = os.environ.get("XDG_CACHE_HOME")
-        base = str(Path(xdg) / "ferrobot") if xdg else str(Path.home() / ".cache" / "ferrobot")
-    return Path(base) / "objects"
+    """The object cache: ``_core.cache_dir("objects")`` (the one folder rule, ``$FERROBOT_CACHE_DIR/objects``,
+    else ``$XDG_CACHE_HOME/ferrobot/objects``, else ``~/.cache/ferrobot/objects``); with the disk cache off
+    (``FERROBOT_CACHE_DIR=off``) a temporary folder of this process."""
+    d = _core.cache_dir("objects")
+    if d is not None:
+        return Path(d)
+    global _TEMP_CACHE
+    if _TEMP_CACHE is None:
+        _TEMP_CACHE = tempfile.mkdtemp(prefix="ferrobot-objects-")
+    return Path(_TEMP_CACHE)
 
 
 _TEMP_CACHE: str | None = None
