@@ -170,15 +170,21 @@ def write_object(out: Path, name: str, parts, rng: np.random.Generator) -> Path:
     return path
 
 
-def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+def generator_main(generate_fn, doc: str, per_kind: int, seed: int) -> int:
+    """The command line of an object-set generator: ``OUT [--per-kind N] [--seed S]``, ``generate_fn(out,
+    per_kind, seed)`` returning the written paths (shared by this script and ``thin_objects.py``)."""
+    ap = argparse.ArgumentParser(description=doc, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("out", type=Path)
-    ap.add_argument("--per-kind", type=int, default=12)
-    ap.add_argument("--seed", type=int, default=18)
+    ap.add_argument("--per-kind", type=int, default=per_kind)
+    ap.add_argument("--seed", type=int, default=seed)
     args = ap.parse_args()
-    paths = generate(args.out, args.per_kind, args.seed)
+    paths = generate_fn(args.out, args.per_kind, args.seed)
     print(f"{len(paths)} objects in {args.out}")
     return 0
+
+
+def main() -> int:
+    return generator_main(generate, __doc__, per_kind=12, seed=18)
 
 
 if __name__ == "__main__":

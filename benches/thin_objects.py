@@ -24,14 +24,13 @@ no grasp was found (see BENCHMARKS.md, "Thin and flat objects"); this set measur
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from heldout_objects import box, wall, write_object  # noqa: E402
+from heldout_objects import box, generator_main, wall, write_object  # noqa: E402
 
 KINDS = ("flatring", "torus", "benttube", "plate", "washer", "flatbar")
 
@@ -86,14 +85,7 @@ def generate(out: Path, per_kind: int = 6, seed: int = 7) -> list[Path]:
 
 
 def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("out", type=Path)
-    ap.add_argument("--per-kind", type=int, default=6)
-    ap.add_argument("--seed", type=int, default=7)
-    args = ap.parse_args()
-    paths = generate(args.out, args.per_kind, args.seed)
-    print(f"{len(paths)} objects in {args.out}")
-    return 0
+    return generator_main(generate, __doc__, per_kind=6, seed=7)
 
 
 if __name__ == "__main__":
