@@ -359,13 +359,11 @@ impl Gripper {
     }
 
     /// The driver effort (N or N·m) that squeezes with `force` N per finger
-    /// at driver position `q`, by virtual work over the two fingers, each
-    /// moving half the opening against its `force`: `effort · δq = 2 ·
-    /// force · δopening / 2`, so `force · |d opening / d q|` (for the Panda
-    /// hand, `2 · force`: its driver carries both fingers through the mimic
-    /// coupling).
+    /// at driver position `q`, by virtual work over the two fingers each
+    /// moving half the opening: `force · |d opening / d q| / 2` (for the
+    /// Panda hand, `force` itself).
     pub fn driver_effort(&self, force: f64, q: f64) -> f64 {
-        force * self.map.derivative(q).abs()
+        force * self.map.derivative(q).abs() / 2.0
     }
 
     /// The rotation whose columns are the grasp frame's axes (approach,
