@@ -146,7 +146,8 @@ impl Robot {
 
     /// The effort (N·m or N) each DOF's drive applies now, plus the effort
     /// set with [`Robot::set_efforts`]: the drive law
-    /// `clamp(stiffness·(q* − q) + damping·(q̇* − q̇), ±max_force)` at the
+    /// `clamp(stiffness·(s − q) + damping·(ṡ − q̇), ±max_force)` (`s`, `ṡ`:
+    /// the servo setpoint and its speed, [`crate::drives`]) at the
     /// current joint state. At a static equilibrium, or at constant
     /// velocity, this is the force the simulator's implicit motor applies;
     /// during fast transients the motor's impulse also reflects the change
@@ -162,8 +163,7 @@ impl Robot {
                 let drive = if d.stiffness == 0.0 && d.damping == 0.0 {
                     0.0
                 } else {
-                    let f = d.stiffness * (d.target_position - q)
-                        + d.damping * (d.target_velocity - qd);
+                    let f = d.stiffness * (d.setpoint - q) + d.damping * (d.setpoint_velocity - qd);
                     f.clamp(-d.max_force, d.max_force)
                 };
                 drive + e

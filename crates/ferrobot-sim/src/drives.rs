@@ -1,6 +1,33 @@
-//! Joint drives: PD position/velocity motors with a force limit, as in
-//! Isaac Sim's articulation drives (force = stiffness · (q* − q) +
-//! damping · (q̇* − q̇), clamped to ±max_force).
+//! Joint drives: velocity-capped PD position servos with a force limit.
+//!
+//! A drive holds a commanded position target `c` (what
+//! [`Robot::set_position_targets`], the trajectory runner and the gripper
+//! set) and its servo **setpoint** `s`, the position the PD law acts on:
+//!
+//! ```text
+//! force = clamp(stiffness · (s − q) + damping · (ṡ − q̇), ±max_force)
+//! ```
+//!
+//! (Isaac Sim's articulation drive law, with `s` in place of the target).
+//! Every step of length `dt` the setpoint moves toward the command by at
+//! most `max_velocity · dt` (the joint's URDF velocity limit), and `ṡ` is
+//! the setpoint's own speed while it moves (the commanded velocity target
+//! once it has arrived). So a position command never asks the joint to move
+//! faster than its limit: a free joint commanded from `a` to `b` travels at
+//! the limit and arrives after `|b − a| / max_velocity` (plus the PD's lag),
+//! as a position-controlled gripper or arm servo with a speed setting does
+//! (PyBullet's position control caps its velocity demand at the joint's
+//! `maxVelocity`; PhysX articulations cap the joint speed at
+//! `maxJointVelocity`). A command that already moves slower than the limit
+//! (a planned trajectory within the limits) is passed through unchanged.
+//!
+//! While the setpoint is still travelling it may not lead the joint by more
+//! than the drive's reach `max_force / stiffness` (anti-windup): a blocked
+//! joint — fingers closed on an object — stops its setpoint at the reach,
+//! where the drive pushes with exactly `max_force` (the squeeze at rest is
+//! the effort cap), and a new command starts from there instead of first
+//! unwinding a setpoint buried inside the object. The force limit is the
+//! URDF effort limit unless set otherwise (the gripper's squeeze force).
 
 use ferrobot_model::Joint;
 use rapier3d::prelude::MotorModel;
@@ -23,6 +50,15 @@ pub struct Drive {
     pub target_position: f64,
     /// Velocity target (rad/s or m/s).
     pub target_velocity: f64,
+    /// Largest speed (rad/s or m/s) of the servo setpoint: the URDF
+    /// velocity limit (inf: none stated, the setpoint jumps to the target).
+    pub max_velocity: f64,
+    /// The servo setpoint the PD law acts on now (rad or m): the target,
+    /// or on its way there at most `max_velocity` per second.
+    pub setpoint: f64,
+    /// The setpoint's velocity (rad/s or m/s) used as the PD's velocity
+    /// target: its speed while it travels, `target_velocity` once there.
+    pub setpoint_velocity: f64,
 }
 
 /// Default gains of a revolute DOF.
@@ -44,12 +80,77 @@ impl Drive {
             (PRISMATIC_STIFFNESS, PRISMATIC_DAMPING)
         };
         let effort = joint.limits.effort;
+        let velocity = joint.limits.velocity;
         Self {
             stiffness,
             damping,
             max_force: if effort > 0.0 { effort } else { f64::INFINITY },
             target_position: q,
             target_velocity: 0.0,
+            // A zero limit in a URDF means "not stated" (as for effort).
+            max_velocity: if velocity > 0.0 {
+                velocity
+            } else {
+                f64::INFINITY
+            },
+            setpoint: q,
+            setpoint_velocity: 0.0,
+        }
+    }
+
+    /// Whether the setpoint is still on its way to the target.
+    pub fn travelling(&self) -> bool {
+        self.setpoint != self.target_position
+    }
+
+    /// Moves the setpoint one step of `dt` toward the target (see the
+    /// module documentation), given the joint's position `q` and speed
+    /// `qd`: at most `max_velocity · dt`, and no farther than the drive's
+    /// reach `max_force / stiffness + max_velocity · dt` ahead of `q` while
+    /// it travels.
+    pub fn advance(&mut self, dt: f64, q: f64, qd: f64) {
+        if !self.travelling() {
+            self.setpoint_velocity = self.target_velocity;
+            return;
+        }
+        let step = self.max_velocity * dt;
+        let gap = self.target_position - self.setpoint;
+        if gap.abs() <= step {
+            self.setpoint = self.target_position;
+            self.setpoint_velocity = self.target_velocity;
+            return;
+        }
+        let next = self.setpoint + step.copysign(gap);
+        // The lead a moving joint needs (one step's travel) plus what the
+        // full force holds against the spring.
+        let reach = if self.stiffness > 0.0 {
+            self.max_force / self.stiffness + step
+        } else {
+            f64::INFINITY
+        };
+        // The reach bounds only the lead in the direction of travel: a
+        // setpoint behind the joint (pushed past it) is left where the
+        // profile puts it.
+        let (lo, hi) = if gap > 0.0 {
+            (f64::NEG_INFINITY, q + reach)
+        } else {
+            (q - reach, f64::INFINITY)
+        };
+        if next > hi || next < lo {
+            // Blocked: the setpoint rides at the reach, moving with the
+            // joint, and the drive pushes with exactly max_force. It never
+            // moves backwards along the profile.
+            let held = next.clamp(lo, hi);
+            let held = if gap > 0.0 {
+                held.max(self.setpoint)
+            } else {
+                held.min(self.setpoint)
+            };
+            self.setpoint = held;
+            self.setpoint_velocity = qd;
+        } else {
+            self.setpoint = next;
+            self.setpoint_velocity = self.max_velocity.copysign(gap);
         }
     }
 }
@@ -97,8 +198,8 @@ impl Robot {
             data.set_motor_model(axis, MotorModel::ForceBased);
             data.set_motor(
                 axis,
-                drive.target_position as f32,
-                drive.target_velocity as f32,
+                drive.setpoint as f32,
+                drive.setpoint_velocity as f32,
                 drive.stiffness as f32,
                 drive.damping as f32,
             );
@@ -113,6 +214,30 @@ impl Robot {
                     f32::MAX
                 };
             data.set_motor_max_force(axis, max_force);
+        }
+    }
+
+    /// Moves every drive's servo setpoint one step of `dt` toward its
+    /// target ([`Drive::advance`]) and writes the changed setpoints into the
+    /// Rapier motors. Called by the world before each step, after the
+    /// commands due then.
+    pub(crate) fn advance_drives(&mut self, state: &mut PhysState, dt: f64) {
+        let joints = if self.drives.iter().any(Drive::travelling) {
+            Some((self.joint_positions(state), self.joint_velocities(state)))
+        } else {
+            None
+        };
+        let mut changed = false;
+        for (i, d) in self.drives.iter_mut().enumerate() {
+            let before = (d.setpoint, d.setpoint_velocity);
+            match &joints {
+                Some((q, qd)) => d.advance(dt, q[i], qd[i]),
+                None => d.setpoint_velocity = d.target_velocity,
+            }
+            changed |= (d.setpoint, d.setpoint_velocity) != before;
+        }
+        if changed {
+            self.apply_drives(state);
         }
     }
 

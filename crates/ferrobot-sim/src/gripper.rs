@@ -27,7 +27,10 @@ pub struct ParallelGripper {
 }
 
 /// Stiffness used while closing: stiff enough that the finger force
-/// saturates at the requested force as soon as the fingers touch.
+/// saturates at the requested force as soon as the fingers touch. The
+/// fingers travel at the driver joint's velocity limit (the drive's
+/// setpoint moves at most that fast, [`crate::drives`]), so they touch at
+/// that speed, and squeeze with the force limit once at rest.
 pub const CLOSE_STIFFNESS: f64 = 1.0e5;
 /// Damping while closing or opening.
 pub const GRIPPER_DAMPING: f64 = 1.0e2;

@@ -454,7 +454,7 @@ impl Robot {
             .map(|(&j, &q)| Drive::default_for(&joints[j], q))
             .collect();
         let gripper = ParallelGripper::detect(&model);
-        let robot = Robot {
+        let mut robot = Robot {
             name: options.name.clone(),
             efforts: vec![0.0; dofs.len()],
             model: model.clone(),
@@ -632,9 +632,16 @@ impl Robot {
     }
 
     /// Teleports the joints to `q` (DOF order) with zero velocity; mimic
-    /// joints follow. Drive targets are not changed (as in Isaac Sim).
-    pub fn set_joint_positions(&self, state: &mut PhysState, q: &[f64]) -> Result<()> {
+    /// joints follow. Drive targets are not changed (as in Isaac Sim); the
+    /// drives' servo setpoints restart from `q` and travel to the targets
+    /// at the joints' velocity limits (see [`crate::drives`]).
+    pub fn set_joint_positions(&mut self, state: &mut PhysState, q: &[f64]) -> Result<()> {
         check_len("joint positions", q, self.num_dof())?;
+        for (d, &qi) in self.drives.iter_mut().zip(q) {
+            d.setpoint = qi;
+            d.setpoint_velocity = 0.0;
+        }
+        self.apply_drives(state);
         let targets = self.all_positions(q);
         let Some(id) = self.dofs.first().map(|d| d.link.multibody) else {
             return Ok(());

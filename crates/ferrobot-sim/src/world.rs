@@ -597,6 +597,7 @@ impl World {
             let now = self.time;
             for r in &mut self.robots {
                 r.apply_due_commands(&mut self.state, now);
+                r.advance_drives(&mut self.state, self.config.dt);
             }
             self.update_robot_substeps();
             for r in &self.robots {

@@ -174,3 +174,160 @@ fn extra_substeps_only_while_touching_or_near_a_limit() {
     w.step(5).unwrap();
     assert_eq!(w.robot(r).unwrap().active_solver_iterations(), 4);
 }
+
+/// A Panda holding its "ready" pose without a ground (the hand points
+/// down, the fingers close horizontally), fingers open.
+fn panda_ready(w: &mut World) -> (Arc<ferrobot_model::RobotModel>, usize) {
+    let model = Arc::new(ferrobot_model::robots::panda().unwrap());
+    let r = w
+        .add_robot(model.clone(), &RobotOptions::new("panda"))
+        .unwrap();
+    let mut q = model.named_state("ready", None).unwrap();
+    q[7] = 0.04;
+    w.with_robot(r, |rb, s| {
+        rb.set_joint_positions(s, &q)?;
+        rb.set_position_targets(s, &q, None)
+    })
+    .unwrap();
+    w.step(24).unwrap();
+    (model, r)
+}
+
+#[test]
+fn free_gripper_closes_at_its_velocity_limit() {
+    // Hand derivation: the Panda URDF limits the finger joint to 0.2 m/s,
+    // so a position servo that honours it closes the free fingers from
+    // 0.04 m to 0 in 0.04 / 0.2 = 0.2 s (48 steps at 240 Hz), at 0.2 m/s
+    // in between (the PD, tracking a moving setpoint with feed-forward,
+    // adds at most a step or two of lag).
+    let mut w = world(false);
+    let (model, r) = panda_ready(&mut w);
+    let limit = model.velocity_limits()[7];
+    assert_eq!(limit, 0.2, "the Panda URDF's finger velocity limit");
+    w.with_robot(r, |rb, s| rb.close_gripper(s, None)).unwrap();
+    let dt = w.config().dt;
+    let mut track = Vec::new();
+    for _ in 0..96 {
+        w.step(1).unwrap();
+        track.push(w.robot(r).unwrap().joint_positions(w.state())[7]);
+    }
+    // Mid-stroke speed over 0.1 s (24 steps) from 0.01 s on.
+    let speed = (track[2] - track[26]) / (24.0 * dt);
+    assert!(
+        (speed - limit).abs() < 0.02 * limit,
+        "mid-stroke speed {speed} m/s, limit {limit}"
+    );
+    let expected = 0.04 / limit;
+    let arrive = track
+        .iter()
+        .position(|&x| x < 5e-4)
+        .map(|k| (k + 1) as f64 * dt);
+    let arrive = arrive.expect("the fingers close within 0.4 s");
+    assert!(
+        (arrive - expected).abs() <= 3.0 * dt,
+        "closed after {arrive} s, expected {expected} s"
+    );
+    // And opening again from closed takes as long.
+    w.with_robot(r, |rb, s| rb.open_gripper(s, None)).unwrap();
+    let mut k = 0;
+    while w.robot(r).unwrap().joint_positions(w.state())[7] < 0.04 - 5e-4 {
+        w.step(1).unwrap();
+        k += 1;
+        assert!(k < 96, "the fingers open within 0.4 s");
+    }
+    assert!(
+        (k as f64 * dt - expected).abs() <= 3.0 * dt,
+        "opened after {} s, expected {expected} s",
+        k as f64 * dt
+    );
+}
+
+/// Sum of the normal contact forces (N) on collider `c` over the last step.
+fn normal_force_on(w: &World, c: rapier3d::prelude::ColliderHandle) -> f64 {
+    let dt = w.config().dt;
+    w.state()
+        .narrow_phase
+        .contact_pairs()
+        .filter(|p| p.collider1 == c || p.collider2 == c)
+        .flat_map(|p| p.manifolds())
+        .flat_map(|m| m.points.iter())
+        .map(|pt| pt.data.impulse as f64)
+        .sum::<f64>()
+        / dt
+}
+
+#[test]
+fn squeeze_at_rest_is_the_effort_cap() {
+    // A fixed 30 mm block between the pads; the gripper's driver closes
+    // with its force limit `effort` (N). Once at rest the drive must push
+    // with exactly that cap, whatever the setpoint did on the way (it
+    // stops at the drive's reach, anti-windup). By virtual work the
+    // Panda's two fingers, the mimic follower moving with the driver,
+    // share it: effort · δq = (f1 + f2) · δq, so the block feels `effort`
+    // in all. Measured from the contact impulses, calibrated first on a
+    // block resting on the ground (its weight m g).
+    let mut g = world(true);
+    let mut rest = ObjectDesc::new(
+        "weight",
+        Shape::Box {
+            half_extents: Vector3::new(0.05, 0.05, 0.05),
+        },
+        Isometry3::translation(0.0, 0.0, 0.05),
+    );
+    rest.mass = 2.0;
+    let i = g.add_object(rest).unwrap();
+    g.step(240).unwrap();
+    let weight = normal_force_on(&g, g.objects()[i].collider);
+    assert!(
+        (weight - 2.0 * 9.81).abs() < 0.02 * 2.0 * 9.81,
+        "m g read as {weight}"
+    );
+
+    let mut w = world(false);
+    let (model, r) = panda_ready(&mut w);
+    let robot = w.robot(r).unwrap();
+    let hand = robot.link_pose(w.state(), model.link("panda_hand").unwrap());
+    let l = robot.link_pose(w.state(), model.link("panda_leftfinger").unwrap());
+    let rr = robot.link_pose(w.state(), model.link("panda_rightfinger").unwrap());
+    // Pads: the fingers' inner faces 36-54 mm beyond the finger frames
+    // along the hand's z.
+    let centre = (l.translation.vector + rr.translation.vector) / 2.0
+        + hand.rotation * Vector3::new(0.0, 0.0, 0.045);
+    let mut block = ObjectDesc::new(
+        "block",
+        Shape::Box {
+            half_extents: Vector3::new(0.01, 0.015, 0.006),
+        },
+        Isometry3::from_parts(centre.into(), hand.rotation),
+    );
+    block.is_static = true;
+    let b = w.add_object(block).unwrap();
+    for effort in [10.0, 30.0] {
+        w.with_robot(r, |rb, s| rb.set_gripper_driver(s, 0.0, Some(effort)))
+            .unwrap();
+        assert_eq!(w.robot(r).unwrap().drives()[7].max_force, effort);
+        w.step(240).unwrap();
+        let q = w.robot(r).unwrap().joint_positions(w.state());
+        assert!(
+            (q[7] - 0.015).abs() < 1.5e-3,
+            "finger held at {} m on the 30 mm block",
+            q[7]
+        );
+        let total = normal_force_on(&w, w.objects()[b].collider);
+        assert!(
+            (total - effort).abs() < 0.02 * effort,
+            "a {effort} N driver effort pressed the block with {total} N in all"
+        );
+        // Reopening starts at once: the setpoint was not buried in the
+        // block, so the fingers leave it within two steps.
+        w.with_robot(r, |rb, s| rb.open_gripper(s, None)).unwrap();
+        w.step(2).unwrap();
+        let q = w.robot(r).unwrap().joint_positions(w.state());
+        assert!(
+            q[7] > 0.0152,
+            "finger at {} m two steps after opening",
+            q[7]
+        );
+        w.step(120).unwrap();
+    }
+}
