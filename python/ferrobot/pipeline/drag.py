@@ -21,8 +21,9 @@ walls, neighbours) or more room for the housing (along the best of 8 axes throug
 nearer side, up to ``housing_room``) by at least ``min_gain``, and whose moved footprint stays clear of all of it,
 it tries contact points over the object's whole top (at least ``min_support`` of the closed fingertips' footprint on
 the target's observed cells, a quarter of it within ``flatness`` of the top there, nothing else as high under them,
-and and the press where it does not stand the object up on its leading edge: see below), nearest the footprint's centre first, with the closing
-axis across or along d and the hand upright or leaning its top towards d by each of ``tilts``. The motion: down the approach (5 cm) to ``clearance`` above the top, the hand's solids (closed
+and the press where it does not stand the object up on its leading edge: see below), nearest the footprint's centre
+first, with the closing axis across or along d and the hand upright or leaning its top towards d by each of
+``tilts``. The motion: down the approach (5 cm) to ``clearance`` above the top, the hand's solids (closed
 fingers, palm, housing) clear of everything observed, the target's columns included; the press (the hand is checked
 resting on the top: the object stops it); the drag along d by the distance (the hand clear of everything but the
 target); and back up the approach by 10 cm. Among the feasible drags, the one leaving the most room for the housing
@@ -31,16 +32,18 @@ shortest. Nothing is simulated here: the plan is hand poses (world frame) for an
 
 *Tipping.* Pulled along d by its top, a piece turns about its leading bottom edge unless the press and its weight
 hold it down (:func:`tipping_line`): the press must act at least mu h behind that edge (h the top's height there, mu
-the object-floor friction, ``tip_friction``), and so must the piece's centre; then no press force tips it, whatever
-its unknown mass. An upright hand meets the top with the fingertips' flat face, whose trailing edge can carry the
-press; a leaning hand meets it with the fingertips' leading edge (the lowest) alone. Measured in ferrobot's simulator
+the object-floor friction, ``tip_friction``); then no press force tips it, whatever its unknown mass. An upright
+hand meets the top with the fingertips' flat face, whose trailing edge can carry the press; a leaning hand meets it
+with the fingertips' leading edge (the lowest) alone. Measured in ferrobot's simulator
 (``tests/test_wall_moves.py``): a 6.5 cm plate dragged by a hand leaning 0.4 rad pressing at its leading edge stands
 up on that edge; upright at the same place, or leaning 2.25 cm further back, it slides flat. Pieces whose centre
 lies in front of the line (a tube dragged across its axis: its support is a line under the centre; a 5 x 5 x 6.3 cm
 block: its centre 2.5 cm behind the edge, mu h 5 cm) turn under any drag, wherever pressed: a tube rolls the drag's
-way (measured: 6-16 cm out of corners), a block topples forward; their contacts are not restricted. In a corner, a low piece's
-only placements whose housing clears both walls lean over a wall and press at its leading edge: the line leaves no
-drag there (the corner is where the housing rules out every grasp as well; bins18g / corner18h in BENCHMARKS.md).
+way (measured: 6-16 cm out of corners), a block topples forward; their contacts are not restricted. A low, flat
+piece 3 mm from both walls of a corner has no drag: the only fingertip placements whose housing clears both walls
+lean about 0.5 rad over a wall and press at its leading edge, in front of the line (the corner is where the housing
+rules out every grasp as well; corner18h in BENCHMARKS.md); 3 cm from both walls, upright drags over the whole top
+reach slabs.
 """
 
 from __future__ import annotations
@@ -148,8 +151,9 @@ def plan_drag(
     goes (the pressing force is the drive's stiffness times it); the closed fingertips' footprint (shrunk by
     ``inset``, m) must have at least ``min_support`` of its area over the object's observed cells, the object's top
     there level within ``flatness`` (m), and nothing else as high under it; ``max_contacts``: contact points tried
-    per direction and hand orientation (1 cm apart: 64 cover a 8 x 8 cm top); ``tip_friction``: the largest
-    object-floor friction coefficient (as the contact combines it) the tipping check assumes. Ranges: ``num_directions`` 1-64, ``distances`` in (0, 0.3] m, ``tilts`` in
+    per direction and hand orientation (1 cm apart: 64 cover a 8 x 8 cm top); ``tip_friction``: the largest object-
+    floor friction coefficient (as the contact combines it) the tipping check assumes. Ranges:
+    ``num_directions`` 1-64, ``distances`` in (0, 0.3] m, ``tilts`` in
     [0, 1.2] rad, ``press`` in (0, 0.04] m, ``inset`` in [0, 0.005] m, ``min_support`` in (0, 1], ``flatness`` in
     [0, 0.03] m, ``max_contacts`` 1-64, ``margin`` and ``clearance`` in [0, 0.02] m, ``min_gain`` in [0, 0.2] m,
     ``housing_room`` in [0.02, 0.3] m, ``tip_friction`` in [0, 2]."""
