@@ -249,6 +249,11 @@ def plan_drag(
             continue
         # Most room for the housing (and clearance) first; of equal room the shortest drag.
         feasible.sort(key=lambda v: (-v[0], v[2]))
+        # No plan of this direction scores above its best value (less the shortest drag's share): when that does
+        # not beat the best plan so far, nothing here can (ties keep the earlier plan, as below).
+        bound = feasible[0][0] - 0.01 * distances[-1]
+        if best is not None and bound <= best.score:
+            continue
         side = np.cross(up, d)
         # The tipping line (see ``tipping_line``): a contact whose fingertip footprint lies wholly behind it, with
         # the object's centre, tips the object forward under no press force; in front of it only a press below a
@@ -305,6 +310,9 @@ def plan_drag(
             rg = np.column_stack([a, c, np.cross(a, c)])
             body = samples @ rg.T
             for p, top in contacts:
+                # Contacts come nearest the centre first: once one cannot beat the best plan, no later one can.
+                if best is not None and bound - 0.5 * float(np.linalg.norm(p - centre)) - 0.01 * tilt <= best.score:
+                    break
                 # Resting on the top with the grown fingers clear of the support below it.
                 if top - margin < 0.003:
                     continue
