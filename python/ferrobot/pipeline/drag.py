@@ -260,6 +260,12 @@ def plan_drag(
         # bound proportional to the object's unknown weight would not.
         lead = float((foot @ d[:2]).max())
         centre_along = float(centre @ d[:2])
+        # The centre is only known where the footprint's trailing side was seen: next to cells the camera did not see
+        # (the floor a wall hides) the piece may reach further back, its centre with it; taken as behind the line.
+        bi, bj, binside = hm.cells(foot - 1.5 * hm.cell * d[:2])
+        hidden_behind = bool(np.any(~binside | ((hm.height[bi, bj] < 0) & (hm.label[bi, bj] != target))))
+        if hidden_behind:
+            centre_along = -math.inf
         for across, tilt in itertools.product((True, False), tilts):
             # The closed fingertips' footprint: along the closing axis twice the finger thickness, across it the
             # fingers' height; closing across d puts the closing axis along ``side``.
@@ -294,7 +300,7 @@ def plan_drag(
                 # piece whose centre lies behind the tipping line stays down under a press behind it too, but one in
                 # front of it stands it up on its leading edge; a piece whose centre lies in front of the line
                 # (round across d, or tall) turns under any drag, wherever it is pressed: it rolls or topples
-                # forward, which moves it the drag's way.
+                # forward, which moves it the drag's way (its centre known: ``hidden_behind``).
                 edge = float(p @ d[:2]) + (half_d if tilt > 0 else -half_d)
                 line = tipping_line(lead, float(h.max()), tip_friction)
                 if centre_along <= line < edge:
