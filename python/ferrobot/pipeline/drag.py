@@ -39,11 +39,13 @@ with the fingertips' leading edge (the lowest) alone. Measured in ferrobot's sim
 up on that edge; upright at the same place, or leaning 2.25 cm further back, it slides flat. Pieces whose centre
 lies in front of the line (a tube dragged across its axis: its support is a line under the centre; a 5 x 5 x 6.3 cm
 block: its centre 2.5 cm behind the edge, mu h 5 cm) turn under any drag, wherever pressed: a tube rolls the drag's
-way (measured: 6-16 cm out of corners), a block topples forward; their contacts are not restricted. A low, flat
-piece 3 mm from both walls of a corner has no drag: the only fingertip placements whose housing clears both walls
-lean about 0.5 rad over a wall and press at its leading edge, in front of the line (the corner is where the housing
-rules out every grasp as well; corner18h in BENCHMARKS.md); 3 cm from both walls, upright drags over the whole top
-reach slabs.
+way (measured: 6-16 cm out of corners), a block topples forward; their contacts are not restricted, provided the
+centre is known: next to floor the camera did not see (a wall hides it) the piece may reach further back, and its
+centre is taken as behind the line (a slab 3 mm from a corner showed a third of its top; its observed centre fell in
+front of the line and a leaning drag stood it up). A low, flat piece 3 mm from both walls of a corner has no drag:
+the only fingertip placements whose housing clears both walls lean about 0.5 rad over a wall and press at its
+leading edge, in front of the line (the corner is where the housing rules out every grasp as well; corner18h in
+BENCHMARKS.md); 3 cm from both walls, upright drags over the whole top reach slabs.
 """
 
 from __future__ import annotations
