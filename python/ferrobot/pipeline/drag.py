@@ -39,13 +39,11 @@ with the fingertips' leading edge (the lowest) alone. Measured in ferrobot's sim
 up on that edge; upright at the same place, or leaning 2.25 cm further back, it slides flat. Pieces whose centre
 lies in front of the line (a tube dragged across its axis: its support is a line under the centre; a 5 x 5 x 6.3 cm
 block: its centre 2.5 cm behind the edge, mu h 5 cm) turn under any drag, wherever pressed: a tube rolls the drag's
-way (measured: 6-16 cm out of corners), a block topples forward; their contacts are not restricted, provided the
-centre is known: next to floor the camera did not see (a wall hides it) the piece may reach further back, and its
-centre is taken as behind the line (a slab 3 mm from a corner showed a third of its top; its observed centre fell in
-front of the line and a leaning drag stood it up). A low, flat piece 3 mm from both walls of a corner has no drag:
-the only fingertip placements whose housing clears both walls lean about 0.5 rad over a wall and press at its
-leading edge, in front of the line (the corner is where the housing rules out every grasp as well; corner18h in
-BENCHMARKS.md); 3 cm from both walls, upright drags over the whole top reach slabs.
+way (measured: 6-16 cm out of corners), a block topples forward; their contacts are not restricted. A low, flat
+piece 3 mm from both walls of a corner has no drag: the only fingertip placements whose housing clears both walls
+lean about 0.5 rad over a wall and press at its leading edge, in front of the line (the corner is where the housing
+rules out every grasp as well; corner18h in BENCHMARKS.md); 3 cm from both walls, upright drags over the whole top
+reach slabs.
 """
 
 from __future__ import annotations
@@ -262,12 +260,6 @@ def plan_drag(
         # bound proportional to the object's unknown weight would not.
         lead = float((foot @ d[:2]).max())
         centre_along = float(centre @ d[:2])
-        # The centre is only known where the footprint's trailing side was seen: next to cells the camera did not see
-        # (the floor a wall hides) the piece may reach further back, its centre with it; taken as behind the line.
-        bi, bj, binside = hm.cells(foot - 1.5 * hm.cell * d[:2])
-        hidden_behind = bool(np.any(~binside | ((hm.height[bi, bj] < 0) & (hm.label[bi, bj] != target))))
-        if hidden_behind:
-            centre_along = -math.inf
         for across, tilt in itertools.product((True, False), tilts):
             # The closed fingertips' footprint: along the closing axis twice the finger thickness, across it the
             # fingers' height; closing across d puts the closing axis along ``side``.
@@ -302,7 +294,7 @@ def plan_drag(
                 # piece whose centre lies behind the tipping line stays down under a press behind it too, but one in
                 # front of it stands it up on its leading edge; a piece whose centre lies in front of the line
                 # (round across d, or tall) turns under any drag, wherever it is pressed: it rolls or topples
-                # forward, which moves it the drag's way (its centre known: ``hidden_behind``).
+                # forward, which moves it the drag's way.
                 edge = float(p @ d[:2]) + (half_d if tilt > 0 else -half_d)
                 line = tipping_line(lead, float(h.max()), tip_friction)
                 if centre_along <= line < edge:
