@@ -472,14 +472,25 @@ def drag_enabled(spec: clutter.ClutterSpec) -> bool:
 
 def plan_scene_drag(state: State, frame, depth: np.ndarray, cam_pose: np.ndarray, ids: dict):
     """The best drag away from the walls (``ferrobot.pipeline.drag.plan_drag``) of any remaining object, or None;
-    objects whose last drag moved them less than ``SLIDE_STUCK`` are skipped."""
+    objects whose last drag moved them less than ``SLIDE_STUCK`` are skipped. The tipping check assumes the
+    grippiest object on this floor (Rapier averages the two coefficients)."""
+    tip_mu = 0.5 * (DRAG_MU_OBJECT + floor_friction(state.spec))
     return best_scene_plan(
         state,
         scene_observation(state, frame, depth, cam_pose, ids),
         ids,
         "drag_stuck",
         lambda pts, labels, label, bounds, hm, view: drag_mod.plan_drag(
-            pts, labels, label, ge.PANDA_HAND, TABLE_TOP, bounds, heightmap=hm, view=view, tilts=DRAG_TILTS
+            pts,
+            labels,
+            label,
+            ge.PANDA_HAND,
+            TABLE_TOP,
+            bounds,
+            heightmap=hm,
+            view=view,
+            tilts=DRAG_TILTS,
+            tip_friction=tip_mu,
         ),
     )
 

@@ -19,15 +19,31 @@ maximum rule gives 1.0 against mu_o, a drag only for objects below 1.0).
 leaves the object more clearance (its footprint's distance to anything else observed 1 cm or more above the support:
 walls, neighbours) or more room for the housing (along the best of 8 axes through its centre, the free length on the
 nearer side, up to ``housing_room``) by at least ``min_gain``, and whose moved footprint stays clear of all of it,
-it tries contact points on the object's top (at least ``min_support`` of the closed fingertips' footprint on the
-target's observed cells, a quarter of it within ``flatness`` of the top there, nothing else as high under them),
-nearest the footprint's centre first, with the closing axis across or along d and the hand leaning its top towards d
-by each of ``tilts``. The motion: down the approach (5 cm) to ``clearance`` above the top, the hand's solids (closed
+it tries contact points over the object's whole top (at least ``min_support`` of the closed fingertips' footprint on
+the target's observed cells, a quarter of it within ``flatness`` of the top there, nothing else as high under them,
+and the press where it does not stand the object up on its leading edge: see below), nearest the footprint's centre
+first, with the closing axis across or along d and the hand upright or leaning its top towards d by each of
+``tilts``. The motion: down the approach (5 cm) to ``clearance`` above the top, the hand's solids (closed
 fingers, palm, housing) clear of everything observed, the target's columns included; the press (the hand is checked
 resting on the top: the object stops it); the drag along d by the distance (the hand clear of everything but the
 target); and back up the approach by 10 cm. Among the feasible drags, the one leaving the most room for the housing
 plus half the clearance (up to 10 cm) wins, then the one pressing nearest the centre, the least tilted, the
 shortest. Nothing is simulated here: the plan is hand poses (world frame) for an executor.
+
+*Tipping.* Pulled along d by its top, a piece turns about its leading bottom edge unless the press and its weight
+hold it down (:func:`tipping_line`): the press must act at least mu h behind that edge (h the top's height there, mu
+the object-floor friction, ``tip_friction``); then no press force tips it, whatever its unknown mass. An upright
+hand meets the top with the fingertips' flat face, whose trailing edge can carry the press; a leaning hand meets it
+with the fingertips' leading edge (the lowest) alone. Measured in ferrobot's simulator
+(``tests/test_wall_moves.py``): a 6.5 cm plate dragged by a hand leaning 0.4 rad pressing at its leading edge stands
+up on that edge; upright at the same place, or leaning 2.25 cm further back, it slides flat. Pieces whose centre
+lies in front of the line (a tube dragged across its axis: its support is a line under the centre; a 5 x 5 x 6.3 cm
+block: its centre 2.5 cm behind the edge, mu h 5 cm) turn under any drag, wherever pressed: a tube rolls the drag's
+way (measured: 6-16 cm out of corners), a block topples forward; their contacts are not restricted. A low, flat
+piece 3 mm from both walls of a corner has no drag: the only fingertip placements whose housing clears both walls
+lean about 0.5 rad over a wall and press at its leading edge, in front of the line (the corner is where the housing
+rules out every grasp as well; corner18h in BENCHMARKS.md); 3 cm from both walls, upright drags over the whole top
+reach slabs.
 """
 
 from __future__ import annotations
@@ -42,7 +58,7 @@ from ..errors import InvalidArgumentError
 from .push import FreeSpace, Heightmap, _checked_motion, _collides, _hand_samples, hand_rotation
 from .slide import _descent_collides
 
-__all__ = ["DragPlan", "plan_drag", "drag_feasible"]
+__all__ = ["DragPlan", "plan_drag", "drag_feasible", "tipping_line"]
 
 
 @dataclass
@@ -86,6 +102,24 @@ def drag_feasible(mu_finger: float, mu_object: float, mu_floor: float, mass: flo
     return mu_fo * press_force > mu_of * (press_force + 9.81 * mass)
 
 
+def tipping_line(lead: float, height: float, mu_floor: float) -> float:
+    """How far along the drag (m, the coordinate ``lead`` is in) the pressing fingertip may reach without tipping
+    the object forward whatever it presses with: ``lead`` - ``mu_floor`` x ``height``.
+
+    The object rests on the floor; the fingertip touches its top at height h, pressing down with N and pulling
+    along the drag with H; the floor resists with friction mu (N + m g) at the base. Moments about the base's
+    leading edge (the footprint's extreme along the drag, ``lead``): H h tips it forward, the press N at e_p
+    behind the edge and the weight m g at e_g behind it hold it down. While it slides, H = mu (N + m g), so it
+    stays down when mu (N + m g) h <= N e_p + m g e_g, i.e. N (mu h - e_p) <= m g (e_g - mu h). With e_p and e_g
+    both at least mu h this holds for every N: the press can be as hard as the drag needs (N > mu m g / (mu_fo -
+    mu), ``drag_feasible``) without knowing the mass. With e_p < mu h it holds only for N below
+    m g (e_g - mu h) / (mu h - e_p), which needs the object's mass (a camera does not see it) and, for a contact
+    near the leading edge, is below the drag's lower bound: a plate pressed 5 mm from its leading edge (mu 0.7,
+    h 2 cm, e_g 3.25 cm) stays down only for N < 2 m g, slides only for N > 3.5 m g. ``mu_floor`` is the object-
+    floor coefficient as the contact combines it (the largest the objects may have)."""
+    return float(lead) - float(mu_floor) * float(height)
+
+
 def plan_drag(
     points,
     labels,
@@ -97,12 +131,13 @@ def plan_drag(
     cell: float = 0.005,
     num_directions: int = 16,
     distances=(0.12, 0.10, 0.08, 0.06, 0.04),
-    tilts=(0.0, 0.2, 0.4),
+    tilts=(0.0, 0.2, 0.4, 0.5),
     press: float = 0.015,
     inset: float = 0.002,
     flatness: float = 0.01,
     min_support: float = 0.5,
-    max_contacts: int = 12,
+    max_contacts: int = 64,
+    tip_friction: float = 0.8,
     margin: float = 0.004,
     clearance: float = 0.005,
     min_gain: float = 0.02,
@@ -116,10 +151,12 @@ def plan_drag(
     goes (the pressing force is the drive's stiffness times it); the closed fingertips' footprint (shrunk by
     ``inset``, m) must have at least ``min_support`` of its area over the object's observed cells, the object's top
     there level within ``flatness`` (m), and nothing else as high under it; ``max_contacts``: contact points tried
-    per direction and hand orientation. Ranges: ``num_directions`` 1-64, ``distances`` in (0, 0.3] m, ``tilts`` in
+    per direction and hand orientation (1 cm apart: 64 cover a 8 x 8 cm top); ``tip_friction``: the largest object-
+    floor friction coefficient (as the contact combines it) the tipping check assumes. Ranges:
+    ``num_directions`` 1-64, ``distances`` in (0, 0.3] m, ``tilts`` in
     [0, 1.2] rad, ``press`` in (0, 0.04] m, ``inset`` in [0, 0.005] m, ``min_support`` in (0, 1], ``flatness`` in
     [0, 0.03] m, ``max_contacts`` 1-64, ``margin`` and ``clearance`` in [0, 0.02] m, ``min_gain`` in [0, 0.2] m,
-    ``housing_room`` in [0.02, 0.3] m."""
+    ``housing_room`` in [0.02, 0.3] m, ``tip_friction`` in [0, 2]."""
     for name, v in (("num_directions", num_directions), ("max_contacts", max_contacts)):
         if not isinstance(v, (int, np.integer)) or isinstance(v, bool) or not 1 <= v <= 64:
             raise InvalidArgumentError(f"{name}: expected an integer in [1, 64], got {v!r}")
@@ -136,6 +173,8 @@ def plan_drag(
         raise InvalidArgumentError(f"min_gain: {min_gain} m is outside [0, 0.2]")
     if not 0.02 <= housing_room <= 0.3:
         raise InvalidArgumentError(f"housing_room: {housing_room} m is outside [0.02, 0.3]")
+    if not 0.0 <= tip_friction <= 2.0:
+        raise InvalidArgumentError(f"tip_friction: {tip_friction} is outside [0, 2]")
     hm = heightmap or Heightmap.from_points(points, labels, support_z, bounds, cell)
     mine = hm.label == target
     if not mine.any():
@@ -210,7 +249,17 @@ def plan_drag(
             continue
         # Most room for the housing (and clearance) first; of equal room the shortest drag.
         feasible.sort(key=lambda v: (-v[0], v[2]))
+        # No plan of this direction scores above its best value (less the shortest drag's share): when that does
+        # not beat the best plan so far, nothing here can (ties keep the earlier plan, as below).
+        bound = feasible[0][0] - 0.01 * distances[-1]
+        if best is not None and bound <= best.score:
+            continue
         side = np.cross(up, d)
+        # The tipping line (see ``tipping_line``): a contact whose fingertip footprint lies wholly behind it, with
+        # the object's centre, tips the object forward under no press force; in front of it only a press below a
+        # bound proportional to the object's unknown weight would not.
+        lead = float((foot @ d[:2]).max())
+        centre_along = float(centre @ d[:2])
         for across, tilt in itertools.product((True, False), tilts):
             # The closed fingertips' footprint: along the closing axis twice the finger thickness, across it the
             # fingers' height; closing across d puts the closing axis along ``side``.
@@ -240,6 +289,16 @@ def plan_drag(
                 # A contact patch, not a peak: a quarter of the footprint within ``flatness`` of the top there.
                 if others.any() or (h >= h.max() - flatness).sum() < 0.25 * len(on):
                     continue
+                # Upright, the fingertips meet the top with a flat face, and the press can act anywhere in it: at
+                # worst at its trailing edge. Leaning, their leading edge (along d, the lowest) meets it alone. A
+                # piece whose centre lies behind the tipping line stays down under a press behind it too, but one in
+                # front of it stands it up on its leading edge; a piece whose centre lies in front of the line
+                # (round across d, or tall) turns under any drag, wherever it is pressed: it rolls or topples
+                # forward, which moves it the drag's way.
+                edge = float(p @ d[:2]) + (half_d if tilt > 0 else -half_d)
+                line = tipping_line(lead, float(h.max()), tip_friction)
+                if centre_along <= line < edge:
+                    continue
                 contacts.append((p, float(h.max())))
                 if len(contacts) >= int(max_contacts):
                     break
@@ -251,6 +310,9 @@ def plan_drag(
             rg = np.column_stack([a, c, np.cross(a, c)])
             body = samples @ rg.T
             for p, top in contacts:
+                # Contacts come nearest the centre first: once one cannot beat the best plan, no later one can.
+                if best is not None and bound - 0.5 * float(np.linalg.norm(p - centre)) - 0.01 * tilt <= best.score:
+                    break
                 # Resting on the top with the grown fingers clear of the support below it.
                 if top - margin < 0.003:
                     continue
