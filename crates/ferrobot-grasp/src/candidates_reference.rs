@@ -6,8 +6,8 @@
 use nalgebra::{Matrix3, Point3, Vector3};
 
 use super::{
-    MAX_FOREIGN_POINTS, PLANE_TOLERANCE, SearchParams, is_foreign, margin, plane_depths,
-    engagement_factor, engages_fully, pad_engagement, score_hand, shallowest_depth,
+    MAX_FOREIGN_POINTS, PLANE_TOLERANCE, SearchParams, engagement_factor, engages_fully,
+    is_foreign, margin, pad_engagement, plane_depths, score_hand, shallowest_depth,
     tips_below_mid_height,
 };
 use crate::grasp::Grasp;

@@ -15,11 +15,7 @@ fn close(a: &[f64], b: &[f64]) -> bool {
 fn panda_hand_depths_are_the_defaults() {
     // Panda fingers: 50 mm -> 40, 30, 20 mm (the detector's default depths).
     let o = DetectOptions::default().for_gripper(&Gripper::panda_hand());
-    assert!(
-        close(&o.depths, &[0.04, 0.03, 0.02]),
-        "{:?}",
-        o.depths
-    );
+    assert!(close(&o.depths, &[0.04, 0.03, 0.02]), "{:?}", o.depths);
     assert!(close(&o.depths, &DetectOptions::default().depths));
     assert_eq!(o.gripper.max_width, 0.08);
     assert_eq!(o.gripper.finger_depth, 0.05);
@@ -38,11 +34,7 @@ fn robotiq_depths_scale_with_its_pads_and_other_options_stay() {
         ..DetectOptions::default()
     };
     let o = base.for_gripper(&Gripper::robotiq_2f85());
-    assert!(
-        close(&o.depths, &[0.03, 0.0225, 0.015]),
-        "{:?}",
-        o.depths
-    );
+    assert!(close(&o.depths, &[0.03, 0.0225, 0.015]), "{:?}", o.depths);
     assert_eq!(o.gripper.finger_depth, 0.0375);
     assert!(
         (o.gripper.max_width - 0.085).abs() < 1e-3,
