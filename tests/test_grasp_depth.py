@@ -121,7 +121,8 @@ def test_a_piece_lower_than_the_pads_width_is_grasped_as_deep_as_the_floor_allow
             assert deepest - 1e-3 <= g.depth <= deepest + 5e-4, (g, deepest)
             if height > 0.016:
                 assert g.depth > 0.015 + 1e-3, g  # deeper than the 15 mm hand it got before
-            assert engaged == pytest.approx(height + PLANE_TOL / 2, abs=1e-3), g
+            # The pads cover the piece's side down to within 2 mm of the floor.
+            assert engaged >= height - 2e-3, g
     assert straight > 0, "no straight-down grasp from the top face"
 
 
