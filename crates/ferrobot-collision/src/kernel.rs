@@ -614,6 +614,11 @@ fn world_pair<L: Lanes>(
         if *hit & active == active {
             return;
         }
+        // Lanes that hit need no more of this body's spheres.
+        near &= !h;
+        if near == 0 {
+            return;
+        }
     }
 }
 

@@ -5,12 +5,15 @@
 //! at a random configuration, clear of every obstacle by their bounding
 //! sphere with centimetres to spare; proving it obstacle by obstacle costs
 //! more than anything else in a single check. The grid answers it with one
-//! lookup: each cell stores a lower bound on the distance from any point of
-//! the cell to the nearest obstacle (the distance from the cell centre to
-//! each obstacle's solid, minus the cell's half diagonal, rounded down to
-//! 4 mm). A body whose bounding-sphere centre lies in a cell whose bound
-//! exceeds the sphere's radius plus the margin (plus 0.1 mm for the `f32`
-//! arithmetic) cannot touch the world, so the obstacle tests, which would
+//! lookup: each cell stores a lower bound on the distance from its centre
+//! to the nearest obstacle's solid (rounded down to 4 mm, one unit
+//! deducted for the rounding); less the distance from the cell's centre to
+//! a point of the cell, it bounds that point's distance (the distance to a
+//! solid is 1-Lipschitz), so a point near the centre gets a bound up to the
+//! cell's half diagonal tighter than a bound for the whole cell. A body
+//! whose bounding-sphere centre has a bound exceeding the sphere's radius
+//! plus the margin (plus 0.1 mm for the `f32` arithmetic) cannot touch the
+//! world, so the obstacle tests, which would
 //! find nothing, are skipped: no answer changes. Anything else falls back
 //! to those tests.
 //!
@@ -251,8 +254,8 @@ impl WorldGrid {
     /// (the world the grid was made for); 0 outside the grid.
     pub fn clearance(&self, world: &CompiledWorld, p: &[f32; 3]) -> f32 {
         let mut bound = 0.0;
-        self.cells(world, &p.map(f32x8::splat), 1, |_, v| {
-            bound = v as f32 * QUANTUM
+        self.cells(world, &p.map(f32x8::splat), 1, |_, v, off| {
+            bound = (v as f32 * QUANTUM - off).max(0.0)
         });
         bound
     }
@@ -271,34 +274,42 @@ impl WorldGrid {
         let mut clear = 0;
         // Lane by lane in registers: a vector assembled from eight scalar
         // stores would stall on store forwarding.
-        self.cells(world, p, lanes, |l, v| {
-            if v as f32 * QUANTUM > reach[l] {
+        self.cells(world, p, lanes, |l, v, off| {
+            if v as f32 * QUANTUM - off > reach[l] {
                 clear |= 1 << l;
             }
         });
         clear
     }
 
-    /// Calls `f(lane, stored bound)` for each lane set in `lanes` whose
-    /// point lies in the grid.
+    /// Calls `f(lane, stored bound, distance from the cell's centre)` for
+    /// each lane set in `lanes` whose point lies in the grid. The stored
+    /// bound (in quanta) holds at the cell's centre; less the distance
+    /// from it, it holds at the point (1-Lipschitz).
     #[inline(always)]
     fn cells(
         &self,
         world: &CompiledWorld,
         p: &[f32x8; 3],
         lanes: u32,
-        mut f: impl FnMut(usize, u8),
+        mut f: impl FnMut(usize, u8, f32),
     ) {
         let zero = f32x8::splat(0.0);
         let mut inside = lanes;
         let mut ijk = [i32x8::splat(0); 3];
+        let mut off2 = zero;
         for a in 0..3 {
             let f = (p[a] - f32x8::splat(self.origin[a])) * f32x8::splat(1.0 / CELL);
             // In [0, n) (NaN fails both tests).
             inside &= (f.simd_ge(zero) & f.simd_lt(f32x8::splat(self.n_f32[a]))).to_bitmask();
             // In range where it counts, so the plain truncating conversion is exact.
             ijk[a] = f.fast_trunc_int();
+            // The offset from the cell's centre, in cells (the fractional
+            // part less one half); its rounding is far below `SLACK`.
+            let d = (f - ijk[a].round_float()) - f32x8::splat(0.5);
+            off2 += d * d;
         }
+        let off = (off2.sqrt() * f32x8::splat(CELL)).to_array();
         // At most 6 m / 5 cm + 1 = 121 cells per axis: inside lanes' indices
         // stay far below 2^31.
         let idx = ((ijk[0] * i32x8::splat(self.n[1] as i32) + ijk[1])
@@ -311,7 +322,7 @@ impl WorldGrid {
             let v = self.cell(world, idx[l] as usize, || {
                 ijk.map(|c| c.to_array()[l] as usize)
             });
-            f(l, v);
+            f(l, v, off[l]);
         }
     }
 
@@ -357,8 +368,8 @@ impl WorldGrid {
                 .map(|o| obstacle_distance(o, &c))
                 .fold(f32::INFINITY, f32::min)
         };
-        let half_diagonal = 0.5 * CELL * 3f32.sqrt();
-        let bound = (nearest - half_diagonal) / QUANTUM;
+        // The bound at the centre; the lookups deduct the point's offset.
+        let bound = nearest / QUANTUM;
         if bound.is_nan() || bound < 1.0 {
             0
         } else {

@@ -36,10 +36,42 @@ fn parry_shape(shape: &Shape) -> Box<dyn ParryShape> {
     }
 }
 
+/// Every part of `world`'s objects as a parry shape at its world pose.
+fn parry_parts(world: &CollisionWorld) -> Vec<(Box<dyn ParryShape>, Isometry3<f64>)> {
+    let y_to_z = Isometry3::rotation(nalgebra::Vector3::x() * std::f64::consts::FRAC_PI_2);
+    world
+        .objects()
+        .iter()
+        .flat_map(|o| {
+            o.parts.iter().map(move |(s, local)| {
+                let pose = o.pose * local;
+                let pose = match s {
+                    Shape::Cylinder { .. } => pose * y_to_z,
+                    _ => pose,
+                };
+                (parry_shape(s), pose)
+            })
+        })
+        .collect()
+}
+
+/// parry's distance from point `p` to each of `parts`.
+fn parry_distances(parts: &[(Box<dyn ParryShape>, Isometry3<f64>)], p: &[f32; 3]) -> Vec<f32> {
+    let point = Ball::new(1e-6);
+    let at = Isometry3::translation(p[0] as f64, p[1] as f64, p[2] as f64);
+    parts
+        .iter()
+        .map(|(s, pose)| {
+            distance(&to_pose(&at), &point, &to_pose(pose), s.as_ref())
+                .unwrap()
+                .distance
+        })
+        .collect()
+}
+
 #[test]
 fn grid_bounds_never_exceed_exact_distances() {
     let (model, spheres, acm) = mbm_panda();
-    let y_to_z = Isometry3::rotation(nalgebra::Vector3::x() * std::f64::consts::FRAC_PI_2);
     let mut rng = StdRng::seed_from_u64(8);
     let mut positive = 0;
     for scene in [
@@ -47,25 +79,11 @@ fn grid_bounds_never_exceed_exact_distances() {
         "bench/mbm/bookshelf_small_panda/scene0007.yaml",
     ] {
         let world = CollisionWorld::from_moveit_scene(shared(scene)).unwrap();
-        let parts: Vec<(Box<dyn ParryShape>, Isometry3<f64>)> = world
-            .objects()
-            .iter()
-            .flat_map(|o| {
-                o.parts.iter().map(move |(s, local)| {
-                    let pose = o.pose * local;
-                    let pose = match s {
-                        Shape::Cylinder { .. } => pose * y_to_z,
-                        _ => pose,
-                    };
-                    (parry_shape(s), pose)
-                })
-            })
-            .collect();
+        let parts = parry_parts(&world);
         let checker =
             CollisionChecker::new(model.clone(), spheres.clone(), acm.clone(), world).unwrap();
         let (robot, compiled) = checker.compiled();
         let grid = WorldGrid::for_robot(robot, compiled, 0.0).expect("a grid");
-        let point = Ball::new(1e-6);
         for _ in 0..20_000 {
             let p = [
                 rng.random_range(-1.3..1.3f32),
@@ -73,15 +91,7 @@ fn grid_bounds_never_exceed_exact_distances() {
                 rng.random_range(-0.9..1.6f32),
             ];
             let bound = grid.clearance(compiled, &p);
-            let at = Isometry3::translation(p[0] as f64, p[1] as f64, p[2] as f64);
-            let dists: Vec<f32> = parts
-                .iter()
-                .map(|(s, pose)| {
-                    distance(&to_pose(&at), &point, &to_pose(pose), s.as_ref())
-                        .unwrap()
-                        .distance
-                })
-                .collect();
+            let dists = parry_distances(&parts, &p);
             let exact = dists.iter().copied().fold(f32::INFINITY, f32::min);
             // Every obstacle within the lists' reach of `p` is a candidate
             // of `p`'s cell (one part per obstacle in these scenes), and
@@ -149,6 +159,52 @@ fn single_path_with_grid_agrees_with_batch_kernel_in_every_dev_scene_kind() {
 /// it (hundreds of obstacles, many close to the arm).
 fn cage_world(seed: u64, n: usize) -> CollisionWorld {
     common::scattered_world(seed, n, 0.9, -0.2..1.2, 0.01..0.06, 4)
+}
+
+#[test]
+fn point_bounds_hold_near_obstacles_in_crowded_worlds() {
+    // A cell stores its bound at its centre; a lookup deducts the point's
+    // offset from the centre. Points drawn close to obstacles of crowded
+    // worlds of rotated boxes, spheres, cylinders and capsules (where a
+    // bound that is too large would hide a contact), against parry's exact
+    // distances.
+    let (model, spheres, acm) = mbm_panda();
+    let mut rng = StdRng::seed_from_u64(2311);
+    let half_diagonal = 0.5 * 0.05 * 3f32.sqrt();
+    for (seed, n, margin) in [(11, 250, 0.0), (12, 500, 0.02)] {
+        let world = cage_world(seed, n);
+        let parts = parry_parts(&world);
+        let centres: Vec<[f64; 3]> = world
+            .objects()
+            .iter()
+            .map(|o| o.pose.translation.vector.into())
+            .collect();
+        let checker =
+            CollisionChecker::new(model.clone(), spheres.clone(), acm.clone(), world).unwrap();
+        let (robot, compiled) = checker.compiled();
+        let grid = WorldGrid::for_robot(robot, compiled, margin).expect("a grid");
+        let mut positive = 0;
+        for _ in 0..6_000 {
+            let c = centres[rng.random_range(0..centres.len())];
+            let p = [0, 1, 2].map(|a| (c[a] + rng.random_range(-0.2..0.2)) as f32);
+            let bound = grid.clearance(compiled, &p);
+            let exact = parry_distances(&parts, &p)
+                .into_iter()
+                .fold(f32::INFINITY, f32::min);
+            assert!(
+                bound <= exact + 1e-5,
+                "{n} obstacles at {p:?}: bound {bound} > exact {exact}"
+            );
+            if bound > 0.0 {
+                positive += 1;
+                assert!(
+                    exact.min(grid.list_reach()) - bound < 2.0 * half_diagonal + 0.009,
+                    "{p:?}: {bound} {exact}"
+                );
+            }
+        }
+        assert!(positive > 1_000, "{n}: {positive}");
+    }
 }
 
 #[test]
@@ -271,6 +327,13 @@ fn crowded_world_batches_agree_with_exact_f64_sphere_distances() {
         assert!(checker.has_world_grid());
         let (mut world_hits, mut free, mut compared) = (0, 0, 0);
         for (q, &got) in qs.iter().zip(&batch) {
+            // The single-configuration kernel (its own grid lookups and
+            // candidate walk) answers the same.
+            assert_eq!(
+                checker.in_collision(q).unwrap(),
+                got,
+                "{n} obstacles: single vs batch at {q:?}"
+            );
             let d = checker.distance(q).unwrap();
             let nearest = d.world_distance.min(d.self_distance);
             if d.world_distance < margin - 1e-4 {
