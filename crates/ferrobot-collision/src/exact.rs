@@ -69,7 +69,6 @@ use parry3d::query::PointQuery;
 use parry3d::query::details::{
     closest_points_support_map_support_map, intersection_test_support_map_support_map,
 };
-use parry3d::query::gjk::{self, CsoPoint, GJKResult, VoronoiSimplex};
 use parry3d::shape::{Ball, Capsule, Cuboid, Cylinder, SupportMap, TriMesh};
 
 use crate::compiled::Frame32;
@@ -418,103 +417,6 @@ struct Part {
     /// frame): `local_support_point(d).dot(d)`, the outer side of
     /// [`may_hold`], computed once.
     reach26: [f32; 26],
-    /// For a hull of more than [`CORE_VERTICES`] vertices: the hull of at
-    /// most that many of its vertices (those furthest along spread
-    /// directions), which lies inside it. GJK on the cores decides most
-    /// pairs at a fraction of the cost ([`hulls_within`]).
-    core: Option<Convex>,
-    /// How far the shape reaches beyond its core (m; 0 without one): the
-    /// largest difference of their support values over spread directions
-    /// (an estimate, used only to say how far apart GJK on the cores
-    /// should look before the shapes are measured).
-    core_excess: f32,
-}
-
-/// At most this many vertices in a part's [`Part::core`] (four packs of
-/// eight for [`Hull::support`]).
-const CORE_VERTICES: usize = 32;
-/// A separating plane proves two shapes apart (margin 0) only when their
-/// gap along it exceeds this (m): ten times the `f32` rounding of the
-/// support values at robot scale.
-const SEPARATE: f32 = 1e-6;
-
-/// `n` unit directions spread over the sphere (a Fibonacci lattice).
-fn spread_directions(n: usize) -> Vec<Vector> {
-    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
-    (0..n)
-        .map(|i| {
-            let z = 1.0 - (2.0 * i as f64 + 1.0) / n as f64;
-            let r = (1.0 - z * z).max(0.0).sqrt();
-            let phi = golden * i as f64;
-            Vector::new((r * phi.cos()) as f32, (r * phi.sin()) as f32, z as f32)
-        })
-        .collect()
-}
-
-/// The [`Part::core`] of `hull`: the hull of its vertices that are
-/// furthest along the most directions of a spread set for which there are
-/// at most [`CORE_VERTICES`] of them. None for hulls with no more vertices
-/// than that (the hull is its own core).
-fn core_of(hull: &Hull) -> Option<Convex> {
-    if hull.points.len() <= CORE_VERTICES {
-        return None;
-    }
-    let mut best: Vec<Vector> = Vec::new();
-    for n in (8..=512).step_by(4) {
-        let mut pts: Vec<Vector> = Vec::new();
-        for d in spread_directions(n) {
-            let p = hull.support(d);
-            if !pts.contains(&p) {
-                pts.push(p);
-            }
-        }
-        if pts.len() > CORE_VERTICES {
-            break;
-        }
-        best = pts;
-    }
-    Hull::new(&best).map(|h| Convex::Hull(Arc::new(h)))
-}
-
-/// Whether the convex shapes of parts `pa` and `pb` (`pb` posed by `pos12`
-/// in `pa`'s frame) touch (margin 0) or come closer than `margin`: the
-/// answer of [`within_margin`] / parry's intersection test on the shapes,
-/// decided on the parts' cores where they can. Cores that touch mean
-/// shapes that touch (each core lies inside its shape). Cores apart: GJK
-/// on the cores runs until they are shown further apart than their shapes
-/// stick out ([`Part::core_excess`]) plus the margin, or their distance is
-/// pinned to less, and its last direction is measured on the shapes
-/// themselves (one support point each): a gap beyond the margin along it
-/// is a separating plane, so the shapes are apart. Otherwise GJK on the
-/// shapes decides, as without cores.
-#[inline(never)]
-fn hulls_within(pa: &Part, pb: &Part, pos12: &Pose, margin: f32) -> bool {
-    let (sa, sb) = (&pa.shape, &pb.shape);
-    let margin = margin.max(0.0);
-    if pa.core.is_some() || pb.core.is_some() {
-        let (ca, cb) = (pa.core.as_ref().unwrap_or(sa), pb.core.as_ref().unwrap_or(sb));
-        let dir0 = pos12.translation.try_normalize().unwrap_or(Vector::X);
-        let mut simplex = VoronoiSimplex::new();
-        simplex.reset(CsoPoint::from_shapes(pos12, ca, cb, dir0));
-        let reach = pa.core_excess + pb.core_excess + margin + SEPARATE;
-        let dir = match gjk::closest_points(pos12, ca, cb, reach, false, &mut simplex) {
-            GJKResult::Intersection => return true,
-            GJKResult::NoIntersection(d) | GJKResult::Proximity(d) => Some(d),
-            GJKResult::ClosestPoints(..) => None,
-        };
-        if let Some(n) = dir.and_then(|d| d.try_normalize()) {
-            let top_a = sa.local_support_point(n).dot(n);
-            let bottom_b = (*pos12 * sb.local_support_point(pos12.rotation.inverse() * -n)).dot(n);
-            if bottom_b - top_a > margin + SEPARATE {
-                return false;
-            }
-        }
-    }
-    if margin > 0.0 {
-        within_margin(pos12, sa, sb, margin)
-    } else {
-        intersection_test_support_map_support_map(pos12, sa, sb)
-    }
 }
 
 /// The 26 unit directions of [`may_hold`]: every (x, y, z) in {-1, 0, 1}^3
@@ -584,18 +486,7 @@ impl Part {
             reach26: [0.0; 26],
             witness: Vec::new(),
             inner_local: Vec::new(),
-            core: None,
-            core_excess: 0.0,
         };
-        if let Convex::Hull(h) = &part.shape {
-            part.core = core_of(h);
-            if let Some(c) = &part.core {
-                part.core_excess = spread_directions(256)
-                    .into_iter()
-                    .map(|d| h.support(d).dot(d) - c.local_support_point(d).dot(d))
-                    .fold(0.0, f32::max);
-            }
-        }
         let dirs = directions26();
         part.reach26 =
             std::array::from_fn(|k| part.shape.local_support_point(dirs[k]).dot(dirs[k]));
@@ -717,8 +608,16 @@ impl Part {
     }
 }
 
-/// At most this many mesh vertices among a part's [`Part::witness`] points.
-const WITNESS_VERTICES: usize = 48;
+/// At most this many mesh vertices among a part's [`Part::witness`] points
+/// (spread over the mesh, in the order of the farthest-point sampling).
+const WITNESS_VERTICES: usize = 256;
+/// Of a part's [`Part::witness`] points, at most this many packs of eight
+/// are tested against the inscribed spheres of a part that keeps its mesh
+/// (its inscribed spheres' centres and the 48 most spread vertices): every
+/// pack costs a test against every sphere there, while against a hull's
+/// planes a pack is usually dismissed by its first planes, so there all of
+/// them are tested.
+const WITNESS_PACKS_VS_SPHERES: usize = 8;
 
 /// Up to `n` vertices of mesh `m` (those its triangles use), spread over
 /// it: farthest-point sampling from the first.
@@ -778,7 +677,8 @@ fn witness_inside(w: &Part, outer: &Part, pos: &Pose) -> bool {
         (Convex::Hull(h), None) => h,
         (_, Some(_)) => {
             // The inscribed spheres (radius already shrunk by TOUCH).
-            return w.witness.iter().any(|pack| {
+            let packs = &w.witness[..w.witness.len().min(WITNESS_PACKS_VS_SPHERES)];
+            return packs.iter().any(|pack| {
                 let p = place(pack);
                 outer.inner_local.iter().any(|[cx, cy, cz, r]| {
                     let d = [p[0] - s(*cx), p[1] - s(*cy), p[2] - s(*cz)];
@@ -1446,9 +1346,14 @@ pub fn confirm<L: Lanes>(
                 let i = bits.trailing_zeros() as usize;
                 bits &= bits - 1;
                 let pos12 = relative(&part_pose(fa, i, &pa.pose), &part_pose(fb, i, &pb.pose));
+                let (sa, sb) = (&pa.shape, &pb.shape);
                 #[cfg(feature = "exact-stats")]
                 let t0 = std::time::Instant::now();
-                let mut hit = hulls_within(pa, pb, &pos12, margin);
+                let mut hit = if margin > 0.0 {
+                    within_margin(&pos12, sa, sb, margin)
+                } else {
+                    intersection_test_support_map_support_map(&pos12, sa, sb)
+                };
                 #[cfg(feature = "exact-stats")]
                 let (t1, gjk_hit) = (std::time::Instant::now(), hit);
                 if hit && (pa.fine.is_some() || pb.fine.is_some()) {
@@ -1834,215 +1739,6 @@ mod tests {
                 witnessed > 100 && touching > 100 && apart > 5 && contacts < refined,
                 "{robot}: {refined} refined, {contacts} contacts, {witnessed} witnessed, \
                  {touching} crossing, {apart} apart"
-            );
-        }
-    }
-
-    /// Whether hulls `a` and `b` (`b` posed by `pos` in `a`'s frame, the
-    /// pose's `f32` values taken exactly in `f64`) certainly intersect, by
-    /// an `f64` scan independent of GJK: a vertex of one inside the other
-    /// by more than 1e-7 m (the other's face planes), or an edge of a face
-    /// of one crossing a face of the other well inside it
-    /// ([`edge_crosses_f64`]). Convex solids that share a point have one
-    /// or the other.
-    fn hulls_intersect_f64(a: &Hull, b: &Hull, pos: &Pose) -> bool {
-        let q = pos.rotation;
-        let rot = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
-            q.w as f64, q.x as f64, q.y as f64, q.z as f64,
-        ));
-        let t = Vector3::new(
-            pos.translation.x as f64,
-            pos.translation.y as f64,
-            pos.translation.z as f64,
-        );
-        let v64 = |p: &Vector| Vector3::new(p.x as f64, p.y as f64, p.z as f64);
-        let place = |p: &Vector| rot * v64(p) + t;
-        let fa: Vec<[Vector3<f64>; 3]> = a.faces.iter().map(|f| f.map(|p| v64(&p))).collect();
-        let fb: Vec<[Vector3<f64>; 3]> = b.faces.iter().map(|f| f.map(|p| place(&p))).collect();
-        // b's planes in a's frame.
-        let pb: Vec<(Vector3<f64>, f64)> = b
-            .planes
-            .iter()
-            .map(|(n, d)| {
-                let n = rot * n;
-                (n, d + n.dot(&t))
-            })
-            .collect();
-        let inside = |planes: &[(Vector3<f64>, f64)], p: &Vector3<f64>| {
-            planes.iter().all(|(n, d)| n.dot(p) < d - 1e-7)
-        };
-        if a.points.iter().any(|p| inside(&pb, &v64(p)))
-            || b.points.iter().any(|p| inside(&a.planes, &place(p)))
-        {
-            return true;
-        }
-        let bound = |t: &[Vector3<f64>; 3]| {
-            (
-                t[0].inf(&t[1]).inf(&t[2]).add_scalar(-1e-6),
-                t[0].sup(&t[1]).sup(&t[2]).add_scalar(1e-6),
-            )
-        };
-        let ba: Vec<_> = fa.iter().map(bound).collect();
-        let bb: Vec<_> = fb.iter().map(bound).collect();
-        fa.iter().zip(&ba).any(|(ta, (la, ha))| {
-            fb.iter().zip(&bb).any(|(tb, (lb, hb))| {
-                (0..3).all(|k| la[k] <= hb[k] && lb[k] <= ha[k])
-                    && (edge_crosses_f64(ta, tb) || edge_crosses_f64(tb, ta))
-            })
-        })
-    }
-
-    /// The hull decision on the parts' cores ([`hulls_within`]) against
-    /// GJK on the full hulls (the decision without cores) and against an
-    /// independent `f64` scan for intersecting hulls
-    /// ([`hulls_intersect_f64`]), for every hull part of the Panda and the
-    /// UR5 that has a core, against every other hull part: random
-    /// orientations, the second part moved along a random direction to
-    /// the distance where the hulls just touch (bisection on GJK), then
-    /// placed at offsets of 3 µm to 3 cm either side of it (margins 0 and,
-    /// on every fourth case, 1 cm). The cores never call a pair apart that
-    /// the scan finds intersecting, and answer as the full hulls do on all
-    /// but a few cases near the touching boundary, where parry's GJK stalls
-    /// on either (calling hulls up to millimetres apart touching: the scan
-    /// sides with the cores about as often as with the full hulls).
-    #[test]
-    fn core_decision_never_frees_touching_hulls() {
-        use ferrobot_model::{LoadOptions, RobotModel, SrdfSource};
-        use rand::{Rng, SeedableRng, rngs::StdRng};
-        let shared = |rel: &str| {
-            std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-                .join("../../../shared")
-                .join(rel)
-        };
-        let mut rng = StdRng::seed_from_u64(29);
-        for robot in ["panda", "ur5"] {
-            let model = RobotModel::from_urdf_file(
-                shared(&format!("robots/{robot}/{robot}.urdf")),
-                &LoadOptions {
-                    srdf: Some(SrdfSource::File(shared(&format!(
-                        "robots/{robot}/{robot}.srdf"
-                    )))),
-                    ..Default::default()
-                },
-            )
-            .unwrap();
-            let parts: Vec<Part> = model
-                .links()
-                .iter()
-                .filter_map(|l| ExactBody::of_link(l, &Isometry3::identity()))
-                .flat_map(|b| b.parts.iter().cloned().collect::<Vec<_>>())
-                .filter(|p| matches!(p.shape, Convex::Hull(_)))
-                .collect();
-            let with_core = parts.iter().filter(|p| p.core.is_some()).count();
-            assert!(with_core >= 4, "{robot}: {with_core} parts with a core");
-            let hull = |p: &Part| match &p.shape {
-                Convex::Hull(h) => h.clone(),
-                _ => unreachable!("hull parts only"),
-            };
-            let centre = |h: &Hull| {
-                h.points.iter().fold(Vector::ZERO, |a, p| a + *p) / h.points.len() as f32
-            };
-            let (mut cases, mut apart, mut touching, mut by_core, mut differ) = (0, 0, 0, 0, 0);
-            let (mut wrong_new, mut wrong_old) = (0, 0);
-            for _ in 0..3000 {
-                let (i, j) = (rng.random_range(0..parts.len()), rng.random_range(0..parts.len()));
-                let (pa, pb) = (&parts[i], &parts[j]);
-                if pa.core.is_none() && pb.core.is_none() {
-                    continue;
-                }
-                let (ha, hb) = (hull(pa), hull(pb));
-                let axis = Vector::new(
-                    rng.random_range(-1.0..1.0),
-                    rng.random_range(-1.0..1.0),
-                    rng.random_range(-1.0..1.0),
-                )
-                .normalize_or(Vector::X);
-                let rot = Rot3::from_axis_angle(axis, rng.random_range(0.0..6.3));
-                let u = Vector::new(
-                    rng.random_range(-1.0..1.0),
-                    rng.random_range(-1.0..1.0),
-                    rng.random_range(-1.0..1.0),
-                )
-                .normalize_or(Vector::Y);
-                // b's centre at a's centre plus `s` along `u`.
-                let at = |s: f32| {
-                    Pose::from_parts(centre(&ha) - rot * centre(&hb) + u * s, rot)
-                };
-                let full = |pos: &Pose, margin: f32| {
-                    if margin > 0.0 {
-                        within_margin(pos, &pa.shape, &pb.shape, margin)
-                    } else {
-                        intersection_test_support_map_support_map(pos, &pa.shape, &pb.shape)
-                    }
-                };
-                let (mut lo, mut hi) = (0.0f32, 2.0f32);
-                for _ in 0..40 {
-                    let mid = 0.5 * (lo + hi);
-                    if full(&at(mid), 0.0) {
-                        lo = mid;
-                    } else {
-                        hi = mid;
-                    }
-                }
-                for _ in 0..6 {
-                    let delta = 10f32.powf(rng.random_range(-5.5..-1.5));
-                    let s = if rng.random_bool(0.5) { lo + delta } else { lo - delta };
-                    let margin = if rng.random_range(0..4) == 3 { 0.01 } else { 0.0 };
-                    let pos = at(s);
-                    let new = hulls_within(pa, pb, &pos, margin);
-                    let old = full(&pos, margin);
-                    cases += 1;
-                    if !new {
-                        apart += 1;
-                        // Never apart where the hulls certainly intersect.
-                        assert!(
-                            !hulls_intersect_f64(&ha, &hb, &pos),
-                            "{robot} parts {i} {j} at {s} (touch at {lo}): cores say apart"
-                        );
-                    } else {
-                        touching += 1;
-                    }
-                    // Where the two differ, which one the scan sides with:
-                    // parry's GJK calls some hulls touching that are
-                    // millimetres apart (stalling on flat faces), on the
-                    // cores as on the full hulls.
-                    if new != old {
-                        differ += 1;
-                        let truth = hulls_intersect_f64(&ha, &hb, &pos);
-                        if margin == 0.0 && truth != new {
-                            wrong_new += 1;
-                        }
-                        if margin == 0.0 && truth != old {
-                            wrong_old += 1;
-                        }
-                    }
-                    let core_only = {
-                        let ca = pa.core.as_ref().unwrap_or(&pa.shape);
-                        let cb = pb.core.as_ref().unwrap_or(&pb.shape);
-                        intersection_test_support_map_support_map(&pos, ca, cb)
-                    };
-                    by_core += usize::from(core_only);
-                }
-            }
-            let report = format!(
-                "{robot}: {with_core} of {} hull parts with a core; {cases} cases, {apart} \
-                 apart, {touching} touching ({by_core} by the cores); {differ} differ from GJK \
-                 on the full hulls, the f64 scan disagreeing with the cores on {wrong_new} and \
-                 with the full hulls on {wrong_old} of them",
-                parts.len()
-            );
-            println!("{report}");
-            // Both sides of the decision occur, the cores decide many, and
-            // they are wrong (conservatively: touching where the scan finds
-            // no intersection) not much more often than GJK on the full
-            // hulls.
-            assert!(
-                apart > 1000
-                    && touching > 1000
-                    && by_core > 300
-                    && differ <= cases / 20
-                    && wrong_new <= 2 * wrong_old + cases / 500,
-                "{report}"
             );
         }
     }
