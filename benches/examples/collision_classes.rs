@@ -7,8 +7,9 @@
 //!
 //! `cargo run --release -p ferrobot-benches --example collision_classes [WORLDS] [N]`
 //!
-//! `... collision_classes loop CLASS SECONDS [batch|single]` checks one
-//! class's first world over and over (for `perf record`).
+//! `... collision_classes loop CLASS SECONDS [batch|single] [noexact]` checks
+//! one class's first world over and over (for `perf record`; `noexact`: with
+//! the exact self stage off).
 //!
 //! `cargo run --release -p ferrobot-benches --features exact-stats --example
 //! collision_classes stats [panda|ur5] [N]` counts, per class and per pair of
@@ -246,6 +247,10 @@ fn main() {
         let single = args.get(3).map(String::as_str) == Some("single");
         let mut checker = base.clone();
         checker.set_world(world(class, 0));
+        // `noexact` after the mode: the exact self stage off (spheres decide).
+        if args.get(4).map(String::as_str) == Some("noexact") {
+            checker.set_exact_self_collision(false);
+        }
         let qs = random_configurations(&model, 100_000, 0);
         let mut flags = vec![false; 100_000];
         let t = Instant::now();

@@ -608,8 +608,16 @@ impl Part {
     }
 }
 
-/// At most this many mesh vertices among a part's [`Part::witness`] points.
-const WITNESS_VERTICES: usize = 48;
+/// At most this many mesh vertices among a part's [`Part::witness`] points
+/// (spread over the mesh, in the order of the farthest-point sampling).
+const WITNESS_VERTICES: usize = 256;
+/// Of a part's [`Part::witness`] points, at most this many packs of eight
+/// are tested against the inscribed spheres of a part that keeps its mesh
+/// (its inscribed spheres' centres and the 48 most spread vertices): every
+/// pack costs a test against every sphere there, while against a hull's
+/// planes a pack is usually dismissed by its first planes, so there all of
+/// them are tested.
+const WITNESS_PACKS_VS_SPHERES: usize = 8;
 
 /// Up to `n` vertices of mesh `m` (those its triangles use), spread over
 /// it: farthest-point sampling from the first.
@@ -669,7 +677,8 @@ fn witness_inside(w: &Part, outer: &Part, pos: &Pose) -> bool {
         (Convex::Hull(h), None) => h,
         (_, Some(_)) => {
             // The inscribed spheres (radius already shrunk by TOUCH).
-            return w.witness.iter().any(|pack| {
+            let packs = &w.witness[..w.witness.len().min(WITNESS_PACKS_VS_SPHERES)];
+            return packs.iter().any(|pack| {
                 let p = place(pack);
                 outer.inner_local.iter().any(|[cx, cy, cz, r]| {
                     let d = [p[0] - s(*cx), p[1] - s(*cy), p[2] - s(*cz)];
