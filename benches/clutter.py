@@ -16,7 +16,7 @@ Each attempt (the setting of VGN's clutter removal, with grasp_eval's floating P
   the table, renders depth and segmentation;
 - ``detect_from_rgbd`` runs once on the whole frame, grasps sought on the remaining objects' pixels (the
   instance masks), every pixel (neighbours, bin walls, table) an obstacle, the world's -z as the preferred
-  approach, on a table fingertip depths of 4, 3 and 2 cm or the deepest the table allows (``TABLE_DEPTHS``);
+  approach, the detector's own depth policy on tables and in bins alike (``DetectOptions.depths``);
   the top-scored grasp is executed (no grasp: a failed attempt);
 - the floating Panda hand of ``benches/grasp_eval.py`` (pybullet_data's hand and finger meshes on three
   driven slides; the two fingers geared together as the real Panda's, the second a mimic of the first,
@@ -91,12 +91,6 @@ LOST_DROP = 0.05
 MAX_PUSHES_IN_ROW = 3
 #: Opening (m) added to the grasp's width for the fingers' pre-shape before the approach.
 PRESHAPE_MARGIN = 0.01
-#: Fingertip depths (m) the detector tries on a table, deepest first (``DetectOptions.depths``; its default adds
-#: 0.015): without the 15 mm hands, the support plane's limit supplies the deepest depth the table allows
-#: wherever 2 cm does not fit (``candidates::plane_limited_depth``). Shallow grasps are the marginal ones: on the
-#: coupled hand's runs 15 mm hands lifted 78 % (ferrobot) / 83 % (MuJoCo), hands >= 17.5 mm deep 96 % / 89 %
-#: (BENCHMARKS.md, "Table clearing: who is right about slipped out"). Bins keep the detector's default.
-TABLE_DEPTHS = (0.04, 0.03, 0.02)
 #: Largest force (N) of the PyBullet judge's gear constraint between the coupled fingers (well above the
 #: 2 x 20 N squeeze, so it holds them equal as the ferrobot mimic coupling does).
 GEAR_FORCE = 1000.0
@@ -685,8 +679,6 @@ def attempt(
     depth = np.where(np.isfinite(frame.depth), frame.depth, 0.0)
     opts = dict(options)
     opts.setdefault("approach_direction", tuple(cam_pose[:3, :3].T @ np.array([0.0, 0.0, -1.0])))
-    if state.spec.bin is None:
-        opts.setdefault("depths", list(TABLE_DEPTHS))
     t0, c0 = time.perf_counter(), time.process_time()
     gg = fg.detect_from_rgbd(depth, ge.F, ge.F, ge.CX, ge.CY, scale=1.0, mask=seg, **opts)
     rec["detect_ms"] = (time.perf_counter() - t0) * 1e3

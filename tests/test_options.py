@@ -31,7 +31,7 @@ def test_defaults_are_the_documented_ones():
     assert (k.position_tolerance, k.rotation_tolerance, k.num_seeds, k.max_iterations) == (1e-3, 0.01, 200, 60)
     assert (k.collision_free, k.seed) == (False, 0)
     d = DetectOptions()
-    assert d.voxel_size == 0.005 and d.num_seeds == 128 and d.depths == [0.04, 0.03, 0.02, 0.015]
+    assert d.voxel_size == 0.005 and d.num_seeds == 128 and d.depths == [0.04, 0.03, 0.02]
     assert d.approach_tilts == [0.0, -0.4, 0.4] and d.viewpoint == [0.0, 0.0, 0.0]
     assert d.approach_direction == [0.0, 0.0, 1.0] and math.isclose(d.nms_rotation, math.pi / 6)
     assert (d.max_width, d.palm_width, d.seed, d.support_plane) == (0.08, 0.208, 0, True)

@@ -149,11 +149,11 @@ def _box_cloud():
 @pytest.mark.parametrize(
     ("gripper", "hand"),
     [
-        # Panda hand: 50 mm pads -> depths 0.8, 0.6, 0.4, 0.3 of them = 40, 30, 20, 15 mm.
+        # Panda hand: 50 mm fingers -> depths 0.8, 0.6, 0.4 of them = 40, 30, 20 mm.
         (
             ferrobot.Gripper.panda_hand,
             dict(
-                depths=[0.04, 0.03, 0.02, 0.015],
+                depths=[0.04, 0.03, 0.02],
                 max_width=0.08,
                 finger_depth=0.05,
                 finger_width=0.01,
@@ -163,11 +163,11 @@ def _box_cloud():
                 palm_depth=0.092,
             ),
         ),
-        # Robotiq 2F-85: 37.5 mm pads -> 30, 22.5, 15, 11.25 mm.
+        # Robotiq 2F-85: 37.5 mm fingers -> 30, 22.5, 15 mm.
         (
             ferrobot.Gripper.robotiq_2f85,
             dict(
-                depths=[0.03, 0.0225, 0.015, 0.01125],
+                depths=[0.03, 0.0225, 0.015],
                 finger_depth=0.0375,
                 finger_width=0.007,
                 height=0.022,

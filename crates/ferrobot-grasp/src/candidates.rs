@@ -72,6 +72,46 @@ const PLANE_TOLERANCE: f64 = 0.001;
 /// Fewest (x, z) cells of a finger pad the object must reach.
 const MIN_CONTACT_CELLS: usize = 4;
 
+/// How far (m) along the approach a hand's pads overlap the object between
+/// its fingers: from the fingertips (x = `depth`) back to the highest of the
+/// points between the fingers (`inside`, hand frame: the object's top there,
+/// at most the seed, x = 0). 0 without points.
+pub(crate) fn pad_engagement(inside: &[Vector3<f64>], depth: f64) -> f64 {
+    let top = inside.iter().map(|q| q.x).fold(f64::INFINITY, f64::min);
+    if top.is_finite() { depth - top } else { 0.0 }
+}
+
+/// The depth policy's engagement term for a hand of `g` whose pads overlap
+/// the object by `engaged` (m, [`pad_engagement`]): how much of a square
+/// patch of the pad (as long along the approach as the pad is wide, `g.height`)
+/// the object covers, in [0, 1].
+///
+/// Why a square: the two pads resist the object turning about the
+/// approach with the patch's extent across the pad (at most the pad's
+/// width) and turning about the pad's width axis (rolling out between the
+/// fingers, the usual slip of shallow grasps) with its extent along the
+/// approach, the engagement. Below the pad's width the roll-out axis is the
+/// weak one, and the shallower, the weaker: on tables, 15 mm hands of the
+/// Panda's 20 mm wide pads lifted 78 % (ferrobot) / 83 % (MuJoCo) against
+/// 96 % / 89 % for hands >= 17.5 mm deep, and 7 of 8 reproducible bin slips
+/// were 15 mm hands (BENCHMARKS.md, table18e and slip18h).
+///
+/// A fixed-depth hand must engage a full square (factor 1, else the search
+/// goes on to the next depth); a plane-limited hand (a piece lower than the
+/// pad's width, only where the support plane stops every fixed depth) is
+/// kept with its score multiplied by this factor, so it ranks below full
+/// hands of the same quality.
+pub fn engagement_factor(g: &GripperGeometry, engaged: f64) -> f64 {
+    (engaged / g.height).clamp(0.0, 1.0)
+}
+
+/// Whether a fixed-depth hand of `g` with pad engagement `engaged` qualifies
+/// (see [`engagement_factor`]); rounding of the seed's own coordinate is
+/// tolerated.
+pub(crate) fn engages_fully(g: &GripperGeometry, engaged: f64) -> bool {
+    engaged >= g.height - 1e-9
+}
+
 /// Shallowest plane-limited depth tried (see `plane_limited_depth`):
 /// fingertips must reach at least this far past the seed.
 pub const MIN_PLANE_DEPTH: f64 = 0.005;
@@ -815,7 +855,12 @@ fn evaluate(
         {
             continue;
         }
-        return score_hand(cloud, p, r, &inside, seed, depth, width, yc, sp);
+        let engaged = pad_engagement(&inside, depth);
+        if k < nfixed && !engages_fully(g, engaged) {
+            continue;
+        }
+        let factor = engagement_factor(g, engaged);
+        return score_hand(cloud, p, r, &inside, seed, depth, width, yc, factor, sp);
     }
     None
 }
@@ -899,6 +944,7 @@ fn score_hand(
     depth: f64,
     width: f64,
     yc: f64,
+    engagement: f64,
     sp: &SearchParams,
 ) -> Option<Grasp> {
     let g = &sp.gripper;
@@ -923,7 +969,8 @@ fn score_hand(
         }
         _ => 1.0,
     };
-    let s = torque
+    let s = engagement
+        * torque
         * score(
             mu,
             sp.friction,
@@ -1376,6 +1423,84 @@ mod tests {
             total += found;
         }
         assert!(total > 200, "{total} hands compared");
+    }
+
+    #[test]
+    fn hands_must_engage_the_pads_width_unless_the_plane_limits_them() {
+        // A 5 x 7 x 10 cm box on a table, searched straight down from seeds
+        // on its flat top (z = 10 cm; approach tilts 0). The pads are 2 cm
+        // wide (`height`): a hand whose fingertips reach d below the top
+        // engages d of the box between the fingers (a little more where the
+        // seed's normal leans: the top face rises towards one finger).
+        // Hand derivation: at d = 1.5 cm about 75 % of a square patch, so no
+        // hand qualifies (the table, 10 cm down, does not limit the depth);
+        // at d = 2.5 cm more than the square, so the seeds whose hand clears
+        // get one, 2.5 cm deep. (At exactly 2 cm this synthetic cloud's
+        // hidden columns stop the hands before the engagement test.)
+        let g = GripperGeometry::default();
+        assert_eq!(engagement_factor(&g, 0.0125), 0.625);
+        assert_eq!(engagement_factor(&g, 0.03), 1.0);
+        assert_eq!(engagement_factor(&g, -0.001), 0.0);
+        let inside = [Vector3::new(0.0, 0.0, 0.0), Vector3::new(0.004, 0.01, 0.0)];
+        assert_eq!(pad_engagement(&inside, 0.02), 0.02);
+        assert_eq!(pad_engagement(&[], 0.02), 0.0);
+
+        let eye = Point3::new(-0.35, -0.25, 0.45);
+        let step = 0.0025;
+        let mut raw = Vec::new();
+        table_points(0.2, step, &mut raw);
+        box_faces(
+            Vector3::new(-0.025, -0.035, 0.0),
+            Vector3::new(0.025, 0.035, 0.1),
+            0.0,
+            &eye,
+            step,
+            1,
+            &mut raw,
+        );
+        let (cloud, seeds, plane) = scene_cloud(raw, eye, true);
+        let defaults = DetectOptions::default();
+        let sp = |depths: Vec<f64>| SearchParams {
+            gripper: g,
+            depths,
+            num_rotations: defaults.num_rotations,
+            approach_tilts: vec![0.0],
+            voxel_size: defaults.voxel_size,
+            friction: defaults.friction,
+            approach_direction: -Vector3::z(),
+            plane,
+            mass_centres: Vec::new(),
+            torque_scale: 0.0,
+            single_object: true,
+        };
+        let top: Vec<usize> = seeds
+            .iter()
+            .copied()
+            .filter(|&s| {
+                let q = cloud.points[s];
+                (q.z - 0.1).abs() < 1e-9
+                    && q.x.abs() < 0.015
+                    && q.y.abs() < 0.025
+                    && cloud.normal(s).z > 0.99
+            })
+            .collect();
+        assert!(top.len() >= 10, "{} top seeds", top.len());
+        let (shallow, full) = (sp(vec![0.015]), sp(vec![0.025]));
+        let mut found = 0;
+        for &s in &top {
+            for h in hands_at_seed(&cloud, s, &shallow) {
+                // Down from the top face (the seeds' normals lean up to 5
+                // degrees: the normal radius reaches the sides): none at 1.5 cm.
+                assert!(h.rotation.column(0).dot(&-Vector3::z()) < 0.99, "{h:?}");
+            }
+            for h in hands_at_seed(&cloud, s, &full) {
+                if h.rotation.column(0).dot(&-Vector3::z()) > 0.99 {
+                    assert_eq!(h.depth, 0.025);
+                    found += 1;
+                }
+            }
+        }
+        assert!(found >= 10, "{found} hands down at 2.5 cm");
     }
 
     #[test]

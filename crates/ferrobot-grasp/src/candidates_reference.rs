@@ -6,8 +6,9 @@
 use nalgebra::{Matrix3, Point3, Vector3};
 
 use super::{
-    MAX_FOREIGN_POINTS, PLANE_TOLERANCE, SearchParams, is_foreign, margin, plane_depths,
-    score_hand, shallowest_depth, tips_below_mid_height,
+    MAX_FOREIGN_POINTS, PLANE_TOLERANCE, SearchParams, engagement_factor, engages_fully,
+    is_foreign, margin, pad_engagement, plane_depths, score_hand, shallowest_depth,
+    tips_below_mid_height,
 };
 use crate::grasp::Grasp;
 use crate::gripper::Region;
@@ -325,7 +326,12 @@ fn evaluate(
         {
             continue;
         }
-        return score_hand(cloud, p, r, &inside, seed, depth, width, yc, sp);
+        let engaged = pad_engagement(&inside, depth);
+        if k < sp.depths.len() && !engages_fully(g, engaged) {
+            continue;
+        }
+        let factor = engagement_factor(g, engaged);
+        return score_hand(cloud, p, r, &inside, seed, depth, width, yc, factor, sp);
     }
     None
 }

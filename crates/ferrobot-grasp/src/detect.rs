@@ -38,11 +38,18 @@ pub struct DetectOptions {
     /// Approach tilts about the closing axis, radians (default 0, ±0.4).
     pub approach_tilts: Vec<f64>,
     /// Fingertip depths beyond the surface to try, deepest first, metres
-    /// (default 0.04, 0.03, 0.02, 0.015; GraspNet also tries 0.01, but
-    /// fingers 1 cm over a rounded object let it slip out: in
-    /// `benches/grasp_eval.py` dropping 0.01 raised top-1 success markedly;
-    /// 0.015 is what reaches around objects lying flat that are under 2 cm
-    /// tall, where the table stops every deeper hand).
+    /// (default 0.04, 0.03, 0.02: [`DEPTH_FRACTIONS`] of the Panda's 5 cm
+    /// fingers). The depth policy, the same for every caller (tables, bins,
+    /// the pipeline, the grasp service): per orientation the deepest of
+    /// these whose hand (fingers, palm, approach corridor, housing) is clear
+    /// of the cloud and above the support plane, and whose pads overlap the
+    /// object between the fingers by at least the pad's width
+    /// (`gripper.height`; see [`crate::candidates::engagement_factor`]);
+    /// where the support plane (a table, a bin's floor) stops every one of
+    /// them, the deepest depth the plane allows, ranked below by the
+    /// fraction of the pad's width it engages. A depth shallower than the
+    /// pad's width yields a hand only where the object rises above the seed
+    /// between the fingers by the difference.
     pub depths: Vec<f64>,
     /// Friction coefficient the grasp must close at (default 1.0).
     pub friction: f64,
@@ -104,7 +111,7 @@ impl Default for DetectOptions {
             seed_spacing: 0.0,
             num_rotations: 8,
             approach_tilts: vec![0.0, -0.4, 0.4],
-            depths: vec![0.04, 0.03, 0.02, 0.015],
+            depths: vec![0.04, 0.03, 0.02],
             friction: 1.0,
             viewpoint: Point3::origin(),
             approach_direction: Vector3::z(),
@@ -124,9 +131,16 @@ impl Default for DetectOptions {
 }
 
 /// The fingertip depths [`DetectOptions::for_gripper`] searches, as
-/// fractions of the gripper's finger pad length (`Fingers::depth`): the
-/// Panda hand's default depths 40, 30, 20 and 15 mm of its 50 mm pads.
-pub const DEPTH_FRACTIONS: [f64; 4] = [0.8, 0.6, 0.4, 0.3];
+/// fractions of the gripper's finger length (`Fingers::depth`): the Panda
+/// hand's default depths 40, 30 and 20 mm of its 50 mm fingers. The
+/// shallowest is at least the pad's width for the bundled grippers (Panda
+/// 20 mm of 20 mm, 2F-85 15 mm of 22 mm: its hands at 15 mm need the object
+/// to rise 7 mm above the seed between the fingers, see
+/// [`DetectOptions::depths`]); shallower hands come from the support
+/// plane's limit only. 0.3 (15 mm on the Panda) was dropped: those hands
+/// engage less than the pad's width and were the marginal grasps on tables
+/// and in bins (BENCHMARKS.md, table18e, slip18h, depth18i).
+pub const DEPTH_FRACTIONS: [f64; 3] = [0.8, 0.6, 0.4];
 
 impl DetectOptions {
     /// These options for `gripper`: its hand geometry

@@ -361,8 +361,10 @@ options_class! {
         /// (-pi/2, pi/2), at least one (default 0, -0.4, 0.4).
         approach_tilts / set_approach_tilts: Vec<f64> ["a list of floats"] => approach_tilts;
         /// Fingertip depths beyond the surface, deepest first, metres, each
-        /// in [0, finger_depth), at least one (default 0.04, 0.03, 0.02,
-        /// 0.015).
+        /// in [0, finger_depth), at least one (default 0.04, 0.03, 0.02;
+        /// a hand must engage the pad's width of the object, shallower
+        /// hands only where the support plane limits the depth, ranked
+        /// below).
         depths / set_depths: Vec<f64> ["a list of floats"] => depths;
         /// Friction coefficient the grasp must close at, > 0 (default 1).
         friction / set_friction: f64 ["float"] => friction;
