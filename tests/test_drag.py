@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _bin_hand import hand_mesh_points, inside_walls
 
 import ferrobot
 import ferrobot.grasp as fg
@@ -61,36 +62,6 @@ def _grasps(bench, frame, depth, cam_pose, ids) -> int:
     return len(fg.detect_from_rgbd(depth, g.F, g.F, g.CX, g.CY, scale=1.0, mask=seg, approach_direction=down))
 
 
-def _obj_vertices(path: Path) -> np.ndarray:
-    rows = [line.split()[1:4] for line in path.read_text().splitlines() if line.startswith("v ")]
-    return np.array(rows, dtype=np.float64)
-
-
-def _hand_mesh_points(robot, mesh_dir: Path, cache: dict) -> np.ndarray:
-    """The simulated hand's collision-mesh vertices (world) at its link poses (the right finger turned by pi)."""
-    if not cache:
-        cache["hand"] = _obj_vertices(mesh_dir / "hand.obj")
-        cache["finger"] = _obj_vertices(mesh_dir / "finger.obj")
-    rz = np.diag([-1.0, -1.0, 1.0])
-    out = []
-    for link, verts, r in (
-        ("panda_hand", cache["hand"], np.eye(3)),
-        ("panda_leftfinger", cache["finger"], np.eye(3)),
-        ("panda_rightfinger", cache["finger"], rz),
-    ):
-        t = robot.get_link_pose(link)
-        out.append(verts @ (t[:3, :3] @ r).T + t[:3, 3])
-    return np.vstack(out)
-
-
-def _inside_walls(points: np.ndarray, spec, table_top: float, tol: float) -> int:
-    count = 0
-    for _, size, pose in spec.bin.walls(table_top):
-        half = np.asarray(size) / 2 - tol
-        count += int(np.all(np.abs(points - np.asarray(pose[:3])) < half, axis=1).sum())
-    return count
-
-
 @pytest.mark.parametrize("wall", ["+y", "-y"])
 def test_drag_moves_a_slab_off_the_wall_until_it_can_be_grasped(wall):
     """A slab 2 mm from a long wall, its 8.5 cm side along it: no grasp (closing across its 6.5 cm side puts the
@@ -117,7 +88,7 @@ def test_drag_moves_a_slab_off_the_wall_until_it_can_be_grasped(wall):
     cache: dict = {}
 
     def watch(robot):
-        worst[0] = max(worst[0], _inside_walls(_hand_mesh_points(robot, mesh_dir, cache), spec, bench.TABLE_TOP, 1e-3))
+        worst[0] = max(worst[0], inside_walls(hand_mesh_points(robot, mesh_dir, cache), spec, bench.TABLE_TOP, 1e-3))
 
     with tempfile.TemporaryDirectory() as tmp:
         _, hand_model = bench.ge.hand_files(Path(tmp), coupled=True)

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _bin_hand import hand_mesh_points, inside_walls
 
 import ferrobot
 from ferrobot.errors import InvalidArgumentError
@@ -46,46 +47,14 @@ def _scene(x: float, y: float):
     return bench, w, state, frame, depth, cam_pose, ids
 
 
-def _obj_vertices(path: Path) -> np.ndarray:
-    rows = [line.split()[1:4] for line in path.read_text().splitlines() if line.startswith("v ")]
-    return np.array(rows, dtype=np.float64)
-
-
-def _hand_mesh_points(robot, mesh_dir: Path, cache: dict) -> np.ndarray:
-    """The simulated hand's collision-mesh vertices (world) at its current link poses (the URDF of
-    ``grasp_eval.hand_files``: the right finger's mesh turned by pi about z)."""
-    if not cache:
-        cache["hand"] = _obj_vertices(mesh_dir / "hand.obj")
-        cache["finger"] = _obj_vertices(mesh_dir / "finger.obj")
-    rz = np.diag([-1.0, -1.0, 1.0])
-    out = []
-    for link, verts, r in (
-        ("panda_hand", cache["hand"], np.eye(3)),
-        ("panda_leftfinger", cache["finger"], np.eye(3)),
-        ("panda_rightfinger", cache["finger"], rz),
-    ):
-        t = robot.get_link_pose(link)
-        out.append(verts @ (t[:3, :3] @ r).T + t[:3, 3])
-    return np.vstack(out)
-
-
-def _inside_walls(points: np.ndarray, spec, table_top: float, tol: float) -> int:
-    """How many points lie deeper than ``tol`` inside one of the bin's wall boxes."""
-    count = 0
-    for _, size, pose in spec.bin.walls(table_top):
-        half = np.asarray(size) / 2 - tol
-        count += int(np.all(np.abs(points - np.asarray(pose[:3])) < half, axis=1).sum())
-    return count
-
-
 def _run_slide(bench, w, state, plan, ids, mesh_dir):
     """The bench's slide execution, watching the simulated hand's meshes against the walls at every step."""
     worst = [0]
     cache: dict = {}
 
     def watch(robot):
-        pts = _hand_mesh_points(robot, mesh_dir, cache)
-        worst[0] = max(worst[0], _inside_walls(pts, state.spec, bench.TABLE_TOP, 0.001))
+        pts = hand_mesh_points(robot, mesh_dir, cache)
+        worst[0] = max(worst[0], inside_walls(pts, state.spec, bench.TABLE_TOP, 0.001))
 
     with tempfile.TemporaryDirectory() as tmp:
         _, hand_model = bench.ge.hand_files(Path(tmp))

@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _bin_hand import hand_mesh_points, inside_walls
 
 import ferrobot
 import ferrobot.grasp as fg
@@ -78,35 +79,6 @@ def _grasps(bench, frame, depth, cam_pose, ids) -> int:
     return len(fg.detect_from_rgbd(depth, g.F, g.F, g.CX, g.CY, scale=1.0, mask=seg, approach_direction=down))
 
 
-def _obj_vertices(path: Path) -> np.ndarray:
-    rows = [line.split()[1:4] for line in path.read_text().splitlines() if line.startswith("v ")]
-    return np.array(rows, dtype=np.float64)
-
-
-def _hand_mesh_points(robot, mesh_dir: Path, cache: dict) -> np.ndarray:
-    if not cache:
-        cache["hand"] = _obj_vertices(mesh_dir / "hand.obj")
-        cache["finger"] = _obj_vertices(mesh_dir / "finger.obj")
-    rz = np.diag([-1.0, -1.0, 1.0])
-    out = []
-    for link, verts, r in (
-        ("panda_hand", cache["hand"], np.eye(3)),
-        ("panda_leftfinger", cache["finger"], np.eye(3)),
-        ("panda_rightfinger", cache["finger"], rz),
-    ):
-        t = robot.get_link_pose(link)
-        out.append(verts @ (t[:3, :3] @ r).T + t[:3, 3])
-    return np.vstack(out)
-
-
-def _inside_walls(points: np.ndarray, spec, table_top: float, tol: float) -> int:
-    count = 0
-    for _, size, pose in spec.bin.walls(table_top):
-        half = np.asarray(size) / 2 - tol
-        count += int(np.all(np.abs(points - np.asarray(pose[:3])) < half, axis=1).sum())
-    return count
-
-
 def _hand_plan(bench, x: float, top: float, tilt: float, dist: float = 0.06) -> drag.DragPlan:
     """A drag along +x built by hand (not planned): the closed fingertips' centre at (x, 0) on a top ``top`` high,
     the closing axis across the drag, the hand's top leaning ``tilt`` towards +x; the poses as ``plan_drag`` makes."""
@@ -145,8 +117,8 @@ def _execute(bench, w, spec, plan, names, ids, mesh_dir=None):
             )
             worst["rise"] = max(worst["rise"], float(t[2, 3] - before[n][2, 3]))
         if mesh_dir is not None:
-            pts = _hand_mesh_points(robot, mesh_dir, cache)
-            worst["inside"] = max(worst["inside"], _inside_walls(pts, spec, bench.TABLE_TOP, 1e-3))
+            pts = hand_mesh_points(robot, mesh_dir, cache)
+            worst["inside"] = max(worst["inside"], inside_walls(pts, spec, bench.TABLE_TOP, 1e-3))
 
     with tempfile.TemporaryDirectory() as tmp:
         _, hand_model = bench.ge.hand_files(Path(tmp), coupled=True)

@@ -1,0 +1,41 @@
+"""Helpers shared by the bin tests (slides, drags, wall moves): the simulated Panda hand's collision-mesh
+vertices and how many of them lie inside the bin's walls."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+
+def obj_vertices(path: Path) -> np.ndarray:
+    """The ``v`` rows of an OBJ file as (N, 3)."""
+    rows = [line.split()[1:4] for line in path.read_text().splitlines() if line.startswith("v ")]
+    return np.array(rows, dtype=np.float64)
+
+
+def hand_mesh_points(robot, mesh_dir: Path, cache: dict) -> np.ndarray:
+    """The simulated hand's collision-mesh vertices (world) at its current link poses (the URDF of
+    ``grasp_eval.hand_files``: the right finger's mesh turned by pi about z); ``cache`` keeps the meshes."""
+    if not cache:
+        cache["hand"] = obj_vertices(mesh_dir / "hand.obj")
+        cache["finger"] = obj_vertices(mesh_dir / "finger.obj")
+    rz = np.diag([-1.0, -1.0, 1.0])
+    out = []
+    for link, verts, r in (
+        ("panda_hand", cache["hand"], np.eye(3)),
+        ("panda_leftfinger", cache["finger"], np.eye(3)),
+        ("panda_rightfinger", cache["finger"], rz),
+    ):
+        t = robot.get_link_pose(link)
+        out.append(verts @ (t[:3, :3] @ r).T + t[:3, 3])
+    return np.vstack(out)
+
+
+def inside_walls(points: np.ndarray, spec, table_top: float, tol: float) -> int:
+    """How many points lie deeper than ``tol`` inside one of the bin's wall boxes."""
+    count = 0
+    for _, size, pose in spec.bin.walls(table_top):
+        half = np.asarray(size) / 2 - tol
+        count += int(np.all(np.abs(points - np.asarray(pose[:3])) < half, axis=1).sum())
+    return count
