@@ -95,7 +95,19 @@ def _mujoco(tmp_path, coupled):
 JUDGES = {"ferrobot": (_ferrobot, 0.0015), "pybullet": (_pybullet, 0.008), "mujoco": (_mujoco, 0.0015)}
 
 
-@pytest.mark.parametrize("judge", list(JUDGES))
+#: Known since the velocity-capped drive (drive18i): ferrobot's fingers now close at the URDF's 0.2 m/s, so the
+#: first finger pushes the box (8 mm off the axis) alone for ~40 ms with its pad 3-5 cm up a 3 cm wide box on a
+#: table of friction 1; quasi-statically a push at height h tips a box of width b when mu > b / (2 h) (0.375 here),
+#: and the box is held pitched ~9 degrees (yaw ~2), 32.2 mm wide. MuJoCo (0.14 m/s) keeps it upright; whether
+#: ferrobot's single-point pad manifold (BENCHMARKS, slip18h) or MuJoCo's soft contact is nearer the truth is open.
+_TIPS = pytest.mark.xfail(
+    strict=True,
+    reason="known: with the 0.2 m/s drive the first finger tips the off-axis box ~9 degrees before the second "
+    "clamps it (push 3-5 cm up a 3 cm box, mu 1 > b/2h); held 32.2 mm wide (drive18i)",
+)
+
+
+@pytest.mark.parametrize("judge", [pytest.param(j, marks=_TIPS) if j == "ferrobot" else j for j in JUDGES])
 def test_coupled_hand_centres_the_box_between_its_fingers(tmp_path, judge):
     run, slack = JUDGES[judge]
     ok, opening, (q1, q2) = run(tmp_path, coupled=True)
