@@ -55,6 +55,18 @@ class LyingCylinder:
     label: int = 3
 
 
+def bench_bin_walls(label: int = 9) -> list:
+    """``benches/clutter.py``'s bin as wall boxes: 30 x 24 cm inside, walls 10 cm tall and 1.2 cm thick outside
+    it (:func:`bin_walls` is a smaller square bin of thin walls, for the synthetic clutter scene)."""
+    ix, iy, h, t = 0.30, 0.24, 0.10, 0.012
+    return [
+        Box(size=(ix + 2 * t, t, h), center_xy=(0.0, iy / 2 + t / 2), label=label),
+        Box(size=(ix + 2 * t, t, h), center_xy=(0.0, -iy / 2 - t / 2), label=label),
+        Box(size=(t, iy, h), center_xy=(ix / 2 + t / 2, 0.0), label=label),
+        Box(size=(t, iy, h), center_xy=(-ix / 2 - t / 2, 0.0), label=label),
+    ]
+
+
 @dataclass
 class Scene:
     objects: list = field(default_factory=list)

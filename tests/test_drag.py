@@ -17,10 +17,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from _bin_hand import hand_mesh_points, inside_walls
+from _bin_hand import bench_frame, bench_grasps, hand_mesh_points, inside_walls
 
 import ferrobot
-import ferrobot.grasp as fg
 from ferrobot.errors import InvalidArgumentError
 from ferrobot.pipeline import clutter as clutter_mod
 from ferrobot.pipeline import drag
@@ -45,23 +44,6 @@ def _world(x: float, y: float, yaw: float = 0.0):
     return bench, w, spec
 
 
-def _frame(bench, w):
-    g = bench.ge
-    cam_pose = bench.camera_pose()
-    frame = ferrobot.Camera(w, g.WIDTH, g.HEIGHT, fx=g.F, cx=g.CX, cy=g.CY, pose=cam_pose).render(rgb=False)
-    depth = np.where(np.isfinite(frame.depth), frame.depth, 0.0)
-    ids = {i: n for i, n in w.segmentation_labels.items() if n == "slab"}
-    return frame, depth, cam_pose, ids
-
-
-def _grasps(bench, frame, depth, cam_pose, ids) -> int:
-    """The bench's detection on the frame: grasps on the slab, every other pixel an obstacle."""
-    g = bench.ge
-    seg = np.where(np.isin(frame.segmentation, list(ids)), frame.segmentation, 0).astype(np.int32)
-    down = tuple(cam_pose[:3, :3].T @ np.array([0.0, 0.0, -1.0]))
-    return len(fg.detect_from_rgbd(depth, g.F, g.F, g.CX, g.CY, scale=1.0, mask=seg, approach_direction=down))
-
-
 @pytest.mark.parametrize("wall", ["+y", "-y"])
 def test_drag_moves_a_slab_off_the_wall_until_it_can_be_grasped(wall):
     """A slab 2 mm from a long wall, its 8.5 cm side along it: no grasp (closing across its 6.5 cm side puts the
@@ -73,9 +55,9 @@ def test_drag_moves_a_slab_off_the_wall_until_it_can_be_grasped(wall):
     sign = 1.0 if wall == "+y" else -1.0
     y = sign * (0.12 - 0.002 - SLAB[1] / 2)
     bench, w, spec = _world(0.0, y)
-    frame, depth, cam_pose, ids = _frame(bench, w)
+    frame, depth, cam_pose, ids = bench_frame(bench, w, {"slab"})
     state = types.SimpleNamespace(spec=spec, poses={})
-    assert _grasps(bench, frame, depth, cam_pose, ids) == 0
+    assert bench_grasps(bench, frame, depth, cam_pose, ids) == 0
     assert bench.plan_scene_push(state, w, frame, depth, cam_pose, ids) is None
     assert bench.drag_enabled(spec)
     plan = bench.plan_scene_drag(state, frame, depth, cam_pose, ids)
@@ -108,14 +90,14 @@ def test_drag_moves_a_slab_off_the_wall_until_it_can_be_grasped(wall):
     # Where it lies now the housing fits: a fresh world, the slab at its new pose, gets grasps.
     yaw = float(np.arctan2(after[1, 0], after[0, 0]))
     bench2, w2, _ = _world(float(after[0, 3]), float(after[1, 3]), yaw)
-    assert _grasps(bench2, *_frame(bench2, w2)) > 0
+    assert bench_grasps(bench2, *bench_frame(bench2, w2, {"slab"})) > 0
 
 
 def test_no_drag_in_the_middle_of_the_bin():
     """In the middle the slab already has the most clearance a drag could give: nothing to gain."""
     pytest.importorskip("pybullet_data")
     bench, w, spec = _world(0.0, 0.0)
-    frame, depth, cam_pose, ids = _frame(bench, w)
+    frame, depth, cam_pose, ids = bench_frame(bench, w, {"slab"})
     state = types.SimpleNamespace(spec=spec, poses={})
     assert bench.plan_scene_drag(state, frame, depth, cam_pose, ids) is None
 

@@ -15,6 +15,7 @@ from grasp_scenes import (
     Box,
     LyingCylinder,
     Scene,
+    bench_bin_walls,
     clutter_scene,
     hand_boxes,
     inside,
@@ -167,22 +168,11 @@ def test_objects_lower_than_the_shallowest_depth_are_grasped_from_above(height):
     assert tips[2] <= height / 2 + 1e-3
 
 
-def _bin_walls():
-    """``benches/clutter.py``'s bin: 30 x 24 cm inside, walls 10 cm tall and 1.2 cm thick, label 9."""
-    ix, iy, h, t = 0.30, 0.24, 0.10, 0.012
-    return [
-        Box(size=(ix + 2 * t, t, h), center_xy=(0.0, iy / 2 + t / 2), label=9),
-        Box(size=(ix + 2 * t, t, h), center_xy=(0.0, -iy / 2 - t / 2), label=9),
-        Box(size=(t, iy, h), center_xy=(ix / 2 + t / 2, 0.0), label=9),
-        Box(size=(t, iy, h), center_xy=(-ix / 2 - t / 2, 0.0), label=9),
-    ]
-
-
 def _against_the_walls_scene(center_xy):
-    """The bench's bin (``_bin_walls``) with a standing slab (2.2 x 8.5 x 6.5 cm, label 1) at ``center_xy`` near
+    """The bench's bin (``bench_bin_walls``) with a standing slab (2.2 x 8.5 x 6.5 cm, label 1) at ``center_xy`` near
     the +x wall; the camera looks down at 60 degrees from the +x side. The hand's housing (20.8 cm along the
     closing axis) fits across the slab only where it leans away from the walls."""
-    objects = [Box(size=(0.022, 0.085, 0.065), center_xy=center_xy, label=1), *_bin_walls()]
+    objects = [Box(size=(0.022, 0.085, 0.065), center_xy=center_xy, label=1), *bench_bin_walls()]
     return Scene(objects=objects, table_half=0.4), look_at(eye=(0.35, 0.0, 0.6), target=(0.0, 0.0, 0.0))
 
 
@@ -220,7 +210,7 @@ def test_a_tube_lying_along_a_wall_gets_grasps_leaning_its_housing_over_the_wall
     e = np.radians(60.0)
     cam = look_at(eye=(0.7 * np.cos(e), 0.0, 0.7 * np.sin(e)), target=(0.0, 0.0, 0.0))
     tube = LyingCylinder(radius=0.0185, length=0.12, center_xy=(0.0, 0.05), label=1)
-    scene = Scene(objects=[tube, *_bin_walls()], table_half=0.4)
+    scene = Scene(objects=[tube, *bench_bin_walls()], table_half=0.4)
     gw = _assert_grasps_clear_of_the_bin(scene, cam, target=1)
     # Every grasp closes across the tube (its axis is world x) and leans away from the wall: the housing's
     # +y end (towards the wall) is the raised one.

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from grasp_scenes import CX, CY, FX, FY, Box, Scene, hand_boxes, inside, look_at, object_volume, render
+from grasp_scenes import CX, CY, FX, FY, Box, Scene, bench_bin_walls, hand_boxes, inside, look_at, object_volume, render
 
 import ferrobot.grasp as fg
 
@@ -20,19 +20,8 @@ PALM_T, APPROACH = 0.01, 0.03  # palm thickness (finger_width) and approach corr
 PLANE_TOL = 0.001
 
 
-def _bin_walls():
-    """``benches/clutter.py``'s bin: 30 x 24 cm inside, walls 10 cm tall and 1.2 cm thick (label 9)."""
-    ix, iy, h, t = 0.30, 0.24, 0.10, 0.012
-    return [
-        Box(size=(ix + 2 * t, t, h), center_xy=(0.0, iy / 2 + t / 2), label=9),
-        Box(size=(ix + 2 * t, t, h), center_xy=(0.0, -iy / 2 - t / 2), label=9),
-        Box(size=(t, iy, h), center_xy=(ix / 2 + t / 2, 0.0), label=9),
-        Box(size=(t, iy, h), center_xy=(-ix / 2 - t / 2, 0.0), label=9),
-    ]
-
-
 def _detect(objects, in_bin):
-    scene = Scene(objects=[*objects, *(_bin_walls() if in_bin else [])], table_half=0.4)
+    scene = Scene(objects=[*objects, *(bench_bin_walls() if in_bin else [])], table_half=0.4)
     cam = look_at(eye=(-0.25, -0.15, 0.6), target=(0.0, 0.0, 0.0))
     depth, labels = render(scene, cam)
     down = tuple(cam[:3, :3].T @ np.array([0.0, 0.0, -1.0]))

@@ -317,3 +317,11 @@ def test_one_cache_folder_rule_for_spheres_and_objects(monkeypatch, tmp_path, en
         assert folder == Path(expected.format(kind="objects"))
     with pytest.raises(InvalidArgumentError, match="kind"):
         ferrobot._core.cache_dir("../objects")
+
+
+@pytest.mark.parametrize("segments", [0, 2, 6, -4])
+def test_tessellation_refuses_segments_that_are_not_a_multiple_of_four(segments):
+    with pytest.raises(InvalidArgumentError, match="segments"):
+        primitive_mesh({"type": "sphere", "radius": 0.01}, segments)
+    with pytest.raises(InvalidArgumentError, match="'cone'"):
+        primitive_mesh({"type": "cone", "radius": 0.01})

@@ -21,10 +21,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from _bin_hand import hand_mesh_points, inside_walls
+from _bin_hand import bench_frame, bench_grasps, hand_mesh_points, inside_walls
 
 import ferrobot
-import ferrobot.grasp as fg
 from ferrobot.errors import InvalidArgumentError
 from ferrobot.pipeline import clutter as clutter_mod
 from ferrobot.pipeline import drag
@@ -60,23 +59,6 @@ def _world(pieces):
             w.add_cylinder(name, dims[0], dims[1], [x, y, bench.TABLE_TOP + dims[0], *q], mass=0.2, friction=0.8)
     w.step(120)
     return bench, w, spec
-
-
-def _frame(bench, w, names):
-    g = bench.ge
-    cam_pose = bench.camera_pose()
-    frame = ferrobot.Camera(w, g.WIDTH, g.HEIGHT, fx=g.F, cx=g.CX, cy=g.CY, pose=cam_pose).render(rgb=False)
-    depth = np.where(np.isfinite(frame.depth), frame.depth, 0.0)
-    ids = {i: n for i, n in w.segmentation_labels.items() if n in names}
-    return frame, depth, cam_pose, ids
-
-
-def _grasps(bench, frame, depth, cam_pose, ids) -> int:
-    """The bench's detection on the frame: grasps on the pieces, every other pixel an obstacle."""
-    g = bench.ge
-    seg = np.where(np.isin(frame.segmentation, list(ids)), frame.segmentation, 0).astype(np.int32)
-    down = tuple(cam_pose[:3, :3].T @ np.array([0.0, 0.0, -1.0]))
-    return len(fg.detect_from_rgbd(depth, g.F, g.F, g.CX, g.CY, scale=1.0, mask=seg, approach_direction=down))
 
 
 def _hand_plan(bench, x: float, top: float, tilt: float, dist: float = 0.06) -> drag.DragPlan:
@@ -242,11 +224,11 @@ def test_a_piece_in_a_corner_is_dragged_to_where_a_grasp_fits(shape, corner, gap
     hx, hy = _half_extents(shape)
     x, y = sx * (INNER_X - gap - hx), sy * (INNER_Y - gap - hy)
     bench, w, spec = _world([_piece("piece", shape, x, y)])
-    frame, depth, cam_pose, ids = _frame(bench, w, {"piece"})
+    frame, depth, cam_pose, ids = bench_frame(bench, w, {"piece"})
     state = types.SimpleNamespace(spec=spec, poses={})
     gripper = bench.ge.PANDA_HAND
     assert not _housing_fits(x, y, gripper)
-    assert _grasps(bench, frame, depth, cam_pose, ids) == 0
+    assert bench_grasps(bench, frame, depth, cam_pose, ids) == 0
     assert bench.plan_scene_push(state, w, frame, depth, cam_pose, ids) is None
     plan = bench.plan_scene_drag(state, frame, depth, cam_pose, ids)
     assert plan is not None
@@ -278,7 +260,7 @@ def test_a_piece_in_a_corner_is_dragged_to_where_a_grasp_fits(shape, corner, gap
     dims = SLAB if shape == "slab" else (SLAB[1], SLAB[0], SLAB[2])
     w2.add_box("piece", list(dims), p7, mass=0.2, friction=0.8)
     w2.step(120)
-    assert _grasps(bench2, *_frame(bench2, w2, {"piece"})) > 0
+    assert bench_grasps(bench2, *bench_frame(bench2, w2, {"piece"})) > 0
 
 
 @pytest.mark.parametrize("dims", [PLATE])
@@ -292,9 +274,9 @@ def test_no_drag_tips_a_flat_plate_out_of_a_corner(dims):
     pytest.importorskip("pybullet_data")
     x, y = INNER_X - 0.003 - dims[0] / 2, INNER_Y - 0.003 - dims[1] / 2
     bench, w, spec = _world([("plate", "box", dims, (x, y))])
-    frame, depth, cam_pose, ids = _frame(bench, w, {"plate"})
+    frame, depth, cam_pose, ids = bench_frame(bench, w, {"plate"})
     state = types.SimpleNamespace(spec=spec, poses={})
-    assert _grasps(bench, frame, depth, cam_pose, ids) == 0
+    assert bench_grasps(bench, frame, depth, cam_pose, ids) == 0
     assert bench.plan_scene_drag(state, frame, depth, cam_pose, ids) is None
     pts, labels, bounds, hm, view = bench.scene_observation(state, frame, depth, cam_pose, ids)
     (label,) = ids
@@ -314,7 +296,7 @@ def test_a_drag_out_of_a_corner_never_moves_a_piece_over_a_neighbour(block_xy, i
     hx, hy = SLAB[0] / 2, SLAB[1] / 2
     x, y = -(INNER_X - 0.03 - hx), -(INNER_Y - 0.03 - hy)
     bench, w, spec = _world([_piece("piece", "slab", x, y), ("block", "box", (0.05, 0.05, 0.063), block_xy)])
-    frame, depth, cam_pose, ids = _frame(bench, w, {"piece", "block"})
+    frame, depth, cam_pose, ids = bench_frame(bench, w, {"piece", "block"})
     state = types.SimpleNamespace(spec=spec, poses={})
     plan = bench.plan_scene_drag(state, frame, depth, cam_pose, {k: v for k, v in ids.items() if v == "piece"})
     if in_the_way:
